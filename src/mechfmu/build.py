@@ -1,0 +1,73 @@
+"""Build every model of the registry into an FMU with pythonfmu (host side).
+
+Each FMU carries only the code that runs inside it: the standard-library packages
+``mechfmu.physics``, ``mechfmu.fmi`` and ``mechfmu.models`` (plus pythonfmu's own
+Python files, which its builder adds).
+"""
+
+import importlib
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from pythonfmu import FmuBuilder
+
+from .models import MODELS
+
+PACKAGE_ROOT = Path(__file__).resolve().parent
+FMU_PACKAGES = ("physics", "fmi", "models")  # the FMU runtime; no numpy below these
+
+
+def runtime_package(name):
+    """Private package name of the runtime inside ``name``.fmu.
+
+    Every FMU carries its own copy under its own name: FMUs loaded into one Python process
+    (fmpy runs them in the host interpreter) then never share modules, and a host's own
+    mechfmu, or an FMU extracted earlier and since deleted, cannot shadow this one's code.
+    """
+    return f"mechfmu_fmu_{name}"
+
+
+def _stage_runtime(target):
+    """Copy the FMU runtime subset of mechfmu into the package folder ``target``."""
+    target.mkdir()
+    shutil.copy2(PACKAGE_ROOT / "__init__.py", target)
+    for package in FMU_PACKAGES:
+        shutil.copytree(PACKAGE_ROOT / package, target / package,
+                        ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+
+
+def build_model(name, out_dir, staging):
+    """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path."""
+    module = MODELS[name]
+    importlib.import_module(module)  # fail early, with a Python traceback, on a broken model
+    folder = staging / name
+    folder.mkdir()
+    package = folder / runtime_package(name)
+    _stage_runtime(package)
+    inner_module = module.replace("mechfmu.", f"{package.name}.", 1)
+    # The entry module must not be named like the model: fmpy puts a module of its own
+    # under sys.modules[model name], so a second load of the FMU would import that one.
+    script = folder / f"mechfmu_entry_{name}.py"
+    # pythonfmu 0.7's loader (findClass) re-runs this file at every instantiation and then
+    # releases one reference to the module namespace that it only borrowed: after the first
+    # instance is freed the namespace is gone and the next load crashes or fails. Each run
+    # of the file therefore keeps one reference of its own. Only the model may be a class here.
+    script.write_text(f'"""FMU entry point for {name}."""\n'
+                      "import sys\n"
+                      "sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n"
+                      f"from {inner_module} import {name}  # noqa: E402,F401\n")
+    built = FmuBuilder.build_FMU(script, dest=staging / f"out_{name}", project_files=[package],
+                                 canGetAndSetFMUstate=True)
+    final = Path(out_dir) / f"{name}.fmu"
+    os.replace(built, final)  # atomic: a reader never sees a half-written FMU
+    return final
+
+
+def build_all(out_dir, names=None):
+    """Build the named models (default: all of MODELS); return the FMU paths."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="mechfmu_build_", dir=out_dir) as temp:
+        return [build_model(name, out_dir, Path(temp)) for name in (names or MODELS)]

@@ -1,0 +1,1 @@
+"""FMU-side framework over pythonfmu (standard library only)."""

@@ -1,0 +1,233 @@
+"""The FMU slave base: declare each variable once, derive everything else from it.
+
+Runs inside the FMU (standard library + pythonfmu only). A model subclasses ``MechSlave``,
+lists its variables in ``VARIABLES`` (name, type, causality, unit, range, description,
+dependencies) and implements ``check_parameters`` and ``update``. The base class
+
+- registers the variables with pythonfmu and keeps their values in one dict;
+- writes a complete model description: units (UnitDefinitions), min/max, descriptions,
+  start values, Outputs with their input dependencies and InitialUnknowns;
+- never lets a Python exception reach pythonfmu's C++ layer. pythonfmu 0.7 turns any
+  exception into fmi2Fatal and leaves the GIL state broken, which crashes the host on its
+  next call (measured with a probe FMU). Errors are logged instead (status error, naming
+  the variable, value and range) and the step returns fmi2Discard, the only non-OK status
+  pythonfmu 0.7 can return without raising. Outputs keep their last valid values.
+"""
+
+import math
+from xml.etree.ElementTree import Element, SubElement
+
+from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
+from pythonfmu.enums import Fmi2Status
+
+from ..physics.errors import MechanismError
+
+# Base-unit exponents of every unit a model may declare (FMI 2.0 UnitDefinitions).
+UNITS = {
+    "m": {"m": 1},
+    "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2},
+    "rad": {"rad": 1},
+    "rad/s": {"rad": 1, "s": -1},
+    "rad/s2": {"rad": 1, "s": -2},
+    "s": {"s": 1},
+    "kg": {"kg": 1},
+    "N": {"kg": 1, "m": 1, "s": -2},
+    "N/s": {"kg": 1, "m": 1, "s": -3},
+    "N/s2": {"kg": 1, "m": 1, "s": -4},
+    "N/m": {"kg": 1, "s": -2},
+}
+
+_FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
+
+
+class Variable:
+    """One FMU variable, declared once.
+
+    kind: float, int, bool or str. causality: 'parameter', 'input' or 'output'.
+    depends: for outputs, the names of the inputs they depend on directly.
+    values: for str parameters, the accepted values (documented in the description).
+    """
+
+    __slots__ = ("name", "kind", "causality", "start", "unit", "min", "max",
+                 "description", "depends", "values")
+
+    def __init__(self, name, kind, causality, start, description, unit=None,
+                 min=None, max=None, depends=(), values=None):
+        if unit is not None and unit not in UNITS:
+            raise ValueError(f"unit {unit!r} of {name} is not in UNITS")
+        self.name, self.kind, self.causality, self.start = name, kind, causality, start
+        self.description, self.unit, self.min, self.max = description, unit, min, max
+        self.depends, self.values = tuple(depends), values
+
+
+def parameter(name, start, description, unit=None, min=None, max=None, values=None):
+    """A fixed parameter; its type follows the start value."""
+    return Variable(name, type(start), "parameter", start, description, unit, min, max,
+                    values=values)
+
+
+def input_(name, start, description, unit=None, min=None, max=None):
+    """A continuous input with a start value."""
+    return Variable(name, type(start), "input", start, description, unit, min, max)
+
+
+def output(name, start, description, unit=None, depends=(), min=None, max=None):
+    """An output computed from inputs and parameters (initial = calculated)."""
+    return Variable(name, type(start), "output", start, description, unit, min, max, depends)
+
+
+class MechSlave(Fmi2Slave):
+    """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
+
+    VARIABLES = ()
+    author = "mechfmu"
+    license = "MIT"
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.values = {v.name: v.start for v in self.VARIABLES}
+        self.declared = {v.name: v for v in self.VARIABLES}
+        self.initialized = False
+        self.start_time = 0.0
+        self.pending_error = None  # reported by the next doStep
+        for variable in self.VARIABLES:
+            self._register(variable)
+
+    # --- registration ---------------------------------------------------------------
+    def _register(self, variable):
+        name = variable.name
+        causality = getattr(Fmi2Causality, variable.causality)
+        if variable.causality == "parameter":
+            options = dict(variability=Fmi2Variability.fixed, initial=Fmi2Initial.exact)
+        elif variable.causality == "input":
+            options = dict(variability=(Fmi2Variability.continuous if variable.kind is float
+                                        else Fmi2Variability.discrete))
+        else:
+            options = dict(variability=(Fmi2Variability.continuous if variable.kind is float
+                                        else Fmi2Variability.discrete),
+                           initial=Fmi2Initial.calculated)
+        values = self.values
+        self.register_variable(_FMI_TYPES[variable.kind](
+            name, causality=causality, description=variable.description,
+            getter=lambda: values[name],
+            setter=lambda value: self._set(name, value), **options))
+
+    def _set(self, name, value):
+        variable = self.declared[name]
+        if variable.causality == "output":
+            return  # outputs are never set by a host; pythonfmu's state restore calls this
+        if variable.causality == "parameter" and self.initialized:
+            self.pending_error = (f"{name} is a fixed parameter and cannot be changed after "
+                                  f"initialisation (attempted {value!r}); value ignored")
+            self.log(self.pending_error, Fmi2Status.error)
+            return
+        self.values[name] = variable.kind(value) if variable.kind is not float else float(value)
+
+    # --- model contract -------------------------------------------------------------
+    def check_parameters(self):
+        """Validate parameters (raise MechanismError); called once at initialisation."""
+
+    def update(self, time, step_size):
+        """Compute outputs at ``time`` from the current inputs (raise MechanismError)."""
+        raise NotImplementedError
+
+    def outputs_at_start(self, time):
+        """Outputs at initialisation; models with internal state may override."""
+        self.update(time, 0.0)
+
+    # --- FMI calls (never raise) ----------------------------------------------------
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self.start_time = float(start_time)
+
+    def exit_initialization_mode(self):
+        try:
+            self.check_parameters()
+            self.outputs_at_start(self.start_time)
+        except Exception as error:  # reported at the first doStep, never raised into C++
+            self.pending_error = self._describe(error, self.start_time)
+            self.log(self.pending_error, Fmi2Status.error)
+        self.initialized = True
+
+    def do_step(self, current_time, step_size):
+        try:
+            if self.pending_error is not None:
+                # Stays pending: a model with invalid parameters cannot step at all.
+                self.log(self.pending_error, Fmi2Status.error)
+                return False
+            if not (math.isfinite(step_size) and step_size > 0.0):
+                raise MechanismError(f"communication step size = {step_size!r} s must be "
+                                     f"finite and > 0")
+            self.update(current_time + step_size, step_size)
+            return True
+        except Exception as error:
+            self.log(self._describe(error, current_time + step_size), Fmi2Status.error)
+            return False
+
+    def _describe(self, error, time):
+        if isinstance(error, MechanismError):
+            return f"{self.instance_name} at t = {time!r} s: {error}"
+        return f"{self.instance_name} at t = {time!r} s: internal error {error!r}"
+
+    # --- FMU state: every value plus the model's internal state ------------------------
+    def internal_state(self):
+        """JSON-serialisable internal state beyond the variables (override if any)."""
+        return {}
+
+    def restore_internal_state(self, state):
+        """Inverse of internal_state."""
+
+    def _get_fmu_state(self):
+        return {"values": dict(self.values), "internal": self.internal_state(),
+                "initialized": self.initialized, "start_time": self.start_time,
+                "pending_error": self.pending_error}
+
+    def _set_fmu_state(self, state):
+        self.values.update(state["values"])  # in place: the registered getters hold this dict
+        self.restore_internal_state(state["internal"])
+        self.initialized = state["initialized"]
+        self.start_time = state["start_time"]
+        self.pending_error = state["pending_error"]
+
+    # --- model description ----------------------------------------------------------
+    def to_xml(self, model_options=dict()):
+        root = super().to_xml(model_options)
+        used_units = set()
+        for element in root.iter("ScalarVariable"):
+            variable = self.declared.get(element.get("name"))
+            if variable is None:
+                continue
+            typed = element[0]
+            if variable.unit is not None:
+                typed.set("unit", variable.unit)
+                used_units.add(variable.unit)
+            for attribute in ("min", "max"):
+                bound = getattr(variable, attribute)
+                if bound is not None:
+                    typed.set(attribute, repr(float(bound)) if variable.kind is float else str(bound))
+        if used_units:
+            units = Element("UnitDefinitions")
+            for unit in sorted(used_units):
+                SubElement(SubElement(units, "Unit", name=unit), "BaseUnit",
+                           {key: str(value) for key, value in UNITS[unit].items()})
+            root.insert(list(root).index(root.find("CoSimulation")) + 1, units)
+        root.remove(root.find("ModelStructure"))
+        root.append(self._model_structure())
+        return root
+
+    def _model_structure(self):
+        index = {v.name: i for i, v in enumerate(self.VARIABLES, start=1)}
+        structure = Element("ModelStructure")
+        outputs = [v for v in self.VARIABLES if v.causality == "output"]
+        if outputs:
+            node = SubElement(structure, "Outputs")
+            for variable in outputs:
+                depends = " ".join(str(index[name]) for name in variable.depends)
+                SubElement(node, "Unknown", index=str(index[variable.name]),
+                           dependencies=depends)
+            # Calculated outputs are initial unknowns; without a dependencies attribute
+            # they may depend on every known (parameters and inputs).
+            node = SubElement(structure, "InitialUnknowns")
+            for variable in outputs:
+                SubElement(node, "Unknown", index=str(index[variable.name]))
+        return structure

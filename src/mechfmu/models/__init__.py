@@ -1,0 +1,11 @@
+"""The one list of models: FMU name -> module that defines the slave class of that name.
+
+Everything else (build, validation tests, README tables) loops over MODELS.
+"""
+
+MODELS = {
+    "LandingGear": "mechfmu.models.landing_gear",
+    "PistonActuator": "mechfmu.models.piston_actuator",
+    "Suspension": "mechfmu.models.suspension",
+    "LoadProfile": "mechfmu.models.load_profile",
+}

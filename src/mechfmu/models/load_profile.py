@@ -1,0 +1,45 @@
+"""LoadProfile.fmu: constant, step, ramp or table-from-CSV load source."""
+
+from ..fmi.slave import MechSlave, output, parameter
+from ..physics import profiles
+
+
+class LoadProfile(MechSlave):
+    """A load signal (N) and its rate (N/s)."""
+
+    description = "Load source: constant, step, ramp or piecewise-linear table from a CSV file"
+    VARIABLES = (
+        parameter("shape", "ramp", "Load shape: " + ", ".join(profiles.LOAD_SHAPES),
+                  values=profiles.LOAD_SHAPES),
+        parameter("initial_value", 0.0, "Load before start_time (constant: the load)", unit="N"),
+        parameter("final_value", 1000.0, "Load after the step or at the end of the ramp",
+                  unit="N"),
+        parameter("start_time", 0.0, "Time of the step or start of the ramp", unit="s"),
+        parameter("duration", 1.0, "Ramp duration", unit="s", min=0.0),
+        parameter("table_file", "", "shape = table: CSV file with columns time (s), load (N)"),
+        output("load", 0.0, "Load", unit="N"),
+        output("load_rate", 0.0, "Rate of change of the load", unit="N/s"),
+    )
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.table = None
+
+    def check_parameters(self):
+        v = self.values
+        profiles.check_load(v["shape"], v["initial_value"], v["final_value"], v["start_time"],
+                            v["duration"])
+        if v["shape"] == "table":
+            self.table = profiles.read_table(v["table_file"])
+
+    def internal_state(self):
+        return {"table": self.table}
+
+    def restore_internal_state(self, state):
+        self.table = state["table"]
+
+    def update(self, time, step_size):
+        v = self.values
+        sample = profiles.load(time, v["shape"], v["initial_value"], v["final_value"],
+                               v["start_time"], v["duration"], self.table)
+        v["load"], v["load_rate"] = sample.value, sample.rate

@@ -1,0 +1,1 @@
+"""Mechanism physics: pure functions, standard library only (they run inside the FMUs)."""

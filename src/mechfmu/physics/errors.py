@@ -1,0 +1,64 @@
+"""Errors raised by the mechanism physics (standard library only).
+
+They carry the offending variable, its value and the valid range, so every layer above
+(FMU log, master, CLI) can report the same precise message.
+"""
+
+import math
+
+
+class MechanismError(ValueError):
+    """Base class: a computation cannot proceed with the given values."""
+
+
+class RangeError(MechanismError):
+    """A value lies outside its valid range (or is NaN or infinite)."""
+
+    def __init__(self, name, value, valid, unit="", why=""):
+        self.name = name
+        self.value = value
+        self.valid = valid
+        self.unit = unit
+        suffix = f" {unit}" if unit else ""
+        text = f"{name} = {value!r}{suffix} is outside the valid range {valid}{suffix}"
+        if why:
+            text += f" ({why})"
+        super().__init__(text)
+
+
+class SingularConfiguration(MechanismError):
+    """The mechanism is at a configuration where the requested quantity is undefined."""
+
+
+class SnapThrough(MechanismError):
+    """The load passed the limit load and the caller asked not to continue past it."""
+
+
+def require_finite(name, value, unit=""):
+    """Return ``value`` as float or raise RangeError for NaN, +-inf or non-numbers."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise RangeError(name, value, "(-inf, inf)", unit, "not a number") from None
+    if not math.isfinite(number):
+        raise RangeError(name, number, "(-inf, inf)", unit, "must be finite")
+    return number
+
+
+def require_positive(name, value, unit=""):
+    """Return ``value`` as float or raise RangeError unless it is finite and > 0."""
+    number = require_finite(name, value, unit)
+    if number <= 0.0:
+        raise RangeError(name, number, "(0, inf)", unit, "must be positive")
+    return number
+
+
+def require_between(name, value, low, high, unit="", low_open=False, high_open=False):
+    """Return ``value`` as float or raise RangeError unless low <(=) value <(=) high."""
+    number = require_finite(name, value, unit)
+    below = number <= low if low_open else number < low
+    above = number >= high if high_open else number > high
+    if below or above:
+        valid = f"{'(' if low_open else '['}{low!r}, {high!r}{')' if high_open else ']'}"
+        raise RangeError(name, number, valid, unit)
+    return number
