@@ -134,6 +134,8 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
     u = guess if guess is not None and low <= guess <= high else 0.5 * (low + high)
     for _ in range(MAX_ITERATIONS):
         residual = spring_force(u, spring) - W
+        if residual == 0.0:
+            return u
         if residual > 0.0:
             high = u
         else:
@@ -144,8 +146,27 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
         if not low < candidate < high:
             candidate = 0.5 * (low + high)
         if abs(candidate - u) <= tolerance * max(1.0, abs(u)) or high - low <= tolerance:
-            return candidate
+            return _polish(candidate, W, spring, low, high)
         u = candidate
+    return _polish(u, W, spring, low, high)
+
+
+def _polish(u, load, spring, low, high, steps=3):
+    """A few extra Newton steps, each kept only if it reduces the residual.
+
+    The stopping test above is on the step size; these steps take the residual down to
+    rounding level, e.g. exactly u -> 0 for a zero load.
+    """
+    residual = spring_force(u, spring) - load
+    for _ in range(steps):
+        slope = tangent_stiffness(u, spring)
+        if residual == 0.0 or slope <= 0.0:
+            break
+        candidate = u - residual / slope
+        candidate_residual = spring_force(candidate, spring) - load
+        if not (low <= candidate <= high and abs(candidate_residual) < abs(residual)):
+            break
+        u, residual = candidate, candidate_residual
     return u
 
 

@@ -1,0 +1,35 @@
+# Two commands on a fresh clone: `make run` and `make test` (see README.md).
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+FMU_SOURCES := $(shell find src/mechfmu/physics src/mechfmu/fmi src/mechfmu/models src/mechfmu/build.py src/mechfmu/__init__.py -name '*.py')
+
+.PHONY: run test fmus references report clean
+
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	touch $@
+
+fmus/.built: $(VENV)/.installed $(FMU_SOURCES)
+	$(VENV)/bin/mechfmu build --out fmus
+	touch $@
+
+fmus: $(VENV)/.installed
+	$(VENV)/bin/mechfmu build --out fmus
+	touch fmus/.built
+
+run: fmus/.built
+	$(PY) sims/run_gear.py
+
+test: fmus/.built
+	$(PY) -m pytest -q
+
+references: $(VENV)/.installed
+	$(VENV)/bin/mechfmu references
+
+report: $(VENV)/.installed
+	$(PY) sims/seed_report.py
+
+clean:
+	rm -rf $(VENV) fmus/*.fmu fmus/.built out

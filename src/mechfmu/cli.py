@@ -1,0 +1,122 @@
+"""The ``mechfmu`` command: build, run, check, references, report."""
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def _build(args):
+    from .build import build_all
+    for path in build_all(args.out, args.models or None):
+        print(f"built {path}")
+    return 0
+
+
+def _resolve_scene(text):
+    path = Path(text)
+    if path.suffix != ".toml" and not path.exists():
+        path = Path("sims/scenes") / f"{text}.toml"
+    return path
+
+
+def _run(args):
+    from .check import compare
+    from .cosim.master import SimulationError
+    from .cosim.run import run_scene
+    from .cosim.scene import SceneError
+    try:
+        result, paths = run_scene(_resolve_scene(args.scene), args.out, args.fmu_dir,
+                                  plot=not args.no_plot)
+    except SceneError as error:
+        print(f"scene error: {error}", file=sys.stderr)
+        return 2
+    except SimulationError as error:
+        print(f"simulation failed: {error}", file=sys.stderr)
+        for kind, path in error.paths.items():
+            print(f"partial {kind}: {path}", file=sys.stderr)
+        return 1
+    for entry in result.log:
+        if entry["status"] != "ok":
+            print(f"[{entry['status']}] {entry['message']}")
+    print(f"{result.scene.name}: {result.meta['steps']} steps in "
+          f"{result.meta['wall_time_s']:.3f} s")
+    for kind, path in paths.items():
+        print(f"{kind}: {path}")
+    reference = args.reference or (result.scene.reference if args.check else None)
+    if reference:
+        comparison = compare(paths["csv"], reference, args.rtol, args.atol)
+        print(f"check against {reference}: {comparison}")
+        return 0 if comparison.ok else 1
+    return 0
+
+
+def _check(args):
+    from .check import compare
+    try:
+        comparison = compare(args.result, args.reference, args.rtol, args.atol)
+    except (OSError, ValueError) as error:
+        print(f"check error: {error}", file=sys.stderr)
+        return 2
+    print(comparison)
+    return 0 if comparison.ok else 1
+
+
+def _references(args):
+    from .references.generate import generate
+    for path in generate(args.scenes, args.out):
+        print(f"wrote {path}")
+    return 0
+
+
+def _report(args):
+    from .report.seed_report import write_report
+    print(f"wrote {write_report(args.out)}")
+    return 0
+
+
+def parser():
+    main = argparse.ArgumentParser(prog="mechfmu", description=__doc__)
+    verbs = main.add_subparsers(dest="verb", required=True)
+
+    build = verbs.add_parser("build", help="build the FMUs")
+    build.add_argument("models", nargs="*", help="model names (default: all)")
+    build.add_argument("--out", default="fmus", help="output folder (default: fmus)")
+    build.set_defaults(func=_build)
+
+    run = verbs.add_parser("run", help="run a scene and write CSV, JSON and PNG")
+    run.add_argument("scene", help="scene TOML file, or a name in sims/scenes/")
+    run.add_argument("--out", default="out", help="output folder (default: out)")
+    run.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    run.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    run.add_argument("--check", action="store_true",
+                     help="compare with the scene's reference CSV afterwards")
+    run.add_argument("--reference", help="compare with this CSV afterwards")
+    run.add_argument("--rtol", type=float, default=1e-9)
+    run.add_argument("--atol", type=float, default=1e-12)
+    run.set_defaults(func=_run)
+
+    check = verbs.add_parser("check", help="compare a result CSV with a reference CSV")
+    check.add_argument("result")
+    check.add_argument("reference")
+    check.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance")
+    check.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance")
+    check.set_defaults(func=_check)
+
+    references = verbs.add_parser("references", help="regenerate the reference CSVs")
+    references.add_argument("--scenes", default="sims/scenes")
+    references.add_argument("--out", default="data/reference")
+    references.set_defaults(func=_references)
+
+    report = verbs.add_parser("report", help="write the seed-reproduction report")
+    report.add_argument("--out", default="data/seed_report.md")
+    report.set_defaults(func=_report)
+    return main
+
+
+def main(argv=None):
+    args = parser().parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

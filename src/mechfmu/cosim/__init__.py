@@ -1,0 +1,1 @@
+"""Host side: scenes, the co-simulation master and result files."""

@@ -1,0 +1,339 @@
+"""The co-simulation master on fmpy's FMU2Slave.
+
+It checks a scene against the FMUs' model descriptions (names, causalities, types, every
+input fed), orders the components by their connections, initialises them in that order,
+then steps them Gauss-Seidel: each component gets its inputs from components already
+advanced to the end of the step. It records the requested variables at every
+communication point and frees every instance, also on error. A step an FMU refuses
+(fmi2Discard, fmi2Error, ...) stops the run with a SimulationError that names the
+component, the time and the FMU's own log message, and carries the rows computed so far.
+"""
+
+import shutil
+import tempfile
+import time as clock
+from ctypes import byref
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+from fmpy import calloc, free
+
+from .scene import SceneError, split_name
+
+STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
+_PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
+
+
+class SimulationError(RuntimeError):
+    """A component failed during the run; ``result`` holds the rows computed before."""
+
+    def __init__(self, component, time, message, result):
+        self.component, self.time, self.result = component, time, result
+        super().__init__(f"component {component!r} failed at t = {time!r} s: {message}")
+
+
+@dataclass
+class Result:
+    """Recorded signals of one run: ``columns`` maps 'component.variable' to values."""
+
+    scene: object
+    times: list = field(default_factory=list)
+    columns: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
+    meta: dict = field(default_factory=dict)
+    log: list = field(default_factory=list)
+    partial: bool = False
+
+
+def default_fmu_dir():
+    """``./fmus`` of the current folder (the repository root in the README's commands)."""
+    return Path.cwd() / "fmus"
+
+
+def resolve_fmu(spec, scene, fmu_dir):
+    """Path of a component's FMU: a model name in ``fmu_dir`` or a path to an .fmu."""
+    if spec.fmu.endswith(".fmu"):
+        candidate = Path(spec.fmu)
+        if not candidate.is_absolute():
+            candidate = scene.path.parent / candidate
+    else:
+        candidate = Path(fmu_dir) / f"{spec.fmu}.fmu"
+    if not candidate.is_file():
+        raise SceneError(f"component {spec.name!r}: FMU file {candidate} not found; build the "
+                         f"FMUs with 'mechfmu build' (or 'make fmus')")
+    return candidate
+
+
+class _LogBook:
+    """FMI logger callback that keeps every message, per instance."""
+
+    def __init__(self):
+        self.messages = []
+        self.callbacks = fmi2CallbackFunctions()
+        self.callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
+        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        try:
+            from fmpy.logging import addLoggerProxy
+            addLoggerProxy(byref(self.callbacks))  # formats the variadic message in C
+        except Exception:
+            pass
+
+    def _log(self, environment, instance, status, category, message):
+        def text(raw):
+            return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
+        self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
+                              "category": text(category), "message": text(message)})
+
+    def last_problem(self, instance):
+        for entry in reversed(self.messages):
+            if entry["instance"] == instance and entry["status"] in ("error", "fatal", "discard"):
+                return entry["message"]
+        return "no log message from the FMU"
+
+
+class _Component:
+    """One FMU instance in a running scene, with its variables by name."""
+
+    def __init__(self, spec, path, description):
+        self.spec, self.name, self.path, self.description = spec, spec.name, path, description
+        self.variables = {v.name: v for v in description.modelVariables}
+        self.slave = None
+
+    def variable(self, name, where, causality=None):
+        variable = self.variables.get(name)
+        if variable is None:
+            names = ", ".join(sorted(self.variables))
+            raise SceneError(f"{where}: {self.name!r} ({self.description.modelName}) has no "
+                             f"variable {name!r}; it has: {names}")
+        if causality is not None and variable.causality not in causality:
+            raise SceneError(f"{where}: {self.name}.{name} is a {variable.causality}, "
+                             f"expected {' or '.join(causality)}")
+        return variable
+
+    def set(self, variable, value):
+        setter = {"Real": self.slave.setReal, "Integer": self.slave.setInteger,
+                  "Boolean": self.slave.setBoolean, "String": self.slave.setString}[variable.type]
+        setter([variable.valueReference], [value])
+
+
+def _check_value(component, variable, value, where):
+    expected = _PYTHON_TYPES[variable.type]
+    if not isinstance(value, expected) or (variable.type != "Boolean" and isinstance(value, bool)):
+        raise SceneError(f"{where}: {component}.{variable.name} is {variable.type}, got "
+                         f"{type(value).__name__} {value!r}")
+
+
+def order_components(names, connections):
+    """Components sorted so every source comes before its targets (Kahn's algorithm).
+
+    Raises SceneError naming the cycle when the connections form an algebraic loop.
+    """
+    targets = {name: [] for name in names}
+    indegree = {name: 0 for name in names}
+    for connection in connections:
+        if connection.target not in targets[connection.source]:
+            targets[connection.source].append(connection.target)
+            indegree[connection.target] += 1
+    ready = [name for name in names if indegree[name] == 0]
+    ordered = []
+    while ready:
+        name = ready.pop(0)
+        ordered.append(name)
+        for target in targets[name]:
+            indegree[target] -= 1
+            if indegree[target] == 0:
+                ready.append(target)
+    if len(ordered) < len(names):
+        remaining = [name for name in names if name not in ordered]
+        cycle = _find_cycle(remaining, targets)
+        raise SceneError("algebraic loop: the connections form a cycle "
+                         + " -> ".join(cycle + cycle[:1]))
+    return ordered
+
+
+def _find_cycle(candidates, targets):
+    start = candidates[0]
+    path, seen = [start], {start}
+    while True:
+        step = next(t for t in targets[path[-1]] if t in candidates)
+        if step in seen:
+            return path[path.index(step):]
+        path.append(step)
+        seen.add(step)
+
+
+class Simulation:
+    """A scene bound to its FMUs, checked and ready to run."""
+
+    def __init__(self, scene, fmu_dir=None):
+        self.scene = scene
+        fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
+        self.components = {}
+        for name, spec in scene.components.items():
+            path = resolve_fmu(spec, scene, fmu_dir)
+            self.components[name] = _Component(spec, path, read_model_description(str(path)))
+        self._check()
+        self.order = order_components(list(self.components), scene.connections)
+
+    def _check(self):
+        where = str(self.scene.path)
+        fed = {}
+        for connection in self.scene.connections:
+            for name in (connection.source, connection.target):
+                if name not in self.components:
+                    raise SceneError(f"{where}: connection {connection} names unknown component "
+                                     f"{name!r}; components: {', '.join(self.components)}")
+            source = self.components[connection.source].variable(
+                connection.output, f"{where}: connection {connection}", ("output",))
+            target = self.components[connection.target].variable(
+                connection.input, f"{where}: connection {connection}", ("input",))
+            if source.type != target.type:
+                raise SceneError(f"{where}: connection {connection} joins a {source.type} "
+                                 f"output to a {target.type} input")
+            key = (connection.target, connection.input)
+            if key in fed:
+                raise SceneError(f"{where}: input {connection.target}.{connection.input} is "
+                                 f"connected twice ({fed[key]} and {connection})")
+            fed[key] = str(connection)
+        for component in self.components.values():
+            for name, value in component.spec.parameters.items():
+                variable = component.variable(name, f"{where}: parameters", ("parameter",))
+                _check_value(component.name, variable, value, f"{where}: parameters")
+            for name, value in component.spec.inputs.items():
+                variable = component.variable(name, f"{where}: inputs", ("input",))
+                _check_value(component.name, variable, value, f"{where}: inputs")
+                if (component.name, name) in fed:
+                    raise SceneError(f"{where}: input {component.name}.{name} is both "
+                                     f"connected ({fed[(component.name, name)]}) and given a value")
+            unfed = [v.name for v in component.variables.values() if v.causality == "input"
+                     and (component.name, v.name) not in fed and v.name not in component.spec.inputs]
+            if unfed:
+                raise SceneError(f"{where}: input(s) {', '.join(unfed)} of {component.name!r} are "
+                                 f"neither connected nor given a value under "
+                                 f"[components.{component.name}.inputs]")
+        self.recorded = []
+        names = self.scene.record or [f"{c.name}.{v.name}" for c in self.components.values()
+                                      for v in c.variables.values() if v.causality == "output"]
+        for full_name in names:
+            component_name, variable_name = split_name(full_name, f"{where}: record")
+            if component_name not in self.components:
+                raise SceneError(f"{where}: record names unknown component {component_name!r}")
+            variable = self.components[component_name].variable(variable_name, f"{where}: record")
+            self.recorded.append((full_name, self.components[component_name], variable))
+
+    # --- running ----------------------------------------------------------------------
+    def run(self):
+        """Run the scene; return a Result or raise SimulationError with the partial Result."""
+        scene = self.scene
+        result = Result(scene=scene, columns={name: [] for name, _, _ in self.recorded},
+                        units={name: variable.unit for name, _, variable in self.recorded})
+        logbook = _LogBook()
+        result.log = logbook.messages
+        extracted = {}
+        instantiated = []
+        started = clock.perf_counter()
+        current = (None, scene.start_time)
+        try:
+            for path in {c.path for c in self.components.values()}:
+                extracted[path] = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_"))
+            for name in self.order:
+                current = (name, scene.start_time)
+                component = self.components[name]
+                component.slave = FMU2Slave(
+                    guid=component.description.guid, unzipDirectory=extracted[component.path],
+                    modelIdentifier=component.description.coSimulation.modelIdentifier,
+                    instanceName=name)
+                component.slave.instantiate(callbacks=logbook.callbacks, loggingOn=True)
+                instantiated.append(component)
+                component.slave.setupExperiment(startTime=scene.start_time,
+                                                stopTime=scene.stop_time)
+                component.slave.enterInitializationMode()
+                for pname, value in component.spec.parameters.items():
+                    component.set(component.variables[pname], value)
+                for iname, value in component.spec.inputs.items():
+                    component.set(component.variables[iname], value)
+                self._feed(name)
+                component.slave.exitInitializationMode()
+            readers = self._readers()
+            self._record(result, scene.start_time, readers)
+            for index in range(1, scene.steps + 1):
+                start, end = scene.time(index - 1), scene.time(index)
+                for name in self.order:
+                    current = (name, start)
+                    self._feed(name)
+                    self.components[name].slave.doStep(currentCommunicationPoint=start,
+                                                       communicationStepSize=end - start)
+                self._record(result, end, readers)
+        except FMICallException as error:
+            name, at = current
+            result.partial = True
+            message = logbook.last_problem(name) if name else str(error)
+            raise SimulationError(name, at, f"{message} [{error}]", result) from None
+        finally:
+            result.meta["wall_time_s"] = clock.perf_counter() - started
+            result.meta["steps"] = max(len(result.times) - 1, 0)
+            for component in instantiated:
+                try:
+                    component.slave.terminate()
+                except Exception:
+                    pass  # an instance in error may refuse to terminate; it is freed anyway
+                component.slave.freeInstance()
+                component.slave = None
+            for folder in extracted.values():
+                shutil.rmtree(folder, ignore_errors=True)
+        return result
+
+    def _feed(self, name):
+        """Set the connected inputs of ``name`` from its sources' current outputs."""
+        for connection in self.scene.connections:
+            if connection.target != name:
+                continue
+            source = self.components[connection.source]
+            variable = source.variables[connection.output]
+            value = self._getter(source, variable)()
+            self.components[name].set(self.components[name].variables[connection.input], value)
+
+    @staticmethod
+    def _getter(component, variable):
+        slave, reference = component.slave, [variable.valueReference]
+        get = {"Real": slave.getReal, "Integer": slave.getInteger,
+               "Boolean": slave.getBoolean, "String": slave.getString}[variable.type]
+        return lambda: get(reference)[0]
+
+    def _readers(self):
+        return [(name, self._getter(component, variable))
+                for name, component, variable in self.recorded]
+
+    @staticmethod
+    def _record(result, time, readers):
+        result.times.append(time)
+        for name, read in readers:
+            result.columns[name].append(float(read()))
+
+
+def parameter_values(simulation):
+    """Every parameter of every component as applied: scene values over FMU defaults."""
+    values = {}
+    for component in simulation.components.values():
+        applied = {}
+        for variable in component.variables.values():
+            if variable.causality == "parameter":
+                start = variable.start
+                if variable.type == "Real":
+                    start = float(start)
+                elif variable.type == "Integer":
+                    start = int(start)
+                elif variable.type == "Boolean":
+                    start = start in (True, "true", "1")
+                applied[variable.name] = component.spec.parameters.get(variable.name, start)
+        values[component.name] = {"fmu": str(component.path),
+                                  "model": component.description.modelName,
+                                  "guid": component.description.guid,
+                                  "parameters": applied,
+                                  "inputs": dict(component.spec.inputs)}
+    return values

@@ -1,0 +1,177 @@
+"""Scenes: declarative TOML files naming components, parameters, connections and outputs.
+
+A scene file looks like::
+
+    name = "gear_retraction"            # optional, defaults to the file name
+    description = "..."
+    start_time = 0.0                    # s, optional
+    stop_time = 3.0                     # s
+    step = 0.01                         # s, communication step
+    connections = ["actuator.piston_extension -> gear.piston_extension"]
+    record = ["gear.gear_angle"]        # optional, defaults to every output
+    reference = "../../data/reference/gear_retraction.csv"   # optional
+
+    [components.actuator]
+    fmu = "PistonActuator"              # a model name (looked up in the FMU folder) or a path
+    parameters = { stroke_time = 3.0 }
+    inputs = { }                        # fixed values for inputs that are not connected
+
+String parameters whose name ends in ``_file`` are paths relative to the scene file.
+Files are read with tomllib and never evaluated.
+"""
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+
+class SceneError(ValueError):
+    """A scene that cannot run as written; the message names the offending item."""
+
+
+@dataclass(frozen=True)
+class Connection:
+    source: str        # component name
+    output: str        # variable name
+    target: str
+    input: str
+
+    def __str__(self):
+        return f"{self.source}.{self.output} -> {self.target}.{self.input}"
+
+
+@dataclass
+class ComponentSpec:
+    name: str
+    fmu: str
+    parameters: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)
+
+
+@dataclass
+class Scene:
+    name: str
+    path: Path
+    stop_time: float
+    step: float
+    components: dict
+    connections: list
+    record: list = None
+    start_time: float = 0.0
+    description: str = ""
+    reference: Path = None
+
+    @property
+    def steps(self):
+        """Number of communication steps from start_time to stop_time."""
+        return round((self.stop_time - self.start_time) / self.step)
+
+    def time(self, index):
+        """Time of communication point ``index`` (computed, never accumulated)."""
+        return self.start_time + index * self.step
+
+
+_SCENE_KEYS = {"name", "description", "start_time", "stop_time", "step", "connections",
+               "record", "reference", "components"}
+_COMPONENT_KEYS = {"fmu", "parameters", "inputs"}
+
+
+def _number(data, key, where, default=None):
+    value = data.get(key, default)
+    if value is None:
+        raise SceneError(f"{where}: missing '{key}'")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise SceneError(f"{where}: '{key}' = {value!r} must be a finite number")
+    return float(value)
+
+
+def split_name(text, where):
+    """'component.variable' -> (component, variable)."""
+    if not isinstance(text, str) or "." not in text:
+        raise SceneError(f"{where}: {text!r} is not of the form component.variable")
+    component, variable = text.split(".", 1)
+    if not component or not variable:
+        raise SceneError(f"{where}: {text!r} is not of the form component.variable")
+    return component, variable
+
+
+def _connection(text, where):
+    if not isinstance(text, str) or text.count("->") != 1:
+        raise SceneError(f"{where}: {text!r} is not of the form "
+                         f"'component.output -> component.input'")
+    left, right = (part.strip() for part in text.split("->"))
+    return Connection(*split_name(left, where), *split_name(right, where))
+
+
+def parse_scene(data, path):
+    """Build a Scene from parsed TOML ``data``; ``path`` locates relative files."""
+    path = Path(path)
+    where = str(path)
+    unknown = set(data) - _SCENE_KEYS
+    if unknown:
+        raise SceneError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
+                         f"allowed: {', '.join(sorted(_SCENE_KEYS))}")
+    start_time = _number(data, "start_time", where, 0.0)
+    stop_time = _number(data, "stop_time", where)
+    step = _number(data, "step", where)
+    if step <= 0.0:
+        raise SceneError(f"{where}: step = {step!r} s must be > 0")
+    if stop_time <= start_time:
+        raise SceneError(f"{where}: stop_time = {stop_time!r} s must exceed "
+                         f"start_time = {start_time!r} s")
+    ratio = (stop_time - start_time) / step
+    if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+        raise SceneError(f"{where}: (stop_time - start_time) / step = {ratio!r} is not a "
+                         f"whole number of communication steps")
+    components = {}
+    raw_components = data.get("components")
+    if not isinstance(raw_components, dict) or not raw_components:
+        raise SceneError(f"{where}: needs at least one [components.NAME] table")
+    for name, spec in raw_components.items():
+        cwhere = f"{where}: component {name!r}"
+        if not isinstance(spec, dict):
+            raise SceneError(f"{cwhere} must be a table")
+        unknown = set(spec) - _COMPONENT_KEYS
+        if unknown:
+            raise SceneError(f"{cwhere}: unknown key(s) {', '.join(sorted(unknown))}; "
+                             f"allowed: {', '.join(sorted(_COMPONENT_KEYS))}")
+        if not isinstance(spec.get("fmu"), str):
+            raise SceneError(f"{cwhere}: missing 'fmu' (a model name or an .fmu path)")
+        parameters = dict(spec.get("parameters", {}))
+        for key, value in parameters.items():
+            if key.endswith("_file") and isinstance(value, str) and value:
+                parameters[key] = str((path.parent / value).resolve())
+        inputs = dict(spec.get("inputs", {}))
+        components[name] = ComponentSpec(name, spec["fmu"], parameters, inputs)
+    connections = [_connection(text, f"{where}: connections[{i}]")
+                   for i, text in enumerate(data.get("connections", []))]
+    record = data.get("record")
+    if record is not None:
+        if not isinstance(record, list) or not all(isinstance(r, str) for r in record):
+            raise SceneError(f"{where}: 'record' must be a list of 'component.variable' names")
+        for item in record:
+            split_name(item, f"{where}: record")
+    reference = data.get("reference")
+    return Scene(
+        name=data.get("name", path.stem), path=path, start_time=start_time,
+        stop_time=stop_time, step=step, components=components, connections=connections,
+        record=record, description=data.get("description", ""),
+        reference=(path.parent / reference).resolve() if reference else None)
+
+
+def load_scene(path):
+    """Read and parse a scene TOML file; errors name the file and the problem."""
+    path = Path(path)
+    try:
+        with open(path, "rb") as handle:
+            data = tomllib.load(handle)
+    except FileNotFoundError:
+        raise SceneError(f"scene file {path} not found") from None
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(f"{path}: malformed TOML: {error}") from None
+    return parse_scene(data, path)

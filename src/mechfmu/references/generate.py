@@ -1,0 +1,79 @@
+"""Generate the reference CSVs in data/reference/ from the numpy closed forms.
+
+Each reference belongs to a scene of sims/scenes/: it is sampled at the scene's
+communication points, uses the scene's parameters over the models' defaults, and names
+its columns like the scene's result ('component.variable'), so ``mechfmu check`` can
+compare the two directly.
+"""
+
+import importlib
+from pathlib import Path
+
+import numpy as np
+
+from ..cosim.results import write_csv
+from ..cosim.scene import load_scene
+from ..models import MODELS
+from . import landing_gear, suspension
+
+
+def model_defaults(model):
+    """Parameter defaults declared by a model (its FMU start values)."""
+    cls = getattr(importlib.import_module(MODELS[model]), model)
+    return {v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}
+
+
+def _component(scene, model):
+    """(name, parameters over defaults) of the scene's component using ``model``."""
+    for name, spec in scene.components.items():
+        if Path(spec.fmu).stem == model:
+            return name, {**model_defaults(model), **spec.parameters}
+    raise ValueError(f"scene {scene.name} has no {model} component")
+
+
+def sample_times(scene):
+    return np.array([scene.time(i) for i in range(scene.steps + 1)])
+
+
+def gear_retraction(scene):
+    """Piston stroke and gear motion columns for a PistonActuator -> LandingGear scene."""
+    actuator, stroke = _component(scene, "PistonActuator")
+    gear, geometry = _component(scene, "LandingGear")
+    columns = landing_gear.retraction(
+        sample_times(scene), geometry["attachment_distance"], geometry["pivot_height"],
+        stroke["start_extension"], stroke["end_extension"], stroke["stroke_time"],
+        stroke["profile"])
+    owner = {"piston_extension": actuator, "piston_speed": actuator,
+             "piston_acceleration": actuator}
+    return {f"{owner.get(key, gear)}.{key}": values for key, values in columns.items()}
+
+
+def suspension_load_ramp(scene):
+    """Load and equilibrium columns for a LoadProfile(ramp) -> Suspension scene."""
+    source, ramp = _component(scene, "LoadProfile")
+    name, spring = _component(scene, "Suspension")
+    if ramp["shape"] != "ramp":
+        raise ValueError(f"scene {scene.name}: the reference covers ramp loads only")
+    times = sample_times(scene)
+    tau = np.clip((times - ramp["start_time"]) / ramp["duration"], 0.0, 1.0)
+    loads = ramp["initial_value"] + (ramp["final_value"] - ramp["initial_value"]) * tau
+    columns = suspension.follow_load(loads, spring["spring_free_length"],
+                                     spring["spring_stiffness"], spring["spring_base_offset"])
+    return {f"{source}.load": loads, **{f"{name}.{key}": v for key, v in columns.items()}}
+
+
+REFERENCES = {
+    "gear_retraction": gear_retraction,
+    "gear_retraction_cycloidal": gear_retraction,
+    "suspension_load_ramp": suspension_load_ramp,
+}
+
+
+def generate(scene_dir, out_dir):
+    """Write one reference CSV per entry of REFERENCES; return their paths."""
+    paths = []
+    for scene_name, build in REFERENCES.items():
+        scene = load_scene(Path(scene_dir) / f"{scene_name}.toml")
+        paths.append(write_csv(Path(out_dir) / f"{scene_name}.csv", sample_times(scene),
+                               build(scene)))
+    return paths
