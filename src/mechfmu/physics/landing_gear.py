@@ -10,6 +10,7 @@ All lengths in m, angles in rad, time in s.
 """
 
 import math
+import sys
 from collections import namedtuple
 
 from .errors import RangeError, SingularConfiguration, require_finite, require_positive
@@ -21,6 +22,8 @@ COURSEWORK_RETRACTED_LENGTH = 1.25 * FOOT
 COURSEWORK_EXTENDED_LENGTH = 2.0 * FOOT
 COURSEWORK_BAR_LENGTH = 2.5 * FOOT
 COURSEWORK_STROKE_TIME = 3.0
+
+DEAD_CENTRE_ULPS = 4  # piston lengths this close (in units of eps * (h + d)) are dead centres
 
 Geometry = namedtuple("Geometry", "attachment_distance pivot_height start_angle")
 GearMotion = namedtuple("GearMotion", "angle angular_velocity angular_acceleration")
@@ -79,8 +82,24 @@ def _sine_and_cosine_terms(piston_extension, d, h):
     if not (low <= x <= high):
         raise RangeError("piston_extension", x, f"[{low!r}, {high!r}]", "m",
                          "outside the assembly range [|h - d|, h + d]")
-    product = (high - x) * (high + x) * (x - low) * (x + low)
-    return math.sqrt(max(product, 0.0)), h * h + d * d - x * x
+    # h + d and |h - d| are rounded; their rounding errors (exact, by TwoSum) are added
+    # back so the distances to the dead centres keep full relative accuracy.
+    high_error = _two_sum_error(h, d, high)
+    low_error = _two_sum_error(max(h, d), -min(h, d), low)
+    to_high = (high - x) + high_error
+    to_low = (x - low) - low_error
+    # Within a few rounding units of a dead centre the input cannot tell which side it is on.
+    if min(to_high, to_low) <= DEAD_CENTRE_ULPS * sys.float_info.epsilon * high:
+        return 0.0, h * h + d * d - x * x
+    product = to_high * (high + x) * to_low * (x + low)
+    return math.sqrt(product), h * h + d * d - x * x
+
+
+def _two_sum_error(a, b, rounded):
+    """Exact rounding error of ``rounded = a + b`` (Knuth's TwoSum): a + b = rounded + error."""
+    b_virtual = rounded - a
+    a_virtual = rounded - b_virtual
+    return (a - a_virtual) + (b - b_virtual)
 
 
 def gear_motion(piston_extension, piston_speed, piston_acceleration,

@@ -60,7 +60,11 @@ def stroke(time, start_extension, end_extension, stroke_time, profile, start_tim
     if tau > 1.0:
         return Sample(end_extension, 0.0, 0.0)
     if profile == "constant_speed":
-        return Sample(start_extension + travel * tau, travel / stroke_time, 0.0)
+        # x0 + (x1 - x0) is not always x1 in floating point: the end is returned exactly.
+        position = end_extension if tau == 1.0 else start_extension + travel * tau
+        return Sample(position, travel / stroke_time, 0.0)
+    if tau in (0.0, 1.0):  # sin(2 pi) is not 0 in floating point; the ends are exact rests
+        return Sample(start_extension if tau == 0.0 else end_extension, 0.0, 0.0)
     angle = 2.0 * math.pi * tau
     return Sample(start_extension + travel * (tau - math.sin(angle) / (2.0 * math.pi)),
                   travel * (1.0 - math.cos(angle)) / stroke_time,
@@ -96,7 +100,8 @@ def load(time, shape, initial_value, final_value, start_time, duration, table=No
         if tau > 1.0:
             return Sample(final_value, 0.0, 0.0)
         change = final_value - initial_value
-        return Sample(initial_value + change * tau, change / duration, 0.0)
+        value = final_value if tau == 1.0 else initial_value + change * tau
+        return Sample(value, change / duration, 0.0)
     return interpolate(table, time)
 
 
@@ -106,6 +111,7 @@ def read_table(path):
     Times must be finite and strictly increasing; at least one row is needed.
     """
     times, values = [], []
+    header_seen = False
     try:
         with open(path, newline="", encoding="utf-8") as handle:
             for number, row in enumerate(csv.reader(handle), start=1):
@@ -114,8 +120,9 @@ def read_table(path):
                 try:
                     time, value = float(row[0]), float(row[1])
                 except (ValueError, IndexError):
-                    if number == 1 and not times:
-                        continue  # header
+                    if not times and not header_seen:
+                        header_seen = True  # the first row that is not a comment
+                        continue
                     raise MechanismError(f"{path}, line {number}: expected 'time,value', "
                                          f"got {','.join(row)!r}") from None
                 if not (math.isfinite(time) and math.isfinite(value)):

@@ -1,0 +1,1 @@
+"""Host-side reports built from the numpy references (Markdown text)."""

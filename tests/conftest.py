@@ -1,0 +1,22 @@
+"""Shared fixtures: the built FMUs and small helpers to run scenes written inline."""
+
+from pathlib import Path
+
+import pytest
+
+from mechfmu.build import build_all
+from mechfmu.models import MODELS
+
+ROOT = Path(__file__).resolve().parent.parent
+FMU_DIR = ROOT / "fmus"
+SCENES = ROOT / "sims" / "scenes"
+REFERENCES = ROOT / "data" / "reference"
+
+
+@pytest.fixture(scope="session")
+def fmu_dir():
+    """fmus/ as built by `make fmus`; built here when missing (e.g. a bare `pytest`)."""
+    missing = [name for name in MODELS if not (FMU_DIR / f"{name}.fmu").is_file()]
+    if missing:
+        build_all(FMU_DIR, missing)
+    return FMU_DIR

@@ -1,0 +1,63 @@
+"""Drive one FMU directly through fmpy, collecting statuses and log messages."""
+
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+
+from mechfmu.cosim.master import _LogBook
+
+
+class Driven:
+    """An instantiated, initialised FMU; ``step`` returns True or the error text."""
+
+    def __init__(self, path, parameters=None, inputs=None, start_time=0.0, instance="under_test"):
+        self.description = read_model_description(str(path))
+        self.variables = {v.name: v for v in self.description.modelVariables}
+        self.folder = extract(str(path))
+        self.logbook = _LogBook()
+        self.slave = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
+                               modelIdentifier=self.description.coSimulation.modelIdentifier,
+                               instanceName=instance)
+        self.logbook.register(instance)
+        self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+        self.slave.setupExperiment(startTime=start_time)
+        self.slave.enterInitializationMode()
+        self.set(**(parameters or {}))
+        self.set(**(inputs or {}))
+        self.slave.exitInitializationMode()
+        self.time = start_time
+        self.instance = instance
+
+    def set(self, **values):
+        for name, value in values.items():
+            variable = self.variables[name]
+            setter = {"Real": self.slave.setReal, "Integer": self.slave.setInteger,
+                      "Boolean": self.slave.setBoolean, "String": self.slave.setString}
+            setter[variable.type]([variable.valueReference], [value])
+
+    def get(self, name):
+        variable = self.variables[name]
+        getter = {"Real": self.slave.getReal, "Integer": self.slave.getInteger,
+                  "Boolean": self.slave.getBoolean, "String": self.slave.getString}
+        return getter[variable.type]([variable.valueReference])[0]
+
+    def step(self, size, **inputs):
+        """Set inputs, do one step; True on success, else the FMU's last error message."""
+        self.set(**inputs)
+        try:
+            self.slave.doStep(currentCommunicationPoint=self.time, communicationStepSize=size)
+        except FMICallException as error:
+            return f"{self.logbook.last_problem(self.instance)} [{error}]"
+        self.time += size
+        return True
+
+    def messages(self, status=None):
+        return [m["message"] for m in self.logbook.messages
+                if status is None or m["status"] == status]
+
+    def close(self):
+        try:
+            self.slave.terminate()
+        finally:
+            self.slave.freeInstance()
+            self.logbook.release(self.instance)

@@ -1,0 +1,171 @@
+"""Scenes end to end: the master, result files, checks against references, scene errors."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import REFERENCES, ROOT, SCENES
+from mechfmu.check import compare
+from mechfmu.cli import main as cli
+from mechfmu.cosim.master import Simulation, SimulationError, order_components
+from mechfmu.cosim.results import read_csv
+from mechfmu.cosim.run import run_scene
+from mechfmu.cosim.scene import Connection, SceneError, load_scene, parse_scene
+from mechfmu.references.generate import REFERENCES as GENERATED, generate
+
+
+def gear_scene(**changes):
+    data = {
+        "name": "inline_gear", "stop_time": 0.5, "step": 0.1,
+        "connections": ["actuator.piston_extension -> gear.piston_extension",
+                        "actuator.piston_speed -> gear.piston_speed",
+                        "actuator.piston_acceleration -> gear.piston_acceleration"],
+        "components": {"actuator": {"fmu": "PistonActuator"}, "gear": {"fmu": "LandingGear"}},
+    }
+    data.update(changes)
+    return data
+
+
+@pytest.mark.parametrize("scene_name, rtol, atol", [
+    ("gear_retraction", 1e-9, 1e-12),
+    ("gear_retraction_cycloidal", 1e-9, 1e-12),
+    ("suspension_load_ramp", 1e-9, 1e-9),
+])
+def test_shipped_scene_matches_its_reference(fmu_dir, tmp_path, scene_name, rtol, atol):
+    result, paths = run_scene(SCENES / f"{scene_name}.toml", tmp_path, fmu_dir)
+    comparison = compare(paths["csv"], result.scene.reference, rtol, atol)
+    assert comparison.ok, str(comparison)
+    assert comparison.samples == result.scene.steps + 1
+    assert set(paths) == {"csv", "json", "png"}
+    assert paths["png"].stat().st_size > 10_000
+    meta = json.loads(paths["json"].read_text())
+    assert meta["steps"] == result.scene.steps and meta["partial"] is False
+    assert meta["versions"]["fmpy"] and meta["wall_time_s"] > 0
+    assert meta["units"]  # every recorded variable with its unit
+
+
+def test_gear_columns_and_snap_through_in_the_suspension_run(fmu_dir, tmp_path):
+    result, paths = run_scene(SCENES / "suspension_load_ramp.toml", tmp_path, fmu_dir,
+                              plot=False)
+    times, columns = read_csv(paths["csv"])
+    assert list(columns)[0] == "load.load" and len(times) == 401
+    snaps = np.flatnonzero(columns["suspension.snap_through"])
+    assert len(snaps) == 1 and times[snaps[0]] == pytest.approx(3.10)
+    assert any("snap-through" in entry["message"] for entry in result.log)
+    meta = json.loads(paths["json"].read_text())
+    assert any("snap-through" in entry["message"] for entry in meta["log"])
+
+
+def test_failed_run_keeps_the_rows_computed_before_as_partial(fmu_dir, tmp_path):
+    # A constant piston speed past the stroke end would leave the assembly range; with a
+    # stroke from 1.25 ft to 2.1 ft the piston passes h + d = 2.05 ft at about t = 2.8 s.
+    data = gear_scene(stop_time=3.0, step=0.1)
+    data["components"]["actuator"]["parameters"] = {"end_extension": 2.1 * 0.3048}
+    scene = parse_scene(data, tmp_path / "inline.toml")
+    with pytest.raises(SimulationError) as caught:
+        run_scene(scene, tmp_path, fmu_dir)
+    error = caught.value
+    assert error.component == "gear"
+    assert "piston_extension" in str(error) and "assembly range" in str(error)
+    assert error.paths["csv"].name == "inline_gear.partial.csv"
+    times, columns = read_csv(error.paths["csv"])
+    assert 2.5 < times[-1] < 3.0 and all(np.isfinite(columns["gear.gear_angle"]))
+    meta = json.loads(error.paths["json"].read_text())
+    assert meta["partial"] is True and meta["failed_component"] == "gear"
+    assert not (tmp_path / "inline_gear.csv").exists()
+
+
+@pytest.mark.parametrize("change, words", [
+    (lambda d: d["components"].update(extra={"fmu": "NoSuchModel"}),
+     ["NoSuchModel.fmu not found", "mechfmu build"]),
+    (lambda d: d["connections"].append("ghost.x -> gear.piston_speed"),
+     ["unknown component 'ghost'"]),
+    (lambda d: d["connections"].__setitem__(0, "actuator.piston_extension -> gear.gear_anglez"),
+     ["has no variable 'gear_anglez'", "gear_angle"]),
+    (lambda d: d["connections"].__setitem__(0, "actuator.piston_speed -> gear.piston_speed"),
+     ["connected twice"]),
+    (lambda d: d["connections"].pop(), ["piston_acceleration", "neither connected"]),
+    (lambda d: d["components"]["gear"].update(parameters={"bar_length": "long"}),
+     ["gear.bar_length is Real", "str 'long'"]),
+    (lambda d: d["components"]["gear"].update(parameters={"gear_angle": 1.0}),
+     ["gear.gear_angle is a output, expected parameter"]),
+    (lambda d: d.update(record=["gear.nothing"]), ["has no variable 'nothing'"]),
+    (lambda d: d.update(step=0.3), ["not a whole number of communication steps"]),
+    (lambda d: d.update(stop_time=-1.0), ["stop_time = -1.0 s must exceed"]),
+    (lambda d: d.update(colour="red"), ["unknown key(s) colour"]),
+    (lambda d: d["connections"].append("gear piston"), ["component.output -> component.input"]),
+])
+def test_scene_errors_name_the_problem(fmu_dir, tmp_path, change, words):
+    data = gear_scene()
+    change(data)
+    with pytest.raises(SceneError) as caught:
+        Simulation(parse_scene(data, tmp_path / "inline.toml"), fmu_dir)
+    for word in words:
+        assert word in str(caught.value), str(caught.value)
+
+
+def test_algebraic_loop_is_named():
+    connections = [Connection("a", "y", "b", "u"), Connection("b", "y", "c", "u"),
+                   Connection("c", "y", "b", "v")]
+    with pytest.raises(SceneError, match=r"algebraic loop.*b -> c -> b"):
+        order_components(["a", "b", "c"], connections)
+    assert order_components(["b", "a"], connections[:1]) == ["a", "b"]
+
+
+def test_malformed_toml_is_reported_with_the_file(tmp_path):
+    path = tmp_path / "broken.toml"
+    path.write_text("stop_time = [1,\n")
+    with pytest.raises(SceneError, match="broken.toml: malformed TOML"):
+        load_scene(path)
+
+
+def test_committed_references_equal_freshly_generated_ones(tmp_path):
+    generated = generate(SCENES, tmp_path)
+    assert sorted(p.name for p in generated) == sorted(f"{n}.csv" for n in GENERATED)
+    for path in generated:
+        times, columns = read_csv(path)
+        committed_times, committed = read_csv(REFERENCES / path.name)
+        assert times == committed_times and list(columns) == list(committed)
+        for name in columns:
+            np.testing.assert_allclose(columns[name], committed[name], rtol=1e-13, atol=1e-13,
+                                       err_msg=f"{path.name}: {name}")
+
+
+def test_check_command_exit_codes_and_worst_deviation(tmp_path, capsys):
+    reference = REFERENCES / "gear_retraction.csv"
+    times, columns = read_csv(reference)
+    assert cli(["check", str(reference), str(reference)]) == 0
+    columns["gear.gear_angle"][150] *= 1 + 1e-6
+    from mechfmu.cosim.results import write_csv
+    tampered = write_csv(tmp_path / "tampered.csv", times, columns)
+    capsys.readouterr()
+    assert cli(["check", str(tampered), str(reference)]) == 1
+    out = capsys.readouterr().out
+    assert "MISMATCH" in out and "gear.gear_angle at t = 1.5 s" in out
+    assert cli(["check", str(tampered), str(reference), "--rtol", "1e-5"]) == 0
+    assert cli(["check", str(tmp_path / "missing.csv"), str(reference)]) == 2
+
+
+def test_cli_run_writes_outputs_and_checks_against_the_reference(fmu_dir, tmp_path, capsys):
+    code = cli(["run", str(SCENES / "gear_retraction.toml"), "--out", str(tmp_path),
+                "--fmu-dir", str(fmu_dir), "--check", "--no-plot"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "match: 6 column(s), 301 sample(s)" in out
+    assert (tmp_path / "gear_retraction.csv").is_file()
+
+
+@pytest.mark.parametrize("script, expected", [
+    ("run_gear.py", "every sample within 1e-9 relative (+1e-12 absolute): yes"),
+    ("run_suspension.py", "snap-through at t = 3.10 s"),
+])
+def test_runner_scripts(fmu_dir, tmp_path, script, expected):
+    done = subprocess.run([sys.executable, str(ROOT / "sims" / script), "--out", str(tmp_path),
+                           "--fmu-dir", str(fmu_dir)], capture_output=True, text=True,
+                          timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert expected in done.stdout
+    assert any(tmp_path.glob("*.png"))
