@@ -18,7 +18,6 @@ class Driven:
         self.slave = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
                                modelIdentifier=self.description.coSimulation.modelIdentifier,
                                instanceName=instance)
-        self.logbook.register(instance)
         self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         self.slave.setupExperiment(startTime=start_time)
         self.slave.enterInitializationMode()
@@ -60,4 +59,3 @@ class Driven:
             self.slave.terminate()
         finally:
             self.slave.freeInstance()
-            self.logbook.release(self.instance)

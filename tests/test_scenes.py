@@ -169,3 +169,8 @@ def test_runner_scripts(fmu_dir, tmp_path, script, expected):
     assert done.returncode == 0, done.stdout + done.stderr
     assert expected in done.stdout
     assert any(tmp_path.glob("*.png"))
+
+
+def test_readme_interface_tables_are_the_generated_ones():
+    from mechfmu.docs import interface_tables
+    assert interface_tables() in (ROOT / "README.md").read_text()

@@ -9,10 +9,12 @@ import importlib
 import os
 import shutil
 import tempfile
+import zipfile
 from pathlib import Path
 
 from pythonfmu import FmuBuilder
 
+from .binary_patch import patch_exit_finaliser
 from .models import MODELS
 
 PACKAGE_ROOT = Path(__file__).resolve().parent
@@ -60,9 +62,25 @@ def build_model(name, out_dir, staging):
                       f"from {inner_module} import {name}  # noqa: E402,F401\n")
     built = FmuBuilder.build_FMU(script, dest=staging / f"out_{name}", project_files=[package],
                                  canGetAndSetFMUstate=True)
+    _patch_linux_binary(built, name)
     final = Path(out_dir) / f"{name}.fmu"
     os.replace(built, final)  # atomic: a reader never sees a half-written FMU
     return final
+
+
+def _patch_linux_binary(fmu, name):
+    """Rewrite the FMU with its Linux binary patched (see binary_patch); report the outcome."""
+    member = f"binaries/linux64/{name}.so"
+    with zipfile.ZipFile(fmu) as archive:
+        entries = [(info, archive.read(info)) for info in archive.infolist()]
+    patched_fmu = fmu.with_suffix(".patched")
+    with zipfile.ZipFile(patched_fmu, "w", zipfile.ZIP_DEFLATED) as archive:
+        for info, data in entries:
+            if info.filename == member:
+                data, message = patch_exit_finaliser(data)
+                print(f"{name}: {message}")
+            archive.writestr(info, data)
+    os.replace(patched_fmu, fmu)
 
 
 def build_all(out_dir, names=None):

@@ -1,4 +1,4 @@
-"""The ``mechfmu`` command: build, run, check, references, report."""
+"""The ``mechfmu`` command: build, run, check, references, report, docs."""
 
 import argparse
 import sys
@@ -74,6 +74,12 @@ def _report(args):
     return 0
 
 
+def _docs(args):
+    from .docs import interface_tables
+    print(interface_tables())
+    return 0
+
+
 def parser():
     main = argparse.ArgumentParser(prog="mechfmu", description=__doc__)
     verbs = main.add_subparsers(dest="verb", required=True)
@@ -110,6 +116,8 @@ def parser():
     report = verbs.add_parser("report", help="write the seed-reproduction report")
     report.add_argument("--out", default="data/seed_report.md")
     report.set_defaults(func=_report)
+    docs = verbs.add_parser("docs", help="print the README's FMU interface tables")
+    docs.set_defaults(func=_docs)
     return main
 
 

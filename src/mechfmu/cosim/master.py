@@ -68,60 +68,26 @@ def resolve_fmu(spec, scene, fmu_dir):
     return candidate
 
 
-def _text(raw):
-    return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
-
-
-# Messages of each live FMU instance, by instance name: {name: list of message dicts}.
-_ROUTES = {}
-
-
-def _route(environment, instance, status, category, message):
-    sink = _ROUTES.get(_text(instance))
-    if sink is not None:
-        sink.append({"instance": _text(instance), "status": STATUS_NAMES.get(status, status),
-                     "category": _text(category), "message": _text(message)})
-
-
-def _process_callbacks():
-    """The one fmi2CallbackFunctions of this process, created on first use, never freed.
-
-    pythonfmu's library keeps the callbacks pointer beyond fmi2FreeInstance and uses it
-    while unloading at process exit; a per-run struct that Python has since collected
-    corrupted the heap there (measured: 'corrupted double-linked list' aborts at exit in
-    about 1 of 3 runs under pytest). fmpy's own default callbacks live forever too.
-    """
-    global _CALLBACKS
-    if _CALLBACKS is None:
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(_route)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        try:
-            from fmpy.logging import addLoggerProxy
-            addLoggerProxy(byref(callbacks))  # formats the variadic message in C
-        except Exception:
-            pass
-        _CALLBACKS = callbacks
-    return _CALLBACKS
-
-
-_CALLBACKS = None
-
-
 class _LogBook:
-    """Collects the FMU log messages of the instances it registers."""
+    """FMI logger callback that keeps every message of the instances of one run."""
 
     def __init__(self):
         self.messages = []
-        self.callbacks = _process_callbacks()
+        self.callbacks = fmi2CallbackFunctions()
+        self.callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
+        self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        try:
+            from fmpy.logging import addLoggerProxy
+            addLoggerProxy(byref(self.callbacks))  # formats the variadic message in C
+        except Exception:
+            pass
 
-    def register(self, instance):
-        _ROUTES[instance] = self.messages
-
-    def release(self, instance):
-        if _ROUTES.get(instance) is self.messages:
-            del _ROUTES[instance]
+    def _log(self, environment, instance, status, category, message):
+        def text(raw):
+            return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
+        self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
+                              "category": text(category), "message": text(message)})
 
     def last_problem(self, instance):
         for entry in reversed(self.messages):
@@ -282,7 +248,6 @@ class Simulation:
                     guid=component.description.guid, unzipDirectory=extracted[component.path],
                     modelIdentifier=component.description.coSimulation.modelIdentifier,
                     instanceName=name)
-                logbook.register(name)
                 component.slave.instantiate(callbacks=logbook.callbacks, loggingOn=True)
                 instantiated.append(component)
                 component.slave.setupExperiment(startTime=scene.start_time,
@@ -318,7 +283,6 @@ class Simulation:
                 except Exception:
                     pass  # an instance in error may refuse to terminate; it is freed anyway
                 component.slave.freeInstance()
-                logbook.release(component.name)
                 component.slave = None
             for folder in extracted.values():
                 shutil.rmtree(folder, ignore_errors=True)

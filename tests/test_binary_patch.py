@@ -1,0 +1,41 @@
+"""The exit-time use-after-free fix applied to pythonfmu's Linux binary in every FMU."""
+
+import zipfile
+
+import pytest
+
+from mechfmu.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset, patch_exit_finaliser
+from mechfmu.models import MODELS
+
+
+def _binary(fmu_dir, model):
+    with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
+        return archive.read(f"binaries/linux64/{model}.so")
+
+
+@pytest.mark.parametrize("model", list(MODELS))
+def test_every_fmu_binary_has_the_exit_finaliser_disabled(fmu_dir, model):
+    elf = _binary(fmu_dir, model)
+    offset = find_symbol_offset(elf, SYMBOL)
+    assert offset is not None
+    assert elf[offset:offset + 4] == ENDBR64 and elf[offset + 4] == RET
+
+
+def test_patch_changes_one_byte_and_is_idempotent(fmu_dir):
+    patched = _binary(fmu_dir, "LandingGear")
+    offset = find_symbol_offset(patched, SYMBOL)
+    original = bytearray(patched)
+    original[offset + 4] = 0x55  # push %rbp, as pythonfmu 0.7 ships it
+    again, message = patch_exit_finaliser(bytes(original))
+    assert "made a no-op" in message and again == patched
+    assert sum(a != b for a, b in zip(again, original)) == 1
+    assert patch_exit_finaliser(patched) == (patched, "already patched")
+
+
+def test_unknown_code_is_left_alone(fmu_dir):
+    elf = bytearray(_binary(fmu_dir, "LandingGear"))
+    offset = find_symbol_offset(bytes(elf), SYMBOL)
+    elf[offset + 4] = 0x90
+    untouched, message = patch_exit_finaliser(bytes(elf))
+    assert untouched == bytes(elf) and "left as built" in message
+    assert patch_exit_finaliser(b"not an elf")[1].endswith("left as built")
