@@ -77,6 +77,36 @@ def output(name, start, description, unit=None, depends=(), min=None, max=None):
     return Variable(name, type(start), "output", start, description, unit, min, max, depends)
 
 
+EFFECT_PREFIX = "Effect: "
+
+
+def effect(name, description):
+    """A Boolean parameter that switches a physical effect on (all effects default off).
+
+    Scenes list effects by name; the master finds them by this description prefix.
+    """
+    return parameter(name, False, EFFECT_PREFIX + description)
+
+
+INTEGRATORS = ("euler", "rk4", "dopri5", "radau")
+
+
+def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e-3):
+    """The parameters and counters every integrating model declares, by the same names."""
+    return (
+        parameter("integrator", default, "Integration method inside each communication step: "
+                  + ", ".join(INTEGRATORS) + " (euler, rk4: fixed sub-step max_substep; "
+                  "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases)",
+                  values=INTEGRATORS),
+        parameter("rtol", rtol, "Relative tolerance of the adaptive methods", min=0.0),
+        parameter("atol", atol, "Absolute tolerance of the adaptive methods", min=0.0),
+        parameter("max_substep", max_substep, "Largest internal sub-step (the fixed sub-step "
+                  "of euler and rk4)", unit="s", min=0.0),
+        output("rhs_evaluations", 0, "Right-hand-side evaluations so far"),
+        output("substeps", 0, "Accepted internal sub-steps so far"),
+    )
+
+
 class MechSlave(Fmi2Slave):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 

@@ -30,6 +30,10 @@ class SingularConfiguration(MechanismError):
     """The mechanism is at a configuration where the requested quantity is undefined."""
 
 
+class IntegrationError(MechanismError):
+    """An integrator cannot continue: unstable, step size underflow, or too many steps."""
+
+
 class SnapThrough(MechanismError):
     """The load passed the limit load and the caller asked not to continue past it."""
 
