@@ -174,3 +174,22 @@ def test_runner_scripts(fmu_dir, tmp_path, script, expected):
 def test_readme_interface_tables_are_the_generated_ones():
     from mechfmu.docs import interface_tables
     assert interface_tables() in (ROOT / "README.md").read_text()
+
+
+def test_components_feeding_no_recorded_output_are_not_instantiated(fmu_dir, tmp_path):
+    data = gear_scene(record=["actuator.piston_extension"])
+    data["components"]["idle"] = {"fmu": "Suspension", "inputs": {"load": 1.0}}
+    result, paths = run_scene(parse_scene(data, tmp_path / "inline.toml"), tmp_path, fmu_dir,
+                              plot=False)
+    meta = json.loads(paths["json"].read_text())
+    assert set(meta["pruned"]) == {"gear", "idle"}
+    assert "not instantiated" in meta["pruned"]["gear"]
+    assert meta["order"] == ["actuator"] and list(result.columns) == ["actuator.piston_extension"]
+    assert not any(entry["instance"] in ("gear", "idle") for entry in result.log)
+
+
+def test_unknown_effect_is_named_with_the_available_ones(fmu_dir, tmp_path):
+    data = gear_scene()
+    data["components"]["gear"]["effects"] = ["warp_drive"]
+    with pytest.raises(SceneError, match="has no effect 'warp_drive'; its effects: "):
+        Simulation(parse_scene(data, tmp_path / "inline.toml"), fmu_dir)

@@ -24,6 +24,7 @@ from fmpy import calloc, free
 
 from .scene import SceneError, split_name
 
+EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.fmi.slave)
 STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 
@@ -178,7 +179,7 @@ class Simulation:
             path = resolve_fmu(spec, scene, fmu_dir)
             self.components[name] = _Component(spec, path, read_model_description(str(path)))
         self._check()
-        self.order = order_components(list(self.components), scene.connections)
+        self.order = order_components(list(self.components), self.connections)
 
     def _check(self):
         where = str(self.scene.path)
@@ -204,6 +205,17 @@ class Simulation:
             for name, value in component.spec.parameters.items():
                 variable = component.variable(name, f"{where}: parameters", ("parameter",))
                 _check_value(component.name, variable, value, f"{where}: parameters")
+            available = sorted(v.name for v in component.variables.values()
+                               if v.causality == "parameter" and v.type == "Boolean"
+                               and (v.description or "").startswith(EFFECT_PREFIX))
+            for name in component.spec.effects:
+                if name not in available:
+                    raise SceneError(f"{where}: effects: {component.name!r} "
+                                     f"({component.description.modelName}) has no effect {name!r}; "
+                                     f"its effects: {', '.join(available) or 'none'}")
+                if name in component.spec.parameters:
+                    raise SceneError(f"{where}: effect {component.name}.{name} is also given "
+                                     f"under parameters; list it in one place only")
             for name, value in component.spec.inputs.items():
                 variable = component.variable(name, f"{where}: inputs", ("input",))
                 _check_value(component.name, variable, value, f"{where}: inputs")
@@ -225,6 +237,24 @@ class Simulation:
                 raise SceneError(f"{where}: record names unknown component {component_name!r}")
             variable = self.components[component_name].variable(variable_name, f"{where}: record")
             self.recorded.append((full_name, self.components[component_name], variable))
+        self.pruned = self._prune()
+
+    def _prune(self):
+        """Drop components that feed none of the recorded outputs; return {name: why}."""
+        needed = {component.name for _, component, _ in self.recorded}
+        frontier = list(needed)
+        while frontier:
+            name = frontier.pop()
+            for connection in self.scene.connections:
+                if connection.target == name and connection.source not in needed:
+                    needed.add(connection.source)
+                    frontier.append(connection.source)
+        pruned = {name: "feeds none of the recorded outputs, not instantiated"
+                  for name in self.components if name not in needed}
+        for name in pruned:
+            del self.components[name]
+        self.connections = [c for c in self.scene.connections if c.target in needed]
+        return pruned
 
     # --- running ----------------------------------------------------------------------
     def run(self):
@@ -255,6 +285,8 @@ class Simulation:
                 component.slave.enterInitializationMode()
                 for pname, value in component.spec.parameters.items():
                     component.set(component.variables[pname], value)
+                for ename in component.spec.effects:
+                    component.set(component.variables[ename], True)
                 for iname, value in component.spec.inputs.items():
                     component.set(component.variables[iname], value)
                 self._feed(name)
@@ -290,7 +322,7 @@ class Simulation:
 
     def _feed(self, name):
         """Set the connected inputs of ``name`` from its sources' current outputs."""
-        for connection in self.scene.connections:
+        for connection in self.connections:
             if connection.target != name:
                 continue
             source = self.components[connection.source]
@@ -330,10 +362,12 @@ def parameter_values(simulation):
                     start = int(start)
                 elif variable.type == "Boolean":
                     start = start in (True, "true", "1")
-                applied[variable.name] = component.spec.parameters.get(variable.name, start)
+                applied[variable.name] = component.spec.parameters.get(
+                    variable.name, True if variable.name in component.spec.effects else start)
         values[component.name] = {"fmu": str(component.path),
                                   "model": component.description.modelName,
                                   "guid": component.description.guid,
                                   "parameters": applied,
+                                  "effects": list(component.spec.effects),
                                   "inputs": dict(component.spec.inputs)}
     return values

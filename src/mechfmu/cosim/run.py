@@ -16,7 +16,8 @@ def run_scene(scene, out_dir, fmu_dir=None, plot=True):
         scene = load_scene(scene)
     simulation = Simulation(scene, fmu_dir)
     setup = {"components": parameter_values(simulation), "order": simulation.order,
-             "connections": [str(c) for c in scene.connections]}
+             "connections": [str(c) for c in simulation.connections],
+             "pruned": simulation.pruned}
     try:
         result = simulation.run()
     except SimulationError as error:

@@ -15,6 +15,7 @@ A scene file looks like::
     fmu = "PistonActuator"              # a model name (looked up in the FMU folder) or a path
     parameters = { stroke_time = 3.0 }
     inputs = { }                        # fixed values for inputs that are not connected
+    effects = ["inertia", "gravity"]    # physical effects to switch on (all others stay off)
 
 String parameters whose name ends in ``_file`` are paths relative to the scene file.
 Files are read with tomllib and never evaluated.
@@ -51,6 +52,7 @@ class ComponentSpec:
     fmu: str
     parameters: dict = field(default_factory=dict)
     inputs: dict = field(default_factory=dict)
+    effects: list = field(default_factory=list)
 
 
 @dataclass
@@ -78,7 +80,7 @@ class Scene:
 
 _SCENE_KEYS = {"name", "description", "start_time", "stop_time", "step", "connections",
                "record", "reference", "components"}
-_COMPONENT_KEYS = {"fmu", "parameters", "inputs"}
+_COMPONENT_KEYS = {"fmu", "parameters", "inputs", "effects"}
 
 
 def _number(data, key, where, default=None):
@@ -147,7 +149,10 @@ def parse_scene(data, path):
             if key.endswith("_file") and isinstance(value, str) and value:
                 parameters[key] = str((path.parent / value).resolve())
         inputs = dict(spec.get("inputs", {}))
-        components[name] = ComponentSpec(name, spec["fmu"], parameters, inputs)
+        effects = spec.get("effects", [])
+        if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
+            raise SceneError(f"{cwhere}: 'effects' must be a list of effect names")
+        components[name] = ComponentSpec(name, spec["fmu"], parameters, inputs, list(effects))
     connections = [_connection(text, f"{where}: connections[{i}]")
                    for i, text in enumerate(data.get("connections", []))]
     record = data.get("record")
