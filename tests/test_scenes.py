@@ -112,7 +112,16 @@ def test_algebraic_loop_is_named():
                    Connection("c", "y", "b", "v")]
     with pytest.raises(SceneError, match=r"algebraic loop.*b -> c -> b"):
         order_components(["a", "b", "c"], connections)
-    assert order_components(["b", "a"], connections[:1]) == ["a", "b"]
+    assert order_components(["b", "a"], connections[:1]) == (["a", "b"], [])
+
+
+def test_a_loop_through_a_state_output_lags_that_connection():
+    # c.y depends on no input (a state): the loop b -> c -> b is not algebraic
+    connections = [Connection("a", "y", "b", "u"), Connection("b", "y", "c", "u"),
+                   Connection("c", "y", "b", "v")]
+    order, lagged = order_components(["a", "b", "c"], connections,
+                                     lambda connection: connection.source != "c")
+    assert order == ["a", "b", "c"] and lagged == [connections[2]]
 
 
 def test_malformed_toml_is_reported_with_the_file(tmp_path):

@@ -129,43 +129,77 @@ def _check_value(component, variable, value, where):
                          f"{type(value).__name__} {value!r}")
 
 
-def order_components(names, connections):
-    """Components sorted so every source comes before its targets (Kahn's algorithm).
+def order_components(names, connections, feedthrough=None):
+    """Components in stepping order, and the connections that must lag one step.
 
-    Raises SceneError naming the cycle when the connections form an algebraic loop.
+    ``feedthrough(connection)`` tells whether the connection's source output depends
+    directly on an input of its component (default: every connection does). Such
+    connections fix the order: their source steps first. A connection from an output that
+    depends on no input (a state) may lag: it is dropped from the ordering only when it
+    closes a cycle, and its target then uses the value from the previous communication
+    point (Gauss-Seidel with one delayed coupling). A cycle of feedthrough connections is
+    an algebraic loop: SceneError names it.
     """
-    targets = {name: [] for name in names}
-    indegree = {name: 0 for name in names}
+    feedthrough = feedthrough or (lambda connection: True)
+    hard = [c for c in connections if feedthrough(c)]
+    targets = {name: set() for name in names}
+    for connection in hard:
+        targets[connection.source].add(connection.target)
+    cycle = _find_cycle(names, targets)
+    if cycle:
+        raise SceneError("algebraic loop: the direct-feedthrough connections form a cycle "
+                         + " -> ".join(cycle + cycle[:1]))
+    lagged = []
     for connection in connections:
-        if connection.target not in targets[connection.source]:
-            targets[connection.source].append(connection.target)
-            indegree[connection.target] += 1
+        if connection in hard or connection.target in targets[connection.source]:
+            continue
+        targets[connection.source].add(connection.target)
+        if _find_cycle(names, targets):
+            targets[connection.source].discard(connection.target)
+            lagged.append(connection)
+    return _topological(names, targets), lagged
+
+
+def _topological(names, targets):
+    indegree = {name: 0 for name in names}
+    for name in names:
+        for target in targets[name]:
+            indegree[target] += 1
     ready = [name for name in names if indegree[name] == 0]
     ordered = []
     while ready:
         name = ready.pop(0)
         ordered.append(name)
-        for target in targets[name]:
+        for target in sorted(targets[name], key=names.index):
             indegree[target] -= 1
             if indegree[target] == 0:
                 ready.append(target)
-    if len(ordered) < len(names):
-        remaining = [name for name in names if name not in ordered]
-        cycle = _find_cycle(remaining, targets)
-        raise SceneError("algebraic loop: the connections form a cycle "
-                         + " -> ".join(cycle + cycle[:1]))
     return ordered
 
 
-def _find_cycle(candidates, targets):
-    start = candidates[0]
-    path, seen = [start], {start}
-    while True:
-        step = next(t for t in targets[path[-1]] if t in candidates)
-        if step in seen:
-            return path[path.index(step):]
-        path.append(step)
-        seen.add(step)
+def _find_cycle(names, targets):
+    """A list of components forming a cycle, or None (iterative depth-first search)."""
+    state = {name: 0 for name in names}  # 0 new, 1 on the current path, 2 done
+    for root in names:
+        if state[root]:
+            continue
+        path, stack = [], [(root, iter(sorted(targets[root], key=names.index)))]
+        state[root] = 1
+        path.append(root)
+        while stack:
+            node, children = stack[-1]
+            child = next(children, None)
+            if child is None:
+                stack.pop()
+                path.pop()
+                state[node] = 2
+            elif state[child] == 1:
+                return path[path.index(child):]
+            elif state[child] == 0:
+                state[child] = 1
+                path.append(child)
+                stack.append((child, iter(sorted(targets[child], key=names.index))))
+    return None
 
 
 class Simulation:
@@ -179,7 +213,16 @@ class Simulation:
             path = resolve_fmu(spec, scene, fmu_dir)
             self.components[name] = _Component(spec, path, read_model_description(str(path)))
         self._check()
-        self.order = order_components(list(self.components), self.connections)
+        self.order, self.lagged = order_components(list(self.components), self.connections,
+                                                   self._feedthrough)
+
+    def _feedthrough(self, connection):
+        """Whether the connection's source output depends directly on one of its inputs."""
+        description = self.components[connection.source].description
+        for unknown in description.outputs:
+            if unknown.variable.name == connection.output:
+                return bool(unknown.dependencies) or unknown.dependencies is None
+        return True
 
     def _check(self):
         where = str(self.scene.path)
@@ -289,8 +332,10 @@ class Simulation:
                     component.set(component.variables[ename], True)
                 for iname, value in component.spec.inputs.items():
                     component.set(component.variables[iname], value)
-                self._feed(name)
+                self._feed(name, skip=self.lagged)
                 component.slave.exitInitializationMode()
+            for connection in self.lagged:  # their sources initialise after their targets
+                self._set_from_source(connection)
             readers = self._readers()
             self._record(result, scene.start_time, readers)
             for index in range(1, scene.steps + 1):
@@ -320,15 +365,17 @@ class Simulation:
                 shutil.rmtree(folder, ignore_errors=True)
         return result
 
-    def _feed(self, name):
+    def _feed(self, name, skip=()):
         """Set the connected inputs of ``name`` from its sources' current outputs."""
         for connection in self.connections:
-            if connection.target != name:
-                continue
-            source = self.components[connection.source]
-            variable = source.variables[connection.output]
-            value = self._getter(source, variable)()
-            self.components[name].set(self.components[name].variables[connection.input], value)
+            if connection.target == name and connection not in skip:
+                self._set_from_source(connection)
+
+    def _set_from_source(self, connection):
+        source = self.components[connection.source]
+        value = self._getter(source, source.variables[connection.output])()
+        target = self.components[connection.target]
+        target.set(target.variables[connection.input], value)
 
     @staticmethod
     def _getter(component, variable):

@@ -17,7 +17,8 @@ def run_scene(scene, out_dir, fmu_dir=None, plot=True):
     simulation = Simulation(scene, fmu_dir)
     setup = {"components": parameter_values(simulation), "order": simulation.order,
              "connections": [str(c) for c in simulation.connections],
-             "pruned": simulation.pruned}
+             "pruned": simulation.pruned,
+             "lagged_connections": [str(c) for c in simulation.lagged]}
     try:
         result = simulation.run()
     except SimulationError as error:

@@ -1,0 +1,84 @@
+"""High-accuracy references for the dynamic gear scenes (scipy).
+
+The same equations as LandingGear.fmu's dynamics drive (its right-hand side is reused, so
+the reference checks the FMU's integration, events and co-simulation plumbing, not a second
+derivation), integrated by scipy's Radau at rtol = atol = 1e-12, restarted at every
+stroke-limit crossing (where the end-stop force has a kink), and evaluated by its dense
+output at the scene's sample times.
+"""
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from ..models.landing_gear import _Dynamics
+from ..physics import gear_dynamics as gd
+from ..physics import landing_gear as gear
+
+TOLERANCE = 1e-12
+
+
+def gear_values(defaults, parameters, effects, inputs):
+    """The FMU's variable values as a scene sets them: defaults, parameters, effects, inputs."""
+    values = dict(defaults)
+    values.update(parameters)
+    values.update({name: True for name in effects})
+    values.update(inputs)
+    return values
+
+
+def simulate(values, times):
+    """Columns of the dynamics drive at ``times`` (s), and the stroke event times."""
+    body = gd.make_body(values["bar_length"], values["bar_mass"], values["wheel_mass"])
+    d, h = gear.check_geometry(values["attachment_distance"], values["pivot_height"])
+    geometry = gd.Geometry(d, h, values["down_angle"], values["airframe_pitch"])
+    dynamics = _Dynamics(values, body, geometry, slave=None)
+    low, high = dynamics.stroke
+
+    def crossing(limit):
+        def event(t, y):
+            return dynamics._length(y) - limit
+        event.terminal = True
+        return event
+
+    rhs = lambda t, y: dynamics.derivatives(list(y), values)[0]  # noqa: E731
+    t, y = times[0], np.array(dynamics.initial_state(), dtype=float)
+    pieces, events = [], {"stroke_max": [], "stroke_min": []}
+    for _ in range(10_000):
+        solution = solve_ivp(rhs, (t, times[-1]), y, method="Radau", rtol=TOLERANCE,
+                             atol=TOLERANCE, dense_output=True,
+                             events=[crossing(high), crossing(low)])
+        pieces.append((t, float(solution.t[-1]), solution.sol))
+        t, y = float(solution.t[-1]), solution.y[:, -1]
+        if solution.status != 1 or t >= times[-1]:
+            break
+        rate = dynamics._kinematics(list(y))[1]
+        # like the FMU: retraction = rising through stroke_max, extension = falling through
+        # stroke_min; every crossing restarts the integration at the kink
+        if len(solution.t_events[0]) and rate > 0:
+            events["stroke_max"].append(t)
+        if len(solution.t_events[1]) and rate < 0:
+            events["stroke_min"].append(t)
+        t_next = min(t + 1e-9, times[-1])  # step off the surface so it does not refire
+        step = solve_ivp(rhs, (t, t_next), y, method="Radau", rtol=TOLERANCE, atol=TOLERANCE,
+                         dense_output=True)
+        pieces.append((t, t_next, step.sol))
+        t, y = t_next, step.y[:, -1]
+    columns = {}
+    for time in times:
+        for start, end, sol in reversed(pieces):
+            if start <= time <= end:
+                state = list(sol(time))
+                break
+        else:
+            raise RuntimeError(f"no solution piece covers t = {time}")
+        sample = dict(values, retraction_time=-1.0, extension_time=-1.0)
+        dynamics.publish(sample, time, state)
+        # the FMU records a stroke event once it has happened (rising/falling crossings)
+        rises = [e for e in events["stroke_max"] if e <= time]
+        falls = [e for e in events["stroke_min"] if e <= time]
+        sample["retraction_time"] = rises[0] if rises else -1.0
+        sample["extension_time"] = falls[0] if falls else -1.0
+        for key, value in sample.items():
+            if isinstance(value, float):
+                columns.setdefault(key, []).append(value)
+    return columns
