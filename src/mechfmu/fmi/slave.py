@@ -24,6 +24,7 @@ from ..physics.errors import MechanismError
 
 # Base-unit exponents of every unit a model may declare (FMI 2.0 UnitDefinitions).
 UNITS = {
+    "1": {},  # dimensionless (ratios, commands, coefficients)
     "m": {"m": 1},
     "m/s": {"m": 1, "s": -1},
     "m/s2": {"m": 1, "s": -2},
@@ -109,8 +110,9 @@ def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e
                   + ", ".join(INTEGRATORS) + " (euler, rk4: fixed sub-step max_substep; "
                   "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases)",
                   values=INTEGRATORS),
-        parameter("rtol", rtol, "Relative tolerance of the adaptive methods", min=0.0),
-        parameter("atol", atol, "Absolute tolerance of the adaptive methods", min=0.0),
+        parameter("rtol", rtol, "Relative tolerance of the adaptive methods", unit="1", min=0.0),
+        parameter("atol", atol, "Absolute tolerance of the adaptive methods, in the units of "
+                  "each state variable", unit="1", min=0.0),
         parameter("max_substep", max_substep, "Largest internal sub-step (the fixed sub-step "
                   "of euler and rk4)", unit="s", min=0.0),
         output("rhs_evaluations", 0, "Right-hand-side evaluations so far"),

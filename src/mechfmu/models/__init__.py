@@ -5,7 +5,9 @@ Everything else (build, validation tests, README tables) loops over MODELS.
 
 MODELS = {
     "LandingGear": "mechfmu.models.landing_gear",
+    "HydraulicActuator": "mechfmu.models.hydraulic_actuator",
     "PistonActuator": "mechfmu.models.piston_actuator",
     "Suspension": "mechfmu.models.suspension",
     "LoadProfile": "mechfmu.models.load_profile",
+    "RoadProfile": "mechfmu.models.road_profile",
 }

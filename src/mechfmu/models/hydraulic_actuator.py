@@ -44,7 +44,7 @@ class HydraulicActuator(MechSlave):
                   "chambers at the start", unit="Pa", min=0.0),
         *integrator_variables(default="radau", rtol=1e-8, atol=1.0),
         input_("valve_command", 0.0, "Valve opening in [-1, 1], positive extends the piston",
-               min=-1.0, max=1.0),
+               unit="1", min=-1.0, max=1.0),
         input_("piston_extension", COURSEWORK_RETRACTED_LENGTH, "Piston length", unit="m",
                min=0.0),
         input_("piston_speed", 0.0, "Piston length rate", unit="m/s"),

@@ -78,7 +78,7 @@ class LandingGear(MechSlave):
         parameter("stop_stiffness", gd.DEFAULT_STOP_STIFFNESS, "End-stop contact stiffness on "
                   "the piston length", unit="N/m", min=0.0),
         parameter("restitution", gd.DEFAULT_RESTITUTION, "End-stop coefficient of restitution",
-                  min=0.0, max=1.0),
+                  unit="1", min=0.0, max=1.0),
         parameter("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Hydraulic supply "
                   "pressure", unit="Pa", min=0.0),
         parameter("return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Hydraulic return "
@@ -111,7 +111,7 @@ class LandingGear(MechSlave):
         input_("piston_force", 0.0, "Force along the piston, positive extending (dynamics "
                "drive without hydraulics)", unit="N"),
         input_("valve_command", 0.0, "Valve opening in [-1, 1], positive extends the piston "
-               "(dynamics drive with hydraulics)", min=-1.0, max=1.0),
+               "(dynamics drive with hydraulics)", unit="1", min=-1.0, max=1.0),
         input_("airspeed", 0.0, "Airspeed for the drag on the wheel (aero_drag)", unit="m/s"),
         output("gear_angle", 0.0, "theta: angle at B between the bar and the line to the "
                "piston's fixed pivot", unit="rad", depends=_PISTON[:1], min=0.0,

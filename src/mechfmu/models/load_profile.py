@@ -1,10 +1,11 @@
 """LoadProfile.fmu: constant, step, ramp or table-from-CSV load source."""
 
-from ..fmi.slave import MechSlave, output, parameter
+from ..fmi.slave import output, parameter
 from ..physics import profiles
+from .table_source import TableSource
 
 
-class LoadProfile(MechSlave):
+class LoadProfile(TableSource):
     """A load signal (N) and its rate (N/s)."""
 
     description = "Load source: constant, step, ramp or piecewise-linear table from a CSV file"
@@ -21,22 +22,10 @@ class LoadProfile(MechSlave):
         output("load_rate", 0.0, "Rate of change of the load", unit="N/s"),
     )
 
-    def __init__(self, **kwargs):
-        super().__init__(**kwargs)
-        self.table = None
-
-    def check_parameters(self):
+    def check_shape(self):
         v = self.values
         profiles.check_load(v["shape"], v["initial_value"], v["final_value"], v["start_time"],
                             v["duration"])
-        if v["shape"] == "table":
-            self.table = profiles.read_table(v["table_file"])
-
-    def internal_state(self):
-        return {"table": self.table}
-
-    def restore_internal_state(self, state):
-        self.table = state["table"]
 
     def update(self, time, step_size):
         v = self.values

@@ -28,7 +28,7 @@ import math
 from collections import namedtuple
 
 from . import landing_gear as kinematics
-from .errors import require_between, require_finite, require_positive
+from .errors import require_between, require_positive
 
 STANDARD_GRAVITY = 9.80665
 

@@ -14,7 +14,7 @@ import numpy as np
 from ..cosim.results import write_csv
 from ..cosim.scene import load_scene
 from ..models import MODELS
-from . import landing_gear, suspension
+from . import gear_dynamics, landing_gear, suspension, suspension_dynamics
 
 
 def model_defaults(model):
@@ -62,11 +62,46 @@ def suspension_load_ramp(scene):
     return {f"{source}.load": loads, **{f"{name}.{key}": v for key, v in columns.items()}}
 
 
+def suspension_dynamics_scene(scene):
+    """LoadProfile [-> RoadProfile] -> Suspension with the dynamics effect: solve_ivp columns."""
+    source, load = _component(scene, "LoadProfile")
+    name, parameters = _component(scene, "Suspension")
+    parameters.update({effect: True for effect in scene.components[name].effects})
+    road_name, road = None, None
+    if any(Path(spec.fmu).stem == "RoadProfile" for spec in scene.components.values()):
+        road_name, road = _component(scene, "RoadProfile")
+    return suspension_dynamics.scene_columns(sample_times(scene), source, load, name,
+                                             parameters, road_name, road, scene.record)
+
+
+def gear_dynamics_scene(scene):
+    """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
+    name, _ = _component(scene, "LandingGear")
+    spec = scene.components[name]
+    values = gear_dynamics.gear_values(
+        {v.name: v.start for v in getattr(importlib.import_module(MODELS["LandingGear"]),
+                                          "LandingGear").VARIABLES},
+        spec.parameters, spec.effects, spec.inputs)
+    columns = gear_dynamics.simulate(values, sample_times(scene))
+    return {f"{name}.{key}": np.asarray(values_) for key, values_ in columns.items()
+            if scene.record is None or f"{name}.{key}" in scene.record}
+
+
 REFERENCES = {
     "gear_retraction": gear_retraction,
     "gear_retraction_cycloidal": gear_retraction,
     "suspension_load_ramp": suspension_load_ramp,
+    "gear_retraction_dynamic": gear_dynamics_scene,
+    "gear_extension_gravity": gear_dynamics_scene,
+    "suspension_road_bump": suspension_dynamics_scene,
+    "suspension_sudden_load": suspension_dynamics_scene,
 }
+
+
+# References integrated by scipy (rtol = atol = 1e-12) rather than evaluated in closed form:
+# a different scipy may change their last digits, so regeneration is compared more loosely.
+INTEGRATED = {"gear_retraction_dynamic", "gear_extension_gravity", "suspension_road_bump",
+              "suspension_sudden_load"}
 
 
 def generate(scene_dir, out_dir):

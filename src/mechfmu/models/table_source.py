@@ -1,0 +1,29 @@
+"""Base of the signal sources that can also play a piecewise-linear table from a CSV file."""
+
+from ..fmi.slave import MechSlave
+from ..physics import profiles
+
+
+class TableSource(MechSlave):
+    """Reads ``table_file`` at initialisation when ``shape`` is 'table'; keeps it in the state.
+
+    Subclasses validate their own shape parameters in ``check_shape``.
+    """
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.table = None
+
+    def check_shape(self):
+        raise NotImplementedError
+
+    def check_parameters(self):
+        self.check_shape()
+        if self.values["shape"] == "table":
+            self.table = profiles.read_table(self.values["table_file"])
+
+    def internal_state(self):
+        return {"table": self.table}
+
+    def restore_internal_state(self, state):
+        self.table = state["table"]
