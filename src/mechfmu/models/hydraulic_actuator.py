@@ -6,7 +6,28 @@ from ..physics.errors import require_finite
 from ..physics.integrators import make_integrator
 from ..physics.landing_gear import COURSEWORK_EXTENDED_LENGTH, COURSEWORK_RETRACTED_LENGTH
 
-_MOTION = ("piston_extension", "piston_speed")
+
+
+# The actuator's parameters, declared once: LandingGear's hydraulics effect uses them too.
+HYDRAULIC_PARAMETERS = (
+    parameter("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure",
+              unit="Pa", min=0.0),
+    parameter("return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Return pressure",
+              unit="Pa", min=0.0),
+    parameter("bore", hydraulics.DEFAULT_BORE, "Piston bore", unit="m", min=0.0),
+    parameter("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", unit="m",
+              min=0.0),
+    parameter("bulk_modulus", hydraulics.DEFAULT_BULK_MODULUS, "Effective bulk modulus",
+              unit="Pa", min=0.0),
+    parameter("dead_volume", hydraulics.DEFAULT_DEAD_VOLUME, "Fluid volume of each chamber "
+              "and its line at the end of the stroke", unit="m3", min=0.0),
+    parameter("valve_rated_flow", hydraulics.DEFAULT_RATED_FLOW, "Flow through a fully "
+              "open valve edge at the rated pressure drop", unit="m3/s", min=0.0),
+    parameter("valve_rated_pressure_drop", hydraulics.DEFAULT_RATED_PRESSURE_DROP,
+              "Pressure drop at which valve_rated_flow is rated", unit="Pa", min=0.0),
+    parameter("max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line",
+              unit="m3/s", min=0.0),
+)
 
 
 class HydraulicActuator(MechSlave):
@@ -19,23 +40,7 @@ class HydraulicActuator(MechSlave):
     description = ("Double-acting hydraulic actuator with a 4-way valve, flow limit and fluid "
                    "compressibility: valve command and piston motion in, piston force out")
     VARIABLES = (
-        parameter("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure",
-                  unit="Pa", min=0.0),
-        parameter("return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Return pressure",
-                  unit="Pa", min=0.0),
-        parameter("bore", hydraulics.DEFAULT_BORE, "Piston bore", unit="m", min=0.0),
-        parameter("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", unit="m",
-                  min=0.0),
-        parameter("bulk_modulus", hydraulics.DEFAULT_BULK_MODULUS, "Effective bulk modulus",
-                  unit="Pa", min=0.0),
-        parameter("dead_volume", hydraulics.DEFAULT_DEAD_VOLUME, "Fluid volume of each chamber "
-                  "and its line at the end of the stroke", unit="m3", min=0.0),
-        parameter("valve_rated_flow", hydraulics.DEFAULT_RATED_FLOW, "Flow through a fully "
-                  "open valve edge at the rated pressure drop", unit="m3/s", min=0.0),
-        parameter("valve_rated_pressure_drop", hydraulics.DEFAULT_RATED_PRESSURE_DROP,
-                  "Pressure drop at which valve_rated_flow is rated", unit="Pa", min=0.0),
-        parameter("max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line",
-                  unit="m3/s", min=0.0),
+        *HYDRAULIC_PARAMETERS,
         parameter("stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length",
                   unit="m", min=0.0),
         parameter("stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length",

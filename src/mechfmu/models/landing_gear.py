@@ -13,6 +13,7 @@ from ..physics.integrators import Event, make_integrator
 from ..physics.landing_gear import (COURSEWORK_BAR_LENGTH, COURSEWORK_EXTENDED_LENGTH,
                                     COURSEWORK_RETRACTED_LENGTH, DEFAULT_GEOMETRY)
 from ..physics.stepping import advance_through_events
+from .hydraulic_actuator import HYDRAULIC_PARAMETERS
 
 _PISTON = ("piston_extension", "piston_speed", "piston_acceleration")
 _FORCES = ("piston_force", "airspeed")
@@ -79,23 +80,7 @@ class LandingGear(MechSlave):
                   "the piston length", unit="N/m", min=0.0),
         parameter("restitution", gd.DEFAULT_RESTITUTION, "End-stop coefficient of restitution",
                   unit="1", min=0.0, max=1.0),
-        parameter("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Hydraulic supply "
-                  "pressure", unit="Pa", min=0.0),
-        parameter("return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Hydraulic return "
-                  "pressure", unit="Pa", min=0.0),
-        parameter("bore", hydraulics.DEFAULT_BORE, "Piston bore", unit="m", min=0.0),
-        parameter("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", unit="m",
-                  min=0.0),
-        parameter("bulk_modulus", hydraulics.DEFAULT_BULK_MODULUS, "Effective bulk modulus of "
-                  "the fluid", unit="Pa", min=0.0),
-        parameter("dead_volume", hydraulics.DEFAULT_DEAD_VOLUME, "Fluid volume of each chamber "
-                  "and its line at the end of the stroke", unit="m3", min=0.0),
-        parameter("valve_rated_flow", hydraulics.DEFAULT_RATED_FLOW, "Flow through a fully "
-                  "open valve edge at the rated pressure drop", unit="m3/s", min=0.0),
-        parameter("valve_rated_pressure_drop", hydraulics.DEFAULT_RATED_PRESSURE_DROP,
-                  "Pressure drop at which valve_rated_flow is rated", unit="Pa", min=0.0),
-        parameter("max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line "
-                  "(restrictor)", unit="m3/s", min=0.0),
+        *HYDRAULIC_PARAMETERS,
         parameter("initial_angle", DEFAULT_GEOMETRY.start_angle, "Gear angle at the start "
                   "(dynamics drive)", unit="rad"),
         parameter("initial_angular_velocity", 0.0, "Angular velocity at the start (dynamics "
