@@ -6,8 +6,6 @@ from ..physics.errors import require_finite
 from ..physics.integrators import make_integrator
 from ..physics.landing_gear import COURSEWORK_EXTENDED_LENGTH, COURSEWORK_RETRACTED_LENGTH
 
-
-
 # The actuator's parameters, declared once: LandingGear's hydraulics effect uses them too.
 HYDRAULIC_PARAMETERS = (
     parameter("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure",
