@@ -4,7 +4,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
-from mechfmu.cosim.master import _LogBook
+from mechfmu.cosim.master import _LogBook, accessor
 
 
 class Driven:
@@ -30,15 +30,11 @@ class Driven:
     def set(self, **values):
         for name, value in values.items():
             variable = self.variables[name]
-            setter = {"Real": self.slave.setReal, "Integer": self.slave.setInteger,
-                      "Boolean": self.slave.setBoolean, "String": self.slave.setString}
-            setter[variable.type]([variable.valueReference], [value])
+            accessor(self.slave, variable.type, "set")([variable.valueReference], [value])
 
     def get(self, name):
         variable = self.variables[name]
-        getter = {"Real": self.slave.getReal, "Integer": self.slave.getInteger,
-                  "Boolean": self.slave.getBoolean, "String": self.slave.getString}
-        return getter[variable.type]([variable.valueReference])[0]
+        return accessor(self.slave, variable.type, "get")([variable.valueReference])[0]
 
     def step(self, size, **inputs):
         """Set inputs, do one step; True on success, else the FMU's last error message."""

@@ -285,15 +285,21 @@ geometry_values = st.tuples(
 )
 
 
-@PROPERTY
-@given(geometry_values, st.floats(1e-3, 1 - 1e-3), _signed(1e-6, 10.0), _signed(1e-6, 100.0))
-def test_property_outputs_finite_and_velocity_identity(geometry, fraction, speed, accel):
+def _interior_configuration(geometry, fraction):
+    """(d, h, x) for a drawn geometry with x a fraction of the way through the assembly range."""
     d, ratio = geometry
     assume(abs(ratio - 1.0) > 1e-3)
     h = d * ratio
     low, high = lg.assembly_range(d, h)
     x = low + fraction * (high - low)
     assume(low < x < high)
+    return d, h, x
+
+
+@PROPERTY
+@given(geometry_values, st.floats(1e-3, 1 - 1e-3), _signed(1e-6, 10.0), _signed(1e-6, 100.0))
+def test_property_outputs_finite_and_velocity_identity(geometry, fraction, speed, accel):
+    d, h, x = _interior_configuration(geometry, fraction)
     g = lg.gear_motion(x, speed, accel, d, h)
     assert all(math.isfinite(v) for v in g)
     assert 0.0 < g.angle < math.pi
@@ -310,12 +316,7 @@ def test_property_outputs_finite_and_velocity_identity(geometry, fraction, speed
 @PROPERTY
 @given(geometry_values, st.floats(1e-3, 1 - 1e-3), _signed(1e-6, 10.0), _signed(1e-6, 100.0))
 def test_property_round_trip(geometry, fraction, speed, accel):
-    d, ratio = geometry
-    assume(abs(ratio - 1.0) > 1e-3)
-    h = d * ratio
-    low, high = lg.assembly_range(d, h)
-    x = low + fraction * (high - low)
-    assume(low < x < high)
+    d, h, x = _interior_configuration(geometry, fraction)
     g = lg.gear_motion(x, speed, accel, d, h)
     back = lg.piston_motion(*g, d, h)
     assert abs(back.extension - x) <= 1e-12 * x

@@ -116,10 +116,23 @@ class _Component:
                              f"expected {' or '.join(causality)}")
         return variable
 
+    def getter(self, variable):
+        """A function returning the variable's current value (bound once, called per step)."""
+        get, reference = accessor(self.slave, variable.type, "get"), [variable.valueReference]
+        return lambda: get(reference)[0]
+
+    def setter(self, variable):
+        """A function setting the variable (bound once, called per step)."""
+        put, reference = accessor(self.slave, variable.type, "set"), [variable.valueReference]
+        return lambda value: put(reference, [value])
+
     def set(self, variable, value):
-        setter = {"Real": self.slave.setReal, "Integer": self.slave.setInteger,
-                  "Boolean": self.slave.setBoolean, "String": self.slave.setString}[variable.type]
-        setter([variable.valueReference], [value])
+        self.setter(variable)(value)
+
+
+def accessor(slave, fmi_type, verb):
+    """fmpy's get/set method of an FMU2Slave for an FMI type ('Real', 'Integer', ...)."""
+    return getattr(slave, f"{verb}{fmi_type}")
 
 
 def _check_value(component, variable, value, where):
@@ -336,15 +349,20 @@ class Simulation:
                 component.slave.exitInitializationMode()
             for connection in self.lagged:  # their sources initialise after their targets
                 self._set_from_source(connection)
-            readers = self._readers()
+            # Everything the loop calls is bound once here: no lookups or allocations per
+            # connection per step beyond fmpy's own call.
+            plan = [(name, self.components[name].slave.doStep, self._feeds(name))
+                    for name in self.order]
+            readers = [(name, component.getter(variable))
+                       for name, component, variable in self.recorded]
             self._record(result, scene.start_time, readers)
             for index in range(1, scene.steps + 1):
                 start, end = scene.time(index - 1), scene.time(index)
-                for name in self.order:
+                for name, do_step, feeds in plan:
                     current = (name, start)
-                    self._feed(name)
-                    self.components[name].slave.doStep(currentCommunicationPoint=start,
-                                                       communicationStepSize=end - start)
+                    for get, put in feeds:
+                        put(get())
+                    do_step(currentCommunicationPoint=start, communicationStepSize=end - start)
                 self._record(result, end, readers)
         except FMICallException as error:
             name, at = current
@@ -365,28 +383,26 @@ class Simulation:
                 shutil.rmtree(folder, ignore_errors=True)
         return result
 
-    def _feed(self, name, skip=()):
-        """Set the connected inputs of ``name`` from its sources' current outputs."""
+    def _feeds(self, name, skip=()):
+        """(get from source, set on ``name``) pairs for the connected inputs of ``name``."""
+        feeds = []
         for connection in self.connections:
             if connection.target == name and connection not in skip:
-                self._set_from_source(connection)
+                source = self.components[connection.source]
+                target = self.components[name]
+                feeds.append((source.getter(source.variables[connection.output]),
+                              target.setter(target.variables[connection.input])))
+        return feeds
+
+    def _feed(self, name, skip=()):
+        """Set the connected inputs of ``name`` from its sources' current outputs."""
+        for get, put in self._feeds(name, skip):
+            put(get())
 
     def _set_from_source(self, connection):
-        source = self.components[connection.source]
-        value = self._getter(source, source.variables[connection.output])()
-        target = self.components[connection.target]
-        target.set(target.variables[connection.input], value)
-
-    @staticmethod
-    def _getter(component, variable):
-        slave, reference = component.slave, [variable.valueReference]
-        get = {"Real": slave.getReal, "Integer": slave.getInteger,
-               "Boolean": slave.getBoolean, "String": slave.getString}[variable.type]
-        return lambda: get(reference)[0]
-
-    def _readers(self):
-        return [(name, self._getter(component, variable))
-                for name, component, variable in self.recorded]
+        source, target = self.components[connection.source], self.components[connection.target]
+        target.set(target.variables[connection.input],
+                   source.getter(source.variables[connection.output])())
 
     @staticmethod
     def _record(result, time, readers):
