@@ -35,6 +35,12 @@ def gear_scene(**changes):
     ("gear_retraction", 1e-9, 1e-12),
     ("gear_retraction_cycloidal", 1e-9, 1e-12),
     ("suspension_load_ramp", 1e-9, 1e-9),
+    ("four_bar_crank_rocker", 1e-10, 1e-10),
+    ("four_bar_solver_crossed", 1e-10, 1e-10),
+    ("slider_crank_offset", 1e-10, 1e-9),
+    ("valve_train", 1e-9, 1e-9),
+    ("valve_train_inverse", 1e-9, 1e-9),
+    ("valve_float", 1e-9, 1e-9),
 ])
 def test_shipped_scene_matches_its_reference(fmu_dir, tmp_path, scene_name, rtol, atol):
     result, paths = run_scene(SCENES / f"{scene_name}.toml", tmp_path, fmu_dir)
@@ -173,6 +179,9 @@ def test_cli_run_writes_outputs_and_checks_against_the_reference(fmu_dir, tmp_pa
 @pytest.mark.parametrize("script, expected", [
     ("run_gear.py", "every sample within 1e-9 relative (+1e-12 absolute): yes"),
     ("run_suspension.py", "snap-through at t = 3.10 s"),
+    ("run_four_bar.py", "open     theta3 =    88.8372 deg, theta4 =   117.2861 deg"),
+    ("run_slider_crank.py", "against the numpy closed form (rtol 1e-10, atol 1e-09): match"),
+    ("run_valve_train.py", "camshaft at 1.01 x the float speed: 8 loss(es) of contact"),
 ])
 def test_runner_scripts(fmu_dir, tmp_path, script, expected):
     done = subprocess.run([sys.executable, str(ROOT / "sims" / script), "--out", str(tmp_path),

@@ -10,4 +10,9 @@ MODELS = {
     "Suspension": "mechfmu.models.suspension",
     "LoadProfile": "mechfmu.models.load_profile",
     "RoadProfile": "mechfmu.models.road_profile",
+    "CrankDrive": "mechfmu.models.shaft_drives",
+    "FourBar": "mechfmu.models.four_bar",
+    "SliderCrank": "mechfmu.models.slider_crank",
+    "CamshaftDrive": "mechfmu.models.shaft_drives",
+    "ValveTrain": "mechfmu.models.valve_train",
 }

@@ -47,6 +47,9 @@ import math
 from collections import namedtuple
 
 from .errors import IntegrationError, MechanismError, RangeError
+from .linalg import Singular as _Singular
+from .linalg import lu_factor as _lu_factor
+from .linalg import lu_solve as _lu_solve
 
 METHODS = ("euler", "rk4", "dopri5", "radau")
 
@@ -157,61 +160,6 @@ def _fmt(x):
 
 def _fmt_step(x):
     return f"{x:.3g}"
-
-
-class _Singular(Exception):
-    """Raised by _lu_factor on an exactly singular matrix (handled by the caller)."""
-
-
-def _lu_factor(matrix):
-    """LU factorisation with partial pivoting of a small dense square matrix.
-
-    Works for real and complex entries (Python arithmetic). Returns (lu, pivots) with L
-    (unit lower, below the diagonal) and U stored in one list of rows; raises _Singular
-    if a pivot is exactly zero or not finite. Doolittle form, Golub & Van Loan 3.4.
-    """
-    lu = [list(row) for row in matrix]
-    n = len(lu)
-    pivots = list(range(n))
-    for k in range(n):
-        p = max(range(k, n), key=lambda i: abs(lu[i][k]))
-        pivot = lu[p][k]
-        if pivot == 0 or not math.isfinite(abs(pivot)):
-            raise _Singular()
-        if p != k:
-            lu[k], lu[p] = lu[p], lu[k]
-            pivots[k], pivots[p] = pivots[p], pivots[k]
-        row_k = lu[k]
-        for i in range(k + 1, n):
-            row_i = lu[i]
-            m = row_i[k] / pivot
-            if m != 0:
-                row_i[k] = m
-                for j in range(k + 1, n):
-                    row_i[j] -= m * row_k[j]
-            else:
-                row_i[k] = 0.0
-    return lu, pivots
-
-
-def _lu_solve(factored, b):
-    """Solve A x = b given _lu_factor(A) (forward then back substitution)."""
-    lu, pivots = factored
-    n = len(lu)
-    x = [b[p] for p in pivots]
-    for i in range(n):
-        row = lu[i]
-        s = x[i]
-        for j in range(i):
-            s -= row[j] * x[j]
-        x[i] = s
-    for i in range(n - 1, -1, -1):
-        row = lu[i]
-        s = x[i]
-        for j in range(i + 1, n):
-            s -= row[j] * x[j]
-        x[i] = s / row[i]
-    return x
 
 
 # --- the contract ----------------------------------------------------------------------------

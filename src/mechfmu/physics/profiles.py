@@ -1,7 +1,8 @@
 """Time profiles for source components (standard library only).
 
 A profile maps time t (s) to (value, rate, second rate): the piston actuator's stroke
-(m, m/s, m/s^2) and the load sources (N, N/s, N/s^2). Each is exact at any time.
+(m, m/s, m/s^2), the load sources (N, N/s, N/s^2) and the shaft drives (rad, rad/s,
+rad/s^2). Each is exact at any time.
 """
 
 import bisect
@@ -149,3 +150,31 @@ def interpolate(table, time):
     i = bisect.bisect_right(times, time) - 1
     slope = (values[i + 1] - values[i]) / (times[i + 1] - times[i])
     return Sample(values[i] + slope * (time - times[i]), slope, 0.0)
+
+
+def check_rotation(initial_angle, initial_speed, final_speed, ramp_time):
+    """Validate a shaft rotation: finite angle and speeds (rad, rad/s), ramp_time >= 0 s."""
+    require_finite("initial_angle", initial_angle, "rad")
+    require_finite("initial_speed", initial_speed, "rad/s")
+    require_finite("speed", final_speed, "rad/s")
+    ramp = require_finite("ramp_time", ramp_time, "s")
+    if ramp < 0.0:
+        raise RangeError("ramp_time", ramp, "[0, inf)", "s")
+
+
+def rotation(time, initial_angle, initial_speed, final_speed, ramp_time, start_time=0.0):
+    """Shaft angle (rad), speed (rad/s) and angular acceleration (rad/s^2) at ``time`` (s).
+
+    The speed ramps linearly from initial_speed to final_speed over ramp_time from
+    start_time (constant speed for ramp_time = 0), so the angle is exact: a parabola during
+    the ramp, a line after it. The acceleration is the ramp's on [start, start + ramp).
+    """
+    elapsed = time - start_time
+    if elapsed < 0.0:  # before the start the shaft turns at initial_speed
+        return Sample(initial_angle + initial_speed * elapsed, initial_speed, 0.0)
+    if ramp_time > 0.0 and elapsed < ramp_time * (1.0 - TIME_SNAP):
+        rate = (final_speed - initial_speed) / ramp_time
+        return Sample(initial_angle + elapsed * (initial_speed + 0.5 * rate * elapsed),
+                      initial_speed + rate * elapsed, rate)
+    ramped = 0.5 * (initial_speed + final_speed) * ramp_time
+    return Sample(initial_angle + ramped + final_speed * (elapsed - ramp_time), final_speed, 0.0)

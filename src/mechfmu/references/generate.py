@@ -14,7 +14,8 @@ import numpy as np
 from ..cosim.results import write_csv
 from ..cosim.scene import load_scene
 from ..models import MODELS
-from . import gear_dynamics, landing_gear, suspension, suspension_dynamics
+from . import (drives, gear_dynamics, landing_gear, linkages, suspension,
+               suspension_dynamics, valve_train)
 
 
 def model_defaults(model):
@@ -87,6 +88,66 @@ def gear_dynamics_scene(scene):
             if scene.record is None or f"{name}.{key}" in scene.record}
 
 
+def _crank_columns(scene, model="CrankDrive", prefix="crank", ratio=1.0):
+    """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
+    name, shaft = _component(scene, model)
+    columns = drives.rotation(sample_times(scene), shaft["initial_angle"],
+                              shaft["initial_speed"], shaft["speed"], shaft["ramp_time"],
+                              shaft["start_time"], ratio)
+    return name, {f"{prefix}_{key}": value for key, value in columns.items()}
+
+
+def _recorded(scene, columns):
+    return {key: value for key, value in columns.items()
+            if scene.record is None or key in scene.record}
+
+
+def four_bar_scene(scene):
+    """CrankDrive -> FourBar: the crank motion and the closed-form linkage motion."""
+    crank_name, crank = _crank_columns(scene)
+    name, p = _component(scene, "FourBar")
+    motion = linkages.four_bar(p["ground_length"], p["crank_length"], p["coupler_length"],
+                               p["rocker_length"], p["circuit"], crank["crank_angle"],
+                               crank["crank_speed"], crank["crank_acceleration"])
+    columns = {f"{crank_name}.{key}": value for key, value in crank.items()}
+    columns.update({f"{name}.{key}": value for key, value in motion.items()})
+    return _recorded(scene, columns)
+
+
+def slider_crank_scene(scene):
+    """CrankDrive -> SliderCrank: the crank motion and the closed-form slider motion."""
+    crank_name, crank = _crank_columns(scene)
+    name, p = _component(scene, "SliderCrank")
+    motion = linkages.slider_crank(p["crank_length"], p["coupler_length"], p["offset"],
+                                   p["circuit"], crank["crank_angle"], crank["crank_speed"],
+                                   crank["crank_acceleration"])
+    columns = {f"{crank_name}.{key}": value for key, value in crank.items()}
+    columns.update({f"{name}.{key}": value for key, value in motion.items()})
+    return _recorded(scene, columns)
+
+
+def valve_train_scene(scene):
+    """CamshaftDrive -> ValveTrain: the cam law composed with the closed-form rocker geometry
+    (forward or inverse), and the valve spring's contact force where the effect is on."""
+    cam_name, cam = _crank_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
+    name, p = _component(scene, "ValveTrain")
+    angle, speed, acceleration = (cam[f"camshaft_{key}"]
+                                  for key in ("angle", "speed", "acceleration"))
+    s, s1, s2 = valve_train.cam_lift(p["cam_law"], p["lift"], p["rise_start"], p["rise_angle"],
+                                     p["high_dwell_angle"], p["return_angle"], angle)
+    law = (s, s1 * speed, s2 * speed ** 2 + s1 * acceleration)
+    solve = valve_train.inverse if p["mode"] == "inverse" else valve_train.forward
+    geometry = {key: p[key] for key in valve_train.GEOMETRY_FIELDS}
+    motion = solve(geometry, *law)
+    if "valve_spring" in scene.components[name].effects:
+        motion["contact_force"] = (p["valve_mass"] * motion["valve_acceleration"]
+                                   + p["spring_stiffness"] * motion["valve_lift"]
+                                   + p["spring_preload"])
+    columns = {f"{cam_name}.{key}": value for key, value in cam.items()}
+    columns.update({f"{name}.{key}": value for key, value in motion.items()})
+    return _recorded(scene, columns)
+
+
 REFERENCES = {
     "gear_retraction": gear_retraction,
     "gear_retraction_cycloidal": gear_retraction,
@@ -95,6 +156,12 @@ REFERENCES = {
     "gear_extension_gravity": gear_dynamics_scene,
     "suspension_road_bump": suspension_dynamics_scene,
     "suspension_sudden_load": suspension_dynamics_scene,
+    "four_bar_crank_rocker": four_bar_scene,
+    "four_bar_solver_crossed": four_bar_scene,
+    "slider_crank_offset": slider_crank_scene,
+    "valve_train": valve_train_scene,
+    "valve_train_inverse": valve_train_scene,
+    "valve_float": valve_train_scene,
 }
 
 

@@ -14,8 +14,13 @@ import numpy as np
 from mechfmu.physics.landing_gear import COURSEWORK_STROKE_TIME
 from mechfmu.physics.suspension import (COURSEWORK_BASE_OFFSET, COURSEWORK_FREE_LENGTH,
                                         COURSEWORK_MASS, COURSEWORK_STIFFNESS, GRAVITY)
+from mechfmu.physics import cam_laws
+from mechfmu.physics.four_bar import COURSEWORK_CRANK_ANGLE, COURSEWORK_FOUR_BAR, INCH
+from mechfmu.physics.valve_train import DEFAULT_VALVE_GEOMETRY
 from mechfmu.references import landing_gear as lg
+from mechfmu.references import linkages
 from mechfmu.references import suspension as sp
+from mechfmu.references import valve_train as vt
 
 # Coursework inputs, landing gear (seed 000), in feet as the coursework has them.
 RETRACTED_FT = 1.25
@@ -293,14 +298,96 @@ def _suspension_section():
     return out
 
 
+def _four_bar_section():
+    """Seed 001: the worked four-bar example on both circuits, and its Grashof condition."""
+    ground, crank, coupler, rocker = COURSEWORK_FOUR_BAR
+    inches = [length / INCH for length in (crank, coupler, rocker, ground)]
+    shortest, longest = min(inches), max(inches)
+    others = sum(inches) - shortest - longest
+    out = ["## 3. Four-bar linkage (seed 001)", ""]
+    out += [f"a, b, c, d = {', '.join(_g(v) for v in inches)} in (crank, coupler, rocker, "
+            f"ground), theta2 = {_g(np.degrees(COURSEWORK_CRANK_ANGLE))} deg, crank speed "
+            f"1 rad/s, no crank acceleration. Grashof: S + L = {_g(shortest + longest)} in "
+            f"{'<' if shortest + longest < others else '>='} P + Q = {_g(others)} in, the "
+            f"shortest link is the crank: a crank-rocker. Angles from the numpy reference "
+            f"(circle intersection, independent of the FMU's Freudenstein form).", ""]
+    rows = []
+    for circuit, name in ((0, "open"), (1, "crossed")):
+        m = linkages.four_bar(ground, crank, coupler, rocker, circuit, COURSEWORK_CRANK_ANGLE,
+                              1.0, 0.0)
+        rows.append([name, _f(np.degrees(m["coupler_angle"]), 4),
+                     _f(np.degrees(m["rocker_angle"]), 4),
+                     _f(np.degrees(m["transmission_angle"]), 4),
+                     _f(m["coupler_angular_velocity"], 5), _f(m["rocker_angular_velocity"], 5),
+                     _f(m["coupler_angular_acceleration"], 5),
+                     _f(m["rocker_angular_acceleration"], 5)])
+    out += [_table(["circuit", "theta3 (deg)", "theta4 (deg)", "mu (deg)", "omega3 (rad/s)",
+                    "omega4 (rad/s)", "alpha3 (rad/s^2)", "alpha4 (rad/s^2)"], rows), ""]
+    return out
+
+
+def _cam_section():
+    """Seed 002: cam-law peak coefficients (closed form vs dense numerical maxima) and the
+    default valve train's lift ratio and float speeds."""
+    out = ["## 4. Cam-driven valve train (seed 002)", ""]
+    x = np.linspace(0.0, 1.0, 1_000_001)
+    rows = []
+    for law in cam_laws.CAM_LAWS:
+        _, f1, f2 = vt.normalized(law, x)
+        f3 = np.gradient(f2, x, edge_order=2)
+        closed = cam_laws.peak_coefficients(law)
+        smooth = cam_laws.CONTINUITY[law]
+        numeric = (np.max(np.abs(f1)), np.max(np.abs(f2)), np.max(np.abs(f3)))
+        rows.append([law] + [f"{_f(c, 4)} ({_f(n, 4)})" for c, n in zip(closed, numeric)]
+                    + ["continuous" if smooth.acceleration else "jumps",
+                       "continuous" if smooth.jerk else "jumps"])
+    out += ["Peak |velocity|, |acceleration| and |jerk| coefficients of the normalized rise "
+            "(lift 1 over a rise angle 1): closed form, and in parentheses the maximum over "
+            "10^6 + 1 points of the numpy reference (jerk by central differences of the "
+            "acceleration). At the segment ends the acceleration or the jerk may jump, "
+            "which the coefficients do not show:", ""]
+    out += [_table(["law", "C_v", "C_a", "C_j", "acceleration at ends", "jerk at ends"],
+                   rows), ""]
+    g = DEFAULT_VALVE_GEOMETRY._asdict()
+    motion = vt.forward(g, 0.007, 1.0, 0.0)
+    rest = vt.forward(g, 0.0, 1.0, 0.0)
+    out += [f"Valve train with the documented default geometry (rocker arms "
+            f"{_g(g['tappet_arm'] * 1e3)} and {_g(g['valve_arm'] * 1e3)} mm): 7 mm of tappet "
+            f"lift gives {_f(float(motion['valve_lift']) * 1e3, 4)} mm of valve lift; "
+            f"d(valve lift)/d(tappet lift) = {_f(float(rest['valve_velocity']), 4)} at rest "
+            f"and {_f(float(motion['valve_velocity']), 4)} at 7 mm.", ""]
+    mass, stiffness, preload = 0.1, 50e3, 300.0
+    angle = np.linspace(0.0, 2.0 * np.pi, 200_001)
+    rows = []
+    for law in cam_laws.CAM_LAWS:
+        s, s1, s2 = vt.cam_lift(law, 0.007, 0.0, 1.2, 0.1, 1.2, angle)
+        valve = vt.forward(g, s, s1, s2)  # at 1 rad/s: acceleration = d2(lift)/dtheta2
+        decelerating = valve["valve_acceleration"] < 0.0
+        speed2 = np.where(decelerating, (stiffness * valve["valve_lift"] + preload)
+                          / (mass * -np.where(decelerating, valve["valve_acceleration"], -1.0)),
+                          np.inf)
+        i = int(np.argmin(speed2))
+        w = float(np.sqrt(speed2[i]))
+        rows.append([law, _f(w, 1), _f(w * 2.0 * 60.0 / (2.0 * np.pi), 0), _f(angle[i], 3)])
+    out += [f"Valve float: with a {_g(mass)} kg valve, a {_g(stiffness / 1e3)} kN/m spring "
+            f"and {_g(preload)} N preload, 7 mm cam lift, rise and return over 1.2 rad and a "
+            f"0.1 rad dwell, the contact force m a + k L + F0 first reaches zero at constant "
+            f"camshaft speed (minimum over 200 001 camshaft angles):", ""]
+    out += [_table(["law", "camshaft (rad/s)", "engine (rpm)", "at camshaft angle (rad)"],
+                   rows), ""]
+    return out
+
+
 def build_report():
     """The seed-reproduction report as Markdown text."""
-    lines = ["# Seed reproduction: landing gear and suspension", ""]
+    lines = ["# Seed reproduction: landing gear, suspension, four-bar and valve train", ""]
     lines += ["Generated by `sims/seed_report.py` from the numpy references in "
               "`mechfmu.references`. Every number is computed; values labelled "
               "\"coursework says\" are quoted from the coursework for comparison.", ""]
     lines += _landing_gear_section()
     lines += _suspension_section()
+    lines += _four_bar_section()
+    lines += _cam_section()
     return "\n".join(lines).rstrip("\n") + "\n"
 
 

@@ -1,0 +1,27 @@
+"""Shaft drive reference (numpy): angle, speed and acceleration of a linearly ramped shaft.
+
+Independent of physics/profiles.rotation: the angle is the integral of the speed profile
+w(t) = w0 + (w1 - w0) clip((t - t0) / T, 0, 1), evaluated piecewise in closed form. Before
+t0 the shaft turns at w0. Units: rad, rad/s, rad/s^2, s.
+"""
+
+import numpy as np
+
+
+def rotation(times, initial_angle, initial_speed, speed, ramp_time, start_time=0.0, ratio=1.0):
+    """Columns 'angle', 'speed', 'acceleration' at ``times``; speeds scaled by ``ratio``
+    (0.5 for a camshaft driven from the crankshaft speeds)."""
+    t = np.asarray(times, dtype=float) - start_time
+    w0, w1 = ratio * initial_speed, ratio * speed
+    if ramp_time > 0.0:
+        during = np.clip(t, 0.0, ramp_time)
+        slope = (w1 - w0) / ramp_time
+        angle = (initial_angle + w0 * np.minimum(t, 0.0) + w0 * during
+                 + 0.5 * slope * during ** 2 + w1 * np.maximum(t - ramp_time, 0.0))
+        rate = np.where(t < 0.0, w0, np.where(t < ramp_time, w0 + slope * during, w1))
+        acceleration = np.where((t >= 0.0) & (t < ramp_time), slope, 0.0)
+    else:
+        angle = initial_angle + np.where(t < 0.0, w0 * t, w1 * t)
+        rate = np.where(t < 0.0, w0, w1)
+        acceleration = np.zeros_like(t)
+    return {"angle": angle, "speed": rate, "acceleration": acceleration}
