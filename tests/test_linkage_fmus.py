@@ -259,3 +259,28 @@ def test_valve_float_is_reported_with_the_camshaft_speed(fmu_dir):
         assert fmu.get("contact_lost") is True or fmu.get("contact_lost") == 1
     finally:
         fmu.close()
+
+
+def test_inverse_then_forward_returns_the_original_valve_motion(fmu_dir):
+    """The inverse FMU's tappet motion (the cam diagram for a desired cycloidal valve motion)
+    drives the forward constraint solver, which must give the valve motion back."""
+    from mechfmu.physics import cam_laws, constraint_models, planar
+    parameters = {"mode": "inverse", "cam_law": "cycloidal", "lift": 0.01}
+    rows, _, _ = cam_run(fmu_dir / "ValveTrain.fmu", parameters)
+    g = vt.DEFAULT_VALVE_GEOMETRY
+    profile = cam_laws.check_profile("cycloidal", 0.01, 0.0, 1.2, 0.1, 1.2)
+    follower = planar.BranchFollower(constraint_models.valve_train(g))
+    closed = vt.rest_position(g)[1]
+    dt = 2 * math.pi / 150.0 / 400
+    for k in range(400):
+        drive = [(g.cam_base_radius + rows["tappet_lift"][k], rows["tappet_velocity"][k],
+                  rows["tappet_acceleration"][k])]
+        if k == 0:
+            solution = follower.assemble(constraint_models.valve_train_guess(g), drive)
+        else:
+            solution = follower.follow(drive, dt)
+        wanted = cam_laws.follower_motion(profile, 150.0 * (k + 1) * dt, 150.0, 0.0)
+        valve = 3 * constraint_models.VALVE + 1
+        assert closed - solution.q[valve] == pytest.approx(wanted.lift, abs=1e-15)
+        assert -solution.qdot[valve] == pytest.approx(wanted.velocity, abs=1e-12)
+        assert -solution.qddot[valve] == pytest.approx(wanted.acceleration, rel=1e-10, abs=1e-8)

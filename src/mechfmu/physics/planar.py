@@ -329,8 +329,9 @@ def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
     """Newton-Raphson on Phi(q) = 0 from ``guess``. Returns (q, iterations, residual).
 
     Stops when the scaled residual is below ``tolerance`` after at least one correction and
-    with a last correction small enough that the remaining error is far below it. Raises SingularConfiguration on an exactly
-    singular Jacobian, NoConvergence after ``max_iterations`` or on a non-finite iterate.
+    with a last correction small enough that the remaining error is far below it. Raises
+    SingularConfiguration on an exactly singular Jacobian, NoConvergence after
+    ``max_iterations`` or on a non-finite iterate.
     """
     q = [float(v) for v in guess]
     residual = mechanism.residual(q, drive)
