@@ -88,7 +88,7 @@ def gear_dynamics_scene(scene):
             if scene.record is None or f"{name}.{key}" in scene.record}
 
 
-def _crank_columns(scene, model="CrankDrive", prefix="crank", ratio=1.0):
+def _shaft_columns(scene, model="CrankDrive", prefix="crank", ratio=1.0):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
     name, shaft = _component(scene, model)
     columns = drives.rotation(sample_times(scene), shaft["initial_angle"],
@@ -104,7 +104,7 @@ def _recorded(scene, columns):
 
 def four_bar_scene(scene):
     """CrankDrive -> FourBar: the crank motion and the closed-form linkage motion."""
-    crank_name, crank = _crank_columns(scene)
+    crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "FourBar")
     motion = linkages.four_bar(p["ground_length"], p["crank_length"], p["coupler_length"],
                                p["rocker_length"], p["circuit"], crank["crank_angle"],
@@ -116,7 +116,7 @@ def four_bar_scene(scene):
 
 def slider_crank_scene(scene):
     """CrankDrive -> SliderCrank: the crank motion and the closed-form slider motion."""
-    crank_name, crank = _crank_columns(scene)
+    crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "SliderCrank")
     motion = linkages.slider_crank(p["crank_length"], p["coupler_length"], p["offset"],
                                    p["circuit"], crank["crank_angle"], crank["crank_speed"],
@@ -129,7 +129,7 @@ def slider_crank_scene(scene):
 def valve_train_scene(scene):
     """CamshaftDrive -> ValveTrain: the cam law composed with the closed-form rocker geometry
     (forward or inverse), and the valve spring's contact force where the effect is on."""
-    cam_name, cam = _crank_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
+    cam_name, cam = _shaft_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
     name, p = _component(scene, "ValveTrain")
     angle, speed, acceleration = (cam[f"camshaft_{key}"]
                                   for key in ("angle", "speed", "acceleration"))
