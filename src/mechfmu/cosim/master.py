@@ -10,6 +10,7 @@ component, the time and the FMU's own log message, and carries the rows computed
 """
 
 import shutil
+from array import array
 import tempfile
 import time as clock
 from ctypes import byref
@@ -18,8 +19,9 @@ from pathlib import Path
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+from fmpy.fmi2 import (FMU2Slave, fmi2Boolean, fmi2CallbackAllocateMemoryTYPE,
+                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE,
+                       fmi2Integer, fmi2Real, fmi2True, fmi2ValueReference)
 from fmpy import calloc, free
 
 from .scene import SceneError, split_name
@@ -252,6 +254,9 @@ class Simulation:
             if source.type != target.type:
                 raise SceneError(f"{where}: connection {connection} joins a {source.type} "
                                  f"output to a {target.type} input")
+            if source.type not in _CTYPES:
+                raise SceneError(f"{where}: connection {connection} joins {source.type} "
+                                 f"variables; only Real, Integer and Boolean are connected")
             key = (connection.target, connection.input)
             if key in fed:
                 raise SceneError(f"{where}: input {connection.target}.{connection.input} is "
@@ -292,6 +297,9 @@ class Simulation:
             if component_name not in self.components:
                 raise SceneError(f"{where}: record names unknown component {component_name!r}")
             variable = self.components[component_name].variable(variable_name, f"{where}: record")
+            if variable.type not in _CTYPES:
+                raise SceneError(f"{where}: record: {full_name} is a {variable.type}; only "
+                                 f"Real, Integer and Boolean variables are recorded")
             self.recorded.append((full_name, self.components[component_name], variable))
         self.pruned = self._prune()
 
@@ -313,17 +321,24 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self):
-        """Run the scene; return a Result or raise SimulationError with the partial Result."""
+    def run(self, time_fmi_calls=False):
+        """Run the scene; return a Result or raise SimulationError with the partial Result.
+
+        ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
+        loop (``meta['fmi_call_time_s']``, next to ``meta['loop_time_s']``); the timers add
+        a little to the loop, so benchmarks time it separately.
+        """
         scene = self.scene
         result = Result(scene=scene, columns={name: [] for name, _, _ in self.recorded},
                         units={name: variable.unit for name, _, variable in self.recorded})
+        result.meta["coupling"] = scene.coupling
         logbook = _LogBook()
         result.log = logbook.messages
         extracted = {}
         instantiated = []
         started = clock.perf_counter()
         current = (None, scene.start_time)
+        recorders = []
         try:
             for path in {c.path for c in self.components.values()}:
                 extracted[path] = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_"))
@@ -349,27 +364,32 @@ class Simulation:
                 component.slave.exitInitializationMode()
             for connection in self.lagged:  # their sources initialise after their targets
                 self._set_from_source(connection)
-            # Everything the loop calls is bound once here: no lookups or allocations per
-            # connection per step beyond fmpy's own call.
-            plan = [(name, self.components[name].slave.doStep, self._feeds(name))
-                    for name in self.order]
-            readers = [(name, component.getter(variable))
-                       for name, component, variable in self.recorded]
-            self._record(result, scene.start_time, readers)
-            for index in range(1, scene.steps + 1):
-                start, end = scene.time(index - 1), scene.time(index)
-                for name, do_step, feeds in plan:
-                    current = (name, start)
-                    for get, put in feeds:
-                        put(get())
-                    do_step(currentCommunicationPoint=start, communicationStepSize=end - start)
-                self._record(result, end, readers)
+            timer = _CallTimer() if time_fmi_calls else None
+            plan = _StepPlan(self, timer)
+            recorders = plan.recorders
+            current = (None, scene.start_time)
+            plan.record(result, scene.start_time)
+            loop_started = clock.perf_counter()
+            try:
+                plan.run(result, scene)
+            finally:
+                result.meta["loop_time_s"] = clock.perf_counter() - loop_started
+                if timer is not None:
+                    result.meta["fmi_call_time_s"] = timer.total
+        except _CallFailed as failure:
+            result.partial = True
+            message = logbook.last_problem(failure.component)
+            raise SimulationError(failure.component, failure.time,
+                                  f"{message} [{failure.function} returned "
+                                  f"{STATUS_NAMES.get(failure.status, failure.status)}]",
+                                  result) from None
         except FMICallException as error:
             name, at = current
             result.partial = True
             message = logbook.last_problem(name) if name else str(error)
             raise SimulationError(name, at, f"{message} [{error}]", result) from None
         finally:
+            _StepPlan.collect(recorders, result)
             result.meta["wall_time_s"] = clock.perf_counter() - started
             result.meta["steps"] = max(len(result.times) - 1, 0)
             for component in instantiated:
@@ -404,11 +424,159 @@ class Simulation:
         target.set(target.variables[connection.input],
                    source.getter(source.variables[connection.output])())
 
+
+# --- the stepping loop: FMI calls bound once, buffers allocated once -----------------------
+
+# ctypes element type and array('...') code of each FMI type the loop moves.
+_CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (fmi2Boolean, "i")}
+
+
+class _CallFailed(Exception):
+    """An FMI call of the stepping loop returned a status worse than fmi2Warning."""
+
+    def __init__(self, component, time, function, status):
+        super().__init__(component, time, function, status)
+        self.component, self.time, self.function, self.status = component, time, function, status
+
+
+class _CallTimer:
+    """Accumulates the wall time spent inside the wrapped FMI calls."""
+
+    def __init__(self):
+        self.total = 0.0
+
+    def wrap(self, function):
+        def timed(*arguments, _function=function, _clock=clock.perf_counter):
+            begin = _clock()
+            status = _function(*arguments)
+            self.total += _clock() - begin
+            return status
+        return timed
+
+
+class _Call:
+    """One raw FMI get or set of a group of variables of one type on one instance.
+
+    The value references and the value buffer are ctypes arrays built once; a transfer
+    between two components shares one buffer, so a connection costs two C calls per step
+    and no Python objects.
+    """
+
+    __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name")
+
+    def __init__(self, component, verb, fmi_type, references, buffer, timer):
+        name = f"fmi2{verb}{fmi_type}"
+        function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
+        self.function = timer.wrap(function) if timer else function
+        self.instance = component.slave.component
+        self.references = (fmi2ValueReference * len(references))(*references)
+        self.count = len(references)
+        self.buffer = buffer
+        self.component, self.name = component.name, name
+
+
+def _buffer(fmi_type, size):
+    return (_CTYPES[fmi_type][0] * size)()
+
+
+class _Recorder:
+    """Recorded variables of one type on one component, read by one call per step."""
+
+    def __init__(self, component, fmi_type, entries, timer):
+        self.names = [name for name, _ in entries]
+        self.call = _Call(component, "Get", fmi_type, [v.valueReference for _, v in entries],
+                          _buffer(fmi_type, len(entries)), timer)
+        self.rows = array(_CTYPES[fmi_type][1])  # row-major: one row per communication point
+        self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
+
+
+class _StepPlan:
+    """Everything the stepping loop calls, bound once (Gauss-Seidel or Jacobi)."""
+
+    def __init__(self, simulation, timer):
+        components = simulation.components
+        self.jacobi = simulation.scene.coupling == "jacobi"
+        self.steps = []  # (component name, doStep, instance, [(get, set)] of its inputs)
+        for name in simulation.order:
+            groups = {}
+            for connection in simulation.connections:
+                if connection.target == name:
+                    source = components[connection.source]
+                    output = source.variables[connection.output]
+                    target_variable = components[name].variables[connection.input]
+                    key = (connection.source, output.type)
+                    groups.setdefault(key, []).append((output.valueReference,
+                                                       target_variable.valueReference))
+            transfers = []
+            for (source_name, fmi_type), pairs in groups.items():
+                shared = _buffer(fmi_type, len(pairs))
+                transfers.append((
+                    _Call(components[source_name], "Get", fmi_type, [s for s, _ in pairs],
+                          shared, timer),
+                    _Call(components[name], "Set", fmi_type, [t for _, t in pairs],
+                          shared, timer)))
+            slave = components[name].slave
+            do_step = slave.dll.fmi2DoStep
+            self.steps.append((name, timer.wrap(do_step) if timer else do_step,
+                               slave.component, transfers))
+        grouped = {}
+        for full_name, component, variable in simulation.recorded:
+            grouped.setdefault((component.name, variable.type), []).append((full_name, variable))
+        self.recorders = [_Recorder(components[name], fmi_type, entries, timer)
+                          for (name, fmi_type), entries in grouped.items()]
+
     @staticmethod
-    def _record(result, time, readers):
+    def _call(call, time):
+        status = call.function(call.instance, call.references, call.count, call.buffer)
+        if status > _WARNING:
+            raise _CallFailed(call.component, time, call.name, status)
+
+    def record(self, result, time):
         result.times.append(time)
-        for name, read in readers:
-            result.columns[name].append(float(read()))
+        for recorder in self.recorders:
+            self._call(recorder.call, time)
+            recorder.rows.frombytes(recorder.raw)
+
+    def run(self, result, scene):
+        """Step from start_time to stop_time, recording after every communication step."""
+        times = [scene.time(index) for index in range(scene.steps + 1)]
+        call, record, steps = self._call, self.record, self.steps
+        for index in range(1, len(times)):
+            start = times[index - 1]
+            size = times[index] - start
+            if self.jacobi:  # every input from the outputs at the start of the step
+                for _, _, _, transfers in steps:
+                    for get, _ in transfers:
+                        call(get, start)
+            for name, do_step, instance, transfers in steps:
+                for get, put in transfers:
+                    if not self.jacobi:  # Gauss-Seidel: sources already at the step's end
+                        call(get, start)
+                    call(put, start)
+                status = do_step(instance, start, size, fmi2True)
+                if status > _WARNING:
+                    raise _CallFailed(name, start, "fmi2DoStep", status)
+            record(result, times[index])
+
+    @staticmethod
+    def collect(recorders, result):
+        """Copy the recorded rows into result.columns (also after a failed run).
+
+        A communication point whose row was not read in full (a failure while recording)
+        is dropped from every column and from the times.
+        """
+        if not recorders:
+            return
+        rows = min(len(recorder.rows) // len(recorder.names) for recorder in recorders)
+        del result.times[rows:]
+        for recorder in recorders:
+            width = len(recorder.names)
+            for position, name in enumerate(recorder.names):
+                result.columns[name] = [float(value) for value in
+                                        recorder.rows[position:rows * width:width]]
+
+
+_WARNING = 1  # fmi2Warning: the worst status a step may return and still count as done
 
 
 def parameter_values(simulation):

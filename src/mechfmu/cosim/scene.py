@@ -10,6 +10,7 @@ A scene file looks like::
     connections = ["actuator.piston_extension -> gear.piston_extension"]
     record = ["gear.gear_angle"]        # optional, defaults to every output
     reference = "../../data/reference/gear_retraction.csv"   # optional
+    coupling = "gauss_seidel"           # optional: gauss_seidel (default) or jacobi
 
     [components.actuator]
     fmu = "PistonActuator"              # a model name (looked up in the FMU folder) or a path
@@ -67,6 +68,7 @@ class Scene:
     start_time: float = 0.0
     description: str = ""
     reference: Path = None
+    coupling: str = "gauss_seidel"
 
     @property
     def steps(self):
@@ -79,7 +81,11 @@ class Scene:
 
 
 _SCENE_KEYS = {"name", "description", "start_time", "stop_time", "step", "connections",
-               "record", "reference", "components"}
+               "record", "reference", "components", "coupling"}
+# How the master feeds inputs at each communication step: gauss_seidel gives each component
+# the outputs of the components stepped before it in the same step (already at the step's
+# end); jacobi gives every component the outputs at the step's start (all in parallel).
+COUPLINGS = ("gauss_seidel", "jacobi")
 _COMPONENT_KEYS = {"fmu", "parameters", "inputs", "effects"}
 
 
@@ -162,10 +168,14 @@ def parse_scene(data, path):
         for item in record:
             split_name(item, f"{where}: record")
     reference = data.get("reference")
+    coupling = data.get("coupling", COUPLINGS[0])
+    if coupling not in COUPLINGS:
+        raise SceneError(f"{where}: coupling = {coupling!r} is not one of "
+                         f"{', '.join(COUPLINGS)}")
     return Scene(
         name=data.get("name", path.stem), path=path, start_time=start_time,
         stop_time=stop_time, step=step, components=components, connections=connections,
-        record=record, description=data.get("description", ""),
+        record=record, description=data.get("description", ""), coupling=coupling,
         reference=(path.parent / reference).resolve() if reference else None)
 
 
