@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 FMU_SOURCES := $(shell find src/mechfmu/physics src/mechfmu/fmi src/mechfmu/models src/mechfmu/build.py src/mechfmu/binary_patch.py src/mechfmu/__init__.py -name '*.py')
 
-.PHONY: run test fmus references report clean
+.PHONY: run test fmus references report study bench clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -30,6 +30,13 @@ references: $(VENV)/.installed
 
 report: $(VENV)/.installed
 	$(PY) sims/seed_report.py
+
+# Long measurements, not tests (the suite runs small versions of both).
+study: fmus/.built
+	$(VENV)/bin/mechfmu study
+
+bench: fmus/.built
+	$(VENV)/bin/mechfmu bench
 
 clean:
 	rm -rf $(VENV) fmus/*.fmu fmus/.built out

@@ -1,4 +1,4 @@
-"""The ``mechfmu`` command: build, run, check, references, report, docs."""
+"""The ``mechfmu`` command: build, run, check, references, report, docs, study, bench."""
 
 import argparse
 import sys
@@ -80,6 +80,21 @@ def _docs(args):
     return 0
 
 
+def _study(arguments):
+    from .study import main as study
+    return study(arguments)
+
+
+def _bench(arguments):
+    from .bench import main as bench
+    return bench(arguments)
+
+
+# Verbs that parse their own options (``mechfmu study --help``): everything after the verb
+# goes to them unparsed.
+PASS_THROUGH = {"study": _study, "bench": _bench}
+
+
 def parser():
     main = argparse.ArgumentParser(prog="mechfmu", description=__doc__)
     verbs = main.add_subparsers(dest="verb", required=True)
@@ -118,10 +133,18 @@ def parser():
     report.set_defaults(func=_report)
     docs = verbs.add_parser("docs", help="print the README's FMU interface tables")
     docs.set_defaults(func=_docs)
+
+    # Listed for --help; main() hands their arguments over before parsing (PASS_THROUGH).
+    verbs.add_parser("study", help="accuracy study: error against wall time (make study; "
+                     "mechfmu study --help)")
+    verbs.add_parser("bench", help="performance benchmarks (make bench; mechfmu bench --help)")
     return main
 
 
 def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in PASS_THROUGH:
+        return PASS_THROUGH[argv[0]](argv[1:])
     args = parser().parse_args(argv)
     return args.func(args)
 
