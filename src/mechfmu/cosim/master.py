@@ -9,6 +9,7 @@ communication point and frees every instance, also on error. A step an FMU refus
 component, the time and the FMU's own log message, and carries the rows computed so far.
 """
 
+import ctypes
 import shutil
 from array import array
 import tempfile
@@ -368,7 +369,7 @@ class Simulation:
             plan = _StepPlan(self, timer)
             recorders = plan.recorders
             current = (None, scene.start_time)
-            plan.record(result, scene.start_time)
+            plan.start(result, scene.start_time)
             loop_started = clock.perf_counter()
             try:
                 plan.run(result, scene)
@@ -457,9 +458,7 @@ class _CallTimer:
 class _Call:
     """One raw FMI get or set of a group of variables of one type on one instance.
 
-    The value references and the value buffer are ctypes arrays built once; a transfer
-    between two components shares one buffer, so a connection costs two C calls per step
-    and no Python objects.
+    The value references and the value buffer are ctypes arrays built once per run.
     """
 
     __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name")
@@ -475,55 +474,80 @@ class _Call:
         self.component, self.name = component.name, name
 
 
-def _buffer(fmi_type, size):
-    return (_CTYPES[fmi_type][0] * size)()
+class _Outputs:
+    """The outputs of one type that the loop reads from one component after it steps.
 
+    One call reads them all into one buffer: first each connection group's outputs, in a
+    contiguous block that the group's target sets its inputs from directly (a view into
+    this buffer, no copy), then the recorded outputs not already read. A recorded row is
+    the buffer's bytes appended as they are.
+    """
 
-class _Recorder:
-    """Recorded variables of one type on one component, read by one call per step."""
-
-    def __init__(self, component, fmi_type, entries, timer):
-        self.names = [name for name, _ in entries]
-        self.call = _Call(component, "Get", fmi_type, [v.valueReference for _, v in entries],
-                          _buffer(fmi_type, len(entries)), timer)
-        self.rows = array(_CTYPES[fmi_type][1])  # row-major: one row per communication point
+    def __init__(self, component, fmi_type, groups, recorded, timer):
+        variables = [variable for _, variables in groups for variable in variables]
+        self.offsets, start = {}, 0
+        for key, group in groups:
+            self.offsets[key] = start
+            start += len(group)
+        self.positions = {}  # recorded name -> index in the buffer
+        for full_name, variable in recorded:
+            if variable not in variables:
+                variables.append(variable)
+            self.positions[full_name] = variables.index(variable)
+        ctype, code = _CTYPES[fmi_type]
+        self.call = _Call(component, "Get", fmi_type, [v.valueReference for v in variables],
+                          (ctype * len(variables))(), timer)
+        self.rows = array(code)  # row-major: one row per communication point
         self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
+
+    def view(self, key, size):
+        """The part of the buffer that holds connection group ``key`` (shared memory)."""
+        ctype = self.call.buffer._type_
+        return (ctype * size).from_buffer(self.call.buffer,
+                                          self.offsets[key] * ctypes.sizeof(ctype))
 
 
 class _StepPlan:
-    """Everything the stepping loop calls, bound once (Gauss-Seidel or Jacobi)."""
+    """Everything the stepping loop calls, bound once.
+
+    Each component's needed outputs are read once after it steps; its targets set their
+    inputs straight from that buffer. Gauss-Seidel: set, step and read one component after
+    the other, so a target sees its sources' values at the end of the step (a lagged
+    source, stepped later, still holds the previous point's). Jacobi: every component's
+    inputs are set from the buffers of the previous point before any component steps.
+    """
 
     def __init__(self, simulation, timer):
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
-        self.steps = []  # (component name, doStep, instance, [(get, set)] of its inputs)
+        members = {}  # (target, source, type) -> ([source outputs], [target inputs])
+        for connection in simulation.connections:
+            output = components[connection.source].variables[connection.output]
+            outputs, inputs = members.setdefault(
+                (connection.target, connection.source, output.type), ([], []))
+            outputs.append(output)
+            inputs.append(components[connection.target].variables[connection.input])
+        groups = {}  # (source, type) -> [(member key, [source outputs])]
+        for key, (outputs, _) in members.items():
+            groups.setdefault(key[1:], []).append((key, outputs))
+        recorded = {}
+        for full_name, component, variable in simulation.recorded:
+            recorded.setdefault((component.name, variable.type), []).append((full_name, variable))
+        self.outputs = {key: _Outputs(components[key[0]], key[1], groups.get(key, []),
+                                      recorded.get(key, []), timer)
+                        for key in list(groups) + [k for k in recorded if k not in groups]}
+        self.recorders = [self.outputs[key] for key in recorded]
+        self.steps = []  # (name, doStep, instance, [input sets], [output reads])
         for name in simulation.order:
-            groups = {}
-            for connection in simulation.connections:
-                if connection.target == name:
-                    source = components[connection.source]
-                    output = source.variables[connection.output]
-                    target_variable = components[name].variables[connection.input]
-                    key = (connection.source, output.type)
-                    groups.setdefault(key, []).append((output.valueReference,
-                                                       target_variable.valueReference))
-            transfers = []
-            for (source_name, fmi_type), pairs in groups.items():
-                shared = _buffer(fmi_type, len(pairs))
-                transfers.append((
-                    _Call(components[source_name], "Get", fmi_type, [s for s, _ in pairs],
-                          shared, timer),
-                    _Call(components[name], "Set", fmi_type, [t for _, t in pairs],
-                          shared, timer)))
+            sets = [_Call(components[name], "Set", key[2], [v.valueReference for v in inputs],
+                          self.outputs[key[1:]].view(key, len(inputs)), timer)
+                    for key, (_, inputs) in members.items() if key[0] == name]
+            reads = [outputs.call for (owner, _), outputs in self.outputs.items()
+                     if owner == name]
             slave = components[name].slave
             do_step = slave.dll.fmi2DoStep
             self.steps.append((name, timer.wrap(do_step) if timer else do_step,
-                               slave.component, transfers))
-        grouped = {}
-        for full_name, component, variable in simulation.recorded:
-            grouped.setdefault((component.name, variable.type), []).append((full_name, variable))
-        self.recorders = [_Recorder(components[name], fmi_type, entries, timer)
-                          for (name, fmi_type), entries in grouped.items()]
+                               slave.component, sets, reads))
 
     @staticmethod
     def _call(call, time):
@@ -531,47 +555,50 @@ class _StepPlan:
         if status > _WARNING:
             raise _CallFailed(call.component, time, call.name, status)
 
-    def record(self, result, time):
-        result.times.append(time)
+    def start(self, result, time):
+        """Read every needed output after initialisation and record the first row."""
+        for _, _, _, _, reads in self.steps:
+            for read in reads:
+                self._call(read, time)
+        self._record(result, time)
+
+    def _record(self, result, time):
         for recorder in self.recorders:
-            self._call(recorder.call, time)
             recorder.rows.frombytes(recorder.raw)
+        result.times.append(time)
 
     def run(self, result, scene):
         """Step from start_time to stop_time, recording after every communication step."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
-        call, record, steps = self._call, self.record, self.steps
+        call, steps, jacobi = self._call, self.steps, self.jacobi
         for index in range(1, len(times)):
             start = times[index - 1]
             size = times[index] - start
-            if self.jacobi:  # every input from the outputs at the start of the step
-                for _, _, _, transfers in steps:
-                    for get, _ in transfers:
-                        call(get, start)
-            for name, do_step, instance, transfers in steps:
-                for get, put in transfers:
-                    if not self.jacobi:  # Gauss-Seidel: sources already at the step's end
-                        call(get, start)
-                    call(put, start)
+            if jacobi:  # every input from the previous point's outputs, then every step
+                for _, _, _, sets, _ in steps:
+                    for put in sets:
+                        call(put, start)
+            for name, do_step, instance, sets, reads in steps:
+                if not jacobi:
+                    for put in sets:
+                        call(put, start)
                 status = do_step(instance, start, size, fmi2True)
                 if status > _WARNING:
                     raise _CallFailed(name, start, "fmi2DoStep", status)
-            record(result, times[index])
+                for read in reads:
+                    call(read, times[index])
+            self._record(result, times[index])
 
     @staticmethod
     def collect(recorders, result):
-        """Copy the recorded rows into result.columns (also after a failed run).
-
-        A communication point whose row was not read in full (a failure while recording)
-        is dropped from every column and from the times.
-        """
+        """Copy the recorded rows into result.columns (also after a failed run)."""
         if not recorders:
             return
-        rows = min(len(recorder.rows) // len(recorder.names) for recorder in recorders)
+        rows = min(len(recorder.rows) // recorder.call.count for recorder in recorders)
         del result.times[rows:]
         for recorder in recorders:
-            width = len(recorder.names)
-            for position, name in enumerate(recorder.names):
+            width = recorder.call.count
+            for name, position in recorder.positions.items():
                 result.columns[name] = [float(value) for value in
                                         recorder.rows[position:rows * width:width]]
 
