@@ -40,30 +40,54 @@ def _stage_runtime(target):
                         ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
 
 
-def build_model(name, out_dir, staging):
-    """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path."""
-    module = MODELS[name]
-    importlib.import_module(module)  # fail early, with a Python traceback, on a broken model
-    folder = staging / name
-    folder.mkdir()
-    package = folder / runtime_package(name)
-    _stage_runtime(package)
-    inner_module = module.replace("mechfmu.", f"{package.name}.", 1)
-    # The entry module must not be named like the model: fmpy puts a module of its own
-    # under sys.modules[model name], so a second load of the FMU would import that one.
-    script = folder / f"mechfmu_entry_{name}.py"
+def null_name(name):
+    """FMU name of the null variant of model ``name`` (see build_model)."""
+    return f"{name}Null"
+
+
+def _entry_script(name, fmu_name, inner_module):
+    """Source of the FMU's entry module: the model's class, or its null subclass."""
     # pythonfmu 0.7's loader (findClass) re-runs this file at every instantiation and then
     # releases one reference to the module namespace that it only borrowed: after the first
     # instance is freed the namespace is gone and the next load crashes or fails. Each run
     # of the file therefore keeps one reference of its own. Only the model may be a class here.
-    script.write_text(f'"""FMU entry point for {name}."""\n'
-                      "import sys\n"
-                      "sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n"
-                      f"from {inner_module} import {name}  # noqa: E402,F401\n")
-    built = FmuBuilder.build_FMU(script, dest=staging / f"out_{name}", project_files=[package],
-                                 canGetAndSetFMUstate=True)
-    _patch_linux_binary(built, name)
-    final = Path(out_dir) / f"{name}.fmu"
+    header = (f'"""FMU entry point for {fmu_name}."""\n'
+              "import sys\n"
+              "sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n")
+    if fmu_name == name:
+        return header + f"from {inner_module} import {name}  # noqa: E402,F401\n"
+    # The null variant: the model's module, not its class, enters the namespace, so the
+    # loader finds exactly one slave class here (the subclass).
+    return header + (f"import {inner_module} as model_module  # noqa: E402\n\n\n"
+                     f"class {fmu_name}(model_module.{name}):\n"
+                     f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
+                     "    def do_step(self, current_time, step_size):\n"
+                     "        return True\n")
+
+
+def build_model(name, out_dir, staging, null=False):
+    """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
+
+    null=True builds ``out_dir``/``name``Null.fmu instead: the same variables, parameters and
+    initialisation, but a do_step that returns at once, so its outputs keep the values of
+    initialisation (the baseline of the model-cost benchmark, mechfmu.bench).
+    """
+    module = MODELS[name]
+    importlib.import_module(module)  # fail early, with a Python traceback, on a broken model
+    fmu_name = null_name(name) if null else name
+    folder = staging / fmu_name
+    folder.mkdir()
+    package = folder / runtime_package(fmu_name)
+    _stage_runtime(package)
+    inner_module = module.replace("mechfmu.", f"{package.name}.", 1)
+    # The entry module must not be named like the model: fmpy puts a module of its own
+    # under sys.modules[model name], so a second load of the FMU would import that one.
+    script = folder / f"mechfmu_entry_{fmu_name}.py"
+    script.write_text(_entry_script(name, fmu_name, inner_module))
+    built = FmuBuilder.build_FMU(script, dest=staging / f"out_{fmu_name}",
+                                 project_files=[package], canGetAndSetFMUstate=True)
+    _patch_linux_binary(built, fmu_name)
+    final = Path(out_dir) / f"{fmu_name}.fmu"
     os.replace(built, final)  # atomic: a reader never sees a half-written FMU
     return final
 
@@ -83,9 +107,12 @@ def _patch_linux_binary(fmu, name):
     os.replace(patched_fmu, fmu)
 
 
-def build_all(out_dir, names=None):
-    """Build the named models (default: all of MODELS); return the FMU paths."""
+def build_all(out_dir, names=None, null=False):
+    """Build the named models (default: all of MODELS); return the FMU paths.
+
+    null=True builds their null variants (``<name>Null.fmu``, see build_model).
+    """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="mechfmu_build_", dir=out_dir) as temp:
-        return [build_model(name, out_dir, Path(temp)) for name in (names or MODELS)]
+        return [build_model(name, out_dir, Path(temp), null) for name in (names or MODELS)]

@@ -15,4 +15,5 @@ MODELS = {
     "SliderCrank": "mechfmu.models.slider_crank",
     "CamshaftDrive": "mechfmu.models.shaft_drives",
     "ValveTrain": "mechfmu.models.valve_train",
+    "ValveSpring": "mechfmu.models.valve_spring",
 }

@@ -48,6 +48,7 @@ from collections import namedtuple
 
 from . import suspension as statics
 from .errors import MechanismError, RangeError, require_finite, require_positive
+from .stepping import hermite, polynomial_motion
 
 GRAVITY = statics.GRAVITY
 
@@ -145,9 +146,7 @@ class StepInputs:
         self.t0, self.load0, self.load_slope = t0, load0, (load1 - load0) / step
         # Cubic Hermite r(t0 + tau) = a0 + a1 tau + a2 tau^2 + a3 tau^3 through the heights
         # and rates at both ends.
-        secant = (r1 - r0) / step
-        self.road = (r0, rate0, (3.0 * secant - 2.0 * rate0 - rate1) / step,
-                     (rate0 + rate1 - 2.0 * secant) / (step * step))
+        self.road = hermite(step, (r0, rate0), (r1, rate1))
 
 
 def load_at(inputs, t):
@@ -157,10 +156,7 @@ def load_at(inputs, t):
 
 def road_at(inputs, t):
     """Road height (m), rate (m/s), second rate (m/s^2) at time t inside the current step."""
-    a0, a1, a2, a3 = inputs.road
-    tau = t - inputs.t0
-    return (a0 + tau * (a1 + tau * (a2 + tau * a3)), a1 + tau * (2.0 * a2 + 3.0 * tau * a3),
-            2.0 * a2 + 6.0 * tau * a3)
+    return polynomial_motion(inputs.road, t - inputs.t0)
 
 
 # --- the system built from the enabled effects --------------------------------------------

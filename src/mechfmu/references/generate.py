@@ -15,7 +15,7 @@ from ..cosim.results import write_csv
 from ..cosim.scene import load_scene
 from ..models import MODELS
 from . import (drives, gear_dynamics, landing_gear, linkages, suspension,
-               suspension_dynamics, valve_train)
+               suspension_dynamics, valve_spring, valve_train)
 
 
 def model_defaults(model):
@@ -148,6 +148,18 @@ def valve_train_scene(scene):
     return _recorded(scene, columns)
 
 
+def valve_spring_scene(scene):
+    """CamshaftDrive -> ValveTrain -> ValveSpring: the kinematic columns as valve_train_scene,
+    the valve's dynamics on that drive by scipy (references/valve_spring.py)."""
+    _, shaft = _component(scene, "CamshaftDrive")
+    _, train = _component(scene, "ValveTrain")
+    name, parameters = _component(scene, "ValveSpring")
+    columns = valve_train_scene(scene)
+    dynamics, _ = valve_spring.scene_columns(sample_times(scene), shaft, train, parameters)
+    columns.update({f"{name}.{key}": value for key, value in dynamics.items()})
+    return _recorded(scene, columns)
+
+
 REFERENCES = {
     "gear_retraction": gear_retraction,
     "gear_retraction_cycloidal": gear_retraction,
@@ -162,13 +174,15 @@ REFERENCES = {
     "valve_train": valve_train_scene,
     "valve_train_inverse": valve_train_scene,
     "valve_float": valve_train_scene,
+    "valve_train_dynamic": valve_spring_scene,
+    "valve_float_dynamic": valve_spring_scene,
 }
 
 
 # References integrated by scipy (rtol = atol = 1e-12) rather than evaluated in closed form:
 # a different scipy may change their last digits, so regeneration is compared more loosely.
 INTEGRATED = {"gear_retraction_dynamic", "gear_extension_gravity", "suspension_road_bump",
-              "suspension_sudden_load"}
+              "suspension_sudden_load", "valve_train_dynamic", "valve_float_dynamic"}
 
 
 def generate(scene_dir, out_dir):

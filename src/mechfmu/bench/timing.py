@@ -1,0 +1,40 @@
+"""Timing primitives: medians of side-by-side rounds after a warm-up, per-step slopes."""
+
+import statistics
+import time
+
+
+def side_by_side_medians(measurements, repeats):
+    """Median of every measurement over ``repeats`` rounds, after one warm-up round.
+
+    ``measurements`` maps a name to a function that runs once and returns a dict of named
+    durations in seconds. Each round runs every function once, in turn, so a slow drift of
+    the machine (clock frequency, caches, other load) affects all of them alike, and a
+    ratio of two of them compares runs made side by side. Returns
+    ``{name: {key: median seconds}}``.
+    """
+    for run in measurements.values():
+        run()  # warm-up: first loads of libraries and modules, caches, lazy imports
+    samples = {name: [] for name in measurements}
+    for _ in range(repeats):
+        for name, run in measurements.items():
+            samples[name].append(run())
+    return {name: {key: statistics.median(sample[key] for sample in runs) for key in runs[0]}
+            for name, runs in samples.items()}
+
+
+def per_step(short_run_s, long_run_s, short_steps, long_steps):
+    """Cost of one step in s: the slope between two run lengths, so the set-up cancels."""
+    return (long_run_s - short_run_s) / (long_steps - short_steps)
+
+
+def set_up(short_run_s, per_step_s, short_steps):
+    """Set-up cost in s (extraction, instantiation, ...): the intercept of the same line."""
+    return short_run_s - per_step_s * short_steps
+
+
+def seconds_of(function, *args, **kwargs):
+    """Wall time in s of one call of ``function``."""
+    started = time.perf_counter()
+    function(*args, **kwargs)
+    return time.perf_counter() - started

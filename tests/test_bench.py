@@ -1,0 +1,160 @@
+"""The benchmark command, quick mode: every row written, times finite and positive, each ratio
+the quotient of its parts, the null FMUs doing nothing. The timing targets are reported by
+the benchmark, never asserted here: they depend on the machine."""
+
+import contextlib
+import csv
+import io
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from conftest import ROOT, SCENES
+from mechfmu.bench import main
+from mechfmu.bench import model_cost
+from mechfmu.bench.report import CSV_COLUMNS, RATIO_UNIT, Row, ratio_parts
+from mechfmu.build import build_all
+
+MASTER_CASES = [f"{master}: {what}" for master in ("ours", "fmpy")
+                for what in ("wall per step", "set-up", "FMI calls per step",
+                             "overhead per step")]
+MASTER_CASES += ["total per step, ours / fmpy", "overhead per step, ours / fmpy"]
+EXPECTED = {
+    "master overhead": MASTER_CASES,
+    "model cost": [f"{case.label}: {what}" for case in model_cost.CASES
+                   for what in ("model", "null", "model / null")],
+    "effects": ["gear_retraction (kinematic, 2 FMUs)",
+                "gear_retraction_dynamic (six effects, radau)", "kinematic / dynamic"],
+    "floor": ["closed form (numpy)", "FMU run (master loop)", "FMU / closed form"],
+}
+# Differences of two medians (wall - FMI time, intercept of the per-step line): on a busy
+# machine noise can push them to or below zero, so they are only required to be finite.
+DIFFERENCES = ("overhead per step", "set-up")
+
+
+@pytest.fixture(scope="module")
+def bench(fmu_dir, tmp_path_factory):
+    """Run the quick benchmark once; (exit status, stdout, rows by (benchmark, case), out)."""
+    out = tmp_path_factory.mktemp("bench")
+    stdout = io.StringIO()
+    with contextlib.redirect_stdout(stdout):
+        status = main(["--quick", "--out", str(out), "--fmu-dir", str(fmu_dir),
+                       "--scenes", str(SCENES)])
+    with open(out / "bench.csv", newline="", encoding="utf-8") as handle:
+        records = list(csv.DictReader(handle))
+    return status, stdout.getvalue(), records, out
+
+
+def _rows(records):
+    return {(r["benchmark"], r["case"]): r for r in records}
+
+
+def test_every_expected_row_once(bench):
+    status, _, records, _ = bench
+    assert status == 0
+    found = [(r["benchmark"], r["case"]) for r in records]
+    expected = [(benchmark, case) for benchmark, cases in EXPECTED.items() for case in cases]
+    assert sorted(found) == sorted(expected)
+    assert list(records[0]) == list(CSV_COLUMNS)
+
+
+def test_model_cost_covers_every_kinematic_configuration():
+    labels = {case.label for case in model_cost.CASES}
+    assert labels == {"LandingGear (motion drive)", "PistonActuator", "Suspension (static)",
+                      "LoadProfile (ramp)", "RoadProfile (bump)", "CrankDrive", "CamshaftDrive",
+                      *(f"{model} ({solver})" for model in ("FourBar", "SliderCrank", "ValveTrain")
+                        for solver in ("closed_form", "constraint_solver"))}
+
+
+def test_times_finite_and_positive(bench):
+    _, _, records, _ = bench
+    for record in records:
+        value = float(record["value"])
+        assert math.isfinite(value), record
+        assert int(record["repeats"]) == 2
+        if record["unit"] != RATIO_UNIT and not record["case"].endswith(DIFFERENCES):
+            assert record["unit"] in ("us", "ms") and value > 0.0, record
+
+
+def test_ratios_are_the_quotients_of_their_parts(bench):
+    _, _, records, _ = bench
+    rows = _rows(records)
+    ratios = [r for r in records if r["unit"] == RATIO_UNIT]
+    assert len(ratios) == 2 + len(model_cost.CASES) + 2
+    for record in ratios:
+        row = Row(record["benchmark"], record["case"], float(record["value"]), record["unit"],
+                  int(record["repeats"]), notes=record["notes"])
+        numerator, denominator = (rows[(record["benchmark"], case)] for case in ratio_parts(row))
+        assert numerator["unit"] == denominator["unit"]
+        assert float(record["value"]) == pytest.approx(
+            float(numerator["value"]) / float(denominator["value"]), rel=1e-12)
+
+
+def test_wall_time_is_fmi_time_plus_overhead(bench):
+    _, _, records, _ = bench
+    rows = _rows(records)
+    for master in ("ours", "fmpy"):
+        def value(what):
+            return float(rows[("master overhead", f"{master}: {what}")]["value"])
+        assert value("overhead per step") == pytest.approx(
+            value("wall per step") - value("FMI calls per step"), rel=1e-9, abs=1e-9)
+
+
+def test_targets_reported_not_asserted(bench):
+    _, _, records, _ = bench
+    targets = {r["case"]: r["target"] for r in records if r["target"]}
+    assert targets["total per step, ours / fmpy"] == "<= 0.5"
+    assert targets["overhead per step, ours / fmpy"] == "<= 0.5"
+    assert targets["kinematic / dynamic"] == "<= 1/3"
+    assert all(targets[f"{case.label}: model / null"] == "<= 1.2" for case in model_cost.CASES)
+    for record in records:
+        if record["target"]:
+            limit = {"<= 0.5": 0.5, "<= 1.2": 1.2, "<= 1/3": 1.0 / 3.0}[record["target"]]
+            assert record["meets_target"] == str(float(record["value"]) <= limit).lower()
+        else:
+            assert record["meets_target"] == ""
+
+
+def test_markdown_and_machine_files(bench):
+    _, stdout, records, out = bench
+    table = (out / "bench.md").read_text(encoding="utf-8")
+    assert table.startswith("| benchmark | case | value | unit | target | met |")
+    assert table.count("\n| ") == len(records)  # one line per row below the header
+    assert "Machine: " in table and "fmpy 0.3" in table
+    assert table.split("\n\n")[0] in stdout
+    machine = json.loads((out / "machine.json").read_text(encoding="utf-8"))
+    assert set(machine) == {"cpu", "logical_cores", "os", "python", "numpy", "fmpy",
+                            "pythonfmu", "date"}
+    assert machine["logical_cores"] >= 1 and machine["pythonfmu"] == "0.7.0"
+    assert not list(out.glob(".*.tmp"))  # atomic writes leave no temporary files
+
+
+def test_null_fmu_does_nothing_while_the_model_moves(fmu_dir, tmp_path):
+    case = next(c for c in model_cost.CASES if c.model == "LandingGear")
+    (null_fmu,) = build_all(tmp_path, [case.model], null=True)
+    assert null_fmu.name == "LandingGearNull.fmu"
+    null_run = model_cost.run_case(case, null_fmu, steps=50)
+    model_run = model_cost.run_case(case, fmu_dir / "LandingGear.fmu", steps=50)
+    # Same variables, same initialisation: both start from the model's initial outputs.
+    assert null_run.initial_outputs == model_run.initial_outputs
+    assert null_run.final_outputs == null_run.initial_outputs
+    assert model_run.final_outputs != model_run.initial_outputs
+    assert all(math.isfinite(value) for value in model_run.final_outputs)
+
+
+def test_missing_fmus_stop_with_the_build_command(tmp_path, capsys):
+    assert main(["--quick", "--fmu-dir", str(tmp_path / "none"), "--out",
+                 str(tmp_path / "out")]) == 2
+    assert "mechfmu build" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_effects_script_runs_the_effects_benchmark(fmu_dir):
+    done = subprocess.run([sys.executable, str(ROOT / "sims" / "bench_effects.py"),
+                           "--fmu-dir", str(fmu_dir), "--repeats", "1"],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert "| effects | kinematic / dynamic |" in done.stdout
