@@ -23,7 +23,7 @@ from typing import NamedTuple
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
-from ..cosim.master import Simulation
+from ..cosim.master import CallTimer, Simulation
 from .gear import GEAR_OUTPUTS, KINEMATIC_SCENE, load_named_scene, piston_table, with_stop_time
 from .report import Row, Target, ratio_row
 from .timing import per_step, seconds_of, set_up, side_by_side_medians
@@ -48,7 +48,11 @@ class FmiCallTimer:
                  "fmi2GetInteger", "fmi2SetBoolean", "fmi2GetBoolean")
 
     def __init__(self):
-        self.seconds = 0.0
+        self.timer = CallTimer()
+
+    @property
+    def seconds(self):
+        return self.timer.total
 
     def attach(self, instance):
         functions = getattr(instance, "_functions", None)
@@ -56,18 +60,7 @@ class FmiCallTimer:
             raise RuntimeError("this fmpy keeps no FMU2Slave._functions table (fmpy 0.3.2x "
                                "does); the FMI-call timer cannot be attached")
         for name in self.FUNCTIONS:
-            functions[name] = self._timed(functions[name])
-
-    def _timed(self, function):
-        def timed(*arguments, _function=function, _clock=time.perf_counter):
-            begin = _clock()
-            status = _function(*arguments)
-            self.seconds += _clock() - begin
-            return status
-        # _call reads these from the function it looked up (status check, call logger).
-        timed.restype, timed.argtypes = function.restype, function.argtypes
-        timed.argnames = getattr(function, "argnames", None)
-        return timed
+            functions[name] = self.timer.wrap(functions[name])
 
 
 class FmpyGearAlone:

@@ -365,7 +365,7 @@ class Simulation:
                 component.slave.exitInitializationMode()
             for connection in self.lagged:  # their sources initialise after their targets
                 self._set_from_source(connection)
-            timer = _CallTimer() if time_fmi_calls else None
+            timer = CallTimer() if time_fmi_calls else None
             plan = _StepPlan(self, timer)
             recorders = plan.recorders
             current = (None, scene.start_time)
@@ -440,8 +440,12 @@ class _CallFailed(Exception):
         self.component, self.time, self.function, self.status = component, time, function, status
 
 
-class _CallTimer:
-    """Accumulates the wall time spent inside the wrapped FMI calls."""
+class CallTimer:
+    """Accumulates the wall time (s) spent inside the wrapped FMI C functions.
+
+    Used by the master (``run(time_fmi_calls=True)``) and, around fmpy's own calls, by the
+    benchmarks, so both sides are timed at the same layer.
+    """
 
     def __init__(self):
         self.total = 0.0
@@ -452,6 +456,9 @@ class _CallTimer:
             status = _function(*arguments)
             self.total += _clock() - begin
             return status
+        # A ctypes caller may read these from the function it looked up (fmpy's _call does).
+        timed.restype, timed.argtypes = function.restype, function.argtypes
+        timed.argnames = getattr(function, "argnames", None)
         return timed
 
 

@@ -9,6 +9,9 @@ accuracy_cost.csv   one row per (point, output): errors, cost, work counters, st
 <scene>_sources.png the coupling error alone and the integration error alone
 pareto.md           per scene, the cheapest setting for each target error (README table)
 study.json          the sweep's definition, the machine and the study's own wall time
+
+``--scenes`` studies some scenes again: the rows of the others are kept from the existing
+accuracy_cost.csv, and the plots and tables are written for every scene it holds.
 """
 
 import argparse
@@ -67,6 +70,13 @@ def read_rows(path):
     return rows
 
 
+def _headline_unit(args, study_scene):
+    """The unit of the scene's headline output, from its FMU's model description."""
+    simulation = Simulation(design.load(args.scene_dir, study_scene), args.fmu_dir)
+    units = {name: variable.unit or "1" for name, _, variable in simulation.recorded}
+    return units[study_scene.headline]
+
+
 def _progress(done, total, point):
     if done == total or done % 25 == 0:
         print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
@@ -82,12 +92,9 @@ def main(argv=None):
         return 2
     started = time.perf_counter()
     out = Path(args.out)
-    scenes, points, units = {}, [], {}
+    scenes, points = {}, []
     for study_scene in chosen:
         scene = design.load(args.scene_dir, study_scene)
-        simulation = Simulation(scene, args.fmu_dir)  # checks the scene, gives the units
-        units[study_scene.name] = {name: variable.unit or "1"
-                                   for name, _, variable in simulation.recorded}
         print(f"{scene.name}: reference on the {study_scene.steps[0]:g} s grid ...", flush=True)
         scenes[scene.name] = (scene, study_scene, measure.reference(scene, study_scene))
         points += design.points(study_scene, design.couplings_of(scene), args.quick)
@@ -95,10 +102,16 @@ def main(argv=None):
           f"{args.repeats} repeat(s) each", flush=True)
     rows = measure.run_points(points, scenes, args.fmu_dir, args.repeats, args.workers,
                               _progress)
-    paths = [_write_rows(out / "accuracy_cost.csv", rows)]
+    # Studying some scenes again keeps the rows of the others from the previous study.
+    previous = out / "accuracy_cost.csv"
+    kept = [row for row in read_rows(previous) if row["scene"] not in scenes] \
+        if previous.is_file() else []
+    rows = kept + rows
+    paths = [_write_rows(previous, rows)]
     tables = []
-    for study_scene in chosen:
-        unit = units[study_scene.name][study_scene.headline]
+    reported = [s for s in design.SCENES if any(row["scene"] == s.name for row in rows)]
+    for study_scene in reported:
+        unit = _headline_unit(args, study_scene)
         paths.append(report.plot_front(rows, study_scene, unit, out / f"{study_scene.name}.png"))
         paths.append(report.plot_sources(rows, study_scene, unit,
                                          out / f"{study_scene.name}_sources.png"))
@@ -115,7 +128,8 @@ def main(argv=None):
                    for s in chosen},
         "tolerances": list(design.TOLERANCES), "jacobi_tolerances": list(design.JACOBI_TOLERANCES),
         "quick": args.quick, "repeats": args.repeats, "workers": args.workers,
-        "points": len(points), "failed_points": len(failed), "study_wall_time_s": elapsed,
+        "points": len(points), "failed_points": len(failed),
+        "rows_kept_from_the_previous_study": sorted({row["scene"] for row in kept}), "study_wall_time_s": elapsed,
         "machine": {"platform": platform.platform(), "processor": platform.processor(),
                     "cores": os.cpu_count()},
         "versions": versions(), "command": sys.argv,
