@@ -4,7 +4,7 @@ from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
-from mechfmu.cosim.master import _LogBook, accessor
+from mechfmu.cosim.master import LogBook, accessor
 
 
 class Driven:
@@ -14,7 +14,7 @@ class Driven:
         self.description = read_model_description(str(path))
         self.variables = {v.name: v for v in self.description.modelVariables}
         self.folder = extract(str(path))
-        self.logbook = _LogBook()
+        self.logbook = LogBook()
         self.slave = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
                                modelIdentifier=self.description.coSimulation.modelIdentifier,
                                instanceName=instance)

@@ -1,4 +1,4 @@
-"""The ``mechfmu`` command: build, run, check, references, report, docs, study, bench."""
+"""The ``mechfmu`` command: build, run, check, references, report, docs, study, bench, fuzz."""
 
 import argparse
 import sys
@@ -92,7 +92,12 @@ def _bench(arguments):
 
 # Verbs that parse their own options (``mechfmu study --help``): everything after the verb
 # goes to them unparsed.
-PASS_THROUGH = {"study": _study, "bench": _bench}
+def _fuzz(arguments):
+    from .fuzz import main as fuzz
+    return fuzz(arguments)
+
+
+PASS_THROUGH = {"study": _study, "bench": _bench, "fuzz": _fuzz}
 
 
 def parser():
@@ -138,6 +143,8 @@ def parser():
     verbs.add_parser("study", help="accuracy study: error against wall time (make study; "
                      "mechfmu study --help)")
     verbs.add_parser("bench", help="performance benchmarks (make bench; mechfmu bench --help)")
+    verbs.add_parser("fuzz", help="random input sequences through every FMU, each in a child "
+                     "process (mechfmu fuzz --help)")
     return main
 
 

@@ -14,6 +14,7 @@ import shutil
 from array import array
 import tempfile
 import time as clock
+import weakref
 from ctypes import byref
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -72,22 +73,46 @@ def resolve_fmu(spec, scene, fmu_dir):
     return candidate
 
 
-class _LogBook:
-    """FMI logger callback that keeps every message of the instances of one run."""
+def _route(environment, instance, status, category, message):
+    """The one logger every LogBook installs: hands the message to the book it belongs to."""
+    book = LogBook._books.get(environment)
+    if book is not None:
+        book.record(instance, status, category, message)
+
+
+_ROUTER = fmi2CallbackLoggerTYPE(_route)  # one C callback for the process, never collected
+
+
+class LogBook:
+    """FMI logger callback that keeps every message of the instances it was given to.
+
+    fmpy's native proxy, which formats the variadic message, keeps ONE logger for the whole
+    process (a C static: the last one installed wins). Every LogBook therefore installs the
+    same module-level router and tells itself apart by the componentEnvironment pointer, which
+    the FMU passes back with each message: two LogBooks in one process (two simulations, or
+    two instances driven apart) each get their own messages.
+    """
+
+    _next_key = 1
+    _books = weakref.WeakValueDictionary()  # componentEnvironment value -> LogBook
 
     def __init__(self):
         self.messages = []
+        self.key = LogBook._next_key
+        LogBook._next_key += 1
+        LogBook._books[self.key] = self
         self.callbacks = fmi2CallbackFunctions()
-        self.callbacks.logger = fmi2CallbackLoggerTYPE(self._log)
+        self.callbacks.logger = _ROUTER
         self.callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         self.callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self.callbacks.componentEnvironment = ctypes.c_void_p(self.key)
         try:
             from fmpy.logging import addLoggerProxy
             addLoggerProxy(byref(self.callbacks))  # formats the variadic message in C
         except Exception:
             pass
 
-    def _log(self, environment, instance, status, category, message):
+    def record(self, instance, status, category, message):
         def text(raw):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
         self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
@@ -333,7 +358,7 @@ class Simulation:
         result = Result(scene=scene, columns={name: [] for name, _, _ in self.recorded},
                         units={name: variable.unit for name, _, variable in self.recorded})
         result.meta["coupling"] = scene.coupling
-        logbook = _LogBook()
+        logbook = LogBook()
         result.log = logbook.messages
         extracted = {}
         instantiated = []

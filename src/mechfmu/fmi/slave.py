@@ -11,7 +11,7 @@ dependencies) and implements ``check_parameters`` and ``update``. The base class
   exception into fmi2Fatal and leaves the GIL state broken, which crashes the host on its
   next call (measured with a probe FMU). Errors are logged instead (status error, naming
   the variable, value and range) and the step returns fmi2Discard, the only non-OK status
-  pythonfmu 0.7 can return without raising. Outputs keep their last valid values.
+  pythonfmu 0.7 can return without raising. A discarded step leaves the instance as before.
 """
 
 import math
@@ -101,10 +101,15 @@ def effect(name, description):
 
 
 INTEGRATORS = ("euler", "rk4", "dopri5", "radau")
+MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 
 
 def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e-3):
-    """The parameters and counters every integrating model declares, by the same names."""
+    """The parameters and counters every integrating model declares, by the same names.
+
+    A model that declares them keeps its integrator in ``self.integrator``: MechSlave then
+    bounds the wall-clock time of each communication step by ``max_wall_time``.
+    """
     return (
         parameter("integrator", default, "Integration method inside each communication step: "
                   + ", ".join(INTEGRATORS) + " (euler, rk4: fixed sub-step max_substep; "
@@ -115,6 +120,9 @@ def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e
                   "each state variable", unit="1", min=0.0),
         parameter("max_substep", max_substep, "Largest internal sub-step (the fixed sub-step "
                   "of euler and rk4)", unit="s", min=0.0),
+        parameter("max_wall_time", MAX_WALL_TIME, "Wall-clock bound of one communication "
+                  "step; a step that takes longer is discarded with an error (inf: no bound)",
+                  unit="s", min=0.0),
         output("rhs_evaluations", 0, "Right-hand-side evaluations so far"),
         output("substeps", 0, "Accepted internal sub-steps so far"),
     )
@@ -134,6 +142,11 @@ class MechSlave(Fmi2Slave):
         self.initialized = False
         self.start_time = 0.0
         self.pending_error = None  # reported by the next doStep
+        self.integrator = None  # models that integrate set it in check_parameters
+        self.real_inputs = tuple(v.name for v in self.VARIABLES
+                                 if v.causality == "input" and v.kind is float)
+        self.real_outputs = tuple(v.name for v in self.VARIABLES
+                                  if v.causality == "output" and v.kind is float)
         for variable in self.VARIABLES:
             self._register(variable)
 
@@ -184,26 +197,65 @@ class MechSlave(Fmi2Slave):
         self.start_time = float(start_time)
 
     def exit_initialization_mode(self):
+        values_before = dict(self.values)
         try:
             self.check_parameters()
             self.outputs_at_start(self.start_time)
+            self._check_outputs(values_before)
         except Exception as error:  # reported at the first doStep, never raised into C++
             self.pending_error = self._describe(error, self.start_time)
             self.log(self.pending_error, Fmi2Status.error)
+            for name in self.real_outputs:  # the declared start values: finite, not garbage
+                self.values[name] = values_before[name]
         self.initialized = True
 
+    def _check_outputs(self, values_before):
+        """Raise MechanismError if an output is NaN or infinite (a safety net: the physics
+        should have refused the values that led there)."""
+        values = self.values
+        bad = [name for name in self.real_outputs if not math.isfinite(values[name])]
+        if bad:
+            raise MechanismError(
+                "non-finite outputs " + ", ".join(f"{name} = {values[name]!r}" for name in bad)
+                + " from inputs " + ", ".join(f"{name} = {values_before[name]!r}"
+                                              for name in self.real_inputs)
+                + "; the parameters or inputs are probably beyond the model's numerical range")
+
     def do_step(self, current_time, step_size):
+        """One communication step: all of it, or nothing.
+
+        A discarded step leaves the instance exactly as it was before the call (every
+        variable and the internal state), so a host can retry it, shorter or with other
+        inputs, or roll back with fmi2SetFMUstate.
+        """
+        values_before = internal_before = None
         try:
             if self.pending_error is not None:
                 # Stays pending: a model with invalid parameters cannot step at all.
                 self.log(self.pending_error, Fmi2Status.error)
                 return False
+            if not self.initialized:
+                raise MechanismError("doStep before initialisation: call "
+                                     "fmi2EnterInitializationMode and "
+                                     "fmi2ExitInitializationMode first")
             if not (math.isfinite(step_size) and step_size > 0.0):
                 raise MechanismError(f"communication step size = {step_size!r} s must be "
                                      f"finite and > 0")
+            values = self.values
+            for name in self.real_inputs:
+                if not math.isfinite(values[name]):
+                    raise MechanismError(f"input {name} = {values[name]!r} "
+                                         f"{self.declared[name].unit or ''} is not finite")
+            values_before, internal_before = dict(values), self.internal_state()
+            if self.integrator is not None:
+                self.integrator.start_clock(values["max_wall_time"])
             self.update(current_time + step_size, step_size)
+            self._check_outputs(values_before)
             return True
         except Exception as error:
+            if values_before is not None:
+                self.values.update(values_before)  # in place: the registered getters hold it
+                self.restore_internal_state(internal_before)
             self.log(self._describe(error, current_time + step_size), Fmi2Status.error)
             return False
 
@@ -221,13 +273,16 @@ class MechSlave(Fmi2Slave):
         """Inverse of internal_state."""
 
     def _get_fmu_state(self):
-        return {"values": dict(self.values), "internal": self.internal_state(),
+        # A failed initialisation leaves no internal state to save (nor to step from).
+        internal = None if self.pending_error is not None else self.internal_state()
+        return {"values": dict(self.values), "internal": internal,
                 "initialized": self.initialized, "start_time": self.start_time,
                 "pending_error": self.pending_error}
 
     def _set_fmu_state(self, state):
         self.values.update(state["values"])  # in place: the registered getters hold this dict
-        self.restore_internal_state(state["internal"])
+        if state["internal"] is not None:
+            self.restore_internal_state(state["internal"])
         self.initialized = state["initialized"]
         self.start_time = state["start_time"]
         self.pending_error = state["pending_error"]

@@ -19,6 +19,7 @@ _PISTON = ("piston_extension", "piston_speed", "piston_acceleration")
 _FORCES = ("piston_force", "airspeed")
 DRIVES = ("motion", "dynamics")
 _MOMENT_EFFECTS = ("gravity", "aero_drag", "pivot_friction")
+_FORCE_DRIVE = ("piston_force", "valve_command")  # the dynamics drive's own inputs
 
 
 class LandingGear(MechSlave):
@@ -163,7 +164,37 @@ class LandingGear(MechSlave):
             self.state = self.model.initial_state()
             self.model.publish(self.values, time, self.state)
         else:
-            self.update(time, 0.0)
+            self._kinematics()
+
+    def _check_one_driver(self):
+        """Refuse a step whose inputs drive the gear both ways at once.
+
+        ``drive`` chooses the driver: the piston motion (motion) or the piston force or valve
+        command (dynamics). An input of the other driver that differs from its start value
+        would be ignored, so the step is refused naming both. Checked at every step, not at
+        initialisation (an error there would stay pending), so that setting the input back
+        to its start value makes the instance usable again.
+        """
+        v = self.values
+        if v["drive"] == "dynamics":
+            given = [name for name in _PISTON if v[name] != _STARTS[name]]
+            used = ("the piston force (piston_force, or valve_command with the hydraulics "
+                    "effect)")
+            other = "motion"
+        else:
+            given = [name for name in _FORCE_DRIVE if v[name] != _STARTS[name]]
+            used = "the piston motion (piston_extension, piston_speed, piston_acceleration)"
+            other = "dynamics"
+        if given:
+            values = ", ".join(f"{name} = {v[name]!r} {_UNITS[name]}".rstrip() for name in given)
+            starts = ", ".join(f"{name} = {_STARTS[name]!r}" for name in given)
+            plural = len(given) > 1
+            raise MechanismError(
+                f"both drivers given: drive = {v['drive']!r} moves the gear by {used}, but "
+                f"the {other} drive's input{'s' if plural else ''} {values} "
+                f"{'are' if plural else 'is'} set as well and would be ignored; leave "
+                f"{'them at their start values' if plural else 'it at its start value'} "
+                f"({starts}) or choose drive = {other!r}")
 
     def internal_state(self):
         return {"state": None if self.state is None else list(self.state),
@@ -175,6 +206,7 @@ class LandingGear(MechSlave):
             self.integrator.restore(saved["integrator"])
 
     def update(self, time, step_size):
+        self._check_one_driver()
         v = self.values
         if v["drive"] == "dynamics":
             self.state = self.model.advance(self.integrator, time - step_size, self.state,
@@ -183,6 +215,11 @@ class LandingGear(MechSlave):
             v["rhs_evaluations"] = self.integrator.stats.rhs_evaluations
             v["substeps"] = self.integrator.stats.substeps
             return
+        self._kinematics()
+
+    def _kinematics(self):
+        """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
+        v = self.values
         d, h = v["attachment_distance"], v["pivot_height"]
         motion = gear.gear_motion(v["piston_extension"], v["piston_speed"],
                                   v["piston_acceleration"], d, h)
@@ -329,3 +366,9 @@ class _Dynamics:
                                  if self.gravity is not None else 0.0)
         if self.actuator:
             v["cap_pressure"], v["rod_pressure"] = y[3], y[4]
+
+
+# Start values and units of the inputs, for the one-driver check.
+_STARTS = {v.name: v.start for v in LandingGear.VARIABLES if v.causality == "input"}
+_UNITS = {v.name: "" if v.unit in (None, "1") else v.unit
+          for v in LandingGear.VARIABLES if v.causality == "input"}

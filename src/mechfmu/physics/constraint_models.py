@@ -8,6 +8,7 @@ in the solver's error messages. Coordinates per body: (x, y, phi) in m, m, rad.
 
 import math
 
+from .four_bar import singular_position_kind
 from .planar import GROUND, PHI, Y, Driver, Mechanism, PointOnLine, Revolute, translational
 
 def _angle(q, body):
@@ -35,11 +36,11 @@ def four_bar(ground, crank, coupler, rocker):
 
     def singularity(q):
         # With the crank driven, Phi_q loses rank only when coupler and rocker line up;
-        # if the crank lines up with the ground too, all four links are collinear.
-        t2, t3, t4 = _angle(q, 0), _angle(q, 1), _angle(q, 2)
-        if abs(math.sin(t2)) <= abs(math.sin(t4 - t3)):
-            return "change point: all four links collinear"
-        return "toggle position: coupler and rocker collinear"
+        # if the crank lines up with the ground too, all four links are collinear. Which
+        # of the two is nearest follows from the crank angles of the toggles (comparing
+        # sin(theta2) with sin(theta4 - theta3) at q cannot tell them apart: both vanish
+        # linearly at a change point, at ratios that depend on the lengths).
+        return singular_position_kind(d, a, b, c, _angle(q, 0))
 
     joints = [Revolute("crank pivot O2", 0, (0.0, 0.0), GROUND, (0.0, 0.0)),
               Revolute("crank pin A", 0, (a, 0.0), 1, (0.0, 0.0)),

@@ -58,6 +58,12 @@ TOGGLE_ULPS = 8
 # S + L and P + Q this close (relative to L) make a change-point linkage.
 CHANGE_POINT_TOLERANCE = 1e-12
 
+# Names of the singular positions of a crank-driven four-bar (error messages).
+TOGGLE = "toggle position: coupler and rocker collinear"
+CHANGE_POINT = "change point: all four links collinear"
+# A toggle crank angle with |cos(theta2)| this close to 1 lies on the ground line.
+_FLAT_COSINE = 1e-9
+
 GrashofClass = namedtuple("GrashofClass", "code name description")
 GRASHOF_CLASSES = (
     GrashofClass(1, "crank-rocker",
@@ -162,6 +168,29 @@ def crank_angle_range(*linkage):
     if low <= -1.0 and high >= 1.0:
         return None
     return max(low, -1.0), min(high, 1.0)
+
+
+def singular_position_kind(ground, crank, coupler, rocker, crank_angle):
+    """TOGGLE or CHANGE_POINT: the kind of singular position nearest to ``crank_angle`` (rad).
+
+    The crank angles of the toggle positions (coupler and rocker collinear) solve
+    |A - O4| = coupler + rocker or |coupler - rocker|, i.e. cos(theta2) = (a^2 + d^2 - f^2) /
+    (2ad); one with cos(theta2) = +-1 has the crank on the ground line too, all four links
+    collinear: a change point (only in change-point linkages, S + L = P + Q). The nearest
+    such angle decides the name; TOGGLE if the crank has no toggle at all.
+    """
+    d, a, b, c = ground, crank, coupler, rocker
+    nearest = None
+    for reach in (b + c, abs(b - c)):
+        cosine = (a * a + d * d - reach * reach) / (2.0 * a * d)
+        if abs(cosine) > 1.0 + _FLAT_COSINE:
+            continue
+        angle = math.acos(max(-1.0, min(1.0, cosine)))
+        distance = min(abs(math.remainder(crank_angle - angle, 2.0 * math.pi)),
+                       abs(math.remainder(crank_angle + angle, 2.0 * math.pi)))
+        if nearest is None or distance < nearest[0]:
+            nearest = (distance, abs(abs(cosine) - 1.0) <= _FLAT_COSINE)
+    return CHANGE_POINT if nearest is not None and nearest[1] else TOGGLE
 
 
 def _wrap(angle):
@@ -320,7 +349,8 @@ def motion(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
 
     Raises RangeError for invalid lengths, circuit, non-finite inputs or a crank angle where
     the linkage does not assemble, and SingularConfiguration at a toggle position (coupler
-    and rocker collinear: the rates divide by sin(theta4 - theta3) = 0).
+    and rocker collinear: the rates divide by sin(theta4 - theta3) = 0), named a change
+    point when the crank lies on the ground line as well (all four links collinear).
     """
     lengths = check_four_bar(ground, crank, coupler, rocker)
     circuit = _check_circuit(circuit)
@@ -330,8 +360,7 @@ def motion(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
     t3, t4, toggle = _solve(lengths, t2, circuit)
     if toggle:
         raise SingularConfiguration(
-            f"toggle position: coupler and rocker collinear at crank angle {t2!r} rad "
-            f"(coupler angle {t3!r} rad, rocker angle {t4!r} rad): angular velocities "
-            f"undefined")
+            f"{singular_position_kind(*lengths, t2)} at crank angle {t2!r} rad (coupler "
+            f"angle {t3!r} rad, rocker angle {t4!r} rad): angular velocities undefined")
     w3, w4, al3, al4 = _rates(lengths, t2, t3, t4, w2, al2)
     return FourBarMotion(t3, t4, w3, w4, al3, al4, transmission_angle(t3, t4))

@@ -21,7 +21,10 @@ radau   implicit Radau IIA, 3 stages, order 5, L-stable, adaptive (for stiff mod
 Failures raise ``IntegrationError`` naming the method, the time and what to do. No call
 returns NaN or infinity: every loop is bounded (``MAX_SUBSTEPS`` attempted sub-steps per
 ``advance`` call, ``NEWTON_MAXITER`` Newton iterations per stage solve,
-``MAX_EVENT_ITERATIONS`` per event location).
+``MAX_EVENT_ITERATIONS`` per event location), a call that would need more than
+``MAX_SUBSTEPS`` sub-steps of ``max_substep`` is refused before it starts, and
+``start_clock(seconds)`` bounds the wall-clock time of every call until the next
+``start_clock`` (an FMU starts it at each communication step).
 
 References
 ----------
@@ -44,6 +47,7 @@ References
 
 import copy
 import math
+import time
 from collections import namedtuple
 
 from .errors import IntegrationError, MechanismError, RangeError
@@ -63,6 +67,7 @@ _HUGE = 1e150  # a state this large overflows products in any rhs: it has blown 
 _EPS = 2.220446049250313e-16  # machine epsilon of IEEE double (sys.float_info.epsilon)
 _SLIVER = 1e-9  # a remainder within this relative margin of max_substep is taken in one go
 _STRETCH = 1.01  # adaptive steps this close to the end are stretched to land on it [HNW]
+_CLOCK_EVERY = 32  # attempted sub-steps between two looks at the wall clock
 
 Advance = namedtuple("Advance", "t y event")
 Advance.__doc__ = """Result of Integrator.advance: time, state (list) and the Event or None."""
@@ -139,6 +144,23 @@ def _max_abs(values):
     return max(abs(v) for v in values)
 
 
+def _copied(value):
+    """A copy of an integrator attribute that shares nothing mutable with it (several times
+    faster than copy.deepcopy on these few types, and taken at every communication step)."""
+    if isinstance(value, (float, int, complex, bool, str, type(None))):
+        return value
+    if isinstance(value, list):
+        return [_copied(item) for item in value]
+    if isinstance(value, tuple) and type(value) is tuple:
+        return tuple(_copied(item) for item in value)
+    if isinstance(value, Stats):
+        twin = Stats()
+        for name in Stats.__slots__:
+            setattr(twin, name, getattr(value, name))
+        return twin
+    return copy.deepcopy(value)
+
+
 def _all_finite(values):
     return all(math.isfinite(v) for v in values)
 
@@ -194,6 +216,8 @@ class Integrator:
         self.stats = Stats()
         self._budget = MAX_SUBSTEPS
         self._growth_limit = math.inf
+        self.time_limit = None  # s of wall-clock time, set by start_clock
+        self.deadline = None  # time.monotonic() value past which a call stops
         self.restart()
 
     def __repr__(self):
@@ -202,14 +226,24 @@ class Integrator:
 
     def snapshot(self):
         """Everything the integrator carries between calls (step size, Jacobian, counters),
-        deep-copied, for an FMU state; ``restore`` puts it back exactly."""
-        return copy.deepcopy(self.__dict__)
+        copied, for an FMU state; ``restore`` puts it back exactly."""
+        return {name: _copied(value) for name, value in self.__dict__.items()}
 
     def restore(self, snapshot):
-        self.__dict__.update(copy.deepcopy(snapshot))
+        self.__dict__.update({name: _copied(value) for name, value in snapshot.items()})
 
     def restart(self):
         """Forget the step size (and Jacobian) carried over between advance() calls."""
+
+    def start_clock(self, seconds):
+        """Bound the wall-clock time from now until the next start_clock to ``seconds``
+        (inf: no bound). A call that passes it raises IntegrationError: never a hang."""
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) \
+                or not seconds > 0.0:  # also rejects NaN
+            raise RangeError("max_wall_time", seconds, "(0, inf]", "s",
+                             "the wall-clock bound of a communication step must be positive")
+        self.time_limit = float(seconds)
+        self.deadline = time.monotonic() + seconds if math.isfinite(seconds) else None
 
     # --- the one public operation -----------------------------------------------------------
     def advance(self, rhs, t, y, t_end, events=()):
@@ -228,6 +262,13 @@ class Integrator:
         self._begin_call()
         self._budget = MAX_SUBSTEPS
         self._growth_limit = GROWTH_LIMIT * (1.0 + _max_abs(y))
+        needed = (t_end - t) / self.max_substep
+        if needed > MAX_SUBSTEPS:  # refused at once rather than after minutes of work
+            raise IntegrationError(
+                f"{self.method}: integrating from t = {_fmt(t)} s to t_end = {_fmt(t_end)} s "
+                f"needs at least {needed:.3g} sub-steps of max_substep = "
+                f"{_fmt_step(self.max_substep)} s, more than the bound of {MAX_SUBSTEPS}: "
+                + self._too_many_advice)
         for _ in range(MAX_SUBSTEPS):
             remaining = t_end - t
             if remaining <= self.max_substep * (1.0 + _SLIVER):
@@ -314,6 +355,12 @@ class Integrator:
         self._budget -= 1
         if self._budget < 0:
             raise self._too_many(t, t_end_hint)
+        if self._budget % _CLOCK_EVERY == 0 and self.deadline is not None \
+                and time.monotonic() > self.deadline:
+            raise IntegrationError(
+                f"{self.method}: stopped at t = {_fmt(t)} s after more than the wall-clock "
+                f"bound of {self.time_limit:g} s (max_wall_time) for one communication step; "
+                "shorten the communication step, loosen rtol and atol, or raise max_wall_time")
 
     def _too_many(self, t, t_end):
         where = f" (t_end = {_fmt(t_end)} s)" if t_end is not None else ""

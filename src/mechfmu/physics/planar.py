@@ -335,7 +335,7 @@ def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
     """
     q = [float(v) for v in guess]
     residual = mechanism.residual(q, drive)
-    polish = False
+    size = math.inf
     for iteration in range(1, max_iterations + 1):
         _, factored = _factor(mechanism, q)
         if factored is None:
@@ -348,13 +348,23 @@ def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
         size = _max_abs(residual)
         if not math.isfinite(size):
             break
-        # Below tolerance, one more correction unless this one was already tiny: Newton's
-        # error after a correction delta is about C delta^2, so a last delta <= 1e-2
-        # sqrt(tolerance) leaves an error far below the tolerance itself.
+        # Below tolerance, more corrections until one is tiny: Newton's error after a
+        # correction delta is about C delta^2, so a last delta <= 1e-2 sqrt(tolerance) leaves
+        # an error far below the tolerance itself. Near a regular root that is one more
+        # correction. At a singular root (a toggle or change point exactly at the drive) the
+        # residual is quadratic in the distance: it falls below the tolerance about
+        # sqrt(tolerance) away, where the Jacobian still looks regular, and the corrections
+        # only halve; following them takes the iterate to where the conditioning shows the
+        # singular position (analyse), instead of accepting a point next to it from which
+        # the next step can leave on either branch.
         small = max(abs(s / c) for s, c in zip(step, mechanism.column_scale))
-        if size <= tolerance and (polish or small <= 1e-2 * math.sqrt(tolerance)):
+        if size <= tolerance and small <= 1e-2 * math.sqrt(tolerance):
             return q, iteration, size
-        polish = size <= tolerance
+    if size <= tolerance:
+        # Converged in the residual, but the corrections did not become tiny within the
+        # iteration limit (a singular or nearly singular root): the caller's conditioning
+        # check decides whether the position is usable.
+        return q, max_iterations, size
     raise NoConvergence(
         f"{mechanism.name}: Newton-Raphson did not converge in {max_iterations} iterations "
         f"(scaled residual {_max_abs(residual):.3g} > tolerance {tolerance:.3g}) "
@@ -483,10 +493,13 @@ class BranchFollower:
             except NoConvergence as error:
                 last_error = error
         reached, solution = furthest
-        if isinstance(last_error, NoConvergence) and \
-                solution.condition > 10.0 * self.solution.condition:
-            # The Jacobian degrades along the way and Newton fails beyond: the drive asks for
-            # a position past a singular one, where the mechanism does not assemble.
+        if isinstance(last_error, NoConvergence) and (
+                solution.condition > 10.0 * self.solution.condition
+                or solution.condition > math.sqrt(self.singularity_threshold)):
+            # The Jacobian degrades along the way (or the last position was already next to
+            # a singular one: a toggle approached closely, where no piece gets further) and
+            # Newton fails beyond: the drive asks for a position past a singular one, where
+            # the mechanism does not assemble.
             raise SingularConfiguration(
                 f"{self.mechanism.name}: no assembly at the requested drive "
                 f"{[d[0] for d in drive]}: the motion reaches a singular position, "

@@ -21,7 +21,7 @@ Lengths in m, stiffness in N/m, forces in N.
 import math
 from collections import namedtuple
 
-from .errors import RangeError, SnapThrough, require_finite, require_positive
+from .errors import IntegrationError, RangeError, SnapThrough, require_finite, require_positive
 
 GRAVITY = 9.81  # m/s^2, the coursework's value
 
@@ -33,6 +33,9 @@ COURSEWORK_MASS = 180.0 + 31.0
 
 NEAR, FAR = 0, 1  # stable branches
 MAX_ITERATIONS = 200
+# Largest |h - u| (m) solve_on_branch looks for an equilibrium at: beyond about 1e154 m the
+# products in spring_force overflow. Loads above 2 k MAX_DEFLECTION are refused by name.
+MAX_DEFLECTION = 1e150
 
 Spring = namedtuple("Spring", "free_length stiffness base_offset")
 LimitPoint = namedtuple("LimitPoint", "deflection load")
@@ -103,8 +106,11 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
     """Equilibrium deflection (m) on one stable branch for a load W (N).
 
     F is strictly increasing on a stable branch, so a bracket plus safeguarded Newton
-    converges. The bracket's open end is found by doubling; both loops are bounded.
-    Raises SnapThrough when the branch has no equilibrium for this load.
+    converges. The bracket's open end is found by doubling, from a first guess of the
+    interval that the load's asymptote |F| ~ 2 k (|h - u| - L) gives; both loops are bounded
+    (MAX_ITERATIONS each). Raises SnapThrough when the branch has no equilibrium for this
+    load, RangeError when the doubling finds no bracket (a load so large that F overflows
+    before it is reached) and IntegrationError if Newton has not converged within its bound.
     """
     W = require_finite("load", load, "N")
     limit = limit_point(spring)
@@ -116,11 +122,22 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
         raise SnapThrough(f"load = {W!r} N is below {-limit.load!r} N, "
                           f"the far branch's limit (at deflection "
                           f"{_branch_interval(FAR, spring)[0]!r} m)")
-    scale = spring.free_length
+    load_bound = 2.0 * spring.stiffness * MAX_DEFLECTION
+    valid = f"[{-load_bound!r}, {load_bound!r}]"
+    if abs(W) > load_bound:
+        raise RangeError("load", W, valid, "N", f"the equilibrium deflection would lie "
+                         f"beyond {MAX_DEFLECTION!r} m from the rest height, where the spring "
+                         f"force overflows")
+    # Far out on a branch |F| ~ 2 k (|h - u| - L): starting there, doubling from the free
+    # length alone would need log2(|W| / (k L)) steps and run out of them for loads above
+    # 2^200 k L, returning a deflection that is no equilibrium.
+    scale = spring.free_length + abs(W) / (2.0 * spring.stiffness)
+    bracketed = False
     if branch == NEAR:
         low = high - scale
         for _ in range(MAX_ITERATIONS):
             if spring_force(low, spring) <= W:
+                bracketed = True
                 break
             scale *= 2.0
             low = high - scale
@@ -128,9 +145,16 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
         high = low + scale
         for _ in range(MAX_ITERATIONS):
             if spring_force(high, spring) >= W:
+                bracketed = True
                 break
             scale *= 2.0
             high = low + scale
+    if not bracketed:
+        raise RangeError("load", W, valid, "N",
+                         f"no equilibrium bracket on the {('near', 'far')[branch]} "
+                         f"branch within MAX_ITERATIONS = {MAX_ITERATIONS} doublings of the "
+                         f"search interval: the spring force overflows before it balances "
+                         f"the load")
     u = guess if guess is not None and low <= guess <= high else 0.5 * (low + high)
     for _ in range(MAX_ITERATIONS):
         residual = spring_force(u, spring) - W
@@ -148,7 +172,9 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
         if abs(candidate - u) <= tolerance * max(1.0, abs(u)) or high - low <= tolerance:
             return _polish(candidate, W, spring, low, high)
         u = candidate
-    return _polish(u, W, spring, low, high)
+    raise IntegrationError(f"load = {W!r} N: the equilibrium deflection did not converge "
+                           f"within MAX_ITERATIONS = {MAX_ITERATIONS} safeguarded Newton "
+                           f"iterations (bracket [{low!r}, {high!r}] m)")
 
 
 def _polish(u, load, spring, low, high, steps=3):
