@@ -343,3 +343,12 @@ def test_a_failed_run_frees_every_instance(fmu_dir, tmp_path, monkeypatch):
     with pytest.raises(SimulationError):
         run_scene(scene, tmp_path, fmu_dir, plot=False)
     assert sorted(freed) == ["actuator", "gear"]
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, math.nan])
+def test_an_invalid_wall_clock_bound_is_named(fmu_dir, value):
+    driven = Driven(fmu_dir / "Suspension.fmu", parameters={"dynamics": True,
+                                                             "max_wall_time": value})
+    message = driven.step(0.01)
+    assert f"max_wall_time = {value!r} s is outside the valid range (0, inf] s" in message
+    driven.close()
