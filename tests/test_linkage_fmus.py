@@ -254,7 +254,8 @@ def test_valve_float_is_reported_with_the_camshaft_speed(fmu_dir):
             k += 1
             result = fmu.step(dt, camshaft_angle=1.01 * predicted * k * dt)
         assert result is not True and "valve float" in result
-        assert fmu.get("contact_lost") is True or fmu.get("contact_lost") == 1
+        # The refused step changed nothing: the outputs are those of the last step taken.
+        assert fmu.get("contact_lost") in (False, 0) and fmu.get("contact_force") > 0
     finally:
         fmu.close()
 

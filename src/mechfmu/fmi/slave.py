@@ -20,7 +20,7 @@ from xml.etree.ElementTree import Element, SubElement
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.enums import Fmi2Status
 
-from ..physics.errors import MechanismError
+from ..physics.errors import MechanismError, require_finite
 
 # Base-unit exponents of every unit a model may declare (FMI 2.0 UnitDefinitions).
 UNITS = {
@@ -128,6 +128,11 @@ def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e
     )
 
 
+def _same_time(a, b):
+    """Equal communication times up to the rounding of a host's own time keeping."""
+    return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
+
+
 class MechSlave(Fmi2Slave):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 
@@ -141,6 +146,7 @@ class MechSlave(Fmi2Slave):
         self.declared = {v.name: v for v in self.VARIABLES}
         self.initialized = False
         self.start_time = 0.0
+        self.time_reached = 0.0  # end of the last step taken (s): where the next must start
         self.pending_error = None  # reported by the next doStep
         self.integrator = None  # models that integrate set it in check_parameters
         self.real_inputs = tuple(v.name for v in self.VARIABLES
@@ -194,7 +200,7 @@ class MechSlave(Fmi2Slave):
 
     # --- FMI calls (never raise) ----------------------------------------------------
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
-        self.start_time = float(start_time)
+        self.start_time = self.time_reached = float(start_time)
 
     def exit_initialization_mode(self):
         values_before = dict(self.values)
@@ -241,16 +247,22 @@ class MechSlave(Fmi2Slave):
             if not (math.isfinite(step_size) and step_size > 0.0):
                 raise MechanismError(f"communication step size = {step_size!r} s must be "
                                      f"finite and > 0")
+            if self.integrator is not None and not _same_time(current_time, self.time_reached):
+                raise MechanismError(
+                    f"doStep from t = {current_time!r} s, but this instance's state is at "
+                    f"t = {self.time_reached!r} s: a communication step must start where the "
+                    "last one ended (roll back with fmi2SetFMUstate to step again from an "
+                    "earlier time)")
             values = self.values
             for name in self.real_inputs:
                 if not math.isfinite(values[name]):
-                    raise MechanismError(f"input {name} = {values[name]!r} "
-                                         f"{self.declared[name].unit or ''} is not finite")
+                    require_finite(name, values[name], self.declared[name].unit or "")
             values_before, internal_before = dict(values), self.internal_state()
             if self.integrator is not None:
                 self.integrator.start_clock(values["max_wall_time"])
             self.update(current_time + step_size, step_size)
             self._check_outputs(values_before)
+            self.time_reached = current_time + step_size
             return True
         except Exception as error:
             if values_before is not None:
@@ -277,6 +289,7 @@ class MechSlave(Fmi2Slave):
         internal = None if self.pending_error is not None else self.internal_state()
         return {"values": dict(self.values), "internal": internal,
                 "initialized": self.initialized, "start_time": self.start_time,
+                "time_reached": self.time_reached,
                 "pending_error": self.pending_error}
 
     def _set_fmu_state(self, state):
@@ -285,6 +298,7 @@ class MechSlave(Fmi2Slave):
             self.restore_internal_state(state["internal"])
         self.initialized = state["initialized"]
         self.start_time = state["start_time"]
+        self.time_reached = state["time_reached"]
         self.pending_error = state["pending_error"]
 
     # --- model description ----------------------------------------------------------
