@@ -296,30 +296,27 @@ def _limit_decimal(spring):
     return h - v_star, f_star, curvature
 
 
-def _near_root_decimal(load, spring, u_star):
-    """The stable (near-branch) root of F(u) = W below u*, by bisection at 60 digits."""
-    low, high = u_star - 2 * D(spring.free_length), u_star
-    target = D(load)
+def _bisect_decimal(spring, low, high, target, rising):
+    """The root of F(u) = target in [low, high] by bisection at 60 digits; ``rising``: F
+    increases with u there."""
     for _ in range(130):
         middle = (low + high) / 2
-        if _force_decimal(middle, spring) > target:
+        if (_force_decimal(middle, spring) > target) == rising:
             high = middle
         else:
             low = middle
     return (low + high) / 2
+
+
+def _near_root_decimal(load, spring, u_star):
+    """The stable (near-branch) root of F(u) = W below u*, by bisection at 60 digits."""
+    return _bisect_decimal(spring, u_star - 2 * D(spring.free_length), u_star, D(load), True)
 
 
 def _unstable_root_decimal(load, spring, u_star):
     """The unstable root of F(u) = W between u* and h, by bisection at 60 digits."""
     _, _, _, h = _spring_decimal(spring)
-    low, high, target = u_star, h, D(load)
-    for _ in range(130):
-        middle = (low + high) / 2
-        if _force_decimal(middle, spring) > target:
-            low = middle
-        else:
-            high = middle
-    return (low + high) / 2
+    return _bisect_decimal(spring, u_star, h, D(load), False)
 
 
 springs = st.builds(

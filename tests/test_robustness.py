@@ -152,10 +152,10 @@ def _outputs_along(fuzzed, plan):
 @pytest.mark.parametrize("model", MODELS)
 def test_reset_returns_the_instance_to_its_initial_state(fmu_dir, model):
     plan, other = _plausible_plan(model, 0), _plausible_plan(model, 1)
-    fresh = fuzz._Fuzzed(fmu_dir / f"{model}.fmu")
+    fresh = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
     expected = _outputs_along(fresh, plan)
     fresh.close()
-    reused = fuzz._Fuzzed(fmu_dir / f"{model}.fmu")
+    reused = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
     # A run with other parameters and inputs first, then fmi2Reset (done by start()).
     _outputs_along(reused, dict(other, parameters=_changed_parameters(model)))
     assert _outputs_along(reused, plan) == expected
@@ -175,11 +175,11 @@ def test_instances_of_one_fmu_in_one_process_share_nothing(fmu_dir, model):
     plans = [_plausible_plan(model, 2), _plausible_plan(model, 3)]
     alone = []
     for plan in plans:
-        fuzzed = fuzz._Fuzzed(fmu_dir / f"{model}.fmu")
+        fuzzed = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
         alone.append(_outputs_along(fuzzed, plan))
         fuzzed.close()
-    first = fuzz._Fuzzed(fmu_dir / f"{model}.fmu", instance="first")
-    second = fuzz._Fuzzed(fmu_dir / f"{model}.fmu", instance="second")
+    first = fuzz.Fuzzed(fmu_dir / f"{model}.fmu", instance="first")
+    second = fuzz.Fuzzed(fmu_dir / f"{model}.fmu", instance="second")
     together = [[], []]
     for fuzzed, plan, trace in zip((first, second), plans, together):
         fuzzed.start(plan)
@@ -200,7 +200,7 @@ def test_instances_of_one_fmu_in_one_process_share_nothing(fmu_dir, model):
 def test_fmu_state_round_trip_covers_every_internal_state(fmu_dir, model):
     """Save the state, step on, roll back, step again: identical outputs, bit for bit."""
     plan = dict(_plausible_plan(model, 4, steps=10), rollback=3)
-    fuzzed = fuzz._Fuzzed(fmu_dir / f"{model}.fmu")
+    fuzzed = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
     done, discarded = fuzzed.run(plan)  # run() rolls back to step 3 and compares (Finding)
     assert done >= 4, f"{model}: only {done} steps succeeded ({discarded} discarded)"
     fuzzed.close()
@@ -213,12 +213,12 @@ def test_a_discarded_step_leaves_the_instance_as_before(fmu_dir, model):
     """A step refused half-way (a NaN input) must not advance anything: the run that
     continues after it equals the run that never had it."""
     plan = _plausible_plan(model, 5, steps=6)
-    clean = fuzz._Fuzzed(fmu_dir / f"{model}.fmu")
+    clean = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
     expected = _outputs_along(clean, plan)
     clean.close()
     name = sorted(n for n, v in fuzz.declarations(model).items()
                   if v.causality == "input" and v.kind is float)
-    fuzzed = fuzz._Fuzzed(fmu_dir / f"{model}.fmu")
+    fuzzed = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
     fuzzed.start(plan)
     now, trace = 0.0, [fuzzed.read_outputs()]
     for index, (size, inputs) in enumerate(plan["steps"]):

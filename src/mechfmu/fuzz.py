@@ -166,7 +166,7 @@ class Finding(Exception):
     """A violated invariant: the FMU misbehaved on this sequence."""
 
 
-class _Fuzzed:
+class Fuzzed:
     """One instantiated FMU under fmpy, driven sequence after sequence."""
 
     def __init__(self, path, instance="fuzzed"):
@@ -283,7 +283,7 @@ class _Fuzzed:
 
 def child(path, model_name, sequences, seed, progress, only=None):
     """Fuzz one FMU in this process; append a JSON line per event to ``progress``."""
-    fuzzed = _Fuzzed(path)
+    fuzzed = Fuzzed(path)
     variables = declarations(model_name, fuzzed.description)
     indices = [only] if only is not None else range(sequences)
     totals = {"sequences": 0, "steps_ok": 0, "steps_discarded": 0, "findings": []}
