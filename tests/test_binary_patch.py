@@ -5,12 +5,14 @@ import zipfile
 import pytest
 
 from mechfmu.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset, patch_exit_finaliser
+from mechfmu.build import pythonfmu_library_name
 from mechfmu.models import MODELS
 
 
 def _binary(fmu_dir, model):
+    """pythonfmu's library inside the FMU (behind the C loader, see build.py)."""
     with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
-        return archive.read(f"binaries/linux64/{model}.so")
+        return archive.read(f"binaries/linux64/{pythonfmu_library_name(model)}")
 
 
 @pytest.mark.parametrize("model", list(MODELS))
