@@ -1,4 +1,5 @@
-"""The ``mechfmu`` command: build, run, check, references, report, docs, study, bench, fuzz."""
+"""The ``mechfmu`` command: build, run, export-ssp, check, references, report, docs, study, bench,
+fuzz."""
 
 import argparse
 import sys
@@ -47,6 +48,18 @@ def _run(args):
         comparison = compare(paths["csv"], reference, args.rtol, args.atol)
         print(f"check against {reference}: {comparison}")
         return 0 if comparison.ok else 1
+    return 0
+
+
+def _export_ssp(args):
+    from .cosim.scene import SceneError
+    from .ssp import export_ssp, summary
+    try:
+        path = export_ssp(_resolve_scene(args.scene), args.out, args.fmu_dir)
+    except SceneError as error:
+        print(f"scene error: {error}", file=sys.stderr)
+        return 2
+    print(f"wrote {path}: {summary(path)}")
     return 0
 
 
@@ -120,6 +133,13 @@ def parser():
     run.add_argument("--rtol", type=float, default=1e-9)
     run.add_argument("--atol", type=float, default=1e-12)
     run.set_defaults(func=_run)
+
+    export = verbs.add_parser("export-ssp", help="write a scene as an SSP 1.0 package (the "
+                              "system, its parameters and its FMUs) for other co-simulation tools")
+    export.add_argument("scene", help="scene TOML file, or a name in sims/scenes/")
+    export.add_argument("out", help="the .ssp file to write")
+    export.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    export.set_defaults(func=_export_ssp)
 
     check = verbs.add_parser("check", help="compare a result CSV with a reference CSV")
     check.add_argument("result")

@@ -145,6 +145,8 @@ class MechSlave(Fmi2Slave):
         self.values = {v.name: v.start for v in self.VARIABLES}
         self.declared = {v.name: v for v in self.VARIABLES}
         self.initialized = False
+        self.initializing = False  # between fmi2EnterInitializationMode and fmi2Exit...
+        self.stale = True  # initialisation-mode outputs need computing (an input changed)
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
         self.pending_error = None  # reported by the next doStep
@@ -185,6 +187,7 @@ class MechSlave(Fmi2Slave):
             self.log(self.pending_error, Fmi2Status.error)
             return
         self.values[name] = variable.kind(value) if variable.kind is not float else float(value)
+        self.stale = True
 
     # --- model contract -------------------------------------------------------------
     def check_parameters(self):
@@ -202,7 +205,42 @@ class MechSlave(Fmi2Slave):
     def setup_experiment(self, start_time, stop_time=None, tolerance=None):
         self.start_time = self.time_reached = float(start_time)
 
+    def enter_initialization_mode(self):
+        self.initializing, self.stale = True, True
+
+    def _initial_outputs(self):
+        """Initialisation mode: outputs from the current parameters and inputs (FMI 2.0
+        InitialUnknowns), so a host that reads them before fmi2ExitInitializationMode
+        (libcosim) propagates real values. A failure leaves the start values; it is
+        reported at fmi2ExitInitializationMode, with the inputs the host has set by then."""
+        self.stale = False
+        values_before = dict(self.values)
+        try:
+            self.check_parameters()
+            self.outputs_at_start(self.start_time)
+            self._check_outputs(values_before)
+        except Exception:
+            for variable in self.VARIABLES:
+                if variable.causality == "output":
+                    self.values[variable.name] = variable.start
+
+    def get_real(self, vrs):
+        if self.initializing and self.stale:
+            self._initial_outputs()
+        return super().get_real(vrs)
+
+    def get_integer(self, vrs):
+        if self.initializing and self.stale:
+            self._initial_outputs()
+        return super().get_integer(vrs)
+
+    def get_boolean(self, vrs):
+        if self.initializing and self.stale:
+            self._initial_outputs()
+        return super().get_boolean(vrs)
+
     def exit_initialization_mode(self):
+        self.initializing = False
         values_before = dict(self.values)
         try:
             self.check_parameters()
