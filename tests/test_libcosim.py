@@ -8,9 +8,6 @@ equal to the nominal grid k * step to 1e-9 s. The outputs named in each case mus
 """
 
 import math
-import shutil
-import time
-import zipfile
 
 import numpy as np
 import pytest
@@ -21,7 +18,6 @@ from mechfmu.hosts.libcosim import (LibcosimError, communication_points, run_lib
                                     step_nanoseconds)
 from mechfmu.models import MODELS
 
-from conftest import FMU_DIR
 
 RTOL = 1e-12
 FLOOR = 1e-300  # absolute allowance: only an exact 0 in one host may meet a subnormal
@@ -114,40 +110,10 @@ CASES = [
 ]
 
 
-def _usable(path):
-    try:
-        with zipfile.ZipFile(path) as archive:
-            names = archive.namelist()
-            archive.read("modelDescription.xml")
-        return any(n.startswith("binaries/linux64/") and n.endswith(".so") for n in names)
-    except (OSError, zipfile.BadZipFile, KeyError):
-        return False
-
-
 @pytest.fixture(scope="module")
-def fmus(tmp_path_factory):
-    """A private copy of every FMU, so both hosts run the same file even while fmus/ is
-    being rebuilt (a missing or half-written FMU is waited for; built here as a last
-    resort)."""
-    folder = tmp_path_factory.mktemp("libcosim_fmus")
-    paths = {}
-    for name in MODELS:
-        source, target = FMU_DIR / f"{name}.fmu", folder / f"{name}.fmu"
-        deadline = time.monotonic() + 120.0
-        while True:
-            try:
-                shutil.copyfile(source, target)
-            except OSError:
-                pass
-            if _usable(target):
-                break
-            if time.monotonic() > deadline:
-                from mechfmu.build import build_all
-                build_all(folder, [name])
-                break
-            time.sleep(2.0)
-        paths[name] = target
-    return paths
+def fmus(fmu_dir):
+    """The built FMUs by model name."""
+    return {name: fmu_dir / f"{name}.fmu" for name in MODELS}
 
 
 def run_fmpy(path, parameters, inputs, step, stop_time, outputs):

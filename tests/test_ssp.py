@@ -14,7 +14,6 @@ differ from the default Gauss-Seidel master by the one-step coupling lag, measur
 import dataclasses
 import math
 import shutil
-import time
 import zipfile
 from pathlib import Path
 
@@ -45,24 +44,9 @@ def q(prefix, name):
 
 
 @pytest.fixture(scope="module")
-def fmus(fmu_dir, tmp_path_factory):
-    """A private copy of fmus/, so every master runs the same files while fmus/ may be
-    rebuilt by a concurrent build (a missing or half-written FMU is waited for)."""
-    folder = tmp_path_factory.mktemp("ssp_fmus")
-    for name in MODELS:
-        source, target = fmu_dir / f"{name}.fmu", folder / f"{name}.fmu"
-        deadline = time.monotonic() + 120.0
-        while True:
-            try:
-                shutil.copyfile(source, target)
-                with zipfile.ZipFile(target) as archive:
-                    archive.read("modelDescription.xml")
-                break
-            except (OSError, zipfile.BadZipFile, KeyError):
-                if time.monotonic() > deadline:
-                    raise
-                time.sleep(2.0)
-    return folder
+def fmus(fmu_dir):
+    """The folder of the built FMUs."""
+    return fmu_dir
 
 
 def read_ssd(ssp):

@@ -209,20 +209,24 @@ class MechSlave(Fmi2Slave):
         self.initializing, self.stale = True, True
 
     def _initial_outputs(self):
-        """Initialisation mode: outputs from the current parameters and inputs (FMI 2.0
-        InitialUnknowns), so a host that reads them before fmi2ExitInitializationMode
-        (libcosim) propagates real values. A failure leaves the start values; it is
-        reported at fmi2ExitInitializationMode, with the inputs the host has set by then."""
+        """Outputs from the current parameters and inputs (FMI 2.0 InitialUnknowns).
+
+        Read in initialization mode (libcosim passes them on before any FMU leaves it) and
+        computed again at fmi2ExitInitializationMode. Returns the error text, or None; on an
+        error the outputs keep their declared start values.
+        """
         self.stale = False
         values_before = dict(self.values)
         try:
             self.check_parameters()
             self.outputs_at_start(self.start_time)
             self._check_outputs(values_before)
-        except Exception:
+            return None
+        except Exception as error:  # never raised into C++ (see the module docstring)
             for variable in self.VARIABLES:
                 if variable.causality == "output":
                     self.values[variable.name] = variable.start
+            return self._describe(error, self.start_time)
 
     def get_real(self, vrs):
         if self.initializing and self.stale:
@@ -241,16 +245,10 @@ class MechSlave(Fmi2Slave):
 
     def exit_initialization_mode(self):
         self.initializing = False
-        values_before = dict(self.values)
-        try:
-            self.check_parameters()
-            self.outputs_at_start(self.start_time)
-            self._check_outputs(values_before)
-        except Exception as error:  # reported at the first doStep, never raised into C++
-            self.pending_error = self._describe(error, self.start_time)
+        # With the inputs the host has set by now; an error is reported at every doStep.
+        self.pending_error = self._initial_outputs()
+        if self.pending_error is not None:
             self.log(self.pending_error, Fmi2Status.error)
-            for name in self.real_outputs:  # the declared start values: finite, not garbage
-                self.values[name] = values_before[name]
         self.initialized = True
 
     def _check_outputs(self, values_before):
