@@ -1,5 +1,5 @@
 """The ``mechfmu`` command: build, run, export-ssp, check, references, report, docs, study, bench,
-fuzz."""
+fuzz, sweep."""
 
 import argparse
 import sys
@@ -110,7 +110,12 @@ def _fuzz(arguments):
     return fuzz(arguments)
 
 
-PASS_THROUGH = {"study": _study, "bench": _bench, "fuzz": _fuzz}
+def _sweep(arguments):
+    from .sweep import main as sweep
+    return sweep(arguments)
+
+
+PASS_THROUGH = {"study": _study, "bench": _bench, "fuzz": _fuzz, "sweep": _sweep}
 
 
 def parser():
@@ -165,6 +170,8 @@ def parser():
     verbs.add_parser("bench", help="performance benchmarks (make bench; mechfmu bench --help)")
     verbs.add_parser("fuzz", help="random input sequences through every FMU, each in a child "
                      "process (mechfmu fuzz --help)")
+    verbs.add_parser("sweep", help="run a scene over a grid or sample of parameter values on a "
+                     "local process pool, one CSV row of metrics per point (mechfmu sweep --help)")
     return main
 
 

@@ -10,6 +10,7 @@ component, the time and the FMU's own log message, and carries the rows computed
 """
 
 import ctypes
+import functools
 import shutil
 from array import array
 import tempfile
@@ -71,6 +72,18 @@ def resolve_fmu(spec, scene, fmu_dir):
         raise SceneError(f"component {spec.name!r}: FMU file {candidate} not found; build the "
                          f"FMUs with 'mechfmu build' (or 'make fmus')")
     return candidate
+
+
+def model_description(path):
+    """fmpy's ModelDescription of the FMU at ``path``, parsed once per file version (a
+    rebuilt FMU, with a new modification time or size, is parsed again)."""
+    stat = Path(path).stat()
+    return _parsed_description(str(path), stat.st_mtime_ns, stat.st_size)
+
+
+@functools.lru_cache(maxsize=128)
+def _parsed_description(path, mtime_ns, size):
+    return read_model_description(path)
 
 
 def _route(environment, instance, status, category, message):
@@ -252,7 +265,7 @@ class Simulation:
         self.components = {}
         for name, spec in scene.components.items():
             path = resolve_fmu(spec, scene, fmu_dir)
-            self.components[name] = _Component(spec, path, read_model_description(str(path)))
+            self.components[name] = _Component(spec, path, model_description(path))
         self._check()
         self.order, self.lagged = order_components(list(self.components), self.connections,
                                                    self._feedthrough)

@@ -1,0 +1,310 @@
+"""mechfmu sweep: parsing, points, metrics, and end-to-end sweeps of a cheap scene."""
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mechfmu import sweep
+from mechfmu.cli import main as cli_main
+from mechfmu.cosim.master import Simulation
+from mechfmu.cosim.scene import load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+FMU_DIR = ROOT / "fmus"
+
+needs_fmus = pytest.mark.skipif(not (FMU_DIR / "Suspension.fmu").is_file(),
+                                reason="FMUs not built")
+
+SCENE = """\
+name = "mini_ramp"
+stop_time = {stop}
+step = 0.01
+reference = "{reference}"
+connections = ["load.load -> suspension.load"]
+record = ["load.load", "suspension.deflection", "suspension.snap_through"]
+
+[components.load]
+fmu = "LoadProfile"
+parameters = {{ shape = "ramp", initial_value = 0.0, final_value = 4000.0, start_time = 0.0, duration = {stop} }}
+
+[components.suspension]
+fmu = "Suspension"
+parameters = {{ spring_stiffness = 10000.0 }}
+inputs = {{ road_height = 0.0, road_rate = 0.0 }}
+"""
+
+
+def write_scene(tmp_path, stop=1.0):
+    path = tmp_path / "mini_ramp.toml"
+    reference = ROOT / "data" / "reference" / "suspension_load_ramp.csv"
+    path.write_text(SCENE.format(stop=stop, reference=reference.as_posix()))
+    return path
+
+
+# --- parsing ---------------------------------------------------------------------------------
+
+def test_parse_vary():
+    vary = sweep.parse_vary("suspension.spring_stiffness=8000:12000:3")
+    assert (vary.component, vary.variable, vary.start, vary.stop, vary.count) == \
+        ("suspension", "spring_stiffness", 8000.0, 12000.0, 3)
+    assert vary.name == "suspension.spring_stiffness"
+    assert sweep.parse_vary("a.b=1e-3:2").count is None  # range only, for sampling
+
+
+@pytest.mark.parametrize("text", ["a.b", "ab=1:2:3", "a.b=1:2:3:4", "a.b=x:2:3", "a.b=1:2:0",
+                                  "a.b=1:2:1.5", "a.b=1:inf:2", ".b=1:2:2", "a.=1:2:2"])
+def test_parse_vary_rejects(text):
+    with pytest.raises(sweep.SweepError, match="--vary"):
+        sweep.parse_vary(text)
+
+
+def test_parse_metric():
+    metric = sweep.parse_metric("first_time_above:suspension.deflection:0.25")
+    assert (metric.kind, metric.variable, metric.threshold) == \
+        ("first_time_above", "suspension.deflection", 0.25)
+    assert sweep.parse_metric("max:a.b").threshold is None
+    assert sweep.parse_metric("max_abs_error:a.b").kind == "max_abs_error"
+
+
+@pytest.mark.parametrize("text", ["mean:a.b", "max:ab", "max", "max:a.b:1",
+                                  "first_time_above:a.b", "first_time_above:a.b:x", "final:.b"])
+def test_parse_metric_rejects(text):
+    with pytest.raises(sweep.SweepError, match="--metrics"):
+        sweep.parse_metric(text)
+
+
+# --- points ----------------------------------------------------------------------------------
+
+def test_grid_is_the_full_product():
+    varies = [sweep.parse_vary("a.x=0:1:3"), sweep.parse_vary("a.y=10:20:2")]
+    points = sweep.grid_points(varies)
+    assert points.shape == (6, 2)
+    assert points.tolist() == [[0, 10], [0, 20], [0.5, 10], [0.5, 20], [1, 10], [1, 20]]
+    with pytest.raises(sweep.SweepError, match="COUNT"):
+        sweep.grid_points([sweep.parse_vary("a.x=0:1")])
+
+
+def test_lhs_one_sample_per_stratum_and_reproducible():
+    n = 17
+    unit = sweep.lhs_unit(n, 3, seed=4)
+    for d in range(3):
+        strata = np.floor(unit[:, d] * n).astype(int)
+        assert sorted(strata) == list(range(n))
+    assert np.array_equal(unit, sweep.lhs_unit(n, 3, seed=4))
+    assert not np.array_equal(unit, sweep.lhs_unit(n, 3, seed=5))
+    varies = [sweep.parse_vary("a.x=2:4"), sweep.parse_vary("a.y=-1:1:5")]
+    points = sweep.sample_points(varies, 10, 1)
+    assert points.shape == (10, 2)
+    assert sorted(np.floor((points[:, 0] - 2) / 2 * 10).astype(int)) == list(range(10))
+    assert np.all((points[:, 1] >= -1) & (points[:, 1] < 1))
+    random = sweep.sample_points(varies, 10, 1, "random")
+    assert np.array_equal(random, sweep.sample_points(varies, 10, 1, "random"))
+    with pytest.raises(sweep.SweepError):
+        sweep.sample_points(varies, 10, 1, "sobol")
+
+
+# --- metrics ---------------------------------------------------------------------------------
+
+def metric(text):
+    return sweep.parse_metric(text)
+
+
+def test_metrics_on_small_arrays():
+    times = [0.0, 0.1, 0.2, 0.3, 0.4]
+    values = [1.0, 3.0, 5.0, 2.0, 4.0]
+    flags = [0.0, 0.0, 1.0, 1.0, 0.0]
+    assert sweep.evaluate_metric(metric("final:a.b"), times, values) == 4.0
+    assert sweep.evaluate_metric(metric("max:a.b"), times, values) == 5.0
+    assert sweep.evaluate_metric(metric("min:a.b"), times, values) == 1.0
+    assert sweep.evaluate_metric(metric("time_of_max:a.b"), times, values) == 0.2
+    assert sweep.evaluate_metric(metric("first_time_above:a.b:2.5"), times, values) == 0.1
+    assert math.isnan(sweep.evaluate_metric(metric("first_time_above:a.b:9"), times, values))
+    assert sweep.evaluate_metric(metric("first_time_true:a.b"), times, flags) == 0.2
+    assert math.isnan(sweep.evaluate_metric(metric("first_time_true:a.b"), times, [0.0] * 5))
+    reference = ([0.0, 0.4], [1.0, 5.0])  # linear 1 + 10 t: interpolated onto the times
+    assert sweep.evaluate_metric(metric("max_abs_error:a.b"), times, values, reference) == \
+        pytest.approx(2.0)  # at t = 0.1: 3 vs 2; t = 0.2: 5 vs 3 -> 2; t = 0.3: 2 vs 4 -> 2
+    assert math.isnan(sweep.evaluate_metric(metric("max:a.b"), [], []))
+
+
+def test_safe_name():
+    assert sweep.safe_name("first_time_above:s.d:0.5") == "first_time_above_s.d_0.5"
+
+
+# --- checks before running -------------------------------------------------------------------
+
+@needs_fmus
+@pytest.mark.parametrize("vary, metrics, message", [
+    ("nothing.x=1:2:2", ["max:suspension.deflection"], "no component"),
+    ("suspension.stiffness=1:2:2", ["max:suspension.deflection"], "has no variable"),
+    ("suspension.load=1:2:2", ["max:suspension.deflection"], "is a input"),
+    ("suspension.dynamics=0:1:2", ["max:suspension.deflection"], "Boolean"),
+    ("suspension.spring_stiffness=1:2:2", ["max:suspension.velocity"], "not recorded"),
+    ("suspension.spring_stiffness=1:2:2", ["max:nothing.velocity"], "not recorded"),
+])
+def test_errors_before_running(tmp_path, vary, metrics, message):
+    scene = write_scene(tmp_path)
+    with pytest.raises(sweep.SweepError, match=message):
+        sweep.run_sweep(scene, [sweep.parse_vary(vary)], [metric(m) for m in metrics],
+                        tmp_path / "out", jobs=1, fmu_dir=FMU_DIR, progress=False)
+    assert not (tmp_path / "out" / "sweep.csv").exists()
+
+
+@needs_fmus
+def test_cli_error_exit_code(tmp_path, capsys):
+    scene = write_scene(tmp_path)
+    code = cli_main(["sweep", str(scene), "--vary", "suspension.spring_stiffness=1:2:2",
+                     "--metrics", "mean:suspension.deflection", "--fmu-dir", str(FMU_DIR),
+                     "--out", str(tmp_path / "out")])
+    assert code == 2
+    assert "unknown kind 'mean'" in capsys.readouterr().err
+
+
+# --- end to end ------------------------------------------------------------------------------
+
+METRICS = ["max:suspension.deflection", "final:load.load", "time_of_max:suspension.deflection",
+           "first_time_above:suspension.deflection:0.1", "first_time_true:suspension.snap_through",
+           "max_abs_error:suspension.deflection"]
+
+
+@needs_fmus
+def test_grid_sweep_end_to_end(tmp_path, capsys):
+    scene_path = write_scene(tmp_path)
+    out = tmp_path / "out"
+    # 3 x 2 grid: spring_base_offset 0.6 is outside (0, L): those points fail in the FMU
+    code = cli_main(["sweep", str(scene_path),
+                     "--vary", "suspension.spring_stiffness=8000:12000:3",
+                     "--vary", "suspension.spring_base_offset=0.2:0.6:2",
+                     "--metrics", *METRICS, "--jobs", "2", "--plot",
+                     "--fmu-dir", str(FMU_DIR), "--out", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    assert "6/6 done (3 failed)" in captured.err
+    rows = sweep.read_sweep_csv(out / "sweep.csv")
+    assert sorted(row["index"] for row in rows) == list(range(6))
+    header = (out / "sweep.csv").read_text().splitlines()[0].split(",")
+    assert header == ["index", "suspension.spring_stiffness", "suspension.spring_base_offset",
+                      *METRICS, "error", "wall_time_s"]
+    by_index = {row["index"]: row for row in rows}
+    for index, row in by_index.items():
+        assert row["suspension.spring_stiffness"] == [8000.0, 10000.0, 12000.0][index // 2]
+        assert row["suspension.spring_base_offset"] == [0.2, 0.6][index % 2]
+        assert row["wall_time_s"] > 0
+        if index % 2:
+            assert "spring_base_offset = 0.6 m is outside the valid range" in row["error"]
+            assert all(row[m] is None for m in METRICS)
+        else:
+            assert row["error"] is None
+            assert all(row[m] is not None for m in METRICS)
+    # one point against a direct run of the same scene
+    scene = load_scene(scene_path)
+    scene.components["suspension"].parameters.update(spring_stiffness=12000.0,
+                                                     spring_base_offset=0.2)
+    result = Simulation(scene, FMU_DIR).run()
+    deflection = np.array(result.columns["suspension.deflection"])
+    times = np.array(result.times)
+    row = by_index[4]
+    assert row["max:suspension.deflection"] == deflection.max()
+    assert row["final:load.load"] == result.columns["load.load"][-1]
+    assert row["time_of_max:suspension.deflection"] == times[np.argmax(deflection)]
+    assert row["first_time_above:suspension.deflection:0.1"] == times[np.argmax(deflection > 0.1)]
+    from mechfmu.cosim.results import read_csv
+    ref_times, ref_columns = read_csv(scene.reference)
+    expected = np.max(np.abs(deflection - np.interp(times, ref_times,
+                                                    ref_columns["suspension.deflection"])))
+    assert row["max_abs_error:suspension.deflection"] == expected
+    # the JSON
+    summary = json.loads((out / "sweep.json").read_text())
+    assert summary["method"] == "grid" and summary["jobs"] == 2
+    assert summary["points"] == 6 and summary["done"] == 6 and summary["failed"] == 3
+    assert summary["interrupted"] is False and summary["finished"]
+    assert summary["metrics"] == METRICS
+    assert [v["name"] for v in summary["varies"]] == ["suspension.spring_stiffness",
+                                                      "suspension.spring_base_offset"]
+    assert summary["varies"][0]["count"] == 3 and summary["varies"][0]["kind"] == "parameter"
+    # the plots
+    for name in METRICS:
+        for parameter in ("suspension.spring_stiffness", "suspension.spring_base_offset"):
+            path = out / f"{sweep.safe_name(name)}_vs_{parameter}.png"
+            assert path.read_bytes()[:4] == b"\x89PNG"
+
+
+@needs_fmus
+def test_lhs_sweep_of_an_input(tmp_path):
+    """A constant input can be swept; LHS points are reproducible with the seed."""
+    scene_path = write_scene(tmp_path, stop=0.2)
+    varies = [sweep.parse_vary("suspension.road_height=0:0.01")]
+    metrics = [metric("final:suspension.deflection")]
+    summary = sweep.run_sweep(scene_path, varies, metrics, tmp_path / "a", jobs=2, samples=3,
+                              seed=7, fmu_dir=FMU_DIR, progress=False)
+    assert summary["method"] == "lhs" and summary["seed"] == 7 and summary["samples"] == 3
+    assert summary["varies"][0]["kind"] == "input"
+    rows = sweep.read_sweep_csv(tmp_path / "a" / "sweep.csv")
+    expected = sweep.sample_points(varies, 3, 7)[:, 0]
+    assert sorted(row["suspension.road_height"] for row in rows) == sorted(expected.tolist())
+    assert all(row["error"] is None for row in rows)
+
+
+@needs_fmus
+def test_interrupted_sweep_keeps_rows(tmp_path):
+    scene_path = write_scene(tmp_path, stop=0.5)
+    seen = []
+
+    def stop_after_two(row):
+        seen.append(row["index"])
+        if len(seen) == 2:
+            raise KeyboardInterrupt
+
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        sweep.run_sweep(scene_path, [sweep.parse_vary("suspension.spring_stiffness=8000:12000:8")],
+                        [metric("max:suspension.deflection")], out, jobs=2, fmu_dir=FMU_DIR,
+                        on_point=stop_after_two, progress=False)
+    rows = sweep.read_sweep_csv(out / "sweep.csv")
+    assert [row["index"] for row in rows] == seen
+    summary = json.loads((out / "sweep.json").read_text())
+    assert summary["interrupted"] is True
+    assert summary["done"] == 2 and summary["points"] == 8
+
+
+@needs_fmus
+def test_sigint_to_the_command(tmp_path):
+    """Ctrl-C on ``python -m mechfmu sweep``: exit 130, rows kept, JSON marked interrupted."""
+    scene_path = write_scene(tmp_path, stop=1.0)
+    out = tmp_path / "out"
+    environment = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
+    process = subprocess.Popen(
+        [sys.executable, "-m", "mechfmu", "sweep", str(scene_path),
+         "--vary", "suspension.spring_stiffness=8000:12000:40",
+         "--metrics", "max:suspension.deflection", "--jobs", "2",
+         "--fmu-dir", str(FMU_DIR), "--out", str(out)],
+        cwd=tmp_path, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        start_new_session=True)
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            csv_path = out / "sweep.csv"
+            if csv_path.is_file() and len(csv_path.read_text().splitlines()) >= 3:
+                break
+            time.sleep(0.05)
+        else:
+            pytest.fail("no rows appeared")
+        os.killpg(process.pid, signal.SIGINT)  # as the terminal does: the whole group
+        _, err = process.communicate(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 130, err.decode()
+    rows = sweep.read_sweep_csv(out / "sweep.csv")
+    assert 2 <= len(rows) < 40
+    assert all(row["error"] is None for row in rows)
+    summary = json.loads((out / "sweep.json").read_text())
+    assert summary["interrupted"] is True and summary["done"] == len(rows)
