@@ -417,15 +417,17 @@ def _crank_path(t):
     return 0.3 + 1.1 * t + 0.4 * math.sin(t), 1.1 + 0.4 * math.cos(t), -0.4 * math.sin(t)
 
 
+def _along_crank_path(at):
+    """The finite-difference step (s), the motion function, 120 sample times over 6 s of
+    _crank_path and the motions there."""
+    times = [0.05 * i for i in range(120)]
+    return 1e-5, at, times, [at(t) for t in times]
+
+
 @pytest.mark.parametrize("lengths, circuit", FOUR_BAR_CASES)
 def test_four_bar_rates_are_derivatives(lengths, circuit):
-    step = 1e-5
-
-    def at(t):
-        return fb.motion(*lengths, circuit, *_crank_path(t))
-
-    times = [0.05 * i for i in range(120)]
-    motions = [at(t) for t in times]
+    step, at, times, motions = _along_crank_path(
+        lambda t: fb.motion(*lengths, circuit, *_crank_path(t)))
     w_scale = max(max(abs(m.coupler_angular_velocity), abs(m.rocker_angular_velocity))
                   for m in motions)
     al_scale = max(max(abs(m.coupler_angular_acceleration),
@@ -445,13 +447,8 @@ def test_four_bar_rates_are_derivatives(lengths, circuit):
 
 @pytest.mark.parametrize("geometry, circuit", SLIDER_CASES[:6])
 def test_slider_crank_rates_are_derivatives(geometry, circuit):
-    step = 1e-5
-
-    def at(t):
-        return sc.motion(*geometry, circuit, *_crank_path(t))
-
-    times = [0.05 * i for i in range(120)]
-    motions = [at(t) for t in times]
+    step, at, times, motions = _along_crank_path(
+        lambda t: sc.motion(*geometry, circuit, *_crank_path(t)))
     scales = {key: max(abs(getattr(m, key)) for m in motions)
               for key in sc.SliderCrankMotion._fields}
     for t, m in zip(times, motions):
