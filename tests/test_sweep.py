@@ -192,7 +192,7 @@ def test_grid_sweep_end_to_end(tmp_path, capsys):
     assert sorted(row["index"] for row in rows) == list(range(6))
     header = (out / "sweep.csv").read_text().splitlines()[0].split(",")
     assert header == ["index", "suspension.spring_stiffness", "suspension.spring_base_offset",
-                      *METRICS, "error", "wall_time_s"]
+                      *METRICS, "error", "wall_time_s", "worker"]
     by_index = {row["index"]: row for row in rows}
     for index, row in by_index.items():
         assert row["suspension.spring_stiffness"] == [8000.0, 10000.0, 12000.0][index // 2]
@@ -308,3 +308,226 @@ def test_sigint_to_the_command(tmp_path):
     assert all(row["error"] is None for row in rows)
     summary = json.loads((out / "sweep.json").read_text())
     assert summary["interrupted"] is True and summary["done"] == len(rows)
+
+
+# --- links and sweep files -------------------------------------------------------------------
+
+def test_parse_link():
+    link = sweep.parse_link("load.final_value=9.80665*suspension.mass")
+    assert (link.component, link.variable, link.factor, link.source) == \
+        ("load", "final_value", 9.80665, "suspension.mass")
+    assert sweep.parse_link("a.b = c.d").factor == 1.0
+    assert sweep.parse_link("a.b=-2e3*c.d").factor == -2000.0
+
+
+@pytest.mark.parametrize("text", ["a.b", "ab=2*c.d", "a.b=x*c.d", "a.b=2*cd", "a.b=inf*c.d",
+                                  "a.b=2*"])
+def test_parse_link_rejects(text):
+    with pytest.raises(sweep.SweepError, match="--link"):
+        sweep.parse_link(text)
+
+
+def test_point_values_follow_links():
+    varies = [sweep.parse_vary("s.mass=0:400:3"), sweep.parse_vary("s.count=0:10:3")]
+    links = [sweep.parse_link("l.final_value=9.5*s.mass")]
+    kinds = {"s.mass": ("parameter", "Real"), "s.count": ("parameter", "Integer"),
+             "l.final_value": ("parameter", "Real")}
+    assert sweep.point_values(varies, links, kinds, [200.0, 4.6]) == \
+        {"s.mass": 200.0, "s.count": 5, "l.final_value": 1900.0}
+
+
+@needs_fmus
+@pytest.mark.parametrize("link, message", [
+    ("load.final_value=2*suspension.mass", "not varied"),
+    ("suspension.spring_stiffness=2*suspension.spring_stiffness", "already varied"),
+    ("load.shape=2*suspension.spring_stiffness", "String cannot be swept"),
+])
+def test_link_errors_before_running(tmp_path, link, message):
+    with pytest.raises(sweep.SweepError, match=message):
+        sweep.run_sweep(write_scene(tmp_path), [sweep.parse_vary(
+            "suspension.spring_stiffness=1:2:2")], [metric("max:suspension.deflection")],
+            tmp_path / "out", jobs=1, fmu_dir=FMU_DIR, progress=False,
+            links=[sweep.parse_link(link)])
+
+
+SWEEP_FILE = """\
+description = "the mini ramp's load follows the stiffness"
+scene = "mini_ramp.toml"
+vary = ["suspension.spring_stiffness=8000:12000:3"]
+link = ["load.final_value=0.25*suspension.spring_stiffness"]
+metrics = ["final:load.load", "final:suspension.deflection"]
+stop_time = 0.3
+"""
+
+
+@needs_fmus
+def test_sweep_file_with_a_link_and_a_shorter_scene(tmp_path, capsys):
+    """A sweep file: its scene relative to it, links, the scene's stop_time replaced; the
+    command line's --metrics replace the file's; out/sweep_<file stem> by default."""
+    write_scene(tmp_path)
+    path = tmp_path / "stiff_load.toml"
+    path.write_text(SWEEP_FILE)
+    os.chdir(tmp_path)
+    code = cli_main(["sweep", str(path), "--jobs", "1", "--fmu-dir", str(FMU_DIR)])
+    assert code == 0, capsys.readouterr().err
+    rows = sorted(sweep.read_sweep_csv(tmp_path / "out" / "sweep_stiff_load" / "sweep.csv"),
+                  key=lambda row: row["index"])
+    assert [row["load.final_value"] for row in rows] == [2000.0, 2500.0, 3000.0]
+    for row in rows:
+        # the ramp reaches 0.3 / 0.3 of its (shortened) duration at the last point: its
+        # duration is the scene's 1 s, so 30 % of the final value
+        assert row["final:load.load"] == pytest.approx(0.3 * row["load.final_value"], rel=1e-12)
+    summary = json.loads((tmp_path / "out" / "sweep_stiff_load" / "sweep.json").read_text())
+    assert summary["name"] == "stiff_load" and summary["overrides"] == {"stop_time": 0.3}
+    assert summary["links"] == [{"name": "load.final_value", "kind": "parameter",
+                                 "type": "Real", "factor": 0.25,
+                                 "source": "suspension.spring_stiffness"}]
+    code = cli_main(["sweep", str(path), "--jobs", "1", "--fmu-dir", str(FMU_DIR),
+                     "--metrics", "max:suspension.deflection", "--out", "other"])
+    assert code == 0
+    header = (tmp_path / "other" / "sweep.csv").read_text().splitlines()[0]
+    assert header.split(",")[3] == "max:suspension.deflection"
+
+
+@pytest.mark.parametrize("text, message", [
+    ('vary = ["a.b=1:2:2"]', "'scene' must name a scene file"),
+    ('scene = "x.toml"\nwhatever = 1', "unknown key"),
+    ('scene = "x.toml"\nvary = "a.b=1:2:2"', "'vary' must be a list"),
+    ('scene = "x.toml"\nvary = ["a.b=1:2"]\nlink = ["a.c=x*a.b"]', "FACTOR 'x'"),
+    ('scene = "x.toml"\n[', "malformed TOML"),
+])
+def test_bad_sweep_files(tmp_path, text, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(sweep.SweepError, match=message):
+        sweep.load_sweep_file(path)
+
+
+@needs_fmus
+def test_only_stop_time_and_step_are_overridden(tmp_path):
+    with pytest.raises(sweep.SweepError, match="cannot override the scene's coupling"):
+        sweep.run_sweep(write_scene(tmp_path), [sweep.parse_vary("suspension.mass=1:2:2")],
+                        [metric("max:suspension.deflection")], tmp_path / "out", jobs=1,
+                        fmu_dir=FMU_DIR, progress=False, overrides={"coupling": "jacobi"})
+
+
+# --- one instance per worker, reset between points --------------------------------------------
+
+@needs_fmus
+def test_worker_reuses_its_instances(tmp_path):
+    """run_point in this thread: the first point creates the two instances, the next ones
+    reset and reuse them, and every point equals a fresh run of its scene."""
+    scene = sweep.resolve_fmus(load_scene(write_scene(tmp_path, stop=0.5)), FMU_DIR)
+    kinds = {"suspension.spring_stiffness": ("parameter", "Real")}
+    metrics = [metric("max:suspension.deflection"), metric("final:load.load")]
+    pool = sweep.worker_instances()
+    created, reused = pool.created, pool.reused
+    for count, stiffness in enumerate((8000.0, 12000.0, 8000.0), start=1):
+        point = sweep.point_scene(scene, kinds, {"suspension.spring_stiffness": stiffness})
+        index, values, error, wall, worker = sweep.run_point(count, point, metrics, {})
+        assert error is None and worker == f"{os.uname().nodename}:{os.getpid()}"
+        fresh = Simulation(point).run()
+        assert values == {"max:suspension.deflection":
+                          max(fresh.columns["suspension.deflection"]),
+                          "final:load.load": fresh.columns["load.load"][-1]}
+        assert pool.created - created <= 2          # at most the first point creates
+        assert pool.reused - reused == 2 * count - (pool.created - created)
+    assert sweep.worker_instances() is pool
+
+
+@needs_fmus
+def test_reset_instance_after_a_failed_run_equals_a_fresh_one(tmp_path):
+    """A run refused in the middle (snap-through with stop_on_snap_through) leaves its
+    instances mid-run; reset, they run the next scene exactly as new ones."""
+    from mechfmu.cosim.master import Instances, SimulationError
+    base = sweep.resolve_fmus(load_scene(write_scene(tmp_path)), FMU_DIR)
+    kinds = {"suspension.stop_on_snap_through": ("parameter", "Boolean")}
+    failing = sweep.point_scene(base, kinds, {"suspension.stop_on_snap_through": True})
+    pool = Instances(keep=True)
+    try:
+        with pytest.raises(SimulationError, match="exceeds the limit load") as caught:
+            Simulation(failing).run(instances=pool)
+        assert 0 < len(caught.value.result.times) < base.steps + 1
+        again = Simulation(base).run(instances=pool)
+        fresh = Simulation(base).run()
+        assert again.times == fresh.times and again.columns == fresh.columns
+        assert again.log == fresh.log
+        assert pool.created == 2 and pool.reused == 2
+    finally:
+        pool.close()
+
+
+# --- a Dask cluster on loopback ---------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def dask_scheduler(tmp_path_factory):
+    """A Dask scheduler and two single-thread workers on 127.0.0.1, as separate processes
+    started by the ``dask`` command; yields the scheduler's address."""
+    from distributed import Client
+    folder = tmp_path_factory.mktemp("dask")
+    scheduler_file = folder / "scheduler.json"
+    dask = str(Path(sys.executable).parent / "dask")
+    common = ["--no-dashboard", "--scheduler-file", str(scheduler_file)]
+    processes = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                                   *common], stdout=subprocess.DEVNULL,
+                                  stderr=open(folder / "scheduler.log", "wb"), cwd=folder)]
+    try:
+        deadline = time.monotonic() + 60
+        while not scheduler_file.is_file() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(scheduler_file.read_text())["address"]
+        assert address.startswith("tcp://127.0.0.1:")
+        for number in range(2):
+            processes.append(subprocess.Popen(
+                [dask, "worker", "--host", "127.0.0.1", "--nthreads", "1", "--no-nanny",
+                 "--name", f"w{number}", *common], stdout=subprocess.DEVNULL,
+                stderr=open(folder / f"worker{number}.log", "wb"), cwd=folder))
+        with Client(address, timeout=30) as client:
+            client.wait_for_workers(2, timeout=60)
+        yield address
+    finally:
+        for process in reversed(processes):  # the workers first, while they can say goodbye
+            process.terminate()
+            try:
+                process.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                process.kill()
+
+
+@needs_fmus
+def test_sweep_on_a_dask_cluster(tmp_path, dask_scheduler):
+    """The same sweep on the loopback cluster and on local processes: the same numbers, bit
+    for bit, from both workers; a failing point recorded; the FMUs shipped by content."""
+    scene_path = write_scene(tmp_path, stop=0.5)
+    varies = [sweep.parse_vary("suspension.spring_stiffness=8000:12000:5"),
+              sweep.parse_vary("suspension.spring_base_offset=0.2:0.6:2")]
+    metrics = [metric(m) for m in METRICS]
+    on_cluster = sweep.run_sweep(scene_path, varies, metrics, tmp_path / "dask",
+                                 fmu_dir=FMU_DIR, progress=False, scheduler=dask_scheduler)
+    local = sweep.run_sweep(scene_path, varies, metrics, tmp_path / "local", jobs=2,
+                            fmu_dir=FMU_DIR, progress=False)
+    assert on_cluster["where"].startswith(f"Dask {dask_scheduler}, 2 worker(s)")
+    assert on_cluster["jobs"] == 2 and on_cluster["scheduler"] == dask_scheduler
+    assert on_cluster["done"] == local["done"] == 10
+    assert on_cluster["failed"] == local["failed"] == 5
+    rows = {r["index"]: r for r in sweep.read_sweep_csv(tmp_path / "dask" / "sweep.csv")}
+    expected = {r["index"]: r for r in sweep.read_sweep_csv(tmp_path / "local" / "sweep.csv")}
+    assert sorted(rows) == list(range(10))
+    for index, row in rows.items():
+        for key in ("suspension.spring_stiffness", "suspension.spring_base_offset", *METRICS,
+                    "error"):
+            assert row[key] == expected[index][key], (index, key)
+    assert len({row["worker"] for row in rows.values()}) == 2
+    for path in {spec.fmu for spec in sweep.resolve_fmus(load_scene(scene_path),
+                                                         FMU_DIR).components.values()}:
+        digest = __import__("hashlib").sha256(Path(path).read_bytes()).hexdigest()
+        shipped = sweep.fmu_cache_dir() / digest / Path(path).name
+        assert shipped.read_bytes() == Path(path).read_bytes()
+
+
+def test_unreachable_scheduler_is_a_clear_error():
+    started = time.monotonic()
+    with pytest.raises(sweep.SweepError, match="tcp://127.0.0.1:9: cannot reach a Dask "
+                                               "scheduler there within 2 s"):
+        sweep.DaskCluster("tcp://127.0.0.1:9", timeout=2.0)
+    assert time.monotonic() - started < 15

@@ -20,26 +20,36 @@ SimulationError) gets its message in ``error`` and empty metrics; the sweep goes
 """
 
 import argparse
+import atexit
 import copy
 import csv
 import dataclasses
+import hashlib
 import math
+import multiprocessing.util
 import os
 import re
 import signal
+import socket
 import sys
+import tempfile
+import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
 from .cosim.results import read_csv, write_json
+from .cosim.scene import tomllib
 
 
 class SweepError(ValueError):
     """A sweep that cannot start as written (bad --vary, --metrics, sampling options)."""
+
+
+SCENE_OVERRIDES = {"stop_time", "step"}  # scene keys a sweep may replace
 
 
 # --- --vary ----------------------------------------------------------------------------------
@@ -83,6 +93,46 @@ def parse_vary(text):
         if count < 1:
             raise SweepError(f"--vary {text!r}: COUNT must be at least 1")
     return Vary(component, variable, start, stop, count)
+
+
+@dataclasses.dataclass(frozen=True)
+class Link:
+    """A parameter that follows a varied one: target = factor * source at every point."""
+    component: str
+    variable: str
+    factor: float
+    source: str        # the varied parameter's component.parameter
+
+    @property
+    def name(self):
+        return f"{self.component}.{self.variable}"
+
+
+def parse_link(text):
+    """'comp.param=FACTOR*comp.varied' or 'comp.param=comp.varied' -> Link."""
+    if not isinstance(text, str) or text.count("=") != 1:
+        raise SweepError(f"--link {text!r}: expected component.parameter=FACTOR*"
+                         f"component.varied")
+    name, spec = (part.strip() for part in text.split("="))
+    component, dot, variable = name.partition(".")
+    if not dot or not component or not variable:
+        raise SweepError(f"--link {text!r}: {name!r} is not of the form component.parameter")
+    factor_text, star, source = spec.rpartition("*")
+    factor = 1.0
+    if star:
+        try:
+            factor = float(factor_text)
+        except ValueError:
+            raise SweepError(f"--link {text!r}: FACTOR {factor_text!r} is not a number") \
+                from None
+        if not math.isfinite(factor):
+            raise SweepError(f"--link {text!r}: FACTOR must be finite")
+    source = source.strip()
+    head, dot, tail = source.partition(".")
+    if not dot or not head or not tail:
+        raise SweepError(f"--link {text!r}: {source!r} is not of the form "
+                         f"component.parameter")
+    return Link(component, variable, factor, source)
 
 
 # --- points ------------------------------------------------------------------------------------
@@ -198,54 +248,69 @@ def evaluate_metric(metric, times, values, reference=None):
 
 # --- scenes ------------------------------------------------------------------------------------
 
-def point_scene(scene, varies, kinds, values):
-    """A copy of ``scene`` with each varied parameter or constant input set to its value."""
+def point_values(varies, links, kinds, values):
+    """{component.variable: value} of one point: the varied values and the linked ones,
+    as the FMI type wants them (Integer rounded)."""
+    named = dict(zip((v.name for v in varies), (float(v) for v in values)))
+    named.update({link.name: link.factor * named[link.source] for link in links})
+    return {name: int(round(value)) if kinds[name][1] == "Integer" else value
+            for name, value in named.items()}
+
+
+def point_scene(scene, kinds, assigned):
+    """A copy of ``scene`` with each parameter or constant input in ``assigned``
+    ({component.variable: value}) set to its value."""
     components = {name: copy.deepcopy(spec) for name, spec in scene.components.items()}
-    for vary, value in zip(varies, values):
-        kind, fmi_type = kinds[vary.name]
-        value = int(round(value)) if fmi_type == "Integer" else float(value)
-        target = components[vary.component]
-        (target.inputs if kind == "input" else target.parameters)[vary.variable] = value
+    for name, value in assigned.items():
+        component, _, variable = name.partition(".")
+        target = components[component]
+        (target.inputs if kinds[name][0] == "input" else target.parameters)[variable] = value
     return dataclasses.replace(scene, components=components)
 
 
-def check_sweep(scene, varies, metrics, fmu_dir):
+def _sweepable(scene, descriptions, option, component, variable):
+    """('parameter' | 'input', FMI type) of a variable a sweep may set, or SweepError."""
+    name = f"{component}.{variable}"
+    if component not in scene.components:
+        raise SweepError(f"{option} {name}: no component {component!r}; "
+                         f"components: {', '.join(scene.components)}")
+    variables = {v.name: v for v in descriptions[component].modelVariables}
+    found = variables.get(variable)
+    if found is None:
+        raise SweepError(f"{option} {name}: {component!r} has no variable {variable!r}; "
+                         f"parameters: " + ", ".join(sorted(
+                             v.name for v in variables.values() if v.causality == "parameter")))
+    if found.type not in ("Real", "Integer"):
+        raise SweepError(f"{option} {name}: a {found.type} cannot be swept "
+                         f"(only Real and Integer)")
+    if found.causality == "parameter":
+        return "parameter", found.type
+    if found.causality == "input" and variable in scene.components[component].inputs:
+        return "input", found.type
+    raise SweepError(f"{option} {name}: is a {found.causality}; only parameters and inputs "
+                     f"given as constants under [components.{component}.inputs] can be swept")
+
+
+def check_sweep(scene, varies, metrics, fmu_dir, links=()):
     """Check the sweep against the scene's FMUs before anything runs.
 
-    Returns ({vary name: ('parameter' | 'input', FMI type)}, {metric text: reference signal}).
+    Returns ({varied or linked name: ('parameter' | 'input', FMI type)},
+    {metric text: reference signal}).
     """
     from .cosim import master
     simulation = master.Simulation(scene, fmu_dir)  # checks the scene itself
     descriptions = {name: master.model_description(master.resolve_fmu(spec, scene, fmu_dir))
                     for name, spec in scene.components.items()}
     kinds = {}
-    seen = set()
-    for vary in varies:
-        if vary.name in seen:
-            raise SweepError(f"--vary {vary.name} given twice")
-        seen.add(vary.name)
-        if vary.component not in scene.components:
-            raise SweepError(f"--vary {vary.name}: no component {vary.component!r}; "
-                             f"components: {', '.join(scene.components)}")
-        variables = {v.name: v for v in descriptions[vary.component].modelVariables}
-        variable = variables.get(vary.variable)
-        if variable is None:
-            raise SweepError(f"--vary {vary.name}: {vary.component!r} has no variable "
-                             f"{vary.variable!r}; parameters: " + ", ".join(sorted(
-                                 v.name for v in variables.values()
-                                 if v.causality == "parameter")))
-        if variable.type not in ("Real", "Integer"):
-            raise SweepError(f"--vary {vary.name}: a {variable.type} cannot be swept "
-                             f"(only Real and Integer)")
-        if variable.causality == "parameter":
-            kinds[vary.name] = ("parameter", variable.type)
-        elif variable.causality == "input" and vary.variable in \
-                scene.components[vary.component].inputs:
-            kinds[vary.name] = ("input", variable.type)
-        else:
-            raise SweepError(f"--vary {vary.name}: is a {variable.causality}; only parameters "
-                             f"and inputs given as constants under [components."
-                             f"{vary.component}.inputs] can be swept")
+    for option, items in (("--vary", varies), ("--link", links)):
+        for item in items:
+            if item.name in kinds:
+                raise SweepError(f"{option} {item.name}: already varied or linked")
+            if option == "--link" and item.source not in {v.name for v in varies}:
+                raise SweepError(f"--link {item.name}: its source {item.source} is not "
+                                 f"varied; varied: {', '.join(v.name for v in varies)}")
+            kinds[item.name] = _sweepable(scene, descriptions, option, item.component,
+                                          item.variable)
     recorded = [name for name, _, _ in simulation.recorded]
     references = {}
     reference_data = None
@@ -273,27 +338,147 @@ def check_sweep(scene, varies, metrics, fmu_dir):
 # --- the worker --------------------------------------------------------------------------------
 
 def _worker_init():
-    """Per worker process: ignore Ctrl-C (the parent handles it). The master parses each
-    FMU's model description once per process (master.model_description)."""
+    """Per local worker process: ignore Ctrl-C (the parent handles it)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def run_point(index, scene, metrics, references, fmu_dir):
-    """Run one point; returns (index, {metric text: value}, error message or None, wall s)."""
-    from .cosim.master import Simulation, SimulationError
-    from .cosim.scene import SceneError
+_THREAD = threading.local()  # a worker thread's Instances pool: it must outlive the tasks
+
+
+def worker_instances():
+    """This worker thread's Instances pool: each FMU extracted once, each instance reset
+    (fmi2Reset) between points instead of re-created. Freed when the process exits."""
+    pool = getattr(_THREAD, "instances", None)
+    if pool is None:
+        from .cosim.master import Instances
+        pool = _THREAD.instances = Instances(keep=True)
+        atexit.register(pool.close)
+        # multiprocessing workers leave through os._exit: only its finalisers run there
+        multiprocessing.util.Finalize(pool, pool.close, exitpriority=10)
+    return pool
+
+
+def fmu_cache_dir():
+    """Where a worker keeps the FMUs shipped to it (one folder per content hash)."""
+    user = getattr(os, "getuid", lambda: "user")()
+    return Path(tempfile.gettempdir()) / f"mechfmu_fmus_{user}"
+
+
+def shipped_scene(scene, fmu_files):
+    """``scene`` with each component's FMU replaced by this worker's copy of the shipped
+    file: ``fmu_files`` maps the client's path to (file name, sha256, bytes). Each file is
+    written once per worker machine, atomically, under fmu_cache_dir()/<sha256>/."""
+    components = {}
+    for name, spec in scene.components.items():
+        file_name, digest, data = fmu_files[spec.fmu]
+        local = fmu_cache_dir() / digest / file_name
+        if not local.is_file():
+            local.parent.mkdir(parents=True, exist_ok=True)
+            temporary = local.with_name(f".{file_name}.{os.getpid()}.tmp")
+            temporary.write_bytes(data)
+            os.replace(temporary, local)
+        components[name] = dataclasses.replace(spec, fmu=str(local))
+    return dataclasses.replace(scene, components=components)
+
+
+def worker_name():
+    """'host:pid' of this worker process (the sweep.csv's worker column)."""
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def run_point(index, scene, metrics, references, fmu_files=None):
+    """Run one point; returns (index, {metric text: value}, error message or None, wall s,
+    worker name).
+
+    The scene's components name their FMUs by absolute path (resolve_fmus); with
+    ``fmu_files`` (a remote cluster) the worker uses its copies of the shipped files.
+    """
+    from .cosim.master import Simulation
     started = time.perf_counter()
     try:
-        result = Simulation(scene, fmu_dir).run()
+        if fmu_files is not None:
+            scene = shipped_scene(scene, fmu_files)
+        result = Simulation(scene).run(instances=worker_instances())
         times = result.times
         values = {m.text: evaluate_metric(m, times, result.columns[m.variable],
                                           references.get(m.text)) for m in metrics}
         error = None
-    except (SceneError, SimulationError) as failure:
+    except Exception as failure:  # SceneError, SimulationError, anything: the sweep goes on
         values, error = {}, f"{type(failure).__name__}: {failure}"
-    except Exception as failure:  # anything else from one point must not stop the sweep
-        values, error = {}, f"{type(failure).__name__}: {failure}"
-    return index, values, error, time.perf_counter() - started
+    return index, values, error, time.perf_counter() - started, worker_name()
+
+
+def resolve_fmus(scene, fmu_dir):
+    """``scene`` with every component's FMU as an absolute path (workers may run elsewhere
+    than the current folder)."""
+    from .cosim.master import resolve_fmu
+    components = {name: dataclasses.replace(spec, fmu=str(resolve_fmu(spec, scene, fmu_dir)
+                                                         .resolve()))
+                  for name, spec in scene.components.items()}
+    return dataclasses.replace(scene, components=components)
+
+
+# --- where the points run ----------------------------------------------------------------------
+
+class LocalPool:
+    """Worker processes on this machine (concurrent.futures), reading the FMUs in place."""
+
+    def __init__(self, jobs):
+        self.workers, self.where = jobs, f"local, {jobs} process(es)"
+        self.executor = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
+
+    def ship(self, paths):
+        return None
+
+    def submit(self, *arguments):
+        return self.executor.submit(run_point, *arguments)
+
+    def completed(self, futures):
+        return as_completed(futures)
+
+    def close(self, interrupted):
+        self.executor.shutdown(wait=not interrupted, cancel_futures=interrupted)
+
+
+class DaskCluster:
+    """An existing Dask cluster (``--scheduler tcp://HOST:PORT``). The FMUs are sent to the
+    workers once (scattered) with their content hash, so the workers need mechfmu and a
+    libpython, not the client's files."""
+
+    def __init__(self, address, timeout=10.0):
+        try:
+            from distributed import Client
+        except ImportError:  # pragma: no cover - a dependency of mechfmu
+            raise SweepError("--scheduler needs the 'distributed' package") from None
+        try:
+            self.client = Client(address, timeout=timeout, set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as error:
+            raise SweepError(f"--scheduler {address}: cannot reach a Dask scheduler there "
+                             f"within {timeout:g} s: {error}") from None
+        threads = self.client.nthreads()
+        if not threads:
+            self.client.close()
+            raise SweepError(f"--scheduler {address}: the cluster has no workers")
+        self.workers = sum(threads.values())
+        self.where = f"Dask {address}, {len(threads)} worker(s), {self.workers} thread(s)"
+
+    def ship(self, paths):
+        files = {}
+        for path in paths:
+            data = Path(path).read_bytes()
+            files[path] = (Path(path).name, hashlib.sha256(data).hexdigest(), data)
+        # one object, one copy per worker; tasks then name it instead of carrying the bytes
+        return self.client.scatter([files], broadcast=True)[0]
+
+    def submit(self, *arguments):
+        return self.client.submit(run_point, *arguments, pure=False)
+
+    def completed(self, futures):
+        from distributed import as_completed as dask_completed
+        return dask_completed(futures, loop=self.client.loop)
+
+    def close(self, interrupted):
+        self.client.close()
 
 
 # --- the runner --------------------------------------------------------------------------------
@@ -333,16 +518,24 @@ class Progress:
 
 
 def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None, seed=None,
-              method="lhs", fmu_dir="fmus", plot=False, on_point=None, progress=True):
+              method="lhs", fmu_dir="fmus", plot=False, on_point=None, progress=True,
+              scheduler=None, links=(), overrides=None, name=None):
     """Run the sweep; returns the summary dict written to sweep.json.
 
-    ``on_point(row)`` is called after each row is written (tests raise KeyboardInterrupt
-    from it). On KeyboardInterrupt the pending points are cancelled, the JSON is marked
-    ``interrupted`` and the exception is re-raised.
+    The points run on ``jobs`` local worker processes, or on the Dask cluster whose
+    scheduler is at ``scheduler`` (tcp://HOST:PORT). ``links`` set parameters that follow
+    varied ones; ``overrides`` replace the scene's stop_time or step. ``on_point(row)`` is
+    called after each row is written (tests raise KeyboardInterrupt from it). On
+    KeyboardInterrupt the pending points are cancelled, the JSON is marked ``interrupted``
+    and the exception is re-raised.
     """
     from .cosim.scene import load_scene
     scene_path = Path(scene_path)
-    scene = load_scene(scene_path)
+    unknown = set(overrides or {}) - SCENE_OVERRIDES
+    if unknown:
+        raise SweepError(f"cannot override the scene's {', '.join(sorted(unknown))}; "
+                         f"only {', '.join(sorted(SCENE_OVERRIDES))}")
+    scene = load_scene(scene_path, overrides)
     if not varies:
         raise SweepError("give at least one --vary")
     if not metrics:
@@ -355,24 +548,31 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
     else:
         points = grid_points(varies)
         method_name = "grid"
-    kinds, references = check_sweep(scene, varies, metrics, fmu_dir)
+    kinds, references = check_sweep(scene, varies, metrics, fmu_dir, links)
+    scene = resolve_fmus(scene, fmu_dir)
     jobs = jobs or os.cpu_count() or 1
-    out_dir = Path(out_dir) if out_dir else Path("out") / f"sweep_{scene.name}"
+    name = name or scene.name
+    out_dir = Path(out_dir) if out_dir else Path("out") / f"sweep_{name}"
     out_dir.mkdir(parents=True, exist_ok=True)
     csv_path, json_path = out_dir / "sweep.csv", out_dir / "sweep.json"
+    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs)
     summary = {
-        "scene": scene.name, "scene_file": str(scene_path.resolve()),
+        "name": name, "scene": scene.name, "scene_file": str(scene_path.resolve()),
+        "overrides": dict(overrides or {}),
         "varies": [{"name": v.name, "kind": kinds[v.name][0], "type": kinds[v.name][1],
                     "start": v.start, "stop": v.stop, "count": v.count} for v in varies],
+        "links": [{"name": k.name, "kind": kinds[k.name][0], "type": kinds[k.name][1],
+                   "factor": k.factor, "source": k.source} for k in links],
         "method": method_name, "seed": seed, "samples": samples,
-        "metrics": [m.text for m in metrics], "jobs": jobs, "fmu_dir": str(fmu_dir),
+        "metrics": [m.text for m in metrics], "jobs": runner.workers,
+        "scheduler": scheduler, "where": runner.where, "fmu_dir": str(fmu_dir),
         "points": len(points), "started": _now(), "finished": None, "done": 0, "failed": 0,
-        "interrupted": False, "wall_time_s": None, "csv": str(csv_path),
+        "interrupted": False, "wall_time_s": None, "scenes_per_s": None, "csv": str(csv_path),
         "command": sys.argv,
     }
     write_json(json_path, summary)
-    names = [v.name for v in varies]
-    header = ["index", *names, *(m.text for m in metrics), "error", "wall_time_s"]
+    names = [v.name for v in varies] + [k.name for k in links]
+    header = ["index", *names, *(m.text for m in metrics), "error", "wall_time_s", "worker"]
     started = time.perf_counter()
     meter = Progress(len(points)) if progress else None
     rows = []
@@ -380,46 +580,48 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
     writer = csv.writer(handle, lineterminator="\n")
     writer.writerow(header)
     handle.flush()
-    executor = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
-    pending = set()
+    futures = {}
     try:
+        shipped = runner.ship(sorted({spec.fmu for spec in scene.components.values()}))
         for index, values in enumerate(points):
-            scene_i = point_scene(scene, varies, kinds, values)
-            future = executor.submit(run_point, index, scene_i, metrics, references, fmu_dir)
-            future.values = [float(v) if kinds[n][1] == "Real" else int(round(v))
-                             for n, v in zip(names, values)]
-            pending.add(future)
-        while pending:
-            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for future in finished:
-                index, values, error, wall = future.result()
-                row = {"index": index, **dict(zip(names, future.values)), **values,
-                       "error": error, "wall_time_s": wall}
-                writer.writerow([_format(row.get(key)) for key in header])
-                handle.flush()
-                rows.append(row)
-                summary["done"] += 1
-                summary["failed"] += error is not None
-                if meter:
-                    meter.update(summary["done"], summary["failed"])
-                if on_point:
-                    on_point(row)
+            assigned = point_values(varies, links, kinds, values)
+            future = runner.submit(index, point_scene(scene, kinds, assigned), metrics,
+                                   references, shipped)
+            futures[future] = (index, [assigned[n] for n in names])
+        for future in runner.completed(list(futures)):
+            index, point = futures[future]
+            try:
+                _, values, error, wall, worker = future.result()
+            except Exception as failure:  # the worker itself failed (died, cannot unpickle)
+                values, wall, worker = {}, None, None
+                error = f"worker: {type(failure).__name__}: {failure}"
+            row = {"index": index, **dict(zip(names, point)), **values,
+                   "error": error, "wall_time_s": wall, "worker": worker}
+            writer.writerow([_format(row.get(key)) for key in header])
+            handle.flush()
+            rows.append(row)
+            summary["done"] += 1
+            summary["failed"] += error is not None
+            if meter:
+                meter.update(summary["done"], summary["failed"])
+            if on_point:
+                on_point(row)
     except KeyboardInterrupt:
-        for future in pending:
+        for future in futures:
             future.cancel()
-        executor.shutdown(wait=False, cancel_futures=True)
         summary["interrupted"] = True
         raise
     finally:
         handle.close()
-        if not summary["interrupted"]:
-            executor.shutdown(wait=True)
+        runner.close(summary["interrupted"])
         summary["finished"] = _now()
         summary["wall_time_s"] = time.perf_counter() - started
+        summary["scenes_per_s"] = summary["done"] / summary["wall_time_s"]
         if meter and summary["interrupted"]:
             meter.stream.write("\n")
         if plot and rows:
-            summary["plots"] = [str(p) for p in write_plots(out_dir, rows, names, metrics)]
+            summary["plots"] = [str(p) for p in write_plots(out_dir, rows,
+                                                                 names[:len(varies)], metrics)]
         write_json(json_path, summary)
     return summary
 
@@ -456,7 +658,7 @@ def read_sweep_csv(path):
         rows = list(csv.DictReader(handle))
     for row in rows:
         for key, value in row.items():
-            if key == "error":
+            if key in ("error", "worker"):
                 row[key] = value or None
             elif key == "index":
                 row[key] = int(value)
@@ -465,16 +667,111 @@ def read_sweep_csv(path):
     return rows
 
 
+# --- sweep files -------------------------------------------------------------------------------
+
+SWEEP_KEYS = {"description", "scene", "vary", "link", "metrics", "samples", "seed", "method",
+              "stop_time", "step"}
+
+
+def is_sweep_file(data):
+    """A sweep file names its scene; a scene file has components."""
+    return "scene" in data and "components" not in data
+
+
+def load_sweep_file(path):
+    """A sweep file (TOML) -> run_sweep's settings: {'scene_path', 'varies', 'links',
+    'metrics', 'samples', 'seed', 'method', 'overrides', 'name', 'description'}.
+
+    Keys: scene (a scene file, relative to the sweep file), vary, link, metrics (lists of
+    the command line's strings), optional samples, seed, method, and stop_time / step
+    replacing the scene's. The sweep's name is the file's stem.
+    """
+    path = Path(path)
+    try:
+        with open(path, "rb") as handle:
+            data = tomllib.load(handle)
+    except FileNotFoundError:
+        raise SweepError(f"sweep file {path} not found") from None
+    except tomllib.TOMLDecodeError as error:
+        raise SweepError(f"{path}: malformed TOML: {error}") from None
+    unknown = set(data) - SWEEP_KEYS
+    if unknown:
+        raise SweepError(f"{path}: unknown key(s) {', '.join(sorted(unknown))}; allowed: "
+                         f"{', '.join(sorted(SWEEP_KEYS))}")
+    if not isinstance(data.get("scene"), str):
+        raise SweepError(f"{path}: 'scene' must name a scene file")
+    for key in ("vary", "link", "metrics"):
+        items = data.get(key, [])
+        if not isinstance(items, list) or not all(isinstance(i, str) for i in items):
+            raise SweepError(f"{path}: '{key}' must be a list of strings")
+    try:
+        return {
+            "scene_path": path.parent / data["scene"],
+            "varies": [parse_vary(text) for text in data.get("vary", [])],
+            "links": [parse_link(text) for text in data.get("link", [])],
+            "metrics": [parse_metric(text) for text in data.get("metrics", [])],
+            "samples": data.get("samples"), "seed": data.get("seed"),
+            "method": data.get("method", "lhs"),
+            "overrides": {key: data[key] for key in SCENE_OVERRIDES if key in data},
+            "name": path.stem, "description": data.get("description", ""),
+        }
+    except SweepError as error:
+        raise SweepError(f"{path}: {error}") from None
+
+
+def locate(text):
+    """A sweep or scene file: a path, or a name in sims/sweeps/ then sims/scenes/."""
+    path = Path(text)
+    if path.exists() or path.suffix == ".toml":
+        return path
+    for folder in ("sims/sweeps", "sims/scenes"):
+        candidate = Path(folder) / f"{text}.toml"
+        if candidate.is_file():
+            return candidate
+    return path
+
+
+def settings(args):
+    """run_sweep's settings from the command line, over those of a sweep file if given."""
+    path = locate(args.scene)
+    try:
+        with open(path, "rb") as handle:
+            data = tomllib.load(handle)
+    except (OSError, tomllib.TOMLDecodeError):
+        data = {}  # load_scene reports it
+    if is_sweep_file(data):
+        chosen = load_sweep_file(path)
+    else:
+        chosen = {"scene_path": path, "varies": [], "links": [], "metrics": [],
+                  "samples": None, "seed": None, "method": "lhs", "overrides": {},
+                  "name": None}
+    chosen.pop("description", None)
+    if args.vary:
+        chosen["varies"] = [parse_vary(text) for text in args.vary]
+    if args.link:
+        chosen["links"] = [parse_link(text) for text in args.link]
+    if args.metrics:
+        chosen["metrics"] = [parse_metric(text) for text in args.metrics]
+    for key in ("samples", "seed", "method"):
+        if getattr(args, key) is not None:
+            chosen[key] = getattr(args, key)
+    return chosen
+
+
 # --- command line ------------------------------------------------------------------------------
 
 def _arguments(argv):
     parser = argparse.ArgumentParser(prog="mechfmu sweep", description=__doc__.splitlines()[0])
-    parser.add_argument("scene", help="scene TOML file, or a name in sims/scenes/")
+    parser.add_argument("scene", help="sweep or scene TOML file, or a name in sims/sweeps/ "
+                                      "or sims/scenes/")
     parser.add_argument("--vary", action="append", default=[], metavar="COMP.PARAM=START:STOP:COUNT",
                         help="a parameter (or constant input) and its range; repeat for a grid")
+    parser.add_argument("--link", action="append", default=[],
+                        metavar="COMP.PARAM=FACTOR*COMP.VARIED",
+                        help="a parameter that follows a varied one (target = factor * value)")
     parser.add_argument("--samples", type=int, help="draw N points instead of the grid")
     parser.add_argument("--seed", type=int, help="seed of the sampling (with --samples)")
-    parser.add_argument("--method", choices=("lhs", "random"), default="lhs",
+    parser.add_argument("--method", choices=("lhs", "random"),
                         help="sampling method (default: lhs, Latin hypercube)")
     parser.add_argument("--metrics", nargs="+", default=[], metavar="NAME",
                         help="final:c.v, max:c.v, min:c.v, time_of_max:c.v, "
@@ -483,6 +780,8 @@ def _arguments(argv):
     parser.add_argument("--out", help="output folder (default: out/sweep_<scene>)")
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
                         help="parallel processes (default: the number of cores)")
+    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                        help="run on this Dask cluster instead of local processes")
     parser.add_argument("--plot", action="store_true", help="one PNG per metric and parameter")
     parser.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
     return parser.parse_args(argv)
@@ -491,24 +790,20 @@ def _arguments(argv):
 def main(argv):
     from .cosim.scene import SceneError
     args = _arguments(argv)
-    path = Path(args.scene)
-    if path.suffix != ".toml" and not path.exists():
-        path = Path("sims/scenes") / f"{args.scene}.toml"
     try:
-        varies = [parse_vary(text) for text in args.vary]
-        metrics = [parse_metric(text) for text in args.metrics]
         if args.jobs < 1:
             raise SweepError("--jobs must be at least 1")
-        summary = run_sweep(path, varies, metrics, args.out, args.jobs, args.samples,
-                            args.seed, args.method, args.fmu_dir, args.plot)
+        summary = run_sweep(**settings(args), out_dir=args.out, jobs=args.jobs,
+                            fmu_dir=args.fmu_dir, plot=args.plot, scheduler=args.scheduler)
     except (SweepError, SceneError) as error:
         print(f"sweep error: {error}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("sweep interrupted; rows done are kept", file=sys.stderr)
         return 130
-    print(f"{summary['scene']}: {summary['done']} point(s), {summary['failed']} failed, "
-          f"{summary['wall_time_s']:.2f} s with {summary['jobs']} job(s)")
+    print(f"{summary['name']}: {summary['done']} point(s), {summary['failed']} failed, "
+          f"{summary['wall_time_s']:.2f} s ({summary['scenes_per_s']:.1f} scenes/s) on "
+          f"{summary['where']}")
     print(f"csv: {summary['csv']}")
     for plot in summary.get("plots", []):
         print(f"png: {plot}")

@@ -138,6 +138,77 @@ class LogBook:
         return "no log message from the FMU"
 
 
+class Instances:
+    """Where a run takes its FMU instances from and gives them back.
+
+    ``keep=False`` (one run): each FMU file is extracted, each instance created, and all are
+    freed and deleted by ``close``. ``keep=True`` (a sweep worker running many short scenes):
+    each FMU file is extracted once, and an instance given back is terminated and reset
+    (fmi2Reset: back to its start values, as freshly instantiated) and kept for the next run
+    of a component of the same name and FMU; one that fails to terminate or reset is freed.
+    One pool serves one thread at a time: its LogBook is the log of the run in progress.
+    ``created`` and ``reused`` count the instances made and the resets that saved one.
+    """
+
+    def __init__(self, keep=False):
+        self.keep = keep
+        self.logbook = LogBook()  # instances log through the book they were created with
+        self._folders = {}        # (FMU path, mtime, size) -> extracted folder
+        self._idle = {}           # (folder, instance name) -> [FMU2Slave ready to set up]
+        self.created = self.reused = 0
+
+    @staticmethod
+    def _version(path):
+        stat = Path(path).stat()
+        return str(path), stat.st_mtime_ns, stat.st_size
+
+    def acquire(self, component):
+        """An instantiated FMU2Slave for ``component``, named after it."""
+        version = self._version(component.path)
+        folder = self._folders.get(version)
+        if folder is None:
+            folder = extract(str(component.path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_"))
+            self._folders[version] = folder
+        idle = self._idle.get((folder, component.name))
+        if idle:
+            self.reused += 1
+            return idle.pop()
+        slave = FMU2Slave(guid=component.description.guid, unzipDirectory=folder,
+                          modelIdentifier=component.description.coSimulation.modelIdentifier,
+                          instanceName=component.name)
+        slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+        slave.mechfmu_folder = folder
+        self.created += 1
+        return slave
+
+    def release(self, component):
+        """Take back ``component``'s instance: reset and keep it, or free it."""
+        slave = component.slave
+        try:
+            slave.terminate()
+        except Exception:
+            pass  # an instance in error may refuse to terminate; fmi2Reset or free follows
+        if self.keep:
+            try:
+                slave.reset()
+            except Exception:
+                pass  # not reusable: freed below
+            else:
+                self._idle.setdefault((slave.mechfmu_folder, component.name), []).append(slave)
+                return
+        slave.freeInstance()
+
+    def close(self):
+        """Free every kept instance and delete the extracted FMUs."""
+        for slaves in self._idle.values():
+            for slave in slaves:
+                slave.freeInstance()
+        self._idle.clear()
+        for folder in self._folders.values():
+            shutil.rmtree(folder, ignore_errors=True)
+        self._folders.clear()
+
+
 class _Component:
     """One FMU instance in a running scene, with its variables by name."""
 
@@ -360,35 +431,34 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls=False):
+    def run(self, time_fmi_calls=False, instances=None):
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
         loop (``meta['fmi_call_time_s']``, next to ``meta['loop_time_s']``); the timers add
         a little to the loop, so benchmarks time it separately.
+        ``instances``: an Instances pool to take the FMU instances from and give them back
+        to, reset, for the next run (many short runs: a sweep worker); by default the FMUs
+        are extracted and instantiated for this run and freed at its end.
         """
         scene = self.scene
         result = Result(scene=scene, columns={name: [] for name, _, _ in self.recorded},
                         units={name: variable.unit for name, _, variable in self.recorded})
         result.meta["coupling"] = scene.coupling
-        logbook = LogBook()
-        result.log = logbook.messages
-        extracted = {}
+        own = instances is None
+        if own:
+            instances = Instances()
+        logbook = instances.logbook
+        logbook.messages = result.log = []
         instantiated = []
         started = clock.perf_counter()
         current = (None, scene.start_time)
         recorders = []
         try:
-            for path in {c.path for c in self.components.values()}:
-                extracted[path] = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_"))
             for name in self.order:
                 current = (name, scene.start_time)
                 component = self.components[name]
-                component.slave = FMU2Slave(
-                    guid=component.description.guid, unzipDirectory=extracted[component.path],
-                    modelIdentifier=component.description.coSimulation.modelIdentifier,
-                    instanceName=name)
-                component.slave.instantiate(callbacks=logbook.callbacks, loggingOn=True)
+                component.slave = instances.acquire(component)
                 instantiated.append(component)
                 component.slave.setupExperiment(startTime=scene.start_time,
                                                 stopTime=scene.stop_time)
@@ -432,14 +502,10 @@ class Simulation:
             result.meta["wall_time_s"] = clock.perf_counter() - started
             result.meta["steps"] = max(len(result.times) - 1, 0)
             for component in instantiated:
-                try:
-                    component.slave.terminate()
-                except Exception:
-                    pass  # an instance in error may refuse to terminate; it is freed anyway
-                component.slave.freeInstance()
+                instances.release(component)
                 component.slave = None
-            for folder in extracted.values():
-                shutil.rmtree(folder, ignore_errors=True)
+            if own:
+                instances.close()
         return result
 
     def _feeds(self, name, skip=()):

@@ -179,8 +179,9 @@ def parse_scene(data, path):
         reference=(path.parent / reference).resolve() if reference else None)
 
 
-def load_scene(path):
-    """Read and parse a scene TOML file; errors name the file and the problem."""
+def load_scene(path, overrides=None):
+    """Read and parse a scene TOML file; errors name the file and the problem.
+    ``overrides``: top-level keys (stop_time, step, ...) replacing the file's."""
     path = Path(path)
     try:
         with open(path, "rb") as handle:
@@ -189,4 +190,4 @@ def load_scene(path):
         raise SceneError(f"scene file {path} not found") from None
     except tomllib.TOMLDecodeError as error:
         raise SceneError(f"{path}: malformed TOML: {error}") from None
-    return parse_scene(data, path)
+    return parse_scene({**data, **(overrides or {})}, path)
