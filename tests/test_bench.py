@@ -29,6 +29,8 @@ EXPECTED = {
     "effects": ["gear_retraction (kinematic, 2 FMUs)",
                 "gear_retraction_dynamic (six effects, radau)", "kinematic / dynamic"],
     "floor": ["closed form (numpy)", "FMU run (master loop)", "FMU / closed form"],
+    "sweep": ["1 worker(s): wall time", "1 worker(s): throughput", "2 worker(s): wall time",
+              "2 worker(s): throughput", "speed-up, 2 workers over 1"],
 }
 # Differences of two medians (wall - FMI time, intercept of the per-step line): on a busy
 # machine noise can push them to or below zero, so they are only required to be finite.
@@ -42,7 +44,7 @@ def bench(fmu_dir, tmp_path_factory):
     stdout = io.StringIO()
     with contextlib.redirect_stdout(stdout):
         status = main(["--quick", "--out", str(out), "--fmu-dir", str(fmu_dir),
-                       "--scenes", str(SCENES)])
+                       "--scenes", str(SCENES), "--sweeps", str(ROOT / "sims" / "sweeps")])
     with open(out / "bench.csv", newline="", encoding="utf-8") as handle:
         records = list(csv.DictReader(handle))
     return status, stdout.getvalue(), records, out
@@ -74,6 +76,9 @@ def test_times_finite_and_positive(bench):
     for record in records:
         value = float(record["value"])
         assert math.isfinite(value), record
+        if record["benchmark"] == "sweep":  # one sweep per worker count
+            assert int(record["repeats"]) == 1 and value > 0.0, record
+            continue
         assert int(record["repeats"]) == 2
         if record["unit"] != RATIO_UNIT and not record["case"].endswith(DIFFERENCES):
             assert record["unit"] in ("us", "ms") and value > 0.0, record
@@ -83,7 +88,7 @@ def test_ratios_are_the_quotients_of_their_parts(bench):
     _, _, records, _ = bench
     rows = _rows(records)
     ratios = [r for r in records if r["unit"] == RATIO_UNIT]
-    assert len(ratios) == 2 + len(model_cost.CASES) + 2
+    assert len(ratios) == 2 + len(model_cost.CASES) + 2 + 1
     for record in ratios:
         row = Row(record["benchmark"], record["case"], float(record["value"]), record["unit"],
                   int(record["repeats"]), notes=record["notes"])
@@ -109,9 +114,13 @@ def test_targets_reported_not_asserted(bench):
     assert targets["total per step, ours / fmpy"] == "<= 0.5"
     assert targets["overhead per step, ours / fmpy"] == "<= 0.5"
     assert targets["kinematic / dynamic"] == "<= 1/3"
+    assert targets["speed-up, 2 workers over 1"] == ">= 1.7"
     assert all(targets[f"{case.label}: model / null"] == "<= 1.2" for case in model_cost.CASES)
     for record in records:
         if record["target"]:
+            if record["target"] == ">= 1.7":
+                assert record["meets_target"] == str(float(record["value"]) >= 1.7).lower()
+                continue
             limit = {"<= 0.5": 0.5, "<= 1.2": 1.2, "<= 1/3": 1.0 / 3.0}[record["target"]]
             assert record["meets_target"] == str(float(record["value"]) <= limit).lower()
         else:

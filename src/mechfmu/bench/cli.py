@@ -8,7 +8,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import effects, floor, master_overhead, model_cost
+from . import effects, floor, master_overhead, model_cost, sweep
 from .report import machine, machine_line, markdown_table, write_outputs
 
 
@@ -20,18 +20,20 @@ class Settings:
     master_lengths_s: tuple  # (short, long) stop times of the gear scene
     model_steps: int
     effects_stop_time_s: float = None  # None: the scenes as written (3 s)
+    sweep_scenes: int = 1000  # scenes of the sweep benchmark, run once on 1 and on 2 workers
 
 
 FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
 # The master's lengths stay: a shorter span makes the slope noisy, and the runs are cheap.
 QUICK = Settings(repeats=2, master_lengths_s=FULL.master_lengths_s, model_steps=200,
-                 effects_stop_time_s=0.5)
+                 effects_stop_time_s=0.5, sweep_scenes=16)
 
 
 def parse_arguments(argv):
     parser = argparse.ArgumentParser(
         prog="mechfmu bench", description="Benchmarks: master overhead against fmpy, model "
-        "cost against null FMUs, effects, the closed-form floor (README: Benchmarks).")
+        "cost against null FMUs, effects, the closed-form floor, a sweep on 1 and 2 "
+        "workers (README: Benchmarks).")
     parser.add_argument("--repeats", type=int, default=None,
                         help=f"measured repeats per case after one warm-up (default "
                              f"{FULL.repeats}, --quick {QUICK.repeats})")
@@ -40,23 +42,31 @@ def parse_arguments(argv):
     parser.add_argument("--out", default="data/bench", help="output folder (default data/bench)")
     parser.add_argument("--fmu-dir", default="fmus", help="folder of the built FMUs")
     parser.add_argument("--scenes", default="sims/scenes", help="folder of the scene files")
+    parser.add_argument("--sweeps", default="sims/sweeps", help="folder of the sweep files")
+    parser.add_argument("--sweep-scenes", type=int, default=None,
+                        help=f"scenes of the sweep benchmark (default {FULL.sweep_scenes}, "
+                             f"--quick {QUICK.sweep_scenes})")
     parser.add_argument("--profile", action="store_true",
                         help="also print cProfile's top 15 functions of each master")
     args = parser.parse_args(argv)
     if args.repeats is not None and args.repeats < 1:
         parser.error("--repeats must be at least 1")
+    if args.sweep_scenes is not None and args.sweep_scenes < 1:
+        parser.error("--sweep-scenes must be at least 1")
     return args
 
 
 def settings_for(args):
     chosen = QUICK if args.quick else FULL
     repeats = args.repeats if args.repeats is not None else chosen.repeats
+    scenes = args.sweep_scenes if args.sweep_scenes is not None else chosen.sweep_scenes
     return Settings(repeats, chosen.master_lengths_s, chosen.model_steps,
-                    chosen.effects_stop_time_s)
+                    chosen.effects_stop_time_s, scenes)
 
 
 def missing_fmus(fmu_dir):
-    needed = {"LandingGear", "PistonActuator", *(case.model for case in model_cost.CASES)}
+    needed = {"LandingGear", "PistonActuator", "LoadProfile", "Suspension",
+              *(case.model for case in model_cost.CASES)}
     return sorted(name for name in needed if not (Path(fmu_dir) / f"{name}.fmu").is_file())
 
 
@@ -68,6 +78,7 @@ def run_benchmarks(args, settings):
     rows += effects.measure(args.scenes, args.fmu_dir, settings.repeats,
                             settings.effects_stop_time_s)
     rows += floor.measure(args.scenes, args.fmu_dir, settings.repeats)
+    rows += sweep.measure(args.sweeps, args.fmu_dir, settings.sweep_scenes)
     return rows
 
 

@@ -18,13 +18,15 @@ PARTS_SEPARATOR = " / "  # a ratio's notes start with "<numerator case> / <denom
 
 @dataclass(frozen=True)
 class Target:
-    """An upper limit on a value, with the way the issue states it (e.g. '<= 1/3')."""
+    """A limit on a value, with the way the issue states it (e.g. '<= 1/3'): an upper
+    limit, or a lower one with ``at_least`` (e.g. a speed-up '>= 1.7')."""
 
     limit: float
     label: str
+    at_least: bool = False
 
     def met_by(self, value):
-        return value <= self.limit
+        return value >= self.limit if self.at_least else value <= self.limit
 
 
 @dataclass(frozen=True)
