@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 FMU_SOURCES := $(shell find src/mechfmu/physics src/mechfmu/fmi src/mechfmu/models src/mechfmu/build.py src/mechfmu/binary_patch.py src/mechfmu/__init__.py -name '*.py') src/mechfmu/c_loader/loader.c
 
-.PHONY: run test fmus references report study bench clean
+.PHONY: run test fmus references report study bench sweeps clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -31,12 +31,16 @@ references: $(VENV)/.installed
 report: $(VENV)/.installed
 	$(PY) sims/seed_report.py
 
-# Long measurements, not tests (the suite runs small versions of both).
+# Long measurements, not tests (the suite runs small versions of them).
 study: fmus/.built
 	$(VENV)/bin/mechfmu study
 
 bench: fmus/.built
 	$(VENV)/bin/mechfmu bench
+
+# The shipped parameter sweeps, checked against their references (out/sweeps/summary.md).
+sweeps: fmus/.built
+	$(PY) sims/run_sweeps.py
 
 clean:
 	rm -rf $(VENV) fmus/*.fmu fmus/.built out
