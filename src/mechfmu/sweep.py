@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from .cosim.results import read_csv, write_json
-from .cosim.scene import tomllib
+from .cosim.scene import read_toml
 
 
 class SweepError(ValueError):
@@ -687,13 +687,7 @@ def load_sweep_file(path):
     replacing the scene's. The sweep's name is the file's stem.
     """
     path = Path(path)
-    try:
-        with open(path, "rb") as handle:
-            data = tomllib.load(handle)
-    except FileNotFoundError:
-        raise SweepError(f"sweep file {path} not found") from None
-    except tomllib.TOMLDecodeError as error:
-        raise SweepError(f"{path}: malformed TOML: {error}") from None
+    data = read_toml(path, SweepError, "sweep file")
     unknown = set(data) - SWEEP_KEYS
     if unknown:
         raise SweepError(f"{path}: unknown key(s) {', '.join(sorted(unknown))}; allowed: "
@@ -735,10 +729,9 @@ def settings(args):
     """run_sweep's settings from the command line, over those of a sweep file if given."""
     path = locate(args.scene)
     try:
-        with open(path, "rb") as handle:
-            data = tomllib.load(handle)
-    except (OSError, tomllib.TOMLDecodeError):
-        data = {}  # load_scene reports it
+        data = read_toml(path, SweepError)
+    except SweepError:
+        data = {}  # load_scene reports it, as a scene file
     if is_sweep_file(data):
         chosen = load_sweep_file(path)
     else:

@@ -179,15 +179,20 @@ def parse_scene(data, path):
         reference=(path.parent / reference).resolve() if reference else None)
 
 
+def read_toml(path, error=SceneError, what="scene file"):
+    """The parsed TOML file at ``path``; a missing or malformed file raises ``error`` naming
+    the file and the problem."""
+    try:
+        with open(path, "rb") as handle:
+            return tomllib.load(handle)
+    except FileNotFoundError:
+        raise error(f"{what} {path} not found") from None
+    except tomllib.TOMLDecodeError as problem:
+        raise error(f"{path}: malformed TOML: {problem}") from None
+
+
 def load_scene(path, overrides=None):
     """Read and parse a scene TOML file; errors name the file and the problem.
     ``overrides``: top-level keys (stop_time, step, ...) replacing the file's."""
     path = Path(path)
-    try:
-        with open(path, "rb") as handle:
-            data = tomllib.load(handle)
-    except FileNotFoundError:
-        raise SceneError(f"scene file {path} not found") from None
-    except tomllib.TOMLDecodeError as error:
-        raise SceneError(f"{path}: malformed TOML: {error}") from None
-    return parse_scene({**data, **(overrides or {})}, path)
+    return parse_scene({**read_toml(path), **(overrides or {})}, path)

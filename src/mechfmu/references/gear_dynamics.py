@@ -26,27 +26,36 @@ def gear_values(defaults, parameters, effects, inputs):
     return values
 
 
-def simulate(values, times):
-    """Columns of the dynamics drive at ``times`` (s), and the stroke event times."""
+def dynamics_model(values):
+    """The FMU's own right-hand side (models.landing_gear._Dynamics) for the gear ``values``."""
     body = gd.make_body(values["bar_length"], values["bar_mass"], values["wheel_mass"])
     d, h = gear.check_geometry(values["attachment_distance"], values["pivot_height"])
     geometry = gd.Geometry(d, h, values["down_angle"], values["airframe_pitch"])
-    dynamics = _Dynamics(values, body, geometry, slave=None)
-    low, high = dynamics.stroke
+    return _Dynamics(values, body, geometry, slave=None)
 
+
+def stroke_crossings(dynamics):
+    """Terminal solve_ivp events: the piston length through stroke_max, through stroke_min
+    (the integration restarts at each, as the FMU's does at the kink)."""
     def crossing(limit):
         def event(t, y):
             return dynamics._length(y) - limit
         event.terminal = True
         return event
+    low, high = dynamics.stroke
+    return [crossing(high), crossing(low)]
 
+
+def simulate(values, times):
+    """Columns of the dynamics drive at ``times`` (s), and the stroke event times."""
+    dynamics = dynamics_model(values)
     rhs = lambda t, y: dynamics.derivatives(list(y), values)[0]  # noqa: E731
     t, y = times[0], np.array(dynamics.initial_state(), dtype=float)
     pieces, events = [], {"stroke_max": [], "stroke_min": []}
     for _ in range(10_000):
         solution = solve_ivp(rhs, (t, times[-1]), y, method="Radau", rtol=TOLERANCE,
                              atol=TOLERANCE, dense_output=True,
-                             events=[crossing(high), crossing(low)])
+                             events=stroke_crossings(dynamics))
         pieces.append((t, float(solution.t[-1]), solution.sol))
         t, y = float(solution.t[-1]), solution.y[:, -1]
         if solution.status != 1 or t >= times[-1]:

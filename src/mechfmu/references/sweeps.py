@@ -270,20 +270,8 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     tol = _positive("tolerance", tolerance)
     # Validation of the gear values is the FMU's (require_* raise MechanismError/RangeError,
     # both ValueErrors), exactly as for the scene reference.
-    from ..models.landing_gear import _Dynamics
-    from ..physics import gear_dynamics as gd
-    from ..physics import landing_gear as gear
-    body = gd.make_body(values["bar_length"], values["bar_mass"], values["wheel_mass"])
-    d, h = gear.check_geometry(values["attachment_distance"], values["pivot_height"])
-    geometry = gd.Geometry(d, h, values["down_angle"], values["airframe_pitch"])
-    model = _Dynamics(values, body, geometry, slave=None)
-    low, high = model.stroke
-
-    def crossing(limit):
-        def event(t, y):
-            return model._length(y) - limit
-        event.terminal = True
-        return event
+    from .gear_dynamics import dynamics_model, stroke_crossings
+    model = dynamics_model(values)
 
     def rhs(t, y):
         return model.derivatives(list(y), values)[0]
@@ -291,7 +279,7 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     t, y = 0.0, np.array(model.initial_state(), dtype=float)
     for _ in range(10_000):
         solution = solve_ivp(rhs, (t, stop_time), y, method=method, rtol=tol, atol=tol,
-                             events=[crossing(high), crossing(low)])
+                             events=stroke_crossings(model))
         if solution.status == -1:
             raise RuntimeError(f"solve_ivp failed at t = {t} s: {solution.message}")
         t, y = float(solution.t[-1]), solution.y[:, -1]
