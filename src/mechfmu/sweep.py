@@ -1,13 +1,17 @@
-"""Parameter sweeps of a scene on a local process pool (``mechfmu sweep``).
+"""Parameter sweeps of a scene (``mechfmu sweep``), on local processes or a Dask cluster.
 
 ``mechfmu sweep SCENE --vary comp.param=START:STOP:COUNT [--vary ...] --metrics NAME ...``
 runs the scene at every point of the full grid (``numpy.linspace`` per parameter), or at
 ``--samples N --seed S`` Latin-hypercube (``--method lhs``, the default) or uniform random
-(``--method random``) points over the ranges, and writes into ``--out``
-(default ``out/sweep_<scene>``):
+(``--method random``) points over the ranges; ``--link`` sets parameters that follow a varied
+one. A sweep file (sims/sweeps/*.toml) holds the same settings. The points run on ``--jobs``
+local processes or on the Dask cluster at ``--scheduler``; each worker thread keeps one
+instance per component and resets it between points. It writes into ``--out``
+(default ``out/sweep_<sweep or scene>``):
 
-sweep.csv    one row per point: index, each varied parameter, each metric, error, wall_time_s;
-             a row is appended and flushed as each point finishes (rows in completion order)
+sweep.csv    one row per point: index, each varied and linked parameter, each metric, error,
+             wall_time_s, worker; a row is appended and flushed as each point finishes (rows
+             in completion order)
 sweep.json   the sweep's definition and its state (written at the start, replaced atomically
              at the end; ``"interrupted": true`` after Ctrl-C)
 <metric>_vs_<parameter>.png   with ``--plot``
@@ -54,6 +58,14 @@ SCENE_OVERRIDES = {"stop_time", "step"}  # scene keys a sweep may replace
 
 # --- --vary ----------------------------------------------------------------------------------
 
+def split_dotted(name, option, text, what="parameter"):
+    """'component.variable' -> (component, variable), or SweepError naming the option."""
+    component, dot, variable = name.strip().partition(".")
+    if not dot or not component or not variable:
+        raise SweepError(f"{option} {text!r}: {name!r} is not of the form component.{what}")
+    return component, variable
+
+
 @dataclasses.dataclass(frozen=True)
 class Vary:
     component: str
@@ -72,9 +84,7 @@ def parse_vary(text):
     if not isinstance(text, str) or text.count("=") != 1:
         raise SweepError(f"--vary {text!r}: expected component.parameter=START:STOP:COUNT")
     name, spec = (part.strip() for part in text.split("="))
-    component, dot, variable = name.partition(".")
-    if not dot or not component or not variable:
-        raise SweepError(f"--vary {text!r}: {name!r} is not of the form component.parameter")
+    component, variable = split_dotted(name, "--vary", text)
     parts = spec.split(":")
     if len(parts) not in (2, 3):
         raise SweepError(f"--vary {text!r}: expected START:STOP:COUNT after '='")
@@ -114,9 +124,7 @@ def parse_link(text):
         raise SweepError(f"--link {text!r}: expected component.parameter=FACTOR*"
                          f"component.varied")
     name, spec = (part.strip() for part in text.split("="))
-    component, dot, variable = name.partition(".")
-    if not dot or not component or not variable:
-        raise SweepError(f"--link {text!r}: {name!r} is not of the form component.parameter")
+    component, variable = split_dotted(name, "--link", text)
     factor_text, star, source = spec.rpartition("*")
     factor = 1.0
     if star:
@@ -127,12 +135,8 @@ def parse_link(text):
                 from None
         if not math.isfinite(factor):
             raise SweepError(f"--link {text!r}: FACTOR must be finite")
-    source = source.strip()
-    head, dot, tail = source.partition(".")
-    if not dot or not head or not tail:
-        raise SweepError(f"--link {text!r}: {source!r} is not of the form "
-                         f"component.parameter")
-    return Link(component, variable, factor, source)
+    split_dotted(source, "--link", text)
+    return Link(component, variable, factor, source.strip())
 
 
 # --- points ------------------------------------------------------------------------------------
@@ -200,10 +204,7 @@ def parse_metric(text):
         form = f"{kind}:component.variable" + (":THRESHOLD" if METRICS[kind] else "")
         raise SweepError(f"--metrics {text!r}: expected {form}")
     variable = parts[1]
-    component, dot, name = variable.partition(".")
-    if not dot or not component or not name:
-        raise SweepError(f"--metrics {text!r}: {variable!r} is not of the form "
-                         f"component.variable")
+    split_dotted(variable, "--metrics", text, "variable")
     threshold = None
     if METRICS[kind]:
         try:
