@@ -74,11 +74,15 @@ def resolve_fmu(spec, scene, fmu_dir):
     return candidate
 
 
-def model_description(path):
-    """fmpy's ModelDescription of the FMU at ``path``, parsed once per file version (a
-    rebuilt FMU, with a new modification time or size, is parsed again)."""
+def file_version(path):
+    """(path, modification time in ns, size): a rebuilt FMU is a new version."""
     stat = Path(path).stat()
-    return _parsed_description(str(path), stat.st_mtime_ns, stat.st_size)
+    return str(path), stat.st_mtime_ns, stat.st_size
+
+
+def model_description(path):
+    """fmpy's ModelDescription of the FMU at ``path``, parsed once per file version."""
+    return _parsed_description(*file_version(path))
 
 
 @functools.lru_cache(maxsize=128)
@@ -157,14 +161,9 @@ class Instances:
         self._idle = {}           # (folder, instance name) -> [FMU2Slave ready to set up]
         self.created = self.reused = 0
 
-    @staticmethod
-    def _version(path):
-        stat = Path(path).stat()
-        return str(path), stat.st_mtime_ns, stat.st_size
-
     def acquire(self, component):
         """An instantiated FMU2Slave for ``component``, named after it."""
-        version = self._version(component.path)
+        version = file_version(component.path)
         folder = self._folders.get(version)
         if folder is None:
             folder = extract(str(component.path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_"))

@@ -18,10 +18,16 @@ from . import (drives, gear_dynamics, landing_gear, linkages, suspension,
                suspension_dynamics, valve_spring, valve_train)
 
 
+def start_values(model, causality=None):
+    """Start values declared by a model (its FMU's), of every variable or of one causality."""
+    cls = getattr(importlib.import_module(MODELS[model]), model)
+    return {v.name: v.start for v in cls.VARIABLES
+            if causality is None or v.causality == causality}
+
+
 def model_defaults(model):
     """Parameter defaults declared by a model (its FMU start values)."""
-    cls = getattr(importlib.import_module(MODELS[model]), model)
-    return {v.name: v.start for v in cls.VARIABLES if v.causality == "parameter"}
+    return start_values(model, "parameter")
 
 
 def _component(scene, model):
@@ -79,10 +85,8 @@ def gear_dynamics_scene(scene):
     """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
     name, _ = _component(scene, "LandingGear")
     spec = scene.components[name]
-    values = gear_dynamics.gear_values(
-        {v.name: v.start for v in getattr(importlib.import_module(MODELS["LandingGear"]),
-                                          "LandingGear").VARIABLES},
-        spec.parameters, spec.effects, spec.inputs)
+    values = gear_dynamics.gear_values(start_values("LandingGear"), spec.parameters,
+                                       spec.effects, spec.inputs)
     columns = gear_dynamics.simulate(values, sample_times(scene))
     return {f"{name}.{key}": np.asarray(values_) for key, values_ in columns.items()
             if scene.record is None or f"{name}.{key}" in scene.record}

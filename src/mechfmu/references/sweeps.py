@@ -16,7 +16,6 @@ without the FMUs' standard-library physics for the quantity checked:
 Units SI: m, kg, s, rad, N, Pa. Bad input raises ValueError naming the value.
 """
 
-import importlib
 import math
 from pathlib import Path
 
@@ -24,10 +23,12 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
+from ..physics.errors import require_between, require_finite, require_positive
 from . import gear_dynamics as gear_reference
 from . import suspension as statics
 from . import suspension_dynamics as dynamics
 from . import valve_train as valve_reference
+from .generate import model_defaults, start_values
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
 # solve_ivp tolerances of the suspension integrations (as the scene references).
@@ -48,34 +49,14 @@ FLOAT_GRID = 20001
 
 # --- validation -----------------------------------------------------------------------------
 
-def _finite(name, value, unit=""):
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} = {value!r} is not a number") from None
-    if not math.isfinite(number):
-        raise ValueError(f"{name} = {value!r} {unit} must be finite".rstrip())
-    return number
-
-
-def _positive(name, value, unit=""):
-    number = _finite(name, value, unit)
-    if number <= 0.0:
-        raise ValueError(f"{name} = {value!r} {unit} must be positive".replace("  ", " "))
-    return number
-
-
 def _non_negative(name, value, unit=""):
-    number = _finite(name, value, unit)
-    if number < 0.0:
-        raise ValueError(f"{name} = {value!r} {unit} must not be negative".replace("  ", " "))
-    return number
+    return require_between(name, value, 0.0, math.inf, unit)
 
 
 def _spring(spring_free_length, spring_stiffness, spring_base_offset):
-    L = _positive("spring_free_length", spring_free_length, "m")
-    k = _positive("spring_stiffness", spring_stiffness, "N/m")
-    d = _positive("spring_base_offset", spring_base_offset, "m")
+    L = require_positive("spring_free_length", spring_free_length, "m")
+    k = require_positive("spring_stiffness", spring_stiffness, "N/m")
+    d = require_positive("spring_base_offset", spring_base_offset, "m")
     if not d < L:
         raise ValueError(f"spring_base_offset = {spring_base_offset!r} m must be below "
                          f"spring_free_length = {spring_free_length!r} m")
@@ -93,7 +74,7 @@ def static_snap_through_mass(spring_free_length=0.5, spring_stiffness=1e4,
     statics (s*^3 = L d^2). Lengths in m, stiffness in N/m, gravity in m/s^2.
     """
     L, k, d = _spring(spring_free_length, spring_stiffness, spring_base_offset)
-    g = _positive("gravity", gravity, "m/s^2")
+    g = require_positive("gravity", gravity, "m/s^2")
     return statics.limit_point(L, k, d)[1] / g
 
 
@@ -157,9 +138,9 @@ def sudden_load_snaps(mass, damping_coefficient, spring_free_length=0.5, spring_
         never turn.
     """
     L, k, d = _spring(spring_free_length, spring_stiffness, spring_base_offset)
-    m = _positive("mass", mass, "kg")
+    m = require_positive("mass", mass, "kg")
     c = _non_negative("damping_coefficient", damping_coefficient, "N s/m")
-    W = m * _positive("gravity", gravity, "m/s^2")
+    W = m * require_positive("gravity", gravity, "m/s^2")
     u_star, F_star = statics.limit_point(L, k, d)
     if W > F_star:
         return True  # only the far equilibrium exists; every motion ends there
@@ -206,8 +187,8 @@ def sudden_snap_through_mass(damping_coefficient, spring_free_length=0.5, spring
     """
     L, k, d = _spring(spring_free_length, spring_stiffness, spring_base_offset)
     c = _non_negative("damping_coefficient", damping_coefficient, "N s/m")
-    g = _positive("gravity", gravity, "m/s^2")
-    tol = _positive("tolerance", tolerance)
+    g = require_positive("gravity", gravity, "m/s^2")
+    tol = require_positive("tolerance", tolerance)
     if not tol < 0.1:
         raise ValueError(f"tolerance = {tolerance!r} must be below 0.1 (relative)")
     low = sudden_snap_through_load_undamped(L, k, d) / g
@@ -223,13 +204,6 @@ def sudden_snap_through_mass(damping_coefficient, spring_free_length=0.5, spring
 
 # --- landing gear: retraction time against supply pressure --------------------------------------
 
-def _landing_gear_defaults():
-    # The FMU's start values, as references/generate.py takes them for the scene reference.
-    from ..models import MODELS
-    module = importlib.import_module(MODELS["LandingGear"])
-    return {v.name: v.start for v in module.LandingGear.VARIABLES}
-
-
 def gear_scene_values(scene_file=GEAR_SCENE, **overrides):
     """(LandingGear values, stop time in s) of a dynamic gear scene: the FMU's defaults, the
     scene's parameters, effects and inputs (as generate.gear_dynamics_scene applies them),
@@ -240,7 +214,7 @@ def gear_scene_values(scene_file=GEAR_SCENE, **overrides):
     if len(specs) != 1:
         raise ValueError(f"scene {scene_file} has {len(specs)} LandingGear components, not 1")
     spec = specs[0]
-    values = gear_reference.gear_values(_landing_gear_defaults(), spec.parameters, spec.effects,
+    values = gear_reference.gear_values(start_values("LandingGear"), spec.parameters, spec.effects,
                                         spec.inputs)
     unknown = sorted(set(overrides) - set(values))
     if unknown:
@@ -262,12 +236,12 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     at the scene's pressure in 0.4 s instead of 29 s. stop_time (s): the scene's unless
     given. ``overrides``: other gear values.
     """
-    p = _positive("supply_pressure", supply_pressure, "Pa")
+    p = require_positive("supply_pressure", supply_pressure, "Pa")
     values, scene_stop = gear_scene_values(scene_file, supply_pressure=p, **overrides)
-    stop_time = scene_stop if stop_time is None else _positive("stop_time", stop_time, "s")
+    stop_time = scene_stop if stop_time is None else require_positive("stop_time", stop_time, "s")
     if not values["drive"] == "dynamics" or not values["hydraulics"]:
         raise ValueError("retraction_time needs drive = 'dynamics' and the hydraulics effect")
-    tol = _positive("tolerance", tolerance)
+    tol = require_positive("tolerance", tolerance)
     # Validation of the gear values is the FMU's (require_* raise MechanismError/RangeError,
     # both ValueErrors), exactly as for the scene reference.
     from .gear_dynamics import dynamics_model, stroke_crossings
@@ -312,12 +286,12 @@ def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb=False, **
     stalls); within a finite stop time more is needed (lowest_retracting_pressure).
     """
     v, _ = gear_scene_values(scene_file, **overrides)
-    d = _positive("attachment_distance", v["attachment_distance"], "m")
-    h = _positive("pivot_height", v["pivot_height"], "m")
-    L = _positive("bar_length", v["bar_length"], "m")
+    d = require_positive("attachment_distance", v["attachment_distance"], "m")
+    h = require_positive("pivot_height", v["pivot_height"], "m")
+    L = require_positive("bar_length", v["bar_length"], "m")
     lever = v["bar_mass"] * L / 2.0 + v["wheel_mass"] * L
-    x_high = _positive("stroke_max", v["stroke_max"], "m")
-    bore, rod = _positive("bore", v["bore"], "m"), _non_negative("rod_diameter", v["rod_diameter"],
+    x_high = require_positive("stroke_max", v["stroke_max"], "m")
+    bore, rod = require_positive("bore", v["bore"], "m"), _non_negative("rod_diameter", v["rod_diameter"],
                                                                   "m")
     cap_area = np.pi * bore ** 2 / 4.0
     rod_area = cap_area - np.pi * rod ** 2 / 4.0
@@ -356,8 +330,8 @@ def lowest_retracting_pressure(low, high, scene_file=GEAR_SCENE, relative_width=
                                **overrides):
     """Lowest supply pressure (Pa) in [low, high] whose scene run retracts by the stop time,
     by bisection on retraction_time being finite (one gear run per halving, ~0.5 s each)."""
-    low = _positive("low", low, "Pa")
-    high = _positive("high", high, "Pa")
+    low = require_positive("low", low, "Pa")
+    high = require_positive("high", high, "Pa")
     if not math.isfinite(retraction_time(high, scene_file, **overrides)):
         raise ValueError(f"high = {high!r} Pa does not retract the gear by the stop time")
     if math.isfinite(retraction_time(low, scene_file, **overrides)):
@@ -372,12 +346,6 @@ def lowest_retracting_pressure(low, high, scene_file=GEAR_SCENE, relative_width=
 
 
 # --- valve train: float speed ---------------------------------------------------------------
-
-def _valve_train_defaults():
-    from ..models import MODELS
-    module = importlib.import_module(MODELS["ValveTrain"])
-    return {v.name: v.start for v in module.ValveTrain.VARIABLES if v.causality == "parameter"}
-
 
 _CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle",
                "return_angle")
@@ -397,9 +365,9 @@ def valve_float_point(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **ca
     return_angle and the geometry fields), defaults the FMU's.
     """
     F0 = _non_negative("spring_preload", spring_preload, "N")
-    m = _positive("valve_mass", valve_mass, "kg")
+    m = require_positive("valve_mass", valve_mass, "kg")
     k = _non_negative("spring_stiffness", spring_stiffness, "N/m")
-    defaults = _valve_train_defaults()
+    defaults = model_defaults("ValveTrain")
     allowed = set(_CAM_FIELDS) | set(valve_reference.GEOMETRY_FIELDS)
     unknown = sorted(set(cam) - allowed)
     if unknown:
@@ -408,14 +376,14 @@ def valve_float_point(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **ca
     law = p["cam_law"]
     if law not in valve_reference.CAM_LAWS:
         raise ValueError(f"cam_law = {law!r} is not one of {', '.join(valve_reference.CAM_LAWS)}")
-    lift = _positive("lift", p["lift"], "m")
-    rise, ret = _positive("rise_angle", p["rise_angle"], "rad"), _positive(
+    lift = require_positive("lift", p["lift"], "m")
+    rise, ret = require_positive("rise_angle", p["rise_angle"], "rad"), require_positive(
         "return_angle", p["return_angle"], "rad")
     dwell = _non_negative("high_dwell_angle", p["high_dwell_angle"], "rad")
     if rise + dwell + ret > 2.0 * np.pi:
         raise ValueError(f"rise_angle + high_dwell_angle + return_angle = {rise + dwell + ret!r} "
                          f"rad exceeds one revolution")
-    geometry = {key: _finite(key, p[key], "m") for key in valve_reference.GEOMETRY_FIELDS}
+    geometry = {key: require_finite(key, p[key], "m") for key in valve_reference.GEOMETRY_FIELDS}
     segments = (("rise", rise, 0.0), ("return", ret, rise + dwell))
 
     def ratio(segment, x):

@@ -50,17 +50,13 @@ def _rows(out_dir, name):
     return sorted(rows, key=lambda row: row["index"])
 
 
-def _component(sweep_dir, name, component):
-    """(scene, the component's scene parameters) of a shipped sweep."""
+def _suspension_settings(sweep_dir, name):
+    """(the Suspension's scene parameters, g of the load link load.final_value = g * mass)
+    of a shipped suspension sweep, from its file and its scene."""
     settings = sweep.load_sweep_file(Path(sweep_dir) / f"{name}.toml")
     scene = load_scene(settings["scene_path"], settings["overrides"])
-    return scene, scene.components[component].parameters
-
-
-def _gravity(sweep_dir, name):
-    """g of the sweep's load link (load.final_value = g * suspension.mass)."""
-    (link,) = sweep.load_sweep_file(Path(sweep_dir) / f"{name}.toml")["links"]
-    return link.factor
+    (link,) = settings["links"]
+    return scene.components["suspension"].parameters, link.factor
 
 
 def snap_bracket(rows, parameter, metric):
@@ -82,11 +78,10 @@ def analyse_suspension(sweep_dir, out_dir):
     findings = {}
     for name, in_time in ((STATIC, False), (SUDDEN, True)):
         rows = _rows(out_dir, name)
-        _, parameters = _component(sweep_dir, name, "suspension")
+        parameters, gravity = _suspension_settings(sweep_dir, name)
         geometry = dict(spring_free_length=parameters.get("spring_free_length", 0.5),
                         spring_stiffness=parameters.get("spring_stiffness", 1e4),
                         spring_base_offset=parameters.get("spring_base_offset", 0.2))
-        gravity = _gravity(sweep_dir, name)
         if in_time:
             damping = parameters.get("damping_coefficient", 0.0)
             expected = reference.sudden_snap_through_mass(damping, **geometry, gravity=gravity)
