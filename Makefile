@@ -2,7 +2,7 @@
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
-FMU_SOURCES := $(shell find src/mechfmu/physics src/mechfmu/fmi src/mechfmu/models src/mechfmu/build.py src/mechfmu/binary_patch.py src/mechfmu/__init__.py -name '*.py') src/mechfmu/c_loader/loader.c
+FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py') src/mechfmu/packaging/c_loader/loader.c
 
 .PHONY: run test fmus references report study bench sweeps clean
 

@@ -1,15 +1,15 @@
 """What effects cost: the kinematic gear scene against the full-dynamics one.
 
-A thin wrapper over the effects benchmark of mechfmu.bench: `make bench` (or
-`python -m mechfmu.bench`) runs it with the other benchmarks and writes data/bench/; this
+A thin wrapper over the effects benchmark of mechfmu.tools.bench: `make bench` (or
+`python -m mechfmu.tools.bench`) runs it with the other benchmarks and writes data/bench/; this
 script runs it alone and only prints its rows (medians of --repeats after one warm-up).
 """
 
 import argparse
 from pathlib import Path
 
-from mechfmu.bench import effects
-from mechfmu.bench.report import markdown_table
+from mechfmu.tools.bench import effects
+from mechfmu.tools.bench.report import markdown_table
 
 ROOT = Path(__file__).resolve().parent.parent
 

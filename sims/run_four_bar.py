@@ -11,7 +11,7 @@ import math
 
 from _runner import arguments, report
 
-from mechfmu.physics import four_bar as fb
+from mechfmu.runtime.physics import four_bar as fb
 
 RTOL, ATOL = 1e-10, 1e-10  # rad, rad/s, rad/s^2
 

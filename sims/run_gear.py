@@ -9,7 +9,7 @@ import numpy as np
 
 from _runner import arguments, run
 
-from mechfmu.references.generate import model_defaults
+from mechfmu.tools.scene_references import model_defaults
 from mechfmu.references.landing_gear import retraction
 
 ABSOLUTE = 1e-12  # SI units; the floor for samples where the exact value is 0

@@ -11,7 +11,7 @@ import re
 
 from _runner import ROOT, arguments, report
 
-from mechfmu.physics import suspension as statics
+from mechfmu.runtime.physics import suspension as statics
 
 SCENES = ("suspension_road_bump", "suspension_sudden_load")
 

@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from mechfmu.report import sweeps
+from mechfmu.tools.report import sweeps
 
 ROOT = Path(__file__).resolve().parent.parent
 TOLERANCES = {"gear_max_error_s": 1e-6, "valve_max_relative_error": 1e-9,

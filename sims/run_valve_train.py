@@ -17,9 +17,9 @@ import numpy as np
 from _runner import ROOT, arguments, report, run
 
 from mechfmu.cosim.scene import load_scene
-from mechfmu.physics import cam_laws, constraint_models, planar
-from mechfmu.physics.valve_train import DEFAULT_VALVE_GEOMETRY, ValveGeometry, float_speed
-from mechfmu.references.generate import model_defaults
+from mechfmu.runtime.physics import cam_laws, constraint_models, planar
+from mechfmu.runtime.physics.valve_train import DEFAULT_VALVE_GEOMETRY, ValveGeometry, float_speed
+from mechfmu.tools.scene_references import model_defaults
 
 RTOL, ATOL = 1e-9, 1e-9  # SI units; accelerations reach ~1000 m/s^2
 

@@ -2,7 +2,7 @@
 
 from pathlib import Path
 
-from mechfmu.report.seed_report import write_report
+from mechfmu.tools.report.seed_report import write_report
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 OUTPUT = REPO_ROOT / "data" / "seed_report.md"

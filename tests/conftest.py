@@ -4,8 +4,8 @@ from pathlib import Path
 
 import pytest
 
-from mechfmu.build import build_all
-from mechfmu.models import MODELS
+from mechfmu.packaging.build import build_all
+from mechfmu.runtime.models import MODELS
 
 ROOT = Path(__file__).resolve().parent.parent
 FMU_DIR = ROOT / "fmus"

@@ -13,10 +13,10 @@ import sys
 import pytest
 
 from conftest import ROOT, SCENES
-from mechfmu.bench import main
-from mechfmu.bench import model_cost
-from mechfmu.bench.report import CSV_COLUMNS, RATIO_UNIT, Row, ratio_parts
-from mechfmu.build import build_all
+from mechfmu.tools.bench import main
+from mechfmu.tools.bench import model_cost
+from mechfmu.tools.bench.report import CSV_COLUMNS, RATIO_UNIT, Row, ratio_parts
+from mechfmu.packaging.build import build_all
 
 MASTER_CASES = [f"{master}: {what}" for master in ("ours", "fmpy")
                 for what in ("wall per step", "set-up", "FMI calls per step",

@@ -4,9 +4,9 @@ import zipfile
 
 import pytest
 
-from mechfmu.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset, patch_exit_finaliser
-from mechfmu.build import pythonfmu_library_name
-from mechfmu.models import MODELS
+from mechfmu.packaging.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset, patch_exit_finaliser
+from mechfmu.packaging.build import pythonfmu_library_name
+from mechfmu.runtime.models import MODELS
 
 
 def _binary(fmu_dir, model):

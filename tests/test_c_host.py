@@ -2,7 +2,7 @@
 
 tests/c_host/host.c dlopens an extracted FMU's binaries/linux64/<id>.so with RTLD_LOCAL in a
 process without Python and without LD_PRELOAD, in an environment that holds only PATH and
-HOME: the FMU's C loader (src/mechfmu/c_loader/loader.c) has to find libpython and start the
+HOME: the FMU's C loader (src/mechfmu/packaging/c_loader/loader.c) has to find libpython and start the
 interpreter itself (the host checks that the Python C API is not in the process before). Its outputs are compared with the same FMU run in this Python process
 through fmpy, with the same inputs and steps: the same Python code runs, so they must agree
 to 1e-12 relative (measured: bit-identical). The landing gear is also checked against the
@@ -23,9 +23,9 @@ import pytest
 from fmpy import read_model_description
 
 from fmu_driver import Driven
-from mechfmu import build
-from mechfmu.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset
-from mechfmu.models import MODELS
+from mechfmu.packaging import build
+from mechfmu.packaging.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset
+from mechfmu.runtime.models import MODELS
 from mechfmu.references.landing_gear import gear_from_piston
 
 HOST_SOURCE = Path(__file__).resolve().parent / "c_host" / "host.c"

@@ -5,15 +5,17 @@ import math
 import subprocess
 import sys
 import zipfile
+from pathlib import Path
 
 import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
+import mechfmu.runtime
 from fmu_driver import Driven
-from mechfmu.models import MODELS
-from mechfmu.physics.landing_gear import DEFAULT_GEOMETRY, gear_motion
-from mechfmu.physics.suspension import limit_point, make_spring
+from mechfmu.runtime.models import MODELS
+from mechfmu.runtime.physics.landing_gear import DEFAULT_GEOMETRY, gear_motion
+from mechfmu.runtime.physics.suspension import limit_point, make_spring
 
 
 @pytest.mark.parametrize("model", list(MODELS))
@@ -65,6 +67,18 @@ def test_code_inside_the_fmu_imports_only_the_standard_library(fmu_dir, model):
         for name in ours:
             found = set(_imports(archive.read(name).decode()))
             assert found <= allowed, (name, found - allowed)
+
+
+@pytest.mark.parametrize("model", list(MODELS))
+def test_the_fmu_carries_exactly_the_runtime_package(fmu_dir, model):
+    """What an FMU packs of mechfmu is mechfmu.runtime, every module of it and nothing else."""
+    runtime = Path(mechfmu.runtime.__file__).parent
+    expected = {path.relative_to(runtime).as_posix() for path in runtime.rglob("*.py")}
+    prefix = f"resources/mechfmu_fmu_{model}/"
+    with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
+        packed = {name[len(prefix):] for name in archive.namelist()
+                  if name.startswith(prefix) and not name.endswith("/")}
+    assert packed == expected
 
 
 def test_fmu_runtime_runs_in_a_python_without_third_party_packages(fmu_dir, tmp_path):

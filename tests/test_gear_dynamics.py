@@ -9,12 +9,12 @@ from conftest import SCENES
 from fmu_driver import Driven
 from mechfmu.check import compare
 from mechfmu.cosim.run import run_scene
-from mechfmu.models.landing_gear import LandingGear
-from mechfmu.physics import gear_dynamics as gd
-from mechfmu.physics import hydraulics, profiles
-from mechfmu.physics import landing_gear as kinematics
-from mechfmu.physics.integrators import make_integrator
-from mechfmu.physics.landing_gear import DEFAULT_GEOMETRY as G
+from mechfmu.runtime.models.landing_gear import LandingGear
+from mechfmu.runtime.physics import gear_dynamics as gd
+from mechfmu.runtime.physics import hydraulics, profiles
+from mechfmu.runtime.physics import landing_gear as kinematics
+from mechfmu.runtime.numerics.integrators import make_integrator
+from mechfmu.runtime.physics.landing_gear import DEFAULT_GEOMETRY as G
 
 D, H = G.attachment_distance, G.pivot_height
 BODY = gd.Body(0.762, gd.DEFAULT_BAR_MASS, gd.DEFAULT_WHEEL_MASS)

@@ -25,14 +25,14 @@ from hypothesis import HealthCheck, assume, event, given, settings
 from hypothesis import strategies as st
 
 from fmu_driver import Driven
-from mechfmu.models.landing_gear import LandingGear
-from mechfmu.physics import cam_laws, constraint_models, planar
-from mechfmu.physics import four_bar as fb
-from mechfmu.physics import landing_gear as lg
-from mechfmu.physics import slider_crank as sc
-from mechfmu.physics import suspension as sus
-from mechfmu.physics import valve_train as vt
-from mechfmu.physics.errors import (IntegrationError, MechanismError, RangeError,
+from mechfmu.runtime.models.landing_gear import LandingGear
+from mechfmu.runtime.physics import cam_laws, constraint_models, planar
+from mechfmu.runtime.physics import four_bar as fb
+from mechfmu.runtime.physics import landing_gear as lg
+from mechfmu.runtime.physics import slider_crank as sc
+from mechfmu.runtime.physics import suspension as sus
+from mechfmu.runtime.physics import valve_train as vt
+from mechfmu.runtime.errors import (IntegrationError, MechanismError, RangeError,
                                     SingularConfiguration, SnapThrough)
 from mechfmu.references import landing_gear as gear_reference
 from mechfmu.references import linkages as linkage_reference
@@ -1065,8 +1065,8 @@ def test_newton_on_the_constraint_solver_is_bounded():
 def test_events_per_step_are_bounded():
     """advance_through_events gives up after MAX_EVENTS_PER_STEP events in one communication
     step (a chattering contact) with IntegrationError, never a hang."""
-    from mechfmu.physics import stepping
-    from mechfmu.physics.integrators import Advance, Event
+    from mechfmu.runtime.numerics import stepping
+    from mechfmu.runtime.numerics.integrators import Advance, Event
 
     class Chattering:
         def advance(self, rhs, t, y, t_end, events):

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mechfmu.physics import integrators as ig
-from mechfmu.physics.errors import IntegrationError, MechanismError
-from mechfmu.physics.integrators import METHODS, Event, make_integrator
+from mechfmu.runtime.numerics import integrators as ig
+from mechfmu.runtime.errors import IntegrationError, MechanismError
+from mechfmu.runtime.numerics.integrators import METHODS, Event, make_integrator
 
 G = 9.81
 ADAPTIVE = ("dopri5", "radau")
@@ -438,7 +438,7 @@ def test_module_imports_only_the_standard_library():
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
             if node.level > 0:
-                assert node.module in ("errors", "linalg")  # siblings, themselves stdlib-only
+                assert node.module in ("errors", "linalg")  # runtime modules, themselves stdlib-only
                 continue
             names = [node.module]
         else:

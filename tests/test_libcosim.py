@@ -2,7 +2,7 @@
 
 Each case runs one FMU with the same parameters and inputs in both hosts on the same
 communication points (libcosim's: t_k = k step_ns / 1e9, step t_{k+1} - t_k; see
-mechfmu.hosts.libcosim), and every Real output must agree to 1e-12 relative (1e-300 absolute
+mechfmu.tools.hosts.libcosim), and every Real output must agree to 1e-12 relative (1e-300 absolute
 only for exact zeros) at every sample, every Integer output exactly, with the sample times
 equal to the nominal grid k * step to 1e-9 s. The outputs named in each case must move.
 """
@@ -14,9 +14,9 @@ import pytest
 from fmpy import read_model_description
 
 from fmu_driver import Driven
-from mechfmu.hosts.libcosim import (LibcosimError, communication_points, run_libcosim,
+from mechfmu.tools.hosts.libcosim import (LibcosimError, communication_points, run_libcosim,
                                     step_nanoseconds)
-from mechfmu.models import MODELS
+from mechfmu.runtime.models import MODELS
 
 
 RTOL = 1e-12

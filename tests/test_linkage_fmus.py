@@ -13,9 +13,9 @@ import pytest
 
 from fmu_driver import Driven
 
-from mechfmu.physics import cam_laws, constraint_models, planar
-from mechfmu.physics import four_bar as fb
-from mechfmu.physics import valve_train as vt
+from mechfmu.runtime.physics import cam_laws, constraint_models, planar
+from mechfmu.runtime.physics import four_bar as fb
+from mechfmu.runtime.physics import valve_train as vt
 from mechfmu.references import drives, linkages
 from mechfmu.references import valve_train as vt_reference
 

@@ -18,9 +18,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mechfmu.physics import cam_laws as cl
-from mechfmu.physics import valve_train as vt
-from mechfmu.physics.errors import MechanismError, RangeError, SingularConfiguration
+from mechfmu.runtime.physics import cam_laws as cl
+from mechfmu.runtime.physics import valve_train as vt
+from mechfmu.runtime.errors import MechanismError, RangeError, SingularConfiguration
 from mechfmu.references import valve_train as ref
 
 PROPERTY = settings(derandomize=True, max_examples=200, deadline=None)

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings, assume
 from hypothesis import strategies as st
 
-from mechfmu.physics import landing_gear as lg
-from mechfmu.physics.errors import MechanismError, RangeError, SingularConfiguration
+from mechfmu.runtime.physics import landing_gear as lg
+from mechfmu.runtime.errors import MechanismError, RangeError, SingularConfiguration
 
 FOOT = 0.3048
 GEOMETRY = lg.DEFAULT_GEOMETRY

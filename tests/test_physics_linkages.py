@@ -14,9 +14,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from mechfmu.physics import four_bar as fb
-from mechfmu.physics import slider_crank as sc
-from mechfmu.physics.errors import MechanismError, RangeError, SingularConfiguration
+from mechfmu.runtime.physics import four_bar as fb
+from mechfmu.runtime.physics import slider_crank as sc
+from mechfmu.runtime.errors import MechanismError, RangeError, SingularConfiguration
 from mechfmu.references import linkages as ref
 
 INCH = 0.0254

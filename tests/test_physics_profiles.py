@@ -4,8 +4,8 @@ import math
 
 import pytest
 
-from mechfmu.physics import profiles as pr
-from mechfmu.physics.errors import MechanismError, RangeError
+from mechfmu.runtime.physics import profiles as pr
+from mechfmu.runtime.errors import MechanismError, RangeError
 
 FOOT = 0.3048
 X_RETRACTED, X_EXTENDED = 1.25 * FOOT, 2.0 * FOOT

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mechfmu.physics import suspension as sus
-from mechfmu.physics.errors import MechanismError, RangeError, SnapThrough
+from mechfmu.runtime.physics import suspension as sus
+from mechfmu.runtime.errors import MechanismError, RangeError, SnapThrough
 
 L, K, DB = 0.5, 1.0e4, 0.2
 SPRING = sus.make_spring(L, K, DB)

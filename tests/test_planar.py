@@ -13,9 +13,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mechfmu.physics import linalg
-from mechfmu.physics.errors import SingularConfiguration
-from mechfmu.physics.planar import (GROUND, PHI, X, BranchFollower, Driver, Mechanism,
+from mechfmu.runtime.numerics import linalg
+from mechfmu.runtime.errors import SingularConfiguration
+from mechfmu.runtime.physics.planar import (GROUND, PHI, X, BranchFollower, Driver, Mechanism,
                                     NoConvergence, PointOnLine, Revolute, analyse,
                                     solve_position, translational)
 

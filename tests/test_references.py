@@ -7,12 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mechfmu.physics import landing_gear as plg
-from mechfmu.physics import profiles as pprof
-from mechfmu.physics import suspension as psp
+from mechfmu.runtime.physics import landing_gear as plg
+from mechfmu.runtime.physics import profiles as pprof
+from mechfmu.runtime.physics import suspension as psp
 from mechfmu.references import landing_gear as lg
 from mechfmu.references import suspension as sp
-from mechfmu.report.seed_report import build_report
+from mechfmu.tools.report.seed_report import build_report
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 RTOL = 1e-12

@@ -1,7 +1,7 @@
 """Hard use of the FMUs through fmpy: fuzzing, reset, several instances, FMU state,
 discarded steps, bounds on time, and what a failed run keeps.
 
-The fuzz runs every FMU in a child process (mechfmu.fuzz), so a crash is a failure here
+The fuzz runs every FMU in a child process (mechfmu.tools.fuzz), so a crash is a failure here
 rather than the end of the test session.
 """
 
@@ -16,8 +16,8 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from fmu_driver import Driven
-from mechfmu import fuzz
-from mechfmu.models import MODELS
+from mechfmu.tools import fuzz
+from mechfmu.runtime.models import MODELS
 
 SEQUENCES = 1000
 

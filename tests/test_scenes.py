@@ -14,7 +14,7 @@ from mechfmu.cosim.master import Simulation, SimulationError, order_components
 from mechfmu.cosim.results import read_csv
 from mechfmu.cosim.run import run_scene
 from mechfmu.cosim.scene import Connection, SceneError, load_scene, parse_scene
-from mechfmu.references.generate import INTEGRATED, REFERENCES as GENERATED, generate
+from mechfmu.tools.scene_references import INTEGRATED, REFERENCES as GENERATED, generate
 
 
 def gear_scene(**changes):
@@ -197,7 +197,7 @@ def test_runner_scripts(fmu_dir, tmp_path, script, expected):
 
 
 def test_readme_interface_tables_are_the_generated_ones():
-    from mechfmu.docs import interface_tables
+    from mechfmu.tools.docs import interface_tables
     assert interface_tables() in (ROOT / "README.md").read_text()
 
 

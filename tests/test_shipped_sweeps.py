@@ -8,8 +8,8 @@ import math
 import pytest
 
 from conftest import ROOT
-from mechfmu import sweep
-from mechfmu.report import sweeps
+from mechfmu.tools import sweep
+from mechfmu.tools.report import sweeps
 
 SWEEPS = ROOT / "sims" / "sweeps"
 

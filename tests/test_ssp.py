@@ -5,7 +5,7 @@ on inline scenes) and its SystemStructure.ssd validated against the SSP 1.0 sche
 ships (fmpy/ssp/schema, read from disk by lxml as fmpy's read_ssd does: offline), each inline
 ssv:ParameterSet against the ParameterValues schema, and its content compared with the
 scene. A representative set runs in libcosim (libcosimpy 0.0.6, from the .ssp file or its
-extracted folder) and in fmpy.ssp (mechfmu.ssp.simulate_ssp_fmpy) and is compared with our
+extracted folder) and in fmpy.ssp (mechfmu.tools.ssp.simulate_ssp_fmpy) and is compared with our
 own master: both external masters are Jacobi (every FMU steps from the outputs of the
 previous communication point), so they must equal ``coupling = "jacobi"`` to rounding, and
 differ from the default Gauss-Seidel master by the one-step coupling lag, measured here.
@@ -27,8 +27,8 @@ from conftest import ROOT, SCENES
 from mechfmu.cli import main
 from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import SceneError, load_scene, parse_scene
-from mechfmu.models import MODELS
-from mechfmu.ssp import (NS, SSD_NAME, experiment, export_ssp, extract_ssp,
+from mechfmu.runtime.models import MODELS
+from mechfmu.tools.ssp import (NS, SSD_NAME, experiment, export_ssp, extract_ssp,
                          simulate_ssp_fmpy)
 
 SCHEMA_DIR = Path(fmpy_ssd.__file__).resolve().parent / "schema"  # fmpy's copy of SSP 1.0

@@ -8,8 +8,8 @@ import pytest
 
 from conftest import ROOT, SCENES
 from mechfmu.cli import main as cli
-from mechfmu.study import design, read_rows
-from mechfmu.study.report import cheapest_for, pareto_front
+from mechfmu.tools.study import design, read_rows
+from mechfmu.tools.study.report import cheapest_for, pareto_front
 
 STUDY = ROOT / "data" / "study"
 

@@ -12,12 +12,12 @@ from fmu_driver import Driven
 from mechfmu.check import compare
 from mechfmu.cosim.results import read_csv
 from mechfmu.cosim.run import run_scene
-from mechfmu.models.road_profile import RoadProfile
-from mechfmu.models.suspension import Suspension
-from mechfmu.physics import profiles, road
-from mechfmu.physics import suspension as statics
-from mechfmu.physics import suspension_dynamics as dyn
-from mechfmu.physics.errors import MechanismError
+from mechfmu.runtime.models.road_profile import RoadProfile
+from mechfmu.runtime.models.suspension import Suspension
+from mechfmu.runtime.physics import profiles, road
+from mechfmu.runtime.physics import suspension as statics
+from mechfmu.runtime.physics import suspension_dynamics as dyn
+from mechfmu.runtime.errors import MechanismError
 
 SPRING = statics.make_spring(0.5, 1.0e4, 0.2)
 MASS = 211.0

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mechfmu import sweep
+from mechfmu.tools import sweep
 from mechfmu.cli import main as cli_main
 from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import load_scene

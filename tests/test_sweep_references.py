@@ -9,7 +9,7 @@ import pytest
 
 from mechfmu.references import suspension as statics
 from mechfmu.references import suspension_dynamics as dynamics
-from mechfmu.references import sweeps
+from mechfmu.tools import sweep_references as sweeps
 
 ROOT = Path(__file__).resolve().parents[1]
 G = 9.80665
@@ -117,9 +117,9 @@ def test_valve_float_speed_grows_with_preload():
 
 @pytest.mark.parametrize("law", ["polynomial_345", "harmonic"])
 def test_valve_float_speed_checks_the_fmu_physics(law):
-    from mechfmu.models.valve_train import CAM
-    from mechfmu.physics import cam_laws
-    from mechfmu.physics import valve_train as physics
+    from mechfmu.runtime.models.valve_train import CAM
+    from mechfmu.runtime.physics import cam_laws
+    from mechfmu.runtime.physics import valve_train as physics
     profile = cam_laws.check_profile(law, *CAM[1:])
     for preload in (50.0, 300.0, 900.0):
         fmu = physics.float_speed(physics.DEFAULT_VALVE_GEOMETRY, profile, 0.1, 5e4, preload)

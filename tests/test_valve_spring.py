@@ -13,14 +13,14 @@ from conftest import SCENES
 from fmu_driver import Driven
 from mechfmu.cosim.results import read_csv
 from mechfmu.cosim.run import run_scene
-from mechfmu.models.valve_spring import ValveSpring
-from mechfmu.physics import cam_laws
-from mechfmu.physics import valve_spring as vs
-from mechfmu.physics import valve_train as vt
-from mechfmu.physics.errors import MechanismError, RangeError
-from mechfmu.physics.stepping import hermite, polynomial_motion
+from mechfmu.runtime.models.valve_spring import ValveSpring
+from mechfmu.runtime.physics import cam_laws
+from mechfmu.runtime.physics import valve_spring as vs
+from mechfmu.runtime.physics import valve_train as vt
+from mechfmu.runtime.errors import MechanismError, RangeError
+from mechfmu.runtime.numerics.stepping import hermite, polynomial_motion
 from mechfmu.references import valve_spring as ref
-from mechfmu.references.generate import model_defaults
+from mechfmu.tools.scene_references import model_defaults
 
 P = vs.make_parameters()
 FLOAT_SPEED = vt.float_speed(vt.DEFAULT_VALVE_GEOMETRY, cam_laws.DEFAULT_CAM_PROFILE, 0.1,

@@ -1,6 +1,7 @@
 """mechfmu: mechanism models as FMI 2.0 co-simulation FMUs.
 
-This module is shipped inside every FMU: keep it free of imports beyond the standard library.
+``mechfmu.runtime`` is what every FMU carries (standard library only); everything else is
+host side.
 """
 
 __version__ = "0.1.0"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 
 def _build(args):
-    from .build import build_all
+    from .packaging.build import build_all
     for path in build_all(args.out, args.models or None):
         print(f"built {path}")
     return 0
@@ -53,7 +53,7 @@ def _run(args):
 
 def _export_ssp(args):
     from .cosim.scene import SceneError
-    from .ssp import export_ssp, summary
+    from .tools.ssp import export_ssp, summary
     try:
         path = export_ssp(_resolve_scene(args.scene), args.out, args.fmu_dir)
     except SceneError as error:
@@ -75,43 +75,43 @@ def _check(args):
 
 
 def _references(args):
-    from .references.generate import generate
+    from .tools.scene_references import generate
     for path in generate(args.scenes, args.out):
         print(f"wrote {path}")
     return 0
 
 
 def _report(args):
-    from .report.seed_report import write_report
+    from .tools.report.seed_report import write_report
     print(f"wrote {write_report(args.out)}")
     return 0
 
 
 def _docs(args):
-    from .docs import interface_tables
+    from .tools.docs import interface_tables
     print(interface_tables())
     return 0
 
 
 def _study(arguments):
-    from .study import main as study
+    from .tools.study import main as study
     return study(arguments)
 
 
 def _bench(arguments):
-    from .bench import main as bench
+    from .tools.bench import main as bench
     return bench(arguments)
 
 
 # Verbs that parse their own options (``mechfmu study --help``): everything after the verb
 # goes to them unparsed.
 def _fuzz(arguments):
-    from .fuzz import main as fuzz
+    from .tools.fuzz import main as fuzz
     return fuzz(arguments)
 
 
 def _sweep(arguments):
-    from .sweep import main as sweep
+    from .tools.sweep import main as sweep
     return sweep(arguments)
 
 

@@ -29,7 +29,7 @@ from fmpy import calloc, free
 
 from .scene import SceneError, split_name
 
-EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.fmi.slave)
+EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.runtime.fmi.slave)
 STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 

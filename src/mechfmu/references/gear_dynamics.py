@@ -10,9 +10,9 @@ output at the scene's sample times.
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..models.landing_gear import _Dynamics
-from ..physics import gear_dynamics as gd
-from ..physics import landing_gear as gear
+from ..runtime.models.landing_gear import _Dynamics
+from ..runtime.physics import gear_dynamics as gd
+from ..runtime.physics import landing_gear as gear
 
 TOLERANCE = 1e-12
 

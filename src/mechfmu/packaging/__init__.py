@@ -1,0 +1,1 @@
+"""Host side: a model into an FMU (pythonfmu's builder, the C loader, the binary patch)."""

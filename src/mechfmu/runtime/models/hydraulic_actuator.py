@@ -1,0 +1,108 @@
+"""HydraulicActuator.fmu: the gear's hydraulic actuator as a component of its own."""
+
+from ..fmi.slave import MechSlave, input_, integrator_variables, output, parameter
+from ..physics import hydraulics
+from ..errors import require_finite
+from ..numerics.integrators import make_integrator
+from ..physics.landing_gear import COURSEWORK_EXTENDED_LENGTH, COURSEWORK_RETRACTED_LENGTH
+
+# The actuator's parameters, declared once: LandingGear's hydraulics effect uses them too.
+HYDRAULIC_PARAMETERS = (
+    parameter("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure",
+              unit="Pa", min=0.0),
+    parameter("return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Return pressure",
+              unit="Pa", min=0.0),
+    parameter("bore", hydraulics.DEFAULT_BORE, "Piston bore", unit="m", min=0.0),
+    parameter("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", unit="m",
+              min=0.0),
+    parameter("bulk_modulus", hydraulics.DEFAULT_BULK_MODULUS, "Effective bulk modulus",
+              unit="Pa", min=0.0),
+    parameter("dead_volume", hydraulics.DEFAULT_DEAD_VOLUME, "Fluid volume of each chamber "
+              "and its line at the end of the stroke", unit="m3", min=0.0),
+    parameter("valve_rated_flow", hydraulics.DEFAULT_RATED_FLOW, "Flow through a fully "
+              "open valve edge at the rated pressure drop", unit="m3/s", min=0.0),
+    parameter("valve_rated_pressure_drop", hydraulics.DEFAULT_RATED_PRESSURE_DROP,
+              "Pressure drop at which valve_rated_flow is rated", unit="Pa", min=0.0),
+    parameter("max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line",
+              unit="m3/s", min=0.0),
+)
+
+
+class HydraulicActuator(MechSlave):
+    """Chamber pressures integrated from valve flows and piston motion; force out.
+
+    The force depends only on the pressures (states), not directly on the inputs, so a scene
+    can close the loop gear -> actuator -> gear without an algebraic loop.
+    """
+
+    description = ("Double-acting hydraulic actuator with a 4-way valve, flow limit and fluid "
+                   "compressibility: valve command and piston motion in, piston force out")
+    VARIABLES = (
+        *HYDRAULIC_PARAMETERS,
+        parameter("stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length",
+                  unit="m", min=0.0),
+        parameter("stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length",
+                  unit="m", min=0.0),
+        parameter("initial_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Pressure in both "
+                  "chambers at the start", unit="Pa", min=0.0),
+        *integrator_variables(default="radau", rtol=1e-8, atol=1.0),
+        input_("valve_command", 0.0, "Valve opening in [-1, 1], positive extends the piston",
+               unit="1", min=-1.0, max=1.0),
+        input_("piston_extension", COURSEWORK_RETRACTED_LENGTH, "Piston length", unit="m",
+               min=0.0),
+        input_("piston_speed", 0.0, "Piston length rate", unit="m/s"),
+        output("piston_force", 0.0, "p_cap A_cap - p_rod A_rod, positive extending", unit="N"),
+        output("cap_pressure", 0.0, "Cap-side chamber pressure", unit="Pa"),
+        output("rod_pressure", 0.0, "Rod-side chamber pressure", unit="Pa"),
+        output("cap_flow", 0.0, "Flow into the cap side", unit="m3/s",
+               depends=("valve_command",)),
+        output("rod_flow", 0.0, "Flow out of the rod side", unit="m3/s",
+               depends=("valve_command",)),
+    )
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.actuator = self.integrator = None
+        self.pressures = None
+
+    def check_parameters(self):
+        v = self.values
+        self.actuator = hydraulics.make_actuator(
+            v["supply_pressure"], v["return_pressure"], v["bore"], v["rod_diameter"],
+            v["bulk_modulus"], v["dead_volume"], v["valve_rated_flow"],
+            v["valve_rated_pressure_drop"], v["max_flow"], v["stroke_min"], v["stroke_max"])
+        self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"], v["max_substep"])
+        pressure = require_finite("initial_pressure", v["initial_pressure"], "Pa")
+        self.pressures = [pressure, pressure]
+
+    def outputs_at_start(self, time):
+        self._publish()
+
+    def internal_state(self):
+        return {"pressures": list(self.pressures), "integrator": self.integrator.snapshot()}
+
+    def restore_internal_state(self, saved):
+        self.pressures = list(saved["pressures"])
+        self.integrator.restore(saved["integrator"])
+
+    def update(self, time, step_size):
+        v = self.values
+        command = require_finite("valve_command", v["valve_command"])
+        length = require_finite("piston_extension", v["piston_extension"], "m")
+        speed = require_finite("piston_speed", v["piston_speed"], "m/s")
+
+        def rhs(t, y):
+            return list(hydraulics.pressure_rates(command, y[0], y[1], length, speed,
+                                                  self.actuator))
+        self.pressures = self.integrator.advance(rhs, time - step_size, self.pressures, time).y
+        self._publish()
+        v["rhs_evaluations"] = self.integrator.stats.rhs_evaluations
+        v["substeps"] = self.integrator.stats.substeps
+
+    def _publish(self):
+        v = self.values
+        p1, p2 = self.pressures
+        v["cap_pressure"], v["rod_pressure"] = p1, p2
+        v["piston_force"] = hydraulics.piston_force(p1, p2, self.actuator)
+        flows = hydraulics.valve_flows(v["valve_command"], p1, p2, self.actuator)
+        v["cap_flow"], v["rod_flow"] = flows.cap, flows.rod

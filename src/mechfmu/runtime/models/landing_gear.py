@@ -1,0 +1,379 @@
+"""LandingGear.fmu: kinematic (piston motion in) or dynamic (piston force or valve in)."""
+
+import math
+
+from pythonfmu.enums import Fmi2Status
+
+from ..fmi.slave import MechSlave, effect, input_, integrator_variables, output, parameter
+from ..physics import gear_dynamics as gd
+from ..physics import hydraulics
+from ..physics import landing_gear as gear
+from ..errors import MechanismError, require_finite, require_positive
+from ..numerics.integrators import Event, make_integrator
+from ..physics.landing_gear import (COURSEWORK_BAR_LENGTH, COURSEWORK_EXTENDED_LENGTH,
+                                    COURSEWORK_RETRACTED_LENGTH, DEFAULT_GEOMETRY)
+from ..numerics.stepping import advance_through_events
+from .hydraulic_actuator import HYDRAULIC_PARAMETERS
+
+_PISTON = ("piston_extension", "piston_speed", "piston_acceleration")
+_FORCES = ("piston_force", "airspeed")
+DRIVES = ("motion", "dynamics")
+_MOMENT_EFFECTS = ("gravity", "aero_drag", "pivot_friction")
+_FORCE_DRIVE = ("piston_force", "valve_command")  # the dynamics drive's own inputs
+
+
+class LandingGear(MechSlave):
+    """Nose landing gear about its pivot B.
+
+    drive = motion: the piston motion is prescribed (inputs piston_extension, piston_speed,
+    piston_acceleration) and the gear motion follows from the closed forms; with inertia,
+    gravity, aero_drag or pivot_friction on, ``piston_force_required`` is the force that
+    makes the piston follow that motion (inverse dynamics).
+    drive = dynamics: the gear angle is integrated from the moments about B (inertia must be
+    on); the piston force is the input ``piston_force``, or, with the hydraulics effect, the
+    force of the built-in actuator driven by ``valve_command``.
+    """
+
+    description = ("Retractable nose landing gear: kinematic (piston motion in, closed forms) "
+                   "or dynamic (piston force or valve command in) with selectable effects")
+    VARIABLES = (
+        parameter("attachment_distance", DEFAULT_GEOMETRY.attachment_distance,
+                  "d: distance from the bar pivot B to the piston attachment on the bar",
+                  unit="m", min=0.0),
+        parameter("pivot_height", DEFAULT_GEOMETRY.pivot_height,
+                  "h: distance from the bar pivot B to the piston's fixed pivot",
+                  unit="m", min=0.0),
+        parameter("bar_length", COURSEWORK_BAR_LENGTH,
+                  "Length of bar AB from pivot B to the wheel axle A", unit="m", min=0.0),
+        parameter("drive", "motion", "motion: prescribed piston motion (kinematics); "
+                  "dynamics: integrate the gear from the piston force", values=DRIVES),
+        effect("inertia", "bar and wheel inertia about B (needed by the dynamics drive; in the "
+               "motion drive adds I alpha to the required piston force)"),
+        effect("gravity", "weight of bar and wheel, airframe pitched by airframe_pitch"),
+        effect("aero_drag", "aerodynamic drag on the wheel from the input airspeed"),
+        effect("pivot_friction", "viscous and smoothed Coulomb friction at B"),
+        effect("end_stops", "stiff contacts with restitution at the piston stroke limits "
+               "(dynamics drive)"),
+        effect("hydraulics", "built-in hydraulic actuator driven by valve_command (dynamics "
+               "drive): supply pressure, valve, flow limit, fluid compressibility"),
+        parameter("bar_mass", gd.DEFAULT_BAR_MASS, "Mass of bar and strut (uniform)",
+                  unit="kg", min=0.0),
+        parameter("wheel_mass", gd.DEFAULT_WHEEL_MASS, "Mass of wheel and tyre at A",
+                  unit="kg", min=0.0),
+        parameter("down_angle", DEFAULT_GEOMETRY.start_angle, "Gear angle at which the bar "
+                  "hangs vertically (airframe level)", unit="rad"),
+        parameter("airframe_pitch", 0.0, "Nose-up pitch of the airframe", unit="rad"),
+        parameter("gravity_acceleration", gd.STANDARD_GRAVITY, "g", unit="m/s2", min=0.0),
+        parameter("air_density", gd.DEFAULT_AIR_DENSITY, "rho", unit="kg/m3", min=0.0),
+        parameter("drag_area", gd.DEFAULT_DRAG_AREA, "Cd times frontal area of the wheel",
+                  unit="m2", min=0.0),
+        parameter("viscous_friction", gd.DEFAULT_VISCOUS_FRICTION, "Viscous friction "
+                  "coefficient at B", unit="N.m.s/rad", min=0.0),
+        parameter("coulomb_friction", gd.DEFAULT_COULOMB_FRICTION, "Coulomb friction moment "
+                  "at B", unit="N.m", min=0.0),
+        parameter("friction_speed", gd.DEFAULT_FRICTION_SPEED, "Angular speed over which the "
+                  "Coulomb friction is smoothed (tanh)", unit="rad/s", min=0.0),
+        parameter("stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length (stop; "
+                  "gear down)", unit="m", min=0.0),
+        parameter("stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length (stop; "
+                  "gear up)", unit="m", min=0.0),
+        parameter("stop_stiffness", gd.DEFAULT_STOP_STIFFNESS, "End-stop contact stiffness on "
+                  "the piston length", unit="N/m", min=0.0),
+        parameter("restitution", gd.DEFAULT_RESTITUTION, "End-stop coefficient of restitution",
+                  unit="1", min=0.0, max=1.0),
+        *HYDRAULIC_PARAMETERS,
+        parameter("initial_angle", DEFAULT_GEOMETRY.start_angle, "Gear angle at the start "
+                  "(dynamics drive)", unit="rad"),
+        parameter("initial_angular_velocity", 0.0, "Angular velocity at the start (dynamics "
+                  "drive)", unit="rad/s"),
+        parameter("initial_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Pressure in both "
+                  "chambers at the start (hydraulics)", unit="Pa", min=0.0),
+        *integrator_variables(default="dopri5"),
+        input_("piston_extension", COURSEWORK_RETRACTED_LENGTH,
+               "x: piston length between its two pivots, within [|h - d|, h + d] (motion drive)",
+               unit="m", min=0.0),
+        input_("piston_speed", 0.0, "dx/dt (motion drive)", unit="m/s"),
+        input_("piston_acceleration", 0.0, "d2x/dt2 (motion drive)", unit="m/s2"),
+        input_("piston_force", 0.0, "Force along the piston, positive extending (dynamics "
+               "drive without hydraulics)", unit="N"),
+        input_("valve_command", 0.0, "Valve opening in [-1, 1], positive extends the piston "
+               "(dynamics drive with hydraulics)", unit="1", min=-1.0, max=1.0),
+        input_("airspeed", 0.0, "Airspeed for the drag on the wheel (aero_drag)", unit="m/s"),
+        output("gear_angle", 0.0, "theta: angle at B between the bar and the line to the "
+               "piston's fixed pivot", unit="rad", depends=_PISTON[:1], min=0.0,
+               max=math.pi),
+        output("gear_angular_velocity", 0.0, "omega = d(theta)/dt", unit="rad/s",
+               depends=_PISTON[:2]),
+        output("gear_angular_acceleration", 0.0, "alpha = d(omega)/dt", unit="rad/s2",
+               depends=_PISTON + _FORCES),
+        output("piston_moment_arm", 0.0, "Moment arm of the piston force about B: "
+               "d h sin(theta) / x", unit="m", depends=_PISTON[:1], min=0.0),
+        output("wheel_speed", 0.0, "Speed of the wheel axle A: bar_length * omega",
+               unit="m/s", depends=_PISTON[:2]),
+        output("piston_length", 0.0, "Piston length (equals piston_extension in the motion "
+               "drive; integrated in the dynamics drive)", unit="m", depends=_PISTON[:1]),
+        output("piston_rate", 0.0, "Piston length rate", unit="m/s", depends=_PISTON[:2]),
+        output("piston_force_required", 0.0, "Motion drive: piston force that produces the "
+               "prescribed motion against the enabled effects (inverse dynamics)", unit="N",
+               depends=_PISTON + ("airspeed",)),
+        output("piston_force_applied", 0.0, "Dynamics drive: piston force acting on the gear "
+               "(input or hydraulic), without the end-stop force", unit="N",
+               depends=("piston_force",)),
+        output("cap_pressure", 0.0, "Hydraulics: cap-side chamber pressure", unit="Pa"),
+        output("rod_pressure", 0.0, "Hydraulics: rod-side chamber pressure", unit="Pa"),
+        output("kinetic_energy", 0.0, "1/2 I_B omega^2 (inertia on)", unit="J",
+               depends=_PISTON[:2]),
+        output("potential_energy", 0.0, "Gravity potential relative to the bar hanging "
+               "vertically (gravity on)", unit="J", depends=_PISTON[:1]),
+        output("piston_work", 0.0, "Dynamics drive: work done on the gear by the piston force "
+               "since the start", unit="J"),
+        output("retraction_time", -1.0, "Time the piston first reached stroke_max (gear up); "
+               "-1 until then (dynamics drive)", unit="s"),
+        output("extension_time", -1.0, "Time the piston first reached stroke_min (gear "
+               "down) moving inwards; -1 until then (dynamics drive)", unit="s"),
+        output("stop_contacts", 0, "End-stop contacts started so far"),
+    )
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.state = None          # [theta, omega, work(, p1, p2)] in the dynamics drive
+        self.ignored_inputs = ()   # inputs of the other driver last warned about
+        self.integrator = None
+        self.model = None
+
+    # --- set-up -----------------------------------------------------------------------
+    def check_parameters(self):
+        v = self.values
+        d, h = gear.check_geometry(v["attachment_distance"], v["pivot_height"])
+        body = gd.make_body(v["bar_length"], v["bar_mass"], v["wheel_mass"])
+        geometry = gd.Geometry(d, h, require_finite("down_angle", v["down_angle"], "rad"),
+                               require_finite("airframe_pitch", v["airframe_pitch"], "rad"))
+        if v["drive"] not in DRIVES:
+            raise MechanismError(f"drive = {v['drive']!r} is not one of {', '.join(DRIVES)}")
+        if v["drive"] == "dynamics":
+            if not v["inertia"]:
+                raise MechanismError("drive = 'dynamics' needs the inertia effect: without "
+                                     "inertia the gear has no equation of motion")
+            self.model = _Dynamics(v, body, geometry, self)
+            self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
+                                              v["max_substep"])
+        else:
+            self.model = _InverseDynamics(v, body, geometry)
+
+    def outputs_at_start(self, time):
+        if self.values["drive"] == "dynamics":
+            self.state = self.model.initial_state()
+            self.model.publish(self.values, time, self.state)
+        else:
+            self._kinematics()
+
+    def _note_other_driver(self, time):
+        """Warn when an input of the driver that ``drive`` did not choose is set.
+
+        ``drive`` chooses the driver and takes precedence: the piston motion (motion) or the
+        piston force or valve command (dynamics). An input of the other driver that differs
+        from its start value is ignored; a warning names both drivers and the ignored
+        inputs when they first appear (again after they change), so the precedence is never
+        silent. (Refusing such steps instead made every step of a generic host that sets
+        all inputs, such as mechfmu fuzz, fail.)
+        """
+        v = self.values
+        if v["drive"] == "dynamics":
+            given = [name for name in _PISTON if v[name] != _STARTS[name]]
+            used = ("the piston force (piston_force, or valve_command with the hydraulics "
+                    "effect)")
+            other = "motion"
+        else:
+            given = [name for name in _FORCE_DRIVE if v[name] != _STARTS[name]]
+            used = "the piston motion (piston_extension, piston_speed, piston_acceleration)"
+            other = "dynamics"
+        if given and tuple(given) != self.ignored_inputs:
+            values = ", ".join(f"{name} = {v[name]!r} {_UNITS[name]}".rstrip() for name in given)
+            starts = ", ".join(f"{name} = {_STARTS[name]!r}" for name in given)
+            plural = len(given) > 1
+            self.log(f"{self.instance_name} at t = {time!r} s: both drivers given: "
+                     f"drive = {v['drive']!r} moves the gear by {used} and takes precedence; "
+                     f"the {other} drive's input{'s' if plural else ''} {values} "
+                     f"{'are' if plural else 'is'} ignored (leave "
+                     f"{'them at their start values' if plural else 'it at its start value'} "
+                     f"({starts}) or choose drive = {other!r})", Fmi2Status.warning)
+        self.ignored_inputs = tuple(given)
+
+    def internal_state(self):
+        return {"state": None if self.state is None else list(self.state),
+                "integrator": self.integrator.snapshot() if self.integrator else None,
+                "ignored_inputs": list(self.ignored_inputs)}
+
+    def restore_internal_state(self, saved):
+        self.state = None if saved["state"] is None else list(saved["state"])
+        self.ignored_inputs = tuple(saved["ignored_inputs"])
+        if saved["integrator"] is not None:
+            self.integrator.restore(saved["integrator"])
+
+    def update(self, time, step_size):
+        self._note_other_driver(time)
+        v = self.values
+        if v["drive"] == "dynamics":
+            self.state = self.model.advance(self.integrator, time - step_size, self.state,
+                                            time, v)
+            self.model.publish(v, time, self.state)
+            v["rhs_evaluations"] = self.integrator.stats.rhs_evaluations
+            v["substeps"] = self.integrator.stats.substeps
+            return
+        self._kinematics()
+
+    def _kinematics(self):
+        """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
+        v = self.values
+        d, h = v["attachment_distance"], v["pivot_height"]
+        motion = gear.gear_motion(v["piston_extension"], v["piston_speed"],
+                                  v["piston_acceleration"], d, h)
+        v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = motion
+        v["piston_moment_arm"] = gear.piston_moment_arm(v["piston_extension"], d, h)
+        v["wheel_speed"] = v["bar_length"] * motion.angular_velocity
+        v["piston_length"], v["piston_rate"] = v["piston_extension"], v["piston_speed"]
+        self.model.publish(v, motion)
+
+
+def _moment_terms(values, body, geometry):
+    """Moment functions (angle, omega, airspeed) -> N m of the enabled effects only."""
+    terms = []
+    if values["gravity"]:
+        g = require_finite("gravity_acceleration", values["gravity_acceleration"], "m/s^2")
+        terms.append(lambda angle, omega, airspeed: gd.gravity_moment(angle, body, geometry, g))
+    if values["aero_drag"]:
+        drag = gd.Drag(values["air_density"], values["drag_area"])
+        terms.append(lambda angle, omega, airspeed:
+                     gd.drag_moment(angle, airspeed, body, geometry, drag))
+    if values["pivot_friction"]:
+        friction = gd.Friction(values["viscous_friction"], values["coulomb_friction"],
+                               require_positive("friction_speed", values["friction_speed"],
+                                                "rad/s"))
+        terms.append(lambda angle, omega, airspeed: gd.friction_moment(omega, friction))
+    return terms
+
+
+class _InverseDynamics:
+    """Motion drive: the piston force that produces the prescribed motion."""
+
+    def __init__(self, values, body, geometry):
+        self.body, self.geometry = body, geometry
+        self.inertia = gd.inertia(body) if values["inertia"] else 0.0
+        self.terms = _moment_terms(values, body, geometry)
+        self.gravity = values["gravity_acceleration"] if values["gravity"] else None
+
+    def publish(self, v, motion):
+        angle, omega, alpha = motion
+        arm = v["piston_moment_arm"]
+        external = sum(term(angle, omega, v["airspeed"]) for term in self.terms)
+        v["piston_force_required"] = (self.inertia * alpha - external) / arm if (
+            self.inertia or self.terms) else 0.0
+        v["kinetic_energy"] = 0.5 * self.inertia * omega * omega
+        v["potential_energy"] = (gd.gravity_potential(angle, self.body, self.geometry,
+                                                      self.gravity)
+                                 if self.gravity is not None else 0.0)
+
+
+class _Dynamics:
+    """Dynamics drive: the state equations, their events and the published outputs."""
+
+    def __init__(self, values, body, geometry, slave):
+        self.body, self.geometry, self.slave = body, geometry, slave
+        self.inertia = gd.inertia(body)
+        self.terms = _moment_terms(values, body, geometry)
+        self.gravity = values["gravity_acceleration"] if values["gravity"] else None
+        low = require_positive("stroke_min", values["stroke_min"], "m")
+        high = require_positive("stroke_max", values["stroke_max"], "m")
+        if not low < high:
+            raise MechanismError(f"stroke_min = {low!r} m must be below stroke_max = {high!r} m")
+        self.stroke = (low, high)
+        self.stops = (gd.Stops(low, high, require_positive("stop_stiffness",
+                                                           values["stop_stiffness"], "N/m"),
+                               gd.damping_ratio(values["restitution"]))
+                      if values["end_stops"] else None)
+        self.actuator = (hydraulics.make_actuator(
+            values["supply_pressure"], values["return_pressure"], values["bore"],
+            values["rod_diameter"], values["bulk_modulus"], values["dead_volume"],
+            values["valve_rated_flow"], values["valve_rated_pressure_drop"],
+            values["max_flow"], low, high) if values["hydraulics"] else None)
+        self.initial = (require_finite("initial_angle", values["initial_angle"], "rad"),
+                        require_finite("initial_angular_velocity",
+                                       values["initial_angular_velocity"], "rad/s"),
+                        require_finite("initial_pressure", values["initial_pressure"], "Pa"))
+        self.events = [Event("stroke_max", lambda t, y: self._length(y) - high, +1),
+                       Event("stroke_min", lambda t, y: self._length(y) - low, -1)]
+
+    def initial_state(self):
+        angle, omega, pressure = self.initial
+        state = [angle, omega, 0.0]
+        if self.actuator:
+            state += [pressure, pressure]
+        return state
+
+    def _length(self, y):
+        return gear.piston_motion(y[0], 0.0, 0.0, self.geometry.attachment_distance,
+                                  self.geometry.pivot_height).extension
+
+    def _kinematics(self, y):
+        """Piston length, rate and moment arm at state y."""
+        d, h = self.geometry.attachment_distance, self.geometry.pivot_height
+        piston = gear.piston_motion(y[0], y[1], 0.0, d, h)
+        return piston.extension, piston.speed, d * h * math.sin(y[0]) / piston.extension
+
+    def _drive_force(self, y, v):
+        if self.actuator:
+            return hydraulics.piston_force(y[3], y[4], self.actuator)
+        return v["piston_force"]
+
+    def derivatives(self, y, v):
+        """(dy/dt, acceleration, drive force) at state y with inputs held over the step."""
+        length, rate, arm = self._kinematics(y)
+        force = self._drive_force(y, v)
+        on_piston = force
+        if self.stops:
+            on_piston += gd.stop_force(length, rate, self.inertia / (arm * arm), self.stops)
+        moment = on_piston * arm + sum(term(y[0], y[1], v["airspeed"]) for term in self.terms)
+        alpha = moment / self.inertia
+        rates = [y[1], alpha, force * rate]
+        if self.actuator:
+            rates += hydraulics.pressure_rates(v["valve_command"], y[3], y[4], length, rate,
+                                               self.actuator)
+        return rates, alpha, force
+
+    def advance(self, integrator, t, y, t_end, v):
+        for name in ("piston_force", "valve_command", "airspeed"):
+            require_finite(name, v[name])
+        return advance_through_events(integrator, lambda time, state: self.derivatives(state, v)[0],
+                                      t, y, t_end, self.events, self._on_event)
+
+    def _on_event(self, event, t, y):
+        v = self.slave.values
+        if event.name == "stroke_max" and v["retraction_time"] < 0.0:
+            v["retraction_time"] = t
+        if event.name == "stroke_min" and v["extension_time"] < 0.0:
+            v["extension_time"] = t
+        if self.stops:
+            v["stop_contacts"] += 1
+        self.slave.log(f"{self.slave.instance_name} at t = {t!r} s: piston reached {event.name} "
+                       f"({self._length(y)!r} m)", Fmi2Status.ok)
+        return y
+
+    def publish(self, v, time, y):
+        length, rate, arm = self._kinematics(y)
+        rates, alpha, force = self.derivatives(y, v)
+        v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = y[0], y[1], alpha
+        v["piston_moment_arm"], v["piston_length"], v["piston_rate"] = arm, length, rate
+        v["wheel_speed"] = v["bar_length"] * y[1]
+        v["piston_force_applied"] = force
+        v["piston_work"] = y[2]
+        v["kinetic_energy"] = 0.5 * self.inertia * y[1] * y[1]
+        v["potential_energy"] = (gd.gravity_potential(y[0], self.body, self.geometry, self.gravity)
+                                 if self.gravity is not None else 0.0)
+        if self.actuator:
+            v["cap_pressure"], v["rod_pressure"] = y[3], y[4]
+
+
+# Start values and units of the inputs, for the other-driver warning.
+_STARTS = {v.name: v.start for v in LandingGear.VARIABLES if v.causality == "input"}
+_UNITS = {v.name: "" if v.unit in (None, "1") else v.unit
+          for v in LandingGear.VARIABLES if v.causality == "input"}

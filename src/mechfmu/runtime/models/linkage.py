@@ -1,0 +1,126 @@
+"""The shared base of the kinematic linkage FMUs: closed form or the generic constraint solver.
+
+A linkage model computes its outputs from the drive inputs at each communication point,
+either by its closed form or by following one assembly branch with the planar constraint
+solver (physics/planar.py). The solver's branch is the model's internal state (the last
+converged position, rates and drive), saved and restored with the FMU state, so a rolled
+back instance re-steps identically.
+"""
+
+from ..fmi.slave import MechSlave, output, parameter
+from ..physics import planar
+from ..errors import RangeError, require_finite, require_positive
+
+SOLVERS = ("closed_form", "constraint_solver")
+
+
+def solver_variables(default):
+    """The parameters and counters of every model that offers both solvers."""
+    return (
+        parameter("solver", default, "closed_form: the mechanism's closed-form solution; "
+                  "constraint_solver: Newton-Raphson on the joints' constraint equations "
+                  "(Haug), velocities and accelerations by linear solves", values=SOLVERS),
+        parameter("solver_tolerance", planar.DEFAULT_TOLERANCE, "Newton tolerance on the "
+                  "constraint residual (lengths divided by the mechanism's length scale, "
+                  "angles in rad)", unit="1", min=0.0),
+        parameter("max_iterations", planar.DEFAULT_MAX_ITERATIONS, "Newton iteration limit "
+                  "per solve (before continuation splits the step)", min=1),
+        parameter("singularity_threshold", planar.DEFAULT_SINGULARITY_THRESHOLD,
+                  "Largest accepted condition number of the scaled constraint Jacobian; "
+                  "above it the position is reported as singular", unit="1", min=1.0),
+        output("newton_iterations", 0, "Newton iterations of the last communication step "
+               "(0 with the closed form)"),
+        output("constraint_residual", 0.0, "Largest scaled constraint residual after the last "
+               "solve (0 with the closed form)", unit="1"),
+    )
+
+
+class LinkageSlave(MechSlave):
+    """Subclasses implement check_geometry, drive, closed_form, mechanism, guess and
+    from_solution; each returns or writes values keyed by output name."""
+
+    DRIVE_INPUTS = ()  # (value, rate, acceleration) input names of the mechanism's driver
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.follower = None
+
+    def driver_inputs(self):
+        """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""
+        return tuple(self.values[name] for name in self.DRIVE_INPUTS)
+
+    # --- model hooks --------------------------------------------------------------------
+    def check_geometry(self):
+        """Validate the model's own parameters (raise MechanismError)."""
+
+    def drive(self, time):
+        """Driver values [(value, rate, acceleration), ...] for the constraint solver."""
+        return [self.driver_inputs()]
+
+    def closed_form(self, time):
+        """Output values from the closed form (dict)."""
+        raise NotImplementedError
+
+    def mechanism(self):
+        """The planar.Mechanism of this linkage."""
+        raise NotImplementedError
+
+    def guess(self, time):
+        """A starting position on the requested assembly branch (list of coordinates)."""
+        raise NotImplementedError
+
+    def from_solution(self, solution, time):
+        """Output values from a planar.Solution (dict)."""
+        raise NotImplementedError
+
+    def after_update(self, time):
+        """Hook for effects computed from the kinematic outputs (contact forces, ...)."""
+
+    # --- MechSlave contract -------------------------------------------------------------
+    def check_parameters(self):
+        v = self.values
+        if v["solver"] not in SOLVERS:
+            raise RangeError("solver", v["solver"], "{" + ", ".join(SOLVERS) + "}")
+        require_positive("solver_tolerance", v["solver_tolerance"])
+        if not 1 <= v["max_iterations"] <= 1000:
+            raise RangeError("max_iterations", v["max_iterations"], "[1, 1000]")
+        if require_finite("singularity_threshold", v["singularity_threshold"]) < 1.0:
+            raise RangeError("singularity_threshold", v["singularity_threshold"], "[1, inf)")
+        self.check_geometry()
+        self.follower = None
+        if v["solver"] == "constraint_solver":
+            self.follower = planar.BranchFollower(
+                self.mechanism(), v["solver_tolerance"], v["max_iterations"],
+                v["singularity_threshold"])
+
+    def outputs_at_start(self, time):
+        if self.follower is None:
+            self._write(self.closed_form(time), 0, 0.0)
+        else:
+            solution = self.follower.assemble(self.guess(time), self.drive(time))
+            self._write(self.from_solution(solution, time), solution.iterations,
+                        solution.residual)
+        self.after_update(time)
+
+    def update(self, time, step_size):
+        if self.follower is None:
+            self._write(self.closed_form(time), 0, 0.0)
+        else:
+            solution = self.follower.follow(self.drive(time), step_size)
+            self._write(self.from_solution(solution, time), solution.iterations,
+                        solution.residual)
+        self.after_update(time)
+
+    def _write(self, values, iterations, residual):
+        # Validate everything before writing anything: a failed step keeps the last outputs.
+        self.values.update(values)
+        self.values["newton_iterations"] = iterations
+        self.values["constraint_residual"] = residual
+
+    # --- FMU state ----------------------------------------------------------------------
+    def internal_state(self):
+        return {"follower": None if self.follower is None else self.follower.snapshot()}
+
+    def restore_internal_state(self, state):
+        if self.follower is not None and state.get("follower") is not None:
+            self.follower.restore(state["follower"])

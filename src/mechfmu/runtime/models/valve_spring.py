@@ -1,0 +1,271 @@
+"""ValveSpring.fmu: the valve as a mass on its spring, driven by the rocker through a compliant
+contact and stopped by a compliant seat, integrated inside each communication step."""
+
+from pythonfmu.enums import Fmi2Status
+
+from ..fmi.slave import MechSlave, input_, integrator_variables, output, parameter
+from ..physics import valve_spring as vs
+from ..errors import IntegrationError, MechanismError, require_finite
+from ..numerics.integrators import make_integrator
+from ..numerics.stepping import advance_through_events
+
+_INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
+_UNITS = ("m", "m/s", "m/s2")
+# Apart from the rocker's work the valve system is passive: T + V can grow by no more than
+# the contact work W, over a step and over the run. A step that gains more than
+# ENERGY_GROWTH times the energy in play (the sum of the magnitudes of the energy terms), or
+# a run whose gains add up to more than ENERGY_GROWTH times the largest energy in play so
+# far, is an unstable integration. Measured on the shipped scenes at steps 1e-5 .. 1e-3 s:
+# dopri5, radau and rk4 within their stability limits create at most 5e-7 of it (summed over
+# the run), explicit Euler at h omega = 0.03 (accurate only to a few per cent) 0.03; past
+# the limits rk4 gains 40 % per sub-step and Euler at h omega = 0.33 creates 36 % to 97 %
+# over a run while no single step gains 10 %.
+ENERGY_GROWTH = 0.1
+
+
+class ValveSpring(MechSlave):
+    """A valve on its spring, pushed open by the rocker's valve end (prescribed motion L(t),
+    e.g. ValveTrain's kinematic valve lift) through a compliant contact, closed onto a
+    compliant seat (physics/valve_spring.py). The valve's free flight is integrated: when
+    the spring cannot hold the valve on the rocker it leaves it (float, a warning with the
+    time and drive values, or with stop_on_float a refused step), and a valve that comes
+    down without the rocker bounces on its seat (a warning per impact).
+    """
+
+    description = ("Valve dynamics: valve mass on its spring, driven by the rocker's valve end "
+                   "through a compliant contact (Kelvin-Voigt) and stopped by a compliant "
+                   "seat; integrated free flight, float and seat bounce")
+    VARIABLES = (
+        parameter("valve_mass", vs.DEFAULT_MASS, "m: moving mass at the valve: valve, "
+                  "retainer and a third of the spring (ValveTrain's default)", unit="kg",
+                  min=0.0),
+        parameter("spring_stiffness", vs.DEFAULT_SPRING_STIFFNESS, "k: valve spring "
+                  "stiffness (ValveTrain's default)", unit="N/m", min=0.0),
+        parameter("spring_preload", vs.DEFAULT_SPRING_PRELOAD, "F0: valve spring force with "
+                  "the valve closed (ValveTrain's default)", unit="N", min=0.0),
+        parameter("contact_stiffness", vs.DEFAULT_CONTACT_STIFFNESS, "k_c: stiffness of the "
+                  "rocker-valve contact, lumping the pushrod chain referred to the valve "
+                  "(pushrod valve trains: 1e6 .. 1e7 N/m; 1.6 kHz with the default mass)",
+                  unit="N/m", min=0.0),
+        parameter("contact_damping", vs.DEFAULT_CONTACT_DAMPING, "c_c: damping of the "
+                  "rocker-valve contact (default: damping ratio 0.05 with k_c and m); the "
+                  "contact force max(0, k_c d + c_c d') never pulls", unit="N.s/m", min=0.0),
+        parameter("seat_stiffness", vs.DEFAULT_SEAT_STIFFNESS, "k_s: stiffness of the valve "
+                  "seat (an order above the pushrod chain; 5 kHz with the default mass)",
+                  unit="N/m", min=0.0),
+        parameter("seat_damping", vs.DEFAULT_SEAT_DAMPING, "c_s: damping of the valve seat "
+                  "(default: damping ratio 0.047, restitution about 0.86); the seat force "
+                  "max(0, -k_s x - c_s v) never pulls", unit="N.s/m", min=0.0),
+        parameter("lash", vs.DEFAULT_LASH, "Clearance between the rocker end and the valve "
+                  "tip with the valve closed (0: hydraulic lash adjuster)", unit="m",
+                  min=0.0),
+        parameter("stop_on_float", False, "true: the valve leaving the rocker (float) "
+                  "discards the step with an error instead of a warning"),
+        parameter("input_interpolation", "interpolate", "The rocker motion inside a step, "
+                  "from the inputs at both ends: interpolate (quintic Hermite through lift, "
+                  "velocity and acceleration) or hold (the values at the start of the step, "
+                  "acceleration held)", values=vs.INPUT_MODES),
+        *integrator_variables(default="dopri5", rtol=1e-10, atol=1e-12, max_substep=2e-5),
+        input_("rocker_lift", 0.0, "L: position of the rocker's valve end, the kinematic "
+               "valve lift (opening positive)", unit="m"),
+        input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s"),
+        input_("rocker_acceleration", 0.0, "L'' = d(rocker_velocity)/dt (for the "
+               "interpolation inside the step)", unit="m/s2"),
+        output("valve_lift", 0.0, "x: valve opening from the closed valve on its undeformed "
+               "seat (negative: pressed into the seat)", unit="m"),
+        output("valve_velocity", 0.0, "v = dx/dt", unit="m/s"),
+        output("valve_acceleration", 0.0, "dv/dt = (contact_force + seat_force - "
+               "spring_force) / valve_mass", unit="m/s2", depends=_INPUTS[:2]),
+        output("contact_force", 0.0, "F_c: force of the rocker on the valve, "
+               "max(0, k_c d + c_c d') where d > 0", unit="N", min=0.0, depends=_INPUTS[:2]),
+        output("seat_force", 0.0, "F_seat: force of the seat on the valve, "
+               "max(0, -k_s x - c_s v) where x < 0", unit="N", min=0.0),
+        output("spring_force", 0.0, "F_s = F0 + k x: valve spring force, closing", unit="N"),
+        output("penetration", 0.0, "d = rocker_lift - valve_lift - lash: how far the rocker "
+               "presses into the valve tip (negative: a gap)", unit="m",
+               depends=_INPUTS[:1]),
+        output("contact_lost", False, "The valve is off the rocker (d <= 0) while the rocker "
+               "holds it open (rocker_lift > lash): float, or a bounce at the closing",
+               depends=_INPUTS[:1]),
+        output("float_events", 0, "Separations of valve and rocker with the rocker open, "
+               "before the valve closed (float) so far; a valve rebounding from its seat is "
+               "a bounce, not float"),
+        output("seat_impacts", 0, "Arrivals of the valve on its seat moving down so far "
+               "(closings and bounces)"),
+        output("kinetic_energy", 0.0, "m v^2 / 2", unit="J"),
+        output("elastic_energy", 0.0, "F0 x + k x^2 / 2 + k_c d^2 / 2 (d > 0) + k_s x^2 / 2 "
+               "(x < 0): valve spring (relative to the closed valve), contact and seat",
+               unit="J", depends=_INPUTS[:1]),
+        output("contact_work", 0.0, "Work of the rocker on the valve through the contact "
+               "since the start, integral of F_c L' dt (equals the change of kinetic plus "
+               "elastic energy when both dampings are 0)", unit="J"),
+    )
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.parameters = None   # vs.Parameters
+        self.drive = None        # vs.StepDrive read by rhs and events
+        self.modes = None        # vs.Modes read by rhs: the contacts engaged while integrating
+        self.rhs = None
+        self.events = None       # {vs.Engaged: (Event, ...)}
+        self.integrator = None
+        self.y = None            # (x, v, W) at self.time
+        self.time = None
+        self.last_inputs = None  # (L, L', L'') at self.time
+        self.phase = None        # vs.Phase at self.time
+        self.engaged = None      # vs.Engaged at self.time
+        self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
+        self.peak_energy = 0.0   # J: largest energy in play so far
+
+    def check_parameters(self):
+        v = self.values
+        self.parameters = vs.make_parameters(
+            v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
+            v["contact_stiffness"], v["contact_damping"], v["seat_stiffness"],
+            v["seat_damping"], v["lash"])
+        self.drive = vs.StepDrive(v["input_interpolation"])
+        self.modes = vs.Modes()
+        self.rhs = vs.build_rhs(self.parameters, self.drive, self.modes)
+        self.events = vs.build_events(self.parameters, self.drive)
+        self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
+                                          v["max_substep"])
+
+    def outputs_at_start(self, time):
+        self.last_inputs = self._current_inputs()
+        self.y = vs.initial_state(self.parameters, *self.last_inputs[:2])
+        self.time = time
+        self.phase = vs.contact_phase(self.parameters, self.last_inputs[0], self.y[0])
+        self.engaged = vs.engagement(self.parameters, *self.last_inputs[:2], *self.y[:2])
+        self._publish()
+
+    # --- FMU state ----------------------------------------------------------------------------
+    def internal_state(self):
+        if self.integrator is None:
+            return {}
+        return {"y": list(self.y), "time": self.time, "last_inputs": list(self.last_inputs),
+                "phase": list(self.phase), "engaged": list(self.engaged),
+                "created": self.created,
+                "peak_energy": self.peak_energy, "integrator": self.integrator.snapshot()}
+
+    def restore_internal_state(self, state):
+        if not state:
+            return
+        self.y, self.time = list(state["y"]), state["time"]
+        self.last_inputs = tuple(state["last_inputs"])
+        self.phase = vs.Phase(*state["phase"])
+        self.engaged = vs.Engaged(*state["engaged"])
+        self.created, self.peak_energy = state["created"], state["peak_energy"]
+        self.integrator.restore(state["integrator"])
+
+    # --- stepping ----------------------------------------------------------------------------
+    def _current_inputs(self):
+        return tuple(require_finite(name, self.values[name], unit)
+                     for name, unit in zip(_INPUTS, _UNITS))
+
+    def update(self, time, step_size):
+        """Integrate from self.time to ``time``; commit the state only if the whole step works."""
+        p = self.parameters
+        end_inputs = self._current_inputs()
+        self.drive.set_step(self.time, time, self.last_inputs, end_inputs)
+        saved = self.integrator.snapshot()
+        found = []
+        phase = [self.phase]
+
+        def judge(t, y):
+            phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], vs.drive_at(self.drive, t))
+            found.extend(new)
+            for happening in new:
+                if happening.kind == vs.FLOAT and self.values["stop_on_float"]:
+                    raise MechanismError(_float_message(happening))
+
+        def on_event(event, t, y):
+            if event.name in vs.SWITCH_EVENTS:
+                L, rate, _ = vs.drive_at(self.drive, t)
+                self.modes.engaged = vs.after_switch(p, self.modes.engaged,
+                                                     vs.SWITCH_EVENTS.index(event.name),
+                                                     L, rate, y[0], y[1])
+            judge(t, y)
+            return y
+
+        self.modes.engaged = vs.resume(p, self.engaged, *self.last_inputs[:2], *self.y[:2])
+        try:
+            y = advance_through_events(self.integrator, self.rhs, self.time, self.y, time,
+                                       lambda: self.events[self.modes.engaged], on_event)
+            judge(time, y)
+            created, peak = self._check_energy(self.time, self.y, time, y)
+        except MechanismError:
+            self.integrator.restore(saved)
+            raise
+        self.y, self.time, self.last_inputs, self.phase = list(y), time, end_inputs, phase[0]
+        self.engaged = self.modes.engaged
+        self.created, self.peak_energy = created, peak
+        v = self.values
+        for happening in found:
+            if happening.kind == vs.FLOAT:
+                v["float_events"] += 1
+            elif happening.kind == vs.SEAT_IMPACT:
+                v["seat_impacts"] += 1
+                continue  # a closing: counted, not reported
+            self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
+                     Fmi2Status.warning)
+        self._publish()
+
+    def _check_energy(self, t0, y0, t1, y1):
+        """(energy created so far, largest energy in play) after a step, or IntegrationError
+        when the step or the run gained more energy than a passive valve can."""
+        gain, scale = vs.energy_gain(self.parameters, self.drive, t0, y0, t1, y1)
+        created = self.created + max(gain, 0.0)
+        peak = max(self.peak_energy, scale)
+        if gain > ENERGY_GROWTH * scale or created > ENERGY_GROWTH * peak:
+            v = self.values
+            raise IntegrationError(
+                f"{v['integrator']}: the valve's energy grew by {gain:.6g} J more than the "
+                f"rocker's work between t = {t0!r} s and {t1!r} s (energy in play "
+                f"{scale:.6g} J; gains since the start {created:.6g} J, largest energy in "
+                f"play {peak:.6g} J; a passive valve cannot gain energy): unstable: the "
+                f"sub-step max_substep = {v['max_substep']!r} s exceeds the method's "
+                f"stability limit; reduce max_substep or use radau")
+        return created, peak
+
+    def _publish(self):
+        """Outputs at self.time from the state and the inputs given for that time."""
+        v, p = self.values, self.parameters
+        lift, velocity, work = self.y
+        L, rate, _ = self.last_inputs
+        f = vs.forces(p, L, rate, lift, velocity)
+        (v["valve_lift"], v["valve_velocity"], v["valve_acceleration"], v["contact_force"],
+         v["seat_force"], v["spring_force"], v["penetration"]) = (
+            lift, velocity, f.acceleration, f.contact, f.seat, f.spring, f.penetration)
+        v["contact_lost"] = f.penetration <= 0.0 and L - p.lash > 0.0
+        v["kinetic_energy"] = vs.kinetic_energy(p, velocity)
+        v["elastic_energy"] = vs.elastic_energy(p, L, lift)
+        v["contact_work"] = work
+        stats = self.integrator.stats
+        v["rhs_evaluations"], v["substeps"] = stats.rhs_evaluations, stats.substeps
+
+
+def _drive_text(happening):
+    L, rate, acceleration = happening.drive
+    return (f"rocker lift {L:.6g} m, velocity {rate:.6g} m/s, acceleration "
+            f"{acceleration:.6g} m/s^2")
+
+
+def _float_message(happening):
+    return (f"valve float at t = {happening.time!r} s: the valve left the rocker at valve "
+            f"lift {happening.lift:.6g} m, valve velocity {happening.velocity:.6g} m/s; "
+            f"{_drive_text(happening)} (the spring cannot keep the valve on the rocker)")
+
+
+def _rebound_message(happening):
+    return (f"valve bounce at t = {happening.time!r} s: rebounding from its seat the valve "
+            f"left the closing rocker at valve lift {happening.lift:.6g} m, valve velocity "
+            f"{happening.velocity:.6g} m/s; {_drive_text(happening)}")
+
+
+def _bounce_message(happening):
+    return (f"valve bounce at t = {happening.time!r} s: the valve hit its seat at "
+            f"{happening.velocity:.6g} m/s without the rocker; {_drive_text(happening)}")
+
+
+_MESSAGES = {vs.FLOAT: _float_message, vs.REBOUND: _rebound_message,
+             vs.BOUNCE: _bounce_message}

@@ -1,0 +1,545 @@
+"""Generic planar kinematics: bodies, joints as constraint equations, Newton-Raphson (stdlib).
+
+Haug's method ("Computer Aided Kinematics and Dynamics of Mechanical Systems", 1989), as the
+coursework's valve-train study uses it. Each moving body i has generalised coordinates
+q_i = (x_i, y_i, phi_i): the position (m) of its frame's origin and the frame's angle (rad,
+counter-clockwise). The ground is ``GROUND`` (None), fixed at the origin with phi = 0.
+
+Each joint contributes constraint equations Phi(q, t) = 0 and, assembled from them,
+
+    Phi_q q'  = -Phi_t                         velocity equation
+    Phi_q q'' = gamma = -(Phi_q q')_q q' - 2 Phi_qt q' - Phi_tt     acceleration equation
+
+Time enters only through drivers: a driver imposes sum(w_k q_k) = f(t) and receives
+(f, f', f'') at each solve from the caller (an FMU input, a cam law, ...).
+
+Position: Newton-Raphson from a predictor, with a tolerance on the scaled residual and an
+iteration limit. Velocity and acceleration: one linear solve each with the same LU.
+
+Singular positions. At a toggle or change point Phi_q loses rank: velocities become
+infinite and Newton may wander or converge onto the other assembly circuit. The solver
+measures the 1-norm condition number of the scaled Jacobian at every converged position and
+raises SingularConfiguration, naming the configuration, above ``singularity_threshold``.
+It also tracks the sign of det(Phi_q): on one assembly circuit it never changes, so a flip
+between two steps means the solution jumped circuits (or passed through a singular
+position), which is reported the same way rather than returned.
+"""
+
+import math
+from collections import namedtuple
+
+from ..errors import MechanismError, SingularConfiguration
+from ..numerics.linalg import Singular, condition_number, determinant_sign, lu_factor, lu_solve
+
+GROUND = None
+X, Y, PHI = 0, 1, 2  # coordinate offsets within a body's triple
+
+DEFAULT_TOLERANCE = 1e-12          # scaled residual: lengths / length_scale, angles in rad
+DEFAULT_MAX_ITERATIONS = 25
+DEFAULT_SINGULARITY_THRESHOLD = 1e8
+MAX_CONTINUATION_HALVINGS = 10
+
+
+class NoConvergence(MechanismError):
+    """Newton-Raphson did not reach the tolerance within its iteration limit."""
+
+
+def _perp(v):
+    """v rotated by +90 degrees (d/dphi of A(phi) s is perp(A s))."""
+    return (-v[1], v[0])
+
+
+def _dot(u, v):
+    return u[0] * v[0] + u[1] * v[1]
+
+
+class _Frames:
+    """Position, rotated body-frame vectors and rates of each body, read from q (and q')."""
+
+    __slots__ = ("q", "qdot")
+
+    def __init__(self, q, qdot=None):
+        self.q, self.qdot = q, qdot
+
+    def origin(self, body):
+        if body is GROUND:
+            return (0.0, 0.0)
+        return (self.q[3 * body], self.q[3 * body + 1])
+
+    def angle(self, body):
+        return 0.0 if body is GROUND else self.q[3 * body + 2]
+
+    def rotate(self, body, vector):
+        """A(phi) vector: a body-frame vector in global axes."""
+        if body is GROUND:
+            return (float(vector[0]), float(vector[1]))
+        c, s = math.cos(self.angle(body)), math.sin(self.angle(body))
+        return (c * vector[0] - s * vector[1], s * vector[0] + c * vector[1])
+
+    def point(self, body, local):
+        r, a = self.origin(body), self.rotate(body, local)
+        return (r[0] + a[0], r[1] + a[1])
+
+    def velocity(self, body):
+        if body is GROUND:
+            return (0.0, 0.0)
+        return (self.qdot[3 * body], self.qdot[3 * body + 1])
+
+    def angular_velocity(self, body):
+        return 0.0 if body is GROUND else self.qdot[3 * body + 2]
+
+
+# --- joints -------------------------------------------------------------------------------------
+# Each joint has ``equations`` rows, ``kinds`` ("length" or "angle" per row, for scaling) and
+# fills its rows of Phi, Phi_q, -Phi_t (velocity right-hand side) and gamma.
+
+class Revolute:
+    """Point ``point_i`` of body i coincides with point ``point_j`` of body j (2 equations)."""
+
+    equations = 2
+    kinds = ("length", "length")
+
+    def __init__(self, name, body_i, point_i, body_j, point_j):
+        self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
+        self.body_j, self.point_j = body_j, tuple(point_j)
+
+    def residual(self, f, drive):
+        p, r = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
+        return [p[0] - r[0], p[1] - r[1]]
+
+    def jacobian(self, f, rows):
+        for body, local, sign in ((self.body_i, self.point_i, 1.0),
+                                  (self.body_j, self.point_j, -1.0)):
+            if body is GROUND:
+                continue
+            d = _perp(f.rotate(body, local))
+            rows[0][3 * body] += sign
+            rows[1][3 * body + 1] += sign
+            rows[0][3 * body + 2] += sign * d[0]
+            rows[1][3 * body + 2] += sign * d[1]
+
+    def velocity_rhs(self, drive):
+        return [0.0, 0.0]
+
+    def gamma(self, f, drive):
+        a_i, a_j = f.rotate(self.body_i, self.point_i), f.rotate(self.body_j, self.point_j)
+        w_i, w_j = f.angular_velocity(self.body_i), f.angular_velocity(self.body_j)
+        return [a_i[0] * w_i * w_i - a_j[0] * w_j * w_j, a_i[1] * w_i * w_i - a_j[1] * w_j * w_j]
+
+
+class PointOnLine:
+    """Point ``point_i`` of body i stays on the line of body j through ``point_j`` along
+    ``direction_j`` (body-j frame): a sliding joint that permits rotation (1 equation).
+
+    Phi = n_j . (P_i - P_j) with n_j the line's unit normal, A_j perp(u_j).
+    """
+
+    equations = 1
+    kinds = ("length",)
+
+    def __init__(self, name, body_i, point_i, body_j, point_j, direction_j):
+        norm = math.hypot(*direction_j)
+        if not norm > 0.0:
+            raise ValueError(f"{name}: direction must be non-zero")
+        self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
+        self.body_j, self.point_j = body_j, tuple(point_j)
+        self.normal_j = _perp((direction_j[0] / norm, direction_j[1] / norm))
+
+    def _parts(self, f):
+        n = f.rotate(self.body_j, self.normal_j)
+        p_i, p_j = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
+        return n, (p_i[0] - p_j[0], p_i[1] - p_j[1])
+
+    def residual(self, f, drive):
+        n, d = self._parts(f)
+        return [_dot(n, d)]
+
+    def jacobian(self, f, rows):
+        n, d = self._parts(f)
+        row = rows[0]
+        if self.body_i is not GROUND:
+            i = 3 * self.body_i
+            row[i] += n[0]
+            row[i + 1] += n[1]
+            row[i + 2] += _dot(n, _perp(f.rotate(self.body_i, self.point_i)))
+        if self.body_j is not GROUND:
+            j = 3 * self.body_j
+            row[j] -= n[0]
+            row[j + 1] -= n[1]
+            row[j + 2] += _dot(_perp(n), d) - _dot(n, _perp(f.rotate(self.body_j, self.point_j)))
+
+    def velocity_rhs(self, drive):
+        return [0.0]
+
+    def gamma(self, f, drive):
+        n, d = self._parts(f)
+        a_i, a_j = f.rotate(self.body_i, self.point_i), f.rotate(self.body_j, self.point_j)
+        w_i, w_j = f.angular_velocity(self.body_i), f.angular_velocity(self.body_j)
+        v_i, v_j = f.velocity(self.body_i), f.velocity(self.body_j)
+        ddot = (v_i[0] + _perp(a_i)[0] * w_i - v_j[0] - _perp(a_j)[0] * w_j,
+                v_i[1] + _perp(a_i)[1] * w_i - v_j[1] - _perp(a_j)[1] * w_j)
+        centripetal = (a_i[0] * w_i * w_i - a_j[0] * w_j * w_j,
+                       a_i[1] * w_i * w_i - a_j[1] * w_j * w_j)
+        return [_dot(n, d) * w_j * w_j - 2.0 * w_j * _dot(_perp(n), ddot) + _dot(n, centripetal)]
+
+
+class RelativeAngle:
+    """phi_i - phi_j = angle (rad): with PointOnLine it makes a translational joint."""
+
+    equations = 1
+    kinds = ("angle",)
+
+    def __init__(self, name, body_i, body_j, angle=0.0):
+        self.name, self.body_i, self.body_j, self.angle = name, body_i, body_j, float(angle)
+
+    def residual(self, f, drive):
+        return [f.angle(self.body_i) - f.angle(self.body_j) - self.angle]
+
+    def jacobian(self, f, rows):
+        if self.body_i is not GROUND:
+            rows[0][3 * self.body_i + 2] += 1.0
+        if self.body_j is not GROUND:
+            rows[0][3 * self.body_j + 2] -= 1.0
+
+    def velocity_rhs(self, drive):
+        return [0.0]
+
+    def gamma(self, f, drive):
+        return [0.0]
+
+
+def translational(name, body_i, point_i, body_j, point_j, direction_j, angle=0.0):
+    """A prismatic joint: point-on-line plus a locked relative angle (2 equations)."""
+    return (PointOnLine(name + " (line)", body_i, point_i, body_j, point_j, direction_j),
+            RelativeAngle(name + " (angle)", body_i, body_j, angle))
+
+
+class Driver:
+    """sum(weight * q[body, coordinate]) + offset = f(t); f, f', f'' come from ``drive``.
+
+    ``terms``: ((body, X|Y|PHI, weight), ...). ``index`` selects the driver's entry in the
+    drive tuple passed to the solver. ``kind``: "length" or "angle", the unit of f.
+    """
+
+    equations = 1
+
+    def __init__(self, name, terms, index=0, offset=0.0, kind="angle"):
+        self.name, self.terms, self.index = name, tuple(terms), index
+        self.offset, self.kinds = float(offset), (kind,)
+
+    def residual(self, f, drive):
+        total = self.offset
+        for body, coordinate, weight in self.terms:
+            total += weight * f.q[3 * body + coordinate]
+        return [total - drive[self.index][0]]
+
+    def jacobian(self, f, rows):
+        for body, coordinate, weight in self.terms:
+            rows[0][3 * body + coordinate] += weight
+
+    def velocity_rhs(self, drive):
+        return [drive[self.index][1]]
+
+    def gamma(self, f, drive):
+        return [drive[self.index][2]]
+
+
+# --- the mechanism --------------------------------------------------------------------------------
+
+Solution = namedtuple("Solution", "q qdot qddot iterations residual condition")
+
+
+class Mechanism:
+    """Bodies (names, in coordinate order) and joints; assembles Phi, Phi_q, -Phi_t, gamma.
+
+    length_scale (m): a typical link length. Rows in m are divided by it and angle columns
+    multiplied by it, so the residual tolerance and the condition number do not depend on
+    the unit of length.
+    ``diagnose(q)``: optional callable naming the configuration in error messages;
+    ``singularity(q)``: optional callable naming the singular condition nearest to q (for
+    example "toggle position: coupler and rocker collinear");
+    ``crossing(start_drive, end_drive)``: optional callable naming a singular position where
+    assembly branches cross (a change point) that a drive change reaches or passes, or None.
+    """
+
+    def __init__(self, name, bodies, joints, length_scale, diagnose=None, singularity=None,
+                 crossing=None):
+        self.name, self.bodies = name, tuple(bodies)
+        self.joints = tuple(j for joint in joints
+                            for j in (joint if isinstance(joint, tuple) else (joint,)))
+        self.size = 3 * len(self.bodies)
+        rows = sum(j.equations for j in self.joints)
+        if rows != self.size:
+            raise ValueError(f"{name}: {rows} constraint equations for {self.size} coordinates "
+                             f"({len(self.bodies)} bodies); a kinematically driven mechanism "
+                             f"needs as many equations as coordinates")
+        self.length_scale = float(length_scale)
+        kinds = [kind for j in self.joints for kind in j.kinds]
+        self.row_scale = [1.0 / self.length_scale if k == "length" else 1.0 for k in kinds]
+        self.column_scale = [self.length_scale if c % 3 == PHI else 1.0
+                             for c in range(self.size)]
+        self.diagnose = diagnose or (lambda q: "q = [" + ", ".join(f"{v:.6g}" for v in q) + "]")
+        self.singularity = singularity or (lambda q: "constraint Jacobian rank loss")
+        self.crossing = crossing or (lambda start, end: None)
+
+    def singular_position(self, q):
+        """'<nearest singular condition> at <configuration>' for error messages."""
+        return f"{self.singularity(q)} at {self.diagnose(q)}"
+
+    # Scaled quantities: rows of lengths divided by L, angle columns multiplied by L.
+    def residual(self, q, drive):
+        f = _Frames(q)
+        values = [v for j in self.joints for v in j.residual(f, drive)]
+        return [v * s for v, s in zip(values, self.row_scale)]
+
+    def jacobian(self, q):
+        f = _Frames(q)
+        matrix = []
+        for joint in self.joints:
+            rows = [[0.0] * self.size for _ in range(joint.equations)]
+            joint.jacobian(f, rows)
+            matrix.extend(rows)
+        return [[v * r * c for v, c in zip(row, self.column_scale)]
+                for row, r in zip(matrix, self.row_scale)]
+
+    def velocity_rhs(self, drive):
+        values = [v for j in self.joints for v in j.velocity_rhs(drive)]
+        return [v * s for v, s in zip(values, self.row_scale)]
+
+    def gamma(self, q, qdot, drive):
+        f = _Frames(q, qdot)
+        values = [v for j in self.joints for v in j.gamma(f, drive)]
+        return [v * s for v, s in zip(values, self.row_scale)]
+
+    def unscale(self, scaled):
+        """Solution of the scaled system -> coordinates (angle columns were multiplied by L)."""
+        return [v * c for v, c in zip(scaled, self.column_scale)]
+
+
+def _max_abs(values):
+    return max(abs(v) for v in values)
+
+
+def _factor(mechanism, q):
+    matrix = mechanism.jacobian(q)
+    try:
+        return matrix, lu_factor(matrix)
+    except Singular:
+        return matrix, None
+
+
+def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
+                   max_iterations=DEFAULT_MAX_ITERATIONS):
+    """Newton-Raphson on Phi(q) = 0 from ``guess``. Returns (q, iterations, residual).
+
+    Stops when the scaled residual is below ``tolerance`` after at least one correction and
+    with a last correction small enough that the remaining error is far below it. Raises
+    SingularConfiguration on an exactly singular Jacobian or when the residual is below the
+    tolerance but the corrections have not become small within ``max_iterations`` (linear
+    convergence: a singular root), NoConvergence after ``max_iterations`` otherwise or on a
+    non-finite iterate.
+    """
+    q = [float(v) for v in guess]
+    residual = mechanism.residual(q, drive)
+    size = math.inf
+    for iteration in range(1, max_iterations + 1):
+        _, factored = _factor(mechanism, q)
+        if factored is None:
+            raise SingularConfiguration(
+                f"{mechanism.name}: singular constraint Jacobian during Newton iteration "
+                f"{iteration}, {mechanism.singular_position(q)}")
+        step = mechanism.unscale(lu_solve(factored, residual))
+        q = [a - b for a, b in zip(q, step)]
+        residual = mechanism.residual(q, drive)
+        size = _max_abs(residual)
+        if not math.isfinite(size):
+            break
+        # Below tolerance, more corrections until one is tiny: Newton's error after a
+        # correction delta is about C delta^2, so a last delta <= 1e-2 sqrt(tolerance) leaves
+        # an error far below the tolerance itself. Near a regular root that is one more
+        # correction. At a singular root (a toggle or change point exactly at the drive) the
+        # residual is quadratic in the distance: it falls below the tolerance about
+        # sqrt(tolerance) away, where the Jacobian still looks regular, and the corrections
+        # only halve; following them takes the iterate to where the conditioning shows the
+        # singular position (analyse), instead of accepting a point next to it from which
+        # the next step can leave on either branch.
+        small = max(abs(s / c) for s, c in zip(step, mechanism.column_scale))
+        if size <= tolerance and small <= 1e-2 * math.sqrt(tolerance):
+            return q, iteration, size
+    if size <= tolerance:
+        # Converged in the residual, but the corrections did not become tiny within the
+        # iteration limit: Newton converges only linearly, the mark of a singular root. The
+        # iterate may still be 1e-7 away from it, where the Jacobian looks regular enough to
+        # pass the conditioning check, and a next step from there can leave on either branch.
+        matrix, factored = _factor(mechanism, q)
+        condition = math.inf if factored is None else condition_number(matrix, factored)
+        raise SingularConfiguration(
+            f"{mechanism.name}: singular position, {mechanism.singular_position(q)}: "
+            f"Newton-Raphson converges only linearly here (residual {size:.3g} below the "
+            f"tolerance, but the corrections still {small:.3g} after {max_iterations} "
+            f"iterations; constraint Jacobian condition number {condition:.3g}): the drive "
+            f"is at a singular position, where velocities are unbounded")
+    raise NoConvergence(
+        f"{mechanism.name}: Newton-Raphson did not converge in {max_iterations} iterations "
+        f"(scaled residual {_max_abs(residual):.3g} > tolerance {tolerance:.3g}) "
+        f"near {mechanism.diagnose(q)}")
+
+
+def analyse(mechanism, q, drive, singularity_threshold=DEFAULT_SINGULARITY_THRESHOLD):
+    """Velocities and accelerations at a solved position q; returns (qdot, qddot, condition,
+    determinant sign). Raises SingularConfiguration when the scaled Jacobian's condition
+    number exceeds ``singularity_threshold``."""
+    matrix, factored = _factor(mechanism, q)
+    condition = math.inf if factored is None else condition_number(matrix, factored)
+    if not condition <= singularity_threshold:
+        raise SingularConfiguration(
+            f"{mechanism.name}: singular position, {mechanism.singular_position(q)} "
+            f"(constraint Jacobian condition number {condition:.3g} > "
+            f"{singularity_threshold:.3g}); velocities are unbounded here and the next "
+            f"position may lie on either branch")
+    qdot = mechanism.unscale(lu_solve(factored, mechanism.velocity_rhs(drive)))
+    qddot = mechanism.unscale(lu_solve(factored, mechanism.gamma(q, qdot, drive)))
+    return qdot, qddot, condition, determinant_sign(factored)
+
+
+class BranchFollower:
+    """Follows one assembly branch of a driven mechanism from one drive value to the next.
+
+    ``assemble(guess, drive)`` finds the first position; ``follow(drive, dt)`` predicts
+    q + q' dt + q'' dt^2/2, corrects by Newton and checks the branch (det sign) and the
+    conditioning. When Newton fails or lands on another branch, the drive change is split
+    in halves (continuation, up to 2^10 pieces) with the tangent dq/ds as predictor before
+    it reports an error. The last solution and drive are the state (``snapshot``/``restore``).
+    """
+
+    def __init__(self, mechanism, tolerance=DEFAULT_TOLERANCE,
+                 max_iterations=DEFAULT_MAX_ITERATIONS,
+                 singularity_threshold=DEFAULT_SINGULARITY_THRESHOLD):
+        self.mechanism = mechanism
+        self.tolerance, self.max_iterations = tolerance, max_iterations
+        self.singularity_threshold = singularity_threshold
+        self.solution = None
+        self.drive = None
+        self.sign = 0
+
+    def snapshot(self):
+        return {"solution": None if self.solution is None else
+                [list(v) if isinstance(v, list) else v for v in self.solution],
+                "drive": None if self.drive is None else [list(d) for d in self.drive],
+                "sign": self.sign}
+
+    def restore(self, state):
+        self.solution = None if state["solution"] is None else Solution(*state["solution"])
+        self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
+        self.sign = state["sign"]
+
+    def _solve(self, guess, drive):
+        q, iterations, residual = solve_position(self.mechanism, guess, drive, self.tolerance,
+                                                 self.max_iterations)
+        qdot, qddot, condition, sign = analyse(self.mechanism, q, drive,
+                                               self.singularity_threshold)
+        return Solution(q, qdot, qddot, iterations, residual, condition), sign
+
+    def assemble(self, guess, drive):
+        drive = [tuple(map(float, d)) for d in drive]
+        self.solution, self.sign = self._solve(guess, drive)
+        self.drive = drive
+        return self.solution
+
+    def follow(self, drive, dt):
+        """Solve at the new drive values; ``dt`` (s) is the time since the last solution.
+
+        A drive change that reaches or passes a point where two assembly branches cross (a
+        change point, named by the mechanism's ``crossing``) is refused: there the sign of
+        det(Phi_q) flips along each branch, so it cannot tell them apart, and the branch
+        that keeps the sign is the other one.
+        """
+        drive = [tuple(map(float, d)) for d in drive]
+        passed = self.mechanism.crossing(self.drive, drive)
+        if passed:
+            raise SingularConfiguration(
+                f"{self.mechanism.name}: the drive passes through a singular position, "
+                f"{passed}, between {[d[0] for d in self.drive]} and {[d[0] for d in drive]}: "
+                f"there two assembly branches cross and the motion may continue on either")
+        last = self.solution
+        guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
+        try:
+            solution, sign = self._solve(guess, drive)
+            if sign == self.sign:
+                self.solution, self.drive = solution, drive
+                return solution
+        except NoConvergence:
+            pass
+        except SingularConfiguration:
+            # A singular end point is reported as such; a singular iterate on the way may be
+            # the predictor's fault, so continuation gets a chance first.
+            if self._end_is_singular(drive):
+                raise
+        solution = self._continue(drive)
+        self.solution, self.drive = solution, drive
+        return solution
+
+    def _end_is_singular(self, drive):
+        try:
+            _, sign = self._solve(self.solution.q, drive)
+            return False
+        except SingularConfiguration:
+            return True
+        except NoConvergence:
+            return False
+
+    def _continue(self, drive):
+        """Split the drive change into 2, 4, ... pieces; each piece predicted along the
+        branch tangent dq/ds (J dq/ds = d(drive)/ds on the driver rows)."""
+        start, last_error = self.drive, None
+        furthest = (0.0, self.solution)  # furthest fraction of the change reached, and where
+        for halvings in range(1, MAX_CONTINUATION_HALVINGS + 1):
+            pieces = 2 ** halvings
+            q, sign, iterations = list(self.solution.q), self.sign, 0
+            try:
+                for k in range(1, pieces + 1):
+                    s = k / pieces
+                    target = [tuple(a + s * (b - a) for a, b in zip(d0, d1))
+                              for d0, d1 in zip(start, drive)]
+                    guess = self._tangent_predictor(q, start, drive, 1.0 / pieces)
+                    solution, new_sign = self._solve(guess, target)
+                    if new_sign != sign:
+                        raise SingularConfiguration(
+                            f"{self.mechanism.name}: the solution changed assembly branch "
+                            f"between {self.mechanism.diagnose(q)} and "
+                            f"{self.mechanism.diagnose(solution.q)} (det of the constraint "
+                            f"Jacobian changed sign): the motion passes through a singular "
+                            f"position, {self.mechanism.singular_position(solution.q)}")
+                    q, iterations = solution.q, iterations + solution.iterations
+                    if s > furthest[0]:
+                        furthest = (s, solution)
+                return solution._replace(iterations=iterations)
+            except SingularConfiguration as error:
+                last_error = error
+            except NoConvergence as error:
+                last_error = error
+        reached, solution = furthest
+        if isinstance(last_error, NoConvergence) and (
+                solution.condition > 10.0 * self.solution.condition
+                or solution.condition > math.sqrt(self.singularity_threshold)):
+            # The Jacobian degrades along the way (or the last position was already next to
+            # a singular one: a toggle approached closely, where no piece gets further) and
+            # Newton fails beyond: the drive asks for a position past a singular one, where
+            # the mechanism does not assemble.
+            raise SingularConfiguration(
+                f"{self.mechanism.name}: no assembly at the requested drive "
+                f"{[d[0] for d in drive]}: the motion reaches a singular position, "
+                f"{self.mechanism.singular_position(solution.q)} (condition number "
+                f"{solution.condition:.3g}, {reached:.4g} of the way from the last step), and "
+                f"Newton-Raphson finds no position beyond it") from last_error
+        raise last_error
+
+    def _tangent_predictor(self, q, start, end, fraction):
+        mechanism = self.mechanism
+        _, factored = _factor(mechanism, q)
+        if factored is None:
+            return q
+        # d(drive)/ds in the rate slot: J dq/ds = -dPhi/ds is the velocity equation's form.
+        change = [(0.0, b[0] - a[0], 0.0) for a, b in zip(start, end)]
+        tangent = mechanism.unscale(lu_solve(factored, mechanism.velocity_rhs(change)))
+        return [v + fraction * t for v, t in zip(q, tangent)]

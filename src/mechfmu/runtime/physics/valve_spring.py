@@ -1,0 +1,422 @@
+"""Valve spring dynamics: the valve as a mass on its spring, pushed open by the rocker
+through a compliant contact and stopped by a compliant seat (standard library only: runs
+inside ValveSpring.fmu).
+
+Coordinates (SI units throughout):
+
+- x: valve lift (m), opening positive, 0 = closed on the (undeformed) seat; v = dx/dt (m/s);
+- L(t): position of the rocker's valve end (m), the kinematic valve lift of ValveTrain (a
+  prescribed motion), with L'(t) (m/s) and L''(t) (m/s^2).
+
+Forces on the valve along its axis (N, positive opening):
+
+    spring   F_s = F0 + k x                                    (closes the valve)
+    contact  d = L - x - lash                                  (penetration, m)
+             F_c = max(0, k_c d + c_c d')   where d > 0, else 0
+    seat     F_seat = max(0, -k_s x - c_s v) where x < 0, else 0
+
+    m x'' = F_c + F_seat - F_s
+
+Both contacts are Kelvin-Voigt (a spring and a dashpot in parallel) clipped at zero: a
+contact can push, never pull. Without the clip the dashpot would pull the valve back just
+before it leaves the rocker (for d -> 0+ with d' < 0 the force tends to c_c d' < 0), so it
+would hold on to the valve and delay the very separation (float) this model is built to
+show, and it would glue a rebounding valve to its seat. The clip releases the valve where
+the force reaches zero, slightly before the surfaces part (d or x reaches 0 later).
+
+The force law is piecewise smooth. Its kinks and jumps are where a contact force switches on
+or off: the switch functions contact_switch = min(k_c d, k_c d + c_c d') and
+seat_switch = min(-k_s x, -k_s x - c_s v) are positive exactly where the force is; they
+cross zero at an impact (d or x passing 0 towards contact, where the dashpot makes the force
+jump to c_c d' or -c_s v) and at a release. The integration is split into segments at these
+crossings: within a segment each contact is engaged (its unclipped Kelvin-Voigt force acts)
+or idle (Engaged, Modes), so the right-hand side is smooth and tight tolerances (1e-10) are
+reachable, also for the implicit Radau method, whose Newton iteration cannot converge
+across a jump of the force. Each segment ends at the terminal event of a switch function
+crossing towards the other mode; the contact flips there and the integration restarts. A
+third event, d falling through 0, locates the separation of valve and rocker (float).
+
+Energy (J): kinetic T = m v^2 / 2; elastic V = F0 x + k x^2 / 2 (the valve spring, relative
+to the closed valve) + k_c d^2 / 2 (d > 0) + k_s x^2 / 2 (x < 0). The rocker's power on the
+valve system is F_c L', so the contact work W (the third state, W' = F_c L') satisfies
+W(t) - W(0) = T + V - (T + V)(0) + (energy the dashpots dissipated): with both dashpots off
+the balance is exact, and with them on T + V can never gain more than W (the FMU refuses a
+step that does: an unstable integration).
+
+Neglected: gravity on the valve (about 1 N against hundreds of N of spring force), friction
+in the valve guide, the spring's own surge modes (its moving mass is lumped into m), the
+rocker's reaction (the rocker end is a prescribed motion), and the drive's compliance other
+than the lumped contact stiffness.
+"""
+
+from collections import namedtuple
+
+from ..errors import MechanismError, RangeError, require_finite, require_positive
+from ..numerics.integrators import Event
+from ..numerics.stepping import hermite, polynomial_motion
+
+# Defaults (N, m, kg, s), documented in the README and the FMU:
+DEFAULT_MASS = 0.1  # kg: valve, retainer and a third of the spring, as ValveTrain's
+DEFAULT_SPRING_STIFFNESS = 50e3  # N/m, as ValveTrain's valve spring
+DEFAULT_SPRING_PRELOAD = 300.0  # N at the closed valve, as ValveTrain's
+# Pushrod valve trains are 1e6 .. 1e7 N/m stiff referred to the valve (pushrod, rocker and
+# its shaft in series): 1e7 N/m puts the valve on the rocker at sqrt(k_c/m)/(2 pi) = 1.6 kHz.
+DEFAULT_CONTACT_STIFFNESS = 1e7
+# c_c = 2 zeta sqrt(k_c m) with zeta = 0.05, a lightly damped steel contact: 100 N s/m.
+DEFAULT_CONTACT_DAMPING = 100.0
+# The valve head on its seat insert is a short, wide steel contact, an order of magnitude
+# stiffer than the pushrod chain: 1e8 N/m (5 kHz with the valve mass).
+DEFAULT_SEAT_STIFFNESS = 1e8
+# c_s = 2 zeta sqrt(k_s m): 300 N s/m is zeta = 0.047, a restitution of about 0.86.
+DEFAULT_SEAT_DAMPING = 300.0
+DEFAULT_LASH = 0.0  # m: a hydraulic lash adjuster keeps the rocker on the valve
+
+INPUT_MODES = ("interpolate", "hold")
+
+Parameters = namedtuple(
+    "Parameters", "mass spring_stiffness spring_preload contact_stiffness contact_damping "
+                  "seat_stiffness seat_damping lash")
+Forces = namedtuple("Forces", "acceleration contact seat spring penetration")
+Phase = namedtuple("Phase", "touching open landed")
+Engaged = namedtuple("Engaged", "contact seat")
+CONTACT, SEAT = 0, 1
+SWITCH_EVENTS = ("contact_switch", "seat_switch")  # event names, indexed by CONTACT, SEAT
+Happening = namedtuple("Happening", "kind time lift velocity drive")
+FLOAT, REBOUND, SEAT_IMPACT, BOUNCE = "float", "rebound", "seat impact", "bounce"
+
+
+def _non_negative(name, value, unit):
+    number = require_finite(name, value, unit)
+    if number < 0.0:
+        raise RangeError(name, number, "[0, inf)", unit, "must not be negative")
+    return number
+
+
+def make_parameters(mass=DEFAULT_MASS, spring_stiffness=DEFAULT_SPRING_STIFFNESS,
+                    spring_preload=DEFAULT_SPRING_PRELOAD,
+                    contact_stiffness=DEFAULT_CONTACT_STIFFNESS,
+                    contact_damping=DEFAULT_CONTACT_DAMPING,
+                    seat_stiffness=DEFAULT_SEAT_STIFFNESS, seat_damping=DEFAULT_SEAT_DAMPING,
+                    lash=DEFAULT_LASH):
+    """Validated Parameters; RangeError names the parameter, its value and its range.
+
+    The mass and the three stiffnesses must be positive (without them there is no equation
+    of motion, no drive and no seat); preload, dampings and lash must not be negative.
+    """
+    return Parameters(
+        require_positive("valve_mass", mass, "kg"),
+        require_positive("spring_stiffness", spring_stiffness, "N/m"),
+        _non_negative("spring_preload", spring_preload, "N"),
+        require_positive("contact_stiffness", contact_stiffness, "N/m"),
+        _non_negative("contact_damping", contact_damping, "N.s/m"),
+        require_positive("seat_stiffness", seat_stiffness, "N/m"),
+        _non_negative("seat_damping", seat_damping, "N.s/m"),
+        _non_negative("lash", lash, "m"))
+
+
+# --- the force laws: one small function each ---------------------------------------------
+
+def spring_force(p, lift):
+    """Valve spring force F0 + k x (N), closing the valve."""
+    return p.spring_preload + p.spring_stiffness * lift
+
+
+def penetration(p, rocker_lift, lift):
+    """d = L - x - lash (m): how far the rocker end presses into the valve tip."""
+    return rocker_lift - lift - p.lash
+
+
+def contact_force(p, depth, depth_rate):
+    """Rocker-on-valve force max(0, k_c d + c_c d') for d > 0, else 0 (N)."""
+    if depth <= 0.0:
+        return 0.0
+    force = p.contact_stiffness * depth + p.contact_damping * depth_rate
+    return force if force > 0.0 else 0.0
+
+
+def seat_force(p, lift, velocity):
+    """Seat-on-valve force max(0, -k_s x - c_s v) for x < 0, else 0 (N)."""
+    if lift >= 0.0:
+        return 0.0
+    force = -p.seat_stiffness * lift - p.seat_damping * velocity
+    return force if force > 0.0 else 0.0
+
+
+def contact_switch(p, depth, depth_rate):
+    """Positive exactly where the contact force is (N); zero where it switches."""
+    spring = p.contact_stiffness * depth
+    return min(spring, spring + p.contact_damping * depth_rate)
+
+
+def seat_switch(p, lift, velocity):
+    """Positive exactly where the seat force is (N); zero where it switches."""
+    spring = -p.seat_stiffness * lift
+    return min(spring, spring - p.seat_damping * velocity)
+
+
+def forces(p, rocker_lift, rocker_velocity, lift, velocity):
+    """Forces (acceleration m/s^2, contact N, seat N, spring N, penetration m) at a state."""
+    depth = penetration(p, rocker_lift, lift)
+    contact = contact_force(p, depth, rocker_velocity - velocity)
+    seat = seat_force(p, lift, velocity)
+    spring = spring_force(p, lift)
+    return Forces((contact + seat - spring) / p.mass, contact, seat, spring, depth)
+
+
+def kinetic_energy(p, velocity):
+    """m v^2 / 2 (J)."""
+    return 0.5 * p.mass * velocity * velocity
+
+
+def elastic_energy(p, rocker_lift, lift):
+    """Energy stored in the valve spring (relative to the closed valve), the contact and
+    the seat (J)."""
+    depth = penetration(p, rocker_lift, lift)
+    energy = lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift)
+    if depth > 0.0:
+        energy += 0.5 * p.contact_stiffness * depth * depth
+    if lift < 0.0:
+        energy += 0.5 * p.seat_stiffness * lift * lift
+    return energy
+
+
+def energy_scale(p, rocker_lift, lift, velocity):
+    """Sum of the magnitudes of the energy terms (J): the energy in play at a state, against
+    which a change of T + V is judged."""
+    depth = penetration(p, rocker_lift, lift)
+    scale = kinetic_energy(p, velocity) + abs(lift * (p.spring_preload
+                                                      + 0.5 * p.spring_stiffness * lift))
+    if depth > 0.0:
+        scale += 0.5 * p.contact_stiffness * depth * depth
+    if lift < 0.0:
+        scale += 0.5 * p.seat_stiffness * lift * lift
+    return scale
+
+
+def energy_gain(p, drive, t0, y0, t1, y1):
+    """(gain, scale) in J over [t0, t1]: the growth of T + V beyond the contact work,
+    (T + V)(t1) - (T + V)(t0) - (W(t1) - W(t0)), which the exact solution keeps <= 0 (the
+    dashpots only dissipate), and the energy in play it is judged against (the largest
+    energy_scale at either end, or the work if larger). ``drive``: the step's StepDrive."""
+    rocker0, rocker1 = drive_at(drive, t0)[0], drive_at(drive, t1)[0]
+    start = kinetic_energy(p, y0[1]) + elastic_energy(p, rocker0, y0[0])
+    end = kinetic_energy(p, y1[1]) + elastic_energy(p, rocker1, y1[0])
+    work = y1[2] - y0[2]
+    scale = max(energy_scale(p, rocker0, y0[0], y0[1]), energy_scale(p, rocker1, y1[0], y1[1]),
+                abs(work))
+    return end - start - work, scale
+
+
+# --- static equilibrium ------------------------------------------------------------------
+
+def static_equilibrium(p, rocker_lift, rocker_velocity):
+    """Valve lift x (m) where the forces balance with the valve moving with the rocker.
+
+    With v = L' the contact dashpot is idle, and every force is linear in x on each side of
+    its switch, so the balance F_c + F_seat = F_s is solved for each of the four
+    combinations of contact and seat on or off:
+
+        x = (k_c (L - lash) [contact] - c_s L' [seat] - F0) / (k + k_c [contact] + k_s [seat])
+
+    and the combination whose solution agrees with it (each force on exactly where its
+    switch function is positive) is taken. The net force decreases strictly with x, so
+    exactly one does, except when a rocker moving down (L' < 0) makes the seat dashpot's
+    force jump at x = 0; then the equilibrium is the seat surface, x = 0.
+    """
+    L = require_finite("rocker_lift", rocker_lift, "m")
+    rate = require_finite("rocker_velocity", rocker_velocity, "m/s")
+    for contact in (True, False):
+        for seat in (True, False):
+            numerator = -p.spring_preload
+            stiffness = p.spring_stiffness
+            if contact:
+                numerator += p.contact_stiffness * (L - p.lash)
+                stiffness += p.contact_stiffness
+            if seat:
+                numerator -= p.seat_damping * rate
+                stiffness += p.seat_stiffness
+            x = numerator / stiffness
+            if ((contact_switch(p, penetration(p, L, x), 0.0) > 0.0) == contact
+                    and (seat_switch(p, x, rate) > 0.0) == seat):
+                return x
+    return 0.0
+
+
+# --- the drive inside one communication step ---------------------------------------------
+
+class StepDrive:
+    """The rocker-end motion L(t), L'(t), L''(t) over one communication step [t0, t1].
+
+    The FMU receives (L, L', L'') at the end of each step (the master's Gauss-Seidel order:
+    the sources have already advanced). ``interpolate``: the quintic Hermite polynomial
+    through (L, L', L'') at both ends (exact for quintic motions; O(step^6) for smooth ones,
+    O(step^3) across a jump of the jerk, as where a 3-4-5 cam law meets a dwell).
+    ``hold``: the values at t0 held, i.e. the acceleration L''(t0) held and L, L' its
+    consistent Taylor expansion from t0 (exact for motions with constant acceleration over
+    the step; the next step starts from the values given at its own start).
+    The right-hand side keeps one instance and reads it through drive_at.
+    """
+
+    __slots__ = ("mode", "t0", "coefficients")
+
+    def __init__(self, mode="interpolate"):
+        if mode not in INPUT_MODES:
+            raise MechanismError(f"input_interpolation = {mode!r} is not one of "
+                                 f"{', '.join(INPUT_MODES)}")
+        self.mode = mode
+        self.set_constant(0.0, (0.0, 0.0, 0.0))
+
+    def set_constant(self, t, start):
+        """The motion from (L, L', L'') at t with constant acceleration."""
+        lift, rate, acceleration = start
+        self.t0, self.coefficients = t, (lift, rate, 0.5 * acceleration)
+
+    def set_step(self, t0, t1, start, end):
+        """The motion over [t0, t1] from (L, L', L'') at t0 and at t1."""
+        if self.mode == "hold" or not t1 > t0:
+            self.set_constant(t0, start)
+            return
+        self.t0, self.coefficients = t0, hermite(t1 - t0, start, end)
+
+
+def drive_at(drive, t):
+    """(L m, L' m/s, L'' m/s^2) of the rocker end at time t inside the current step."""
+    return polynomial_motion(drive.coefficients, t - drive.t0)
+
+
+# --- the system for the integrator: contacts engaged or not -------------------------------
+
+def switches(p, rocker_lift, rocker_velocity, lift, velocity):
+    """(contact, seat) switch functions (N) at a state: positive where the force pushes."""
+    return (contact_switch(p, penetration(p, rocker_lift, lift), rocker_velocity - velocity),
+            seat_switch(p, lift, velocity))
+
+
+def engagement(p, rocker_lift, rocker_velocity, lift, velocity):
+    """Engaged(contact, seat) at a state: each contact engaged where its force pushes."""
+    contact, seat = switches(p, rocker_lift, rocker_velocity, lift, velocity)
+    return Engaged(contact > 0.0, seat > 0.0)
+
+
+def resume(p, engaged, rocker_lift, rocker_velocity, lift, velocity):
+    """Engaged at the start of a step: each contact as its switch function's sign says, or as
+    ``engaged`` (the end of the last step) where the function is exactly 0. They agree
+    unless the drive jumps at the communication point (input_interpolation = hold: the
+    step starts from the inputs given for its start, not from the last step's
+    extrapolation), which may engage or release a contact without a crossing to see."""
+    values = switches(p, rocker_lift, rocker_velocity, lift, velocity)
+    return Engaged(*(value > 0.0 if value != 0.0 else mode
+                     for value, mode in zip(values, engaged)))
+
+
+def engaged_forces(p, rocker_lift, rocker_velocity, lift, velocity, engaged):
+    """Forces with the contacts ``engaged`` (Engaged) acting by their unclipped Kelvin-Voigt
+    law and the others idle: the smooth right-hand side of one integration segment."""
+    depth = penetration(p, rocker_lift, lift)
+    contact = (p.contact_stiffness * depth + p.contact_damping * (rocker_velocity - velocity)
+               if engaged.contact else 0.0)
+    seat = -p.seat_stiffness * lift - p.seat_damping * velocity if engaged.seat else 0.0
+    spring = spring_force(p, lift)
+    return Forces((contact + seat - spring) / p.mass, contact, seat, spring, depth)
+
+
+def after_switch(p, engaged, fired, rocker_lift, rocker_velocity, lift, velocity):
+    """Engaged after the switch function ``fired`` (CONTACT or SEAT) crossed zero at a state.
+
+    The fired contact flips. The other one keeps following its own sign, which is far from
+    zero unless both switch at the same instant (no lash and the rocker on its base circle:
+    then d = -x and the valve meets, or leaves, seat and rocker together); there the
+    integrator's event point lies on the far side of the fired surface only, and the other
+    function may be exactly 0: then the other contact engages if it is closing (d' > 0 for
+    the rocker, v < 0 for the seat).
+    """
+    values = switches(p, rocker_lift, rocker_velocity, lift, velocity)
+    closing = (rocker_velocity - velocity > 0.0, velocity < 0.0)
+    other = 1 - fired
+    modes = list(engaged)
+    modes[fired] = not engaged[fired]
+    modes[other] = values[other] > 0.0 if values[other] != 0.0 else closing[other]
+    return Engaged(*modes)
+
+
+class Modes:
+    """The contacts engaged over the current integration segment; the right-hand side reads
+    it, the event handler changes it at each switch."""
+
+    __slots__ = ("engaged",)
+
+    def __init__(self, engaged=None):
+        self.engaged = engaged
+
+
+def build_rhs(p, drive, modes):
+    """y' = rhs(t, y) for y = (x, v, W): the valve's motion and the contact work, with the
+    contacts engaged as ``modes`` says (smooth between switches)."""
+    def rhs(t, y):
+        L, rate, _ = drive_at(drive, t)
+        f = engaged_forces(p, L, rate, y[0], y[1], modes.engaged)
+        return [y[1], f.acceleration, f.contact * rate]
+    return rhs
+
+
+def build_events(p, drive):
+    """{Engaged: events to watch in that mode}: each contact's switch function crossing
+    towards the other mode (falling while engaged, rising while idle) ends the segment, and
+    d falling through 0 (the valve leaving the rocker) is located for the float report."""
+    def contact(t, y):
+        L, rate, _ = drive_at(drive, t)
+        return contact_switch(p, penetration(p, L, y[0]), rate - y[1])
+
+    def seat(t, y):
+        return seat_switch(p, y[0], y[1])
+
+    def separation(t, y):
+        return penetration(p, drive_at(drive, t)[0], y[0])
+
+    leaving = Event("separation", separation, -1)
+    return {Engaged(c, s): (Event(SWITCH_EVENTS[CONTACT], contact, -1 if c else 1),
+                            Event(SWITCH_EVENTS[SEAT], seat, -1 if s else 1), leaving)
+            for c in (False, True) for s in (False, True)}
+
+
+def initial_state(p, rocker_lift, rocker_velocity):
+    """(x, v, W) at the start: static equilibrium, moving with the rocker, no work done."""
+    return [static_equilibrium(p, rocker_lift, rocker_velocity), float(rocker_velocity), 0.0]
+
+
+# --- what happened inside a step -----------------------------------------------------------
+
+def contact_phase(p, rocker_lift, lift, landed=False):
+    """Phase(touching: d > 0, open: x > 0, landed) at a state; ``landed``: the valve has
+    come down on its seat since the rocker last sat on its base circle (L <= lash)."""
+    return Phase(penetration(p, rocker_lift, lift) > 0.0, lift > 0.0,
+                 landed and rocker_lift - p.lash > 0.0)
+
+
+def next_phase(p, before, t, lift, velocity, drive):
+    """(Phase at time t, [Happening]) for a state reached from the Phase ``before``.
+
+    Happenings, each Happening(kind, t, x, v, (L, L', L'')):
+    - SEAT_IMPACT: the valve reached its seat moving down (x fell through 0 with v < 0), a
+      closing; BOUNCE as well when the valve was not on the rocker just before (it came
+      down in free flight);
+    - FLOAT: the valve left the rocker (d fell through 0) while the rocker holds it open
+      (L > lash; where d = 0 that is x > 0) and before it closed: the spring could not keep
+      the valve on the rocker;
+    - REBOUND: the same separation after the valve landed: it bounced off its seat and
+      left the rocker that was still closing (a cam without a closing ramp seats the valve
+      at the rocker speed where L = F_c / k_c, a few tenths of a m/s).
+    Judging the states rather than which event fired keeps crossings that coincide (with no
+    lash and the rocker on its base circle d = -x: leaving the seat is leaving the rocker)
+    counted once each.
+    """
+    found = []
+    now = contact_phase(p, drive[0], lift, before.landed)
+    if before.open and not now.open and velocity < 0.0:
+        found.append(Happening(SEAT_IMPACT, t, lift, velocity, drive))
+        if not before.touching:
+            found.append(Happening(BOUNCE, t, lift, velocity, drive))
+        now = now._replace(landed=drive[0] - p.lash > 0.0)
+    if before.touching and not now.touching and drive[0] - p.lash > 0.0:
+        found.append(Happening(REBOUND if now.landed else FLOAT, t, lift, velocity, drive))
+    return now, found

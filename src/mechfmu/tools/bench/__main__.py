@@ -1,0 +1,7 @@
+"""``python -m mechfmu.tools.bench``: run the benchmarks (see mechfmu.tools.bench.cli)."""
+
+import sys
+
+from . import main
+
+sys.exit(main())

@@ -1,0 +1,47 @@
+"""The gear scenes the benchmarks share: loading, longer variants, the closed form's inputs."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from ...cosim.scene import load_scene
+from ...references import landing_gear
+from ..scene_references import model_defaults, sample_times
+
+KINEMATIC_SCENE = "gear_retraction"        # PistonActuator -> LandingGear, motion drive
+DYNAMIC_SCENE = "gear_retraction_dynamic"  # LandingGear alone, all six effects, radau
+PISTON_INPUTS = ("piston_extension", "piston_speed", "piston_acceleration")
+GEAR_OUTPUTS = ("gear_angle", "gear_angular_velocity", "gear_angular_acceleration")
+
+
+def load_named_scene(scene_dir, name):
+    return load_scene(Path(scene_dir) / f"{name}.toml")
+
+
+def with_stop_time(scene, stop_time):
+    """The same scene over [start_time, stop_time] s (the actuator holds its end after
+    its stroke, so a longer gear scene keeps stepping in range)."""
+    return dataclasses.replace(scene, stop_time=float(stop_time))
+
+
+def retraction_arguments(scene):
+    """Positional arguments of references.landing_gear.retraction for a gear scene:
+    its sample times (s) and the actuator's and gear's parameters over the defaults (m, s)."""
+    stroke = {**model_defaults("PistonActuator"), **scene.components["actuator"].parameters}
+    geometry = {**model_defaults("LandingGear"), **scene.components["gear"].parameters}
+    return (sample_times(scene), geometry["attachment_distance"], geometry["pivot_height"],
+            stroke["start_extension"], stroke["end_extension"], stroke["stroke_time"],
+            stroke["profile"])
+
+
+def piston_table(scene):
+    """fmpy input table of a gear scene: time (s) and the piston's extension (m), speed
+    (m/s) and acceleration (m/s^2) from the closed form at every communication point."""
+    times, _, _, *stroke = retraction_arguments(scene)
+    table = np.zeros(len(times), dtype=[("time", float)] + [(name, float)
+                                                             for name in PISTON_INPUTS])
+    table["time"] = times
+    for name, values in zip(PISTON_INPUTS, landing_gear.stroke(times, *stroke)):
+        table[name] = values
+    return table

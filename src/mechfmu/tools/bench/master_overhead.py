@@ -1,0 +1,206 @@
+"""Benchmark 1: what the project's master costs per step, against fmpy.simulate_fmu.
+
+Ours: mechfmu.cosim.master.Simulation on gear_retraction (PistonActuator -> LandingGear,
+3 connections, 6 recorded outputs). fmpy: simulate_fmu running LandingGear.fmu alone, the
+piston motion given as an input table on the same grid, 3 recorded outputs, on an FMU2Slave
+instance made here (``fmu_instance=``) so that its FMI calls can be timed.
+
+Each master runs at two lengths; the per-step time is the slope between them, so extraction
+and instantiation cancel. The time inside FMI calls comes from separate timed runs (the
+timers cost time of their own); overhead = per-step wall time - per-step FMI time.
+"""
+
+import contextlib
+import cProfile
+import io
+import pstats
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import NamedTuple
+
+from fmpy import extract, read_model_description, simulate_fmu
+from fmpy.fmi2 import FMU2Slave
+
+from ...cosim.master import CallTimer, Simulation
+from .gear import GEAR_OUTPUTS, KINEMATIC_SCENE, load_named_scene, piston_table, with_stop_time
+from .report import Row, Target, ratio_row
+from .timing import per_step, seconds_of, set_up, side_by_side_medians
+
+BENCHMARK = "master overhead"
+TARGET = Target(0.5, "<= 0.5")  # the issue: ours at most half of fmpy's
+MICRO, MILLI = 1e6, 1e3
+
+
+class FmiCallTimer:
+    """Wall time (s) spent inside an FMU2Slave's C get/set/doStep functions.
+
+    fmpy calls every FMI function through FMU2Slave._call, which looks the ctypes function
+    up in the instance's ``_functions`` at each call. Replacing those entries times the C
+    calls themselves: the layer the master's time_fmi_calls times (its raw calls on the
+    library's functions), so that fmpy's Python around them (_call and its status check,
+    Input, Recorder) counts as fmpy's overhead just as the master's own Python counts as
+    ours.
+    """
+
+    FUNCTIONS = ("fmi2DoStep", "fmi2SetReal", "fmi2GetReal", "fmi2SetInteger",
+                 "fmi2GetInteger", "fmi2SetBoolean", "fmi2GetBoolean")
+
+    def __init__(self):
+        self.timer = CallTimer()
+
+    @property
+    def seconds(self):
+        return self.timer.total
+
+    def attach(self, instance):
+        functions = getattr(instance, "_functions", None)
+        if not isinstance(functions, dict):
+            raise RuntimeError("this fmpy keeps no FMU2Slave._functions table (fmpy 0.3.2x "
+                               "does); the FMI-call timer cannot be attached")
+        for name in self.FUNCTIONS:
+            functions[name] = self.timer.wrap(functions[name])
+
+
+class FmpyGearAlone:
+    """LandingGear.fmu alone under fmpy.simulate_fmu, fed the gear scene's piston motion."""
+
+    def __init__(self, fmu_path, scene):
+        self.scene = scene
+        self.description = read_model_description(str(fmu_path))
+        self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
+        self.table = piston_table(scene)
+        self.start_values = dict(scene.components["gear"].inputs)  # the unconnected inputs
+
+    def run(self, timer=None):
+        """One run: instantiate, simulate_fmu, free. Attaches ``timer`` if given."""
+        scene = self.scene
+        instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
+                             modelIdentifier=self.description.coSimulation.modelIdentifier,
+                             instanceName="gear")
+        if timer is not None:
+            timer.attach(instance)
+        instance.instantiate()
+        try:
+            # fmpy prints a warning per input missing from the table (the three given as
+            # start values); keep them out of the benchmark's own output.
+            with contextlib.redirect_stdout(io.StringIO()):
+                result = simulate_fmu(
+                    self.folder, model_description=self.description, fmu_instance=instance,
+                    start_time=scene.start_time, stop_time=scene.stop_time,
+                    step_size=scene.step, output_interval=scene.step, input=self.table,
+                    output=list(GEAR_OUTPUTS), start_values=dict(self.start_values))
+        finally:
+            instance.freeInstance()
+        if len(result) != scene.steps + 1:
+            raise RuntimeError(f"fmpy recorded {len(result)} points, expected "
+                               f"{scene.steps + 1} ({scene.steps} steps)")
+        return result
+
+    def close(self):
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+
+def _ours(simulation, timed):
+    if not timed:
+        return {"wall": seconds_of(simulation.run)}
+    started = time.perf_counter()
+    result = simulation.run(time_fmi_calls=True)
+    wall = time.perf_counter() - started
+    return {"wall": wall, "fmi": result.meta["fmi_call_time_s"]}
+
+
+def _fmpy(alone, timed):
+    if not timed:
+        return {"wall": seconds_of(alone.run)}
+    timer = FmiCallTimer()
+    wall = seconds_of(alone.run, timer)
+    return {"wall": wall, "fmi": timer.seconds}
+
+
+def _runs(ours, alone):
+    """The measured runs: each master at each length, untimed and with FMI-call timers."""
+    measurements = {}
+    for timed in (False, True):
+        for length, simulation, run in zip(("short", "long"), ours, alone):
+            measurements[("ours", length, timed)] = (
+                lambda simulation=simulation, timed=timed: _ours(simulation, timed))
+            measurements[("fmpy", length, timed)] = (
+                lambda run=run, timed=timed: _fmpy(run, timed))
+    return measurements
+
+
+class MasterRows(NamedTuple):
+    wall: Row
+    set_up: Row
+    fmi: Row
+    overhead: Row
+
+
+def _master_rows(master, medians, steps, description, repeats):
+    """Wall, set-up, FMI and overhead rows of one master from the medians of its runs."""
+    def median(length, key, timed):
+        return medians[(master, length, timed)][key]
+
+    span = f"slope between {steps[0]} and {steps[1]} steps"
+    wall = per_step(median("short", "wall", False), median("long", "wall", False), *steps)
+    fmi = per_step(median("short", "fmi", True), median("long", "fmi", True), *steps)
+    return MasterRows(
+        Row(BENCHMARK, f"{master}: wall per step", wall * MICRO, "us", repeats,
+            notes=f"{description}; {span}"),
+        Row(BENCHMARK, f"{master}: set-up",
+            set_up(median("short", "wall", False), wall, steps[0]) * MILLI, "ms", repeats,
+            notes="intercept of the same line: extraction (ours only), instantiation, "
+                  "initialisation"),
+        Row(BENCHMARK, f"{master}: FMI calls per step", fmi * MICRO, "us", repeats,
+            notes=f"time inside the C get/set/doStep calls; timed runs; {span}"),
+        Row(BENCHMARK, f"{master}: overhead per step", (wall - fmi) * MICRO, "us", repeats,
+            notes="wall per step (untimed runs) - FMI calls per step (timed runs)"))
+
+
+def measure(scene_dir, fmu_dir, lengths_s, repeats):
+    """Rows of benchmark 1; ``lengths_s`` = (short, long) stop times in s."""
+    scene = load_named_scene(scene_dir, KINEMATIC_SCENE)
+    scenes = [with_stop_time(scene, stop) for stop in lengths_s]
+    steps = [s.steps for s in scenes]
+    ours = [Simulation(s, fmu_dir) for s in scenes]
+    alone = [FmpyGearAlone(Path(fmu_dir) / "LandingGear.fmu", s) for s in scenes]
+    try:
+        medians = side_by_side_medians(_runs(ours, alone), repeats)
+    finally:
+        for run in alone:
+            run.close()
+    descriptions = {
+        "ours": f"{KINEMATIC_SCENE}: PistonActuator -> LandingGear, "
+                f"{len(ours[0].connections)} connections, {len(ours[0].recorded)} recorded, "
+                f"steps of {scene.step} s",
+        "fmpy": f"simulate_fmu: LandingGear.fmu alone, piston motion as an input table, "
+                f"{len(GEAR_OUTPUTS)} recorded, steps of {scene.step} s"}
+    rows = {master: _master_rows(master, medians, steps, descriptions[master], repeats)
+            for master in ("ours", "fmpy")}
+    ours_rows, fmpy_rows = rows["ours"], rows["fmpy"]
+    return [*ours_rows, *fmpy_rows,
+            ratio_row("total per step, ours / fmpy", ours_rows.wall, fmpy_rows.wall, TARGET,
+                      "two FMUs against one"),
+            ratio_row("overhead per step, ours / fmpy", ours_rows.overhead,
+                      fmpy_rows.overhead, TARGET)]
+
+
+def profile(scene_dir, fmu_dir, stop_time, top=15, stream=None):
+    """Print cProfile's ``top`` functions by own time for one run of each master."""
+    scene = with_stop_time(load_named_scene(scene_dir, KINEMATIC_SCENE), stop_time)
+    simulation = Simulation(scene, fmu_dir)
+    alone = FmpyGearAlone(Path(fmu_dir) / "LandingGear.fmu", scene)
+    try:
+        for label, run in (("ours (Simulation.run, 2 FMUs)", simulation.run),
+                           ("fmpy (simulate_fmu, LandingGear alone)", alone.run)):
+            run()  # warm
+            profiler = cProfile.Profile()
+            profiler.runcall(run)
+            print(f"\ncProfile, {label}, {scene.steps} steps: top {top} by tottime",
+                  file=stream)
+            stats = pstats.Stats(profiler, stream=stream)
+            stats.strip_dirs().sort_stats("tottime").print_stats(top)
+    finally:
+        alone.close()

@@ -1,0 +1,144 @@
+"""The accuracy study: what each digit of accuracy costs in wall time (``mechfmu study``).
+
+For each dynamic scene (design.SCENES) it sweeps the communication step, the integrator
+and its tolerance or sub-step, and the master's coupling; measures every recorded output
+against the scene's tight reference; and writes, into the output folder:
+
+accuracy_cost.csv   one row per (point, output): errors, cost, work counters, status
+<scene>.png         headline error against cost, log-log, Pareto front marked
+<scene>_sources.png the coupling error alone and the integration error alone
+pareto.md           per scene, the cheapest setting for each target error (README table)
+study.json          the sweep's definition, the machine and the study's own wall time
+
+``--scenes`` studies some scenes again: the rows of the others are kept from the existing
+accuracy_cost.csv, and the plots and tables are written for every scene it holds.
+"""
+
+import argparse
+import csv
+import json
+import math
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+from ...cosim.master import Simulation
+from ...cosim.results import atomic_write, versions
+from . import design, measure, report
+
+
+def _arguments(argv):
+    parser = argparse.ArgumentParser(prog="mechfmu study", description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", nargs="*", default=[s.name for s in design.SCENES],
+                        help="study these scenes only (default: all)")
+    parser.add_argument("--quick", action="store_true",
+                        help="a small corner of the sweep (the 2 coarsest steps, 6 settings; for tests)")
+    parser.add_argument("--repeats", type=int, default=3,
+                        help="timed runs per point, median taken (default 3)")
+    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
+                        help="parallel processes (default: 2 or the cores there are)")
+    parser.add_argument("--out", default="data/study", help="output folder")
+    parser.add_argument("--scene-dir", default="sims/scenes")
+    parser.add_argument("--fmu-dir", default="fmus")
+    return parser.parse_args(argv)
+
+
+def _write_rows(path, rows):
+    def write(handle):
+        writer = csv.DictWriter(handle, fieldnames=measure.COLUMNS, lineterminator="\n")
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({key: (repr(value) if isinstance(value, float) else value)
+                             for key, value in row.items()})
+    return atomic_write(path, write)
+
+
+def read_rows(path):
+    """The rows of an accuracy_cost.csv, numbers as numbers."""
+    numbers = {"tolerance", "max_substep", "step", "max_error", "rms_error", "relative_error",
+               "max_error_all", "reference_peak", "loop_time_s", "wall_time_s", "ms_per_simulated_s"}
+    integers = {"repeats", "communication_steps", "substeps", "rhs_evaluations"}
+    with open(path, newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    for row in rows:
+        for key in numbers:
+            row[key] = float(row[key])
+        for key in integers:
+            row[key] = int(row[key])
+    return rows
+
+
+def _headline_unit(args, study_scene):
+    """The unit of the scene's headline output, from its FMU's model description."""
+    simulation = Simulation(design.load(args.scene_dir, study_scene), args.fmu_dir)
+    units = {name: variable.unit or "1" for name, _, variable in simulation.recorded}
+    return units[study_scene.headline]
+
+
+def _progress(done, total, point):
+    if done == total or done % 25 == 0:
+        print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
+
+
+def main(argv=None):
+    args = _arguments(argv)
+    chosen = [s for s in design.SCENES if s.name in args.scenes]
+    unknown = set(args.scenes) - {s.name for s in design.SCENES}
+    if unknown:
+        print(f"study: unknown scene(s) {', '.join(sorted(unknown))}; studied scenes: "
+              f"{', '.join(s.name for s in design.SCENES)}", file=sys.stderr)
+        return 2
+    started = time.perf_counter()
+    out = Path(args.out)
+    scenes, points = {}, []
+    for study_scene in chosen:
+        scene = design.load(args.scene_dir, study_scene)
+        print(f"{scene.name}: reference on the {study_scene.steps[0]:g} s grid ...", flush=True)
+        scenes[scene.name] = (scene, study_scene, measure.reference(scene, study_scene))
+        points += design.points(study_scene, design.couplings_of(scene), args.quick)
+    print(f"running {len(points)} points on {args.workers} worker(s), "
+          f"{args.repeats} repeat(s) each", flush=True)
+    rows = measure.run_points(points, scenes, args.fmu_dir, args.repeats, args.workers,
+                              _progress)
+    # Studying some scenes again keeps the rows of the others from the previous study.
+    previous = out / "accuracy_cost.csv"
+    kept = [row for row in read_rows(previous) if row["scene"] not in scenes] \
+        if previous.is_file() else []
+    rows = kept + rows
+    paths = [_write_rows(previous, rows)]
+    tables = []
+    reported = [s for s in design.SCENES if any(row["scene"] == s.name for row in rows)]
+    for study_scene in reported:
+        unit = _headline_unit(args, study_scene)
+        paths.append(report.plot_front(rows, study_scene, unit, out / f"{study_scene.name}.png"))
+        paths.append(report.plot_sources(rows, study_scene, unit,
+                                         out / f"{study_scene.name}_sources.png"))
+        tables.append(f"#### {study_scene.name}\n\n"
+                      + report.front_table(rows, study_scene, unit))
+    paths.append(atomic_write(out / "pareto.md",
+                              lambda handle: handle.write("\n\n".join(tables) + "\n")))
+    elapsed = time.perf_counter() - started
+    failed = sorted({(r["scene"], r["integrator"], r["tolerance"], r["max_substep"], r["step"],
+                      r["coupling"]) for r in rows if r["status"] != "ok"})
+    definition = {
+        "scenes": {s.name: {"component": s.component, "headline": s.headline,
+                            "steps": list(s.steps), "fixed_substeps": list(s.substeps)}
+                   for s in chosen},
+        "tolerances": list(design.TOLERANCES), "jacobi_tolerances": list(design.JACOBI_TOLERANCES),
+        "quick": args.quick, "repeats": args.repeats, "workers": args.workers,
+        "points": len(points), "failed_points": len(failed),
+        "rows_kept_from_the_previous_study": sorted({row["scene"] for row in kept}), "study_wall_time_s": elapsed,
+        "machine": {"platform": platform.platform(), "processor": platform.processor(),
+                    "cores": os.cpu_count()},
+        "versions": versions(), "command": sys.argv,
+    }
+    paths.append(atomic_write(out / "study.json",
+                              lambda handle: json.dump(definition, handle, indent=2)))
+    for path in paths:
+        print(f"wrote {path}")
+    print(f"{len(points)} points ({len(failed)} refused by the FMU, recorded with their "
+          f"error) in {elapsed:.0f} s")
+    return 0 if rows and all(math.isfinite(r["loop_time_s"]) or r["status"] != "ok"
+                             for r in rows) else 1
