@@ -16,12 +16,12 @@ def arguments(description):
 
 
 def run(scene, args):
-    """Run a Scene or sims/scenes/<scene>.toml; exit with a message on a scene or FMU failure."""
+    """Run a Scene or a shipped scene by name; exit with a message on a scene or FMU failure."""
     from mechfmu.cosim.master import SimulationError
     from mechfmu.cosim.run import run_scene
-    from mechfmu.cosim.scene import Scene, SceneError
+    from mechfmu.cosim.scene import Scene, SceneError, find_file
     if not isinstance(scene, Scene):
-        scene = ROOT / "sims" / "scenes" / f"{scene}.toml"
+        scene = find_file(scene)
     try:
         return run_scene(scene, args.out, args.fmu_dir, plot=not args.no_plot)
     except SceneError as error:

@@ -8,6 +8,7 @@ script runs it alone and only prints its rows (medians of --repeats after one wa
 import argparse
 from pathlib import Path
 
+from mechfmu.cosim.scene import SCENE_DIR
 from mechfmu.tools.bench import effects
 from mechfmu.tools.bench.report import markdown_table
 
@@ -19,7 +20,7 @@ def main():
     parser.add_argument("--fmu-dir", default=str(ROOT / "fmus"))
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
-    print(markdown_table(effects.measure(ROOT / "sims" / "scenes", args.fmu_dir, args.repeats)))
+    print(markdown_table(effects.measure(SCENE_DIR, args.fmu_dir, args.repeats)))
 
 
 if __name__ == "__main__":

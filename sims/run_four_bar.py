@@ -1,8 +1,8 @@
 """Four-bar linkage: the coursework example, closed form and constraint solver, both circuits.
 
 Prints the coursework's worked example (a, b, c, d = 2, 7, 9, 6 in, theta2 = 30 deg) on both
-circuits, then runs sims/scenes/four_bar_crank_rocker.toml (open circuit, Freudenstein closed
-form, one crank revolution) and sims/scenes/four_bar_solver_crossed.toml (crossed circuit,
+circuits, then runs scenes/four_bar_crank_rocker.toml (open circuit, Freudenstein closed
+form, one crank revolution) and scenes/four_bar_solver_crossed.toml (crossed circuit,
 generic constraint solver, crank speeding up) and prints each column's worst deviation from
 the numpy reference (circle intersection, an independent derivation).
 """

@@ -1,6 +1,6 @@
 """Nose-gear retraction over the coursework's 3 s, checked against the closed form.
 
-Runs sims/scenes/gear_retraction.toml (PistonActuator -> LandingGear through fmpy), then
+Runs scenes/gear_retraction.toml (PistonActuator -> LandingGear through fmpy), then
 evaluates the closed form (numpy) at every recorded time and prints the worst deviation
 of the gear angle, angular velocity and angular acceleration.
 """

@@ -1,6 +1,6 @@
 """Offset slider-crank at 3000 rpm on the constraint solver, checked against the closed form.
 
-Runs sims/scenes/slider_crank_offset.toml (crank 50 mm, rod 150 mm, offset 10 mm, one crank
+Runs scenes/slider_crank_offset.toml (crank 50 mm, rod 150 mm, offset 10 mm, one crank
 revolution) and prints each column's worst deviation from the numpy reference, the stroke
 (which the offset makes longer than twice the crank) and the peak slider acceleration.
 """

@@ -1,6 +1,6 @@
 """Suspension under a slow load ramp past the limit load: continuation and snap-through.
 
-Runs sims/scenes/suspension_load_ramp.toml (LoadProfile -> Suspension through fmpy) and
+Runs scenes/suspension_load_ramp.toml (LoadProfile -> Suspension through fmpy) and
 prints the limit load, where the snap-through happened and the deviation from the
 closed-form reference.
 """

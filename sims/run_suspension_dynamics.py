@@ -1,7 +1,7 @@
 """Suspension dynamics: road bump and sudden load, checked against the solve_ivp references.
 
-Runs sims/scenes/suspension_road_bump.toml (LoadProfile + RoadProfile -> Suspension with
-dynamics, damping, tyre and road input) and sims/scenes/suspension_sudden_load.toml (a step
+Runs scenes/suspension_road_bump.toml (LoadProfile + RoadProfile -> Suspension with
+dynamics, damping, tyre and road input) and scenes/suspension_sudden_load.toml (a step
 load below the static limit load that snaps the suspension through), and prints for each the
 worst deviation of every recorded column from its reference, the scene's declared tolerance
 and, for the sudden load, the snap-through time from the FMU's log.
@@ -9,15 +9,16 @@ and, for the sudden load, the snap-through time from the FMU's log.
 
 import re
 
-from _runner import ROOT, arguments, report
+from _runner import arguments, report
 
+from mechfmu.cosim.scene import find_file
 from mechfmu.runtime.physics import suspension as statics
 
 SCENES = ("suspension_road_bump", "suspension_sudden_load")
 
 
 def declared_tolerance(scene_name):
-    text = (ROOT / "sims" / "scenes" / f"{scene_name}.toml").read_text()
+    text = find_file(scene_name).read_text()
     match = re.search(r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", text, re.M)
     return float(match.group(1)), float(match.group(2))
 

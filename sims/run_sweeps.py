@@ -1,4 +1,4 @@
-"""Run the shipped sweeps (sims/sweeps/*.toml), check them against their references and write
+"""Run the shipped sweeps (src/mechfmu/sweeps/*.toml), check them against their references and write
 out/sweeps/: each sweep's folder (sweep.csv, sweep.json, plots), summary.md and
 suspension_mass.png (static and sudden snap-through on one plot). `make sweeps` runs it.
 
@@ -12,6 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from mechfmu.cosim.scene import SWEEP_DIR
 from mechfmu.tools.report import sweeps
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -47,10 +48,9 @@ def main(argv=None):
     parser.add_argument("--out", default=str(ROOT / "out" / "sweeps"), help="output folder")
     parser.add_argument("--fmu-dir", default=str(ROOT / "fmus"), help="built FMUs")
     args = parser.parse_args(argv)
-    sweep_dir = ROOT / "sims" / "sweeps"
-    summaries = sweeps.run_shipped(sweep_dir, args.out, args.fmu_dir, args.jobs, args.quick,
+    summaries = sweeps.run_shipped(SWEEP_DIR, args.out, args.fmu_dir, args.jobs, args.quick,
                                    args.scheduler)
-    findings, text = sweeps.report(sweep_dir, args.out, summaries)
+    findings, text = sweeps.report(SWEEP_DIR, args.out, summaries)
     print(text)
     print(f"wrote {Path(args.out) / 'summary.md'} and {Path(args.out) / 'suspension_mass.png'}")
     problems = failures(findings)

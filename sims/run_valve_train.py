@@ -1,11 +1,11 @@
 """Valve train: forward and inverse runs on the constraint solver, and valve float.
 
-Runs sims/scenes/valve_train.toml (3-4-5 cam on the tappet at 3000 rpm, valve spring on) and
-sims/scenes/valve_train_inverse.toml (desired 4-5-6-7 valve motion in, cam displacement
+Runs scenes/valve_train.toml (3-4-5 cam on the tappet at 3000 rpm, valve spring on) and
+scenes/valve_train_inverse.toml (desired 4-5-6-7 valve motion in, cam displacement
 diagram out) and prints each column's worst deviation from the numpy reference (cam law
 composed with the closed-form rocker geometry). Then checks the inverse result by driving the
 forward constraint solver with the tappet lift it produced (the original valve motion must
-come back), and runs sims/scenes/valve_float.toml at constant camshaft speeds 1 % below and
+come back), and runs scenes/valve_float.toml at constant camshaft speeds 1 % below and
 1 % above the float speed the FMU predicts: no loss of contact below, reported above.
 """
 
@@ -14,9 +14,9 @@ import math
 
 import numpy as np
 
-from _runner import ROOT, arguments, report, run
+from _runner import arguments, report, run
 
-from mechfmu.cosim.scene import load_scene
+from mechfmu.cosim.scene import find_file, load_scene
 from mechfmu.runtime.physics import cam_laws, constraint_models, planar
 from mechfmu.runtime.physics.valve_train import DEFAULT_VALVE_GEOMETRY, ValveGeometry, float_speed
 from mechfmu.tools.scene_references import model_defaults
@@ -49,7 +49,7 @@ def round_trip(result):
 
 def float_runs(args):
     """valve_float at constant camshaft speed 0.99 and 1.01 times the predicted float speed."""
-    base = load_scene(ROOT / "sims" / "scenes" / "valve_float.toml")
+    base = load_scene(find_file("valve_float"))
     parameters = {**model_defaults("ValveTrain"), **base.components["valve"].parameters}
     geometry = ValveGeometry(*(parameters[name] for name in ValveGeometry._fields))
     profile = cam_laws.check_profile(*(parameters[name] for name in (

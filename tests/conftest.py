@@ -4,13 +4,15 @@ from pathlib import Path
 
 import pytest
 
+from mechfmu.cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 from mechfmu.packaging.build import build_all
 from mechfmu.runtime.models import MODELS
 
 ROOT = Path(__file__).resolve().parent.parent
 FMU_DIR = ROOT / "fmus"
-SCENES = ROOT / "sims" / "scenes"
-REFERENCES = ROOT / "data" / "reference"
+SCENES = SCENE_DIR  # the shipped scenes (package data)
+REFERENCES = REFERENCE_DIR
+SWEEPS = SWEEP_DIR
 
 
 @pytest.fixture(scope="session")

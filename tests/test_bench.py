@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from conftest import ROOT, SCENES
+from conftest import ROOT, SCENES, SWEEPS
 from mechfmu.tools.bench import main
 from mechfmu.tools.bench import model_cost
 from mechfmu.tools.bench.report import CSV_COLUMNS, RATIO_UNIT, Row, ratio_parts
@@ -44,7 +44,7 @@ def bench(fmu_dir, tmp_path_factory):
     stdout = io.StringIO()
     with contextlib.redirect_stdout(stdout):
         status = main(["--quick", "--out", str(out), "--fmu-dir", str(fmu_dir),
-                       "--scenes", str(SCENES), "--sweeps", str(ROOT / "sims" / "sweeps")])
+                       "--scenes", str(SCENES), "--sweeps", str(SWEEPS)])
     with open(out / "bench.csv", newline="", encoding="utf-8") as handle:
         records = list(csv.DictReader(handle))
     return status, stdout.getvalue(), records, out

@@ -13,7 +13,7 @@ from mechfmu.cli import main as cli
 from mechfmu.cosim.master import Simulation, SimulationError, order_components
 from mechfmu.cosim.results import read_csv
 from mechfmu.cosim.run import run_scene
-from mechfmu.cosim.scene import Connection, SceneError, load_scene, parse_scene
+from mechfmu.cosim.scene import Connection, SceneError, load_scene, parse_scene, read_toml
 from mechfmu.tools.scene_references import INTEGRATED, REFERENCES as GENERATED, generate
 
 
@@ -178,6 +178,29 @@ def test_cli_run_writes_outputs_and_checks_against_the_reference(fmu_dir, tmp_pa
     assert code == 0, out
     assert "match: 6 column(s), 301 sample(s)" in out
     assert (tmp_path / "gear_retraction.csv").is_file()
+
+
+def test_a_shipped_scene_runs_and_checks_by_name_from_any_directory(fmu_dir, tmp_path):
+    """`mechfmu run gear_retraction --check` from a folder that is not the repository: the
+    scene and its reference CSV are package data."""
+    done = subprocess.run([sys.executable, "-m", "mechfmu", "run", "gear_retraction", "--check",
+                           "--no-plot", "--fmu-dir", str(fmu_dir)], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "match: 6 column(s), 301 sample(s)" in done.stdout
+    assert (tmp_path / "out" / "gear_retraction.csv").is_file()
+
+
+def test_package_data_ships_every_scene_sweep_and_reference():
+    """pyproject's package-data patterns cover every shipped scene, sweep and reference
+    CSV, so an installed wheel finds them as a clone does."""
+    patterns = read_toml(ROOT / "pyproject.toml")["tool"]["setuptools"]["package-data"]["mechfmu"]
+    package = ROOT / "src" / "mechfmu"
+    shipped = {path for folder in ("scenes", "sweeps") for path in (package / folder).rglob("*")
+               if path.is_file() and "__pycache__" not in path.parts}
+    covered = {path for pattern in patterns for path in package.glob(pattern)}
+    assert shipped and shipped <= covered, sorted(map(str, shipped - covered))
+    assert {path.stem for path in REFERENCES.glob("*.csv")} == set(GENERATED)
 
 
 @pytest.mark.parametrize("script, expected", [

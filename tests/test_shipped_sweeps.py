@@ -1,4 +1,4 @@
-"""The shipped sweeps (sims/sweeps/) in their quick form, against their references: the
+"""The shipped sweeps (src/mechfmu/sweeps/) in their quick form, against their references: the
 static and dynamic snap-through masses, retraction time against supply pressure, valve float
 speed against preload. `make sweeps` runs them in full."""
 
@@ -7,11 +7,9 @@ import math
 
 import pytest
 
-from conftest import ROOT
+from conftest import ROOT, SWEEPS
 from mechfmu.tools import sweep
 from mechfmu.tools.report import sweeps
-
-SWEEPS = ROOT / "sims" / "sweeps"
 
 
 def _script():

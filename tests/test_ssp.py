@@ -23,7 +23,7 @@ from fmpy import read_model_description
 from fmpy.ssp import ssd as fmpy_ssd
 from lxml import etree
 
-from conftest import ROOT, SCENES
+from conftest import SCENES
 from mechfmu.cli import main
 from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import SceneError, load_scene, parse_scene
@@ -197,7 +197,7 @@ def test_what_an_ssp_cannot_express_is_refused(fmus, tmp_path):
 
 
 def test_the_cli_verb(fmus, tmp_path, monkeypatch, capsys):
-    monkeypatch.chdir(ROOT)  # a scene name resolves in sims/scenes/, like `mechfmu run`
+    monkeypatch.chdir(tmp_path)  # a shipped scene's name resolves from any directory
     out = tmp_path / "gear.ssp"
     assert main(["export-ssp", "gear_retraction", str(out), "--fmu-dir", str(fmus)]) == 0
     printed = capsys.readouterr().out

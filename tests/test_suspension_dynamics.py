@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from conftest import SCENES
+from conftest import REFERENCES, SCENES
 from fmu_driver import Driven
 from mechfmu.check import compare
 from mechfmu.cosim.results import read_csv
@@ -401,8 +401,7 @@ def test_sudden_load_scene_snaps_once(fmu_dir, tmp_path):
 
 
 def test_road_bump_scene_starts_at_rest():
-    result_reference = read_csv(SCENES.parent.parent / "data" / "reference"
-                                / "suspension_road_bump.csv")
+    result_reference = read_csv(REFERENCES / "suspension_road_bump.csv")
     times, columns = result_reference
     before = [i for i, t in enumerate(times) if t <= 0.1]
     assert max(abs(columns["suspension.velocity"][i]) for i in before) < 1e-12

@@ -15,7 +15,7 @@ import pytest
 from mechfmu.tools import sweep
 from mechfmu.cli import main as cli_main
 from mechfmu.cosim.master import Simulation
-from mechfmu.cosim.scene import load_scene
+from mechfmu.cosim.scene import REFERENCE_DIR, load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 FMU_DIR = ROOT / "fmus"
@@ -44,7 +44,7 @@ inputs = {{ road_height = 0.0, road_rate = 0.0 }}
 
 def write_scene(tmp_path, stop=1.0):
     path = tmp_path / "mini_ramp.toml"
-    reference = ROOT / "data" / "reference" / "suspension_load_ramp.csv"
+    reference = REFERENCE_DIR / "suspension_load_ramp.csv"
     path.write_text(SCENE.format(stop=stop, reference=reference.as_posix()))
     return path
 

@@ -1,17 +1,16 @@
-"""Scalar references of the parameter sweeps (src/mechfmu/references/sweeps.py)."""
+"""Scalar references of the parameter sweeps (src/mechfmu/tools/sweep_references.py)."""
 
 import csv
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from conftest import REFERENCES
 from mechfmu.references import suspension as statics
 from mechfmu.references import suspension_dynamics as dynamics
 from mechfmu.tools import sweep_references as sweeps
 
-ROOT = Path(__file__).resolve().parents[1]
 G = 9.80665
 L, K, D = 0.5, 1e4, 0.2  # the coursework suspension
 
@@ -78,7 +77,7 @@ def retraction_times():
 
 
 def test_retraction_time_at_the_scene_pressure(retraction_times):
-    with open(ROOT / "data" / "reference" / "gear_retraction_dynamic.csv") as handle:
+    with open(REFERENCES / "gear_retraction_dynamic.csv") as handle:
         stored = float(list(csv.DictReader(handle))[-1]["gear.retraction_time"])
     assert round(retraction_times[2.07e7], 3) == 2.260  # README
     assert retraction_times[2.07e7] == pytest.approx(stored, abs=1e-9)
@@ -149,7 +148,7 @@ def test_bad_input_names_the_value(call, name):
 
 
 def test_sudden_threshold_as_the_sweep_applies_it():
-    """sims/sweeps/suspension_mass_sudden.toml: load 9.81 m (the coursework's g), c = 200 N s/m,
+    """sweeps/suspension_mass_sudden.toml: load 9.81 m (the coursework's g), c = 200 N s/m,
     stepped at t = 0.1 s of a 3 s scene. Just above the threshold the snap still comes well
     inside the 2.9 s left, so the sweep's grid (2.5 kg) sees the threshold itself."""
     threshold = sweeps.sudden_snap_through_mass(200.0, gravity=9.81)

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import SCENES
+from conftest import REFERENCES, SCENES
 from fmu_driver import Driven
 from mechfmu.cosim.results import read_csv
 from mechfmu.cosim.run import run_scene
@@ -139,8 +139,7 @@ def test_interpolated_inputs_beat_held_ones_against_the_reference():
     integration's accuracy; holding the start's acceleration leaves the jerk out (about
     jerk h^3 / 6 per step, 4e-9 m at the 3-4-5 law's jerk step), and the drive jumps at
     every communication point, engaging and releasing contacts without a crossing."""
-    times, reference = read_csv(SCENES.parent.parent / "data" / "reference"
-                                / "valve_train_dynamic.csv")
+    times, reference = read_csv(REFERENCES / "valve_train_dynamic.csv")
     drive = cam_drive(300.0)  # the scene's drive
     worst = {}
     for mode in ("interpolate", "hold"):

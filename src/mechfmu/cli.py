@@ -3,7 +3,6 @@ fuzz, sweep."""
 
 import argparse
 import sys
-from pathlib import Path
 
 
 def _build(args):
@@ -13,20 +12,13 @@ def _build(args):
     return 0
 
 
-def _resolve_scene(text):
-    path = Path(text)
-    if path.suffix != ".toml" and not path.exists():
-        path = Path("sims/scenes") / f"{text}.toml"
-    return path
-
-
 def _run(args):
     from .check import compare
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
-    from .cosim.scene import SceneError
+    from .cosim.scene import SceneError, find_file
     try:
-        result, paths = run_scene(_resolve_scene(args.scene), args.out, args.fmu_dir,
+        result, paths = run_scene(find_file(args.scene), args.out, args.fmu_dir,
                                   plot=not args.no_plot)
     except SceneError as error:
         print(f"scene error: {error}", file=sys.stderr)
@@ -52,10 +44,10 @@ def _run(args):
 
 
 def _export_ssp(args):
-    from .cosim.scene import SceneError
+    from .cosim.scene import SceneError, find_file
     from .tools.ssp import export_ssp, summary
     try:
-        path = export_ssp(_resolve_scene(args.scene), args.out, args.fmu_dir)
+        path = export_ssp(find_file(args.scene), args.out, args.fmu_dir)
     except SceneError as error:
         print(f"scene error: {error}", file=sys.stderr)
         return 2
@@ -119,6 +111,7 @@ PASS_THROUGH = {"study": _study, "bench": _bench, "fuzz": _fuzz, "sweep": _sweep
 
 
 def parser():
+    from .cosim.scene import REFERENCE_DIR, SCENE_DIR
     main = argparse.ArgumentParser(prog="mechfmu", description=__doc__)
     verbs = main.add_subparsers(dest="verb", required=True)
 
@@ -128,7 +121,7 @@ def parser():
     build.set_defaults(func=_build)
 
     run = verbs.add_parser("run", help="run a scene and write CSV, JSON and PNG")
-    run.add_argument("scene", help="scene TOML file, or a name in sims/scenes/")
+    run.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
     run.add_argument("--out", default="out", help="output folder (default: out)")
     run.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
     run.add_argument("--no-plot", action="store_true", help="skip the PNG")
@@ -141,7 +134,7 @@ def parser():
 
     export = verbs.add_parser("export-ssp", help="write a scene as an SSP 1.0 package (the "
                               "system, its parameters and its FMUs) for other co-simulation tools")
-    export.add_argument("scene", help="scene TOML file, or a name in sims/scenes/")
+    export.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
     export.add_argument("out", help="the .ssp file to write")
     export.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
     export.set_defaults(func=_export_ssp)
@@ -154,8 +147,10 @@ def parser():
     check.set_defaults(func=_check)
 
     references = verbs.add_parser("references", help="regenerate the reference CSVs")
-    references.add_argument("--scenes", default="sims/scenes")
-    references.add_argument("--out", default="data/reference")
+    references.add_argument("--scenes", default=str(SCENE_DIR),
+                            help="folder of the scene files (default: the shipped scenes)")
+    references.add_argument("--out", default=str(REFERENCE_DIR),
+                            help="output folder (default: the shipped scenes' reference/)")
     references.set_defaults(func=_references)
 
     report = verbs.add_parser("report", help="write the seed-reproduction report")

@@ -9,7 +9,7 @@ A scene file looks like::
     step = 0.01                         # s, communication step
     connections = ["actuator.piston_extension -> gear.piston_extension"]
     record = ["gear.gear_angle"]        # optional, defaults to every output
-    reference = "../../data/reference/gear_retraction.csv"   # optional
+    reference = "reference/gear_retraction.csv"   # optional, relative to the scene file
     coupling = "gauss_seidel"           # optional: gauss_seidel (default) or jacobi
 
     [components.actuator]
@@ -20,6 +20,10 @@ A scene file looks like::
 
 String parameters whose name ends in ``_file`` are paths relative to the scene file.
 Files are read with tomllib and never evaluated.
+
+The scenes and sweeps shipped with mechfmu are package data (SCENE_DIR, SWEEP_DIR, their
+reference CSVs in REFERENCE_DIR); ``find_file`` turns a name such as ``gear_retraction``
+into one of them, from any working directory.
 """
 
 import math
@@ -177,6 +181,27 @@ def parse_scene(data, path):
         stop_time=stop_time, step=step, components=components, connections=connections,
         record=record, description=data.get("description", ""), coupling=coupling,
         reference=(path.parent / reference).resolve() if reference else None)
+
+
+PACKAGE_ROOT = Path(__file__).resolve().parents[1]
+SCENE_DIR = PACKAGE_ROOT / "scenes"  # the shipped scenes
+SWEEP_DIR = PACKAGE_ROOT / "sweeps"  # the shipped sweeps
+REFERENCE_DIR = SCENE_DIR / "reference"  # the shipped scenes' reference CSVs
+
+
+def find_file(text, folders=(SCENE_DIR,)):
+    """The scene or sweep file that ``text`` names.
+
+    ``text`` is a path when it names an existing file or ends in .toml; otherwise the name
+    of a shipped file, looked up as ``text``.toml in ``folders`` in order (default: the
+    shipped scenes). A name found nowhere gives its path in the first folder, so the error
+    of reading it says where it was looked for.
+    """
+    path = Path(text)
+    if path.exists() or path.suffix == ".toml":
+        return path
+    candidates = [Path(folder) / f"{text}.toml" for folder in folders]
+    return next((candidate for candidate in candidates if candidate.is_file()), candidates[0])
 
 
 def read_toml(path, error=SceneError, what="scene file"):

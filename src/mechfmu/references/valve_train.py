@@ -1,6 +1,6 @@
 """Cam and pushrod valve-train reference kinematics (numpy, vectorised).
 
-An independent implementation of src/mechfmu/physics/cam_laws.py and valve_train.py, written
+An independent implementation of src/mechfmu/runtime/physics/cam_laws.py and valve_train.py, written
 without them, so the two check each other. Geometry (m, rad; camshaft centre at the origin):
 the pushrod foot P = (0, y1), y1 = cam_base_radius + tappet_lift, is joined by the pushrod
 (length L1) to the rocker's tappet end T = (a - lt cos phi, b - lt sin phi); the rocker turns

@@ -1,6 +1,6 @@
-"""Generate the reference CSVs in data/reference/ from the numpy closed forms.
+"""Generate the shipped scenes' reference CSVs (scenes/reference/) from the numpy closed forms.
 
-Each reference belongs to a scene of sims/scenes/: it is sampled at the scene's
+Each reference belongs to a shipped scene (scenes/): it is sampled at the scene's
 communication points, uses the scene's parameters over the models' defaults, and names
 its columns like the scene's result ('component.variable'), so ``mechfmu check`` can
 compare the two directly.
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cosim.results import write_csv
-from ..cosim.scene import load_scene
+from ..cosim.scene import find_file, load_scene
 from ..runtime.models import MODELS
 from ..references import (drives, gear_dynamics, landing_gear, linkages, suspension,
                suspension_dynamics, valve_spring, valve_train)
@@ -193,7 +193,7 @@ def generate(scene_dir, out_dir):
     """Write one reference CSV per entry of REFERENCES; return their paths."""
     paths = []
     for scene_name, build in REFERENCES.items():
-        scene = load_scene(Path(scene_dir) / f"{scene_name}.toml")
+        scene = load_scene(find_file(scene_name, (scene_dir,)))
         paths.append(write_csv(Path(out_dir) / f"{scene_name}.csv", sample_times(scene),
                                build(scene)))
     return paths

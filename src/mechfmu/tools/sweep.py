@@ -4,8 +4,8 @@
 runs the scene at every point of the full grid (``numpy.linspace`` per parameter), or at
 ``--samples N --seed S`` Latin-hypercube (``--method lhs``, the default) or uniform random
 (``--method random``) points over the ranges; ``--link`` sets parameters that follow a varied
-one. A sweep file (sims/sweeps/*.toml) holds the same settings. The points run on ``--jobs``
-local processes or on the Dask cluster at ``--scheduler``; each worker thread keeps one
+one. A sweep file (such as the shipped src/mechfmu/sweeps/*.toml) holds the same settings.
+The points run on ``--jobs`` local processes or on the Dask cluster at ``--scheduler``; each worker thread keeps one
 instance per component and resets it between points. It writes into ``--out``
 (default ``out/sweep_<sweep or scene>``):
 
@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cosim.results import read_csv, write_json
-from ..cosim.scene import read_toml
+from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml
 
 
 class SweepError(ValueError):
@@ -715,15 +715,8 @@ def load_sweep_file(path):
 
 
 def locate(text):
-    """A sweep or scene file: a path, or a name in sims/sweeps/ then sims/scenes/."""
-    path = Path(text)
-    if path.exists() or path.suffix == ".toml":
-        return path
-    for folder in ("sims/sweeps", "sims/scenes"):
-        candidate = Path(folder) / f"{text}.toml"
-        if candidate.is_file():
-            return candidate
-    return path
+    """A sweep or scene file: a path, or the name of a shipped sweep, else of a shipped scene."""
+    return find_file(text, (SWEEP_DIR, SCENE_DIR))
 
 
 def settings(args):
@@ -756,8 +749,8 @@ def settings(args):
 
 def _arguments(argv):
     parser = argparse.ArgumentParser(prog="mechfmu sweep", description=__doc__.splitlines()[0])
-    parser.add_argument("scene", help="sweep or scene TOML file, or a name in sims/sweeps/ "
-                                      "or sims/scenes/")
+    parser.add_argument("scene", help="sweep or scene TOML file, or the name of a "
+                                      "shipped sweep or scene")
     parser.add_argument("--vary", action="append", default=[], metavar="COMP.PARAM=START:STOP:COUNT",
                         help="a parameter (or constant input) and its range; repeat for a grid")
     parser.add_argument("--link", action="append", default=[],

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
+from ..cosim.scene import SCENE_DIR
 from ..runtime.errors import require_between, require_finite, require_positive
 from ..references import gear_dynamics as gear_reference
 from ..references import suspension as statics
@@ -37,8 +38,7 @@ SUSPENSION_TOLERANCE = 1e-12
 # run ends long before by one of its events (snap, turn, or energy below the saddle's).
 SUSPENSION_MAX_TIME = 1e3
 
-ROOT = Path(__file__).resolve().parents[3]
-GEAR_SCENE = ROOT / "sims" / "scenes" / "gear_retraction_dynamic.toml"
+GEAR_SCENE = SCENE_DIR / "gear_retraction_dynamic.toml"
 # Off the stroke surface after a crossing, as references/gear_dynamics.simulate does.
 GEAR_EVENT_OFFSET = 1e-9
 

@@ -8,6 +8,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from ...cosim.scene import SCENE_DIR, SWEEP_DIR
 from . import effects, floor, master_overhead, model_cost, sweep
 from .report import machine, machine_line, markdown_table, write_outputs
 
@@ -41,8 +42,10 @@ def parse_arguments(argv):
                         help="fewer steps and repeats (for the test; timings are rough)")
     parser.add_argument("--out", default="data/bench", help="output folder (default data/bench)")
     parser.add_argument("--fmu-dir", default="fmus", help="folder of the built FMUs")
-    parser.add_argument("--scenes", default="sims/scenes", help="folder of the scene files")
-    parser.add_argument("--sweeps", default="sims/sweeps", help="folder of the sweep files")
+    parser.add_argument("--scenes", default=str(SCENE_DIR),
+                        help="folder of the scene files (default: the shipped scenes)")
+    parser.add_argument("--sweeps", default=str(SWEEP_DIR),
+                        help="folder of the sweep files (default: the shipped sweeps)")
     parser.add_argument("--sweep-scenes", type=int, default=None,
                         help=f"scenes of the sweep benchmark (default {FULL.sweep_scenes}, "
                              f"--quick {QUICK.sweep_scenes})")

@@ -1,11 +1,10 @@
 """The gear scenes the benchmarks share: loading, longer variants, the closed form's inputs."""
 
 import dataclasses
-from pathlib import Path
 
 import numpy as np
 
-from ...cosim.scene import load_scene
+from ...cosim.scene import find_file, load_scene
 from ...references import landing_gear
 from ..scene_references import model_defaults, sample_times
 
@@ -16,7 +15,7 @@ GEAR_OUTPUTS = ("gear_angle", "gear_angular_velocity", "gear_angular_acceleratio
 
 
 def load_named_scene(scene_dir, name):
-    return load_scene(Path(scene_dir) / f"{name}.toml")
+    return load_scene(find_file(name, (scene_dir,)))
 
 
 def with_stop_time(scene, stop_time):

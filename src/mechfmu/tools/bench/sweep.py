@@ -1,6 +1,6 @@
 """Benchmark 5: a parameter sweep on one and on two local worker processes.
 
-The shipped static suspension sweep (sims/sweeps/suspension_mass_static.toml: a 4 s load
+The shipped static suspension sweep (sweeps/suspension_mass_static.toml: a 4 s load
 ramp of 400 steps per scene, two FMUs) at ``scenes`` Latin-hypercube masses, run by
 mechfmu.tools.sweep.run_sweep exactly as ``mechfmu sweep`` does: the wall time covers starting the
 worker processes, the first extraction and instantiation in each, every point and the

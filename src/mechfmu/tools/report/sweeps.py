@@ -1,4 +1,4 @@
-"""The shipped sweeps (sims/sweeps/*.toml) run, checked against their references, reported.
+"""The shipped sweeps (src/mechfmu/sweeps/*.toml) run, checked against their references, reported.
 
 ``run_shipped`` runs them with mechfmu.tools.sweep (``quick``: a few points of each, around the
 thresholds, for the tests); ``analyse`` reads their sweep.csv files and compares them with

@@ -25,6 +25,7 @@ import time
 from pathlib import Path
 
 from ...cosim.master import Simulation
+from ...cosim.scene import SCENE_DIR
 from ...cosim.results import atomic_write, versions
 from . import design, measure, report
 
@@ -40,7 +41,8 @@ def _arguments(argv):
     parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
                         help="parallel processes (default: 2 or the cores there are)")
     parser.add_argument("--out", default="data/study", help="output folder")
-    parser.add_argument("--scene-dir", default="sims/scenes")
+    parser.add_argument("--scene-dir", default=str(SCENE_DIR),
+                        help="folder of the scene files (default: the shipped scenes)")
     parser.add_argument("--fmu-dir", default="fmus")
     return parser.parse_args(argv)
 

@@ -12,9 +12,8 @@ runs share the reference's sample times.
 import copy
 import dataclasses
 from dataclasses import dataclass
-from pathlib import Path
 
-from ...cosim.scene import load_scene
+from ...cosim.scene import find_file, load_scene
 
 ADAPTIVE = ("dopri5", "radau")
 FIXED = ("euler", "rk4")
@@ -108,10 +107,6 @@ def points(study_scene, couplings, quick=False):
     return chosen
 
 
-def scene_path(scene_dir, name):
-    return Path(scene_dir) / f"{name}.toml"
-
-
 def couplings_of(scene):
     """Both couplings for a scene with connections; Gauss-Seidel alone otherwise."""
     return ("gauss_seidel", "jacobi") if scene.connections else ("gauss_seidel",)
@@ -137,7 +132,7 @@ def configure(scene, study_scene, point):
 
 def load(scene_dir, study_scene):
     """The shipped scene, checked against the study's assumptions."""
-    scene = load_scene(scene_path(scene_dir, study_scene.name))
+    scene = load_scene(find_file(study_scene.name, (scene_dir,)))
     span = scene.stop_time - scene.start_time
     finest, coarsest = study_scene.steps[0], study_scene.steps[-1]
     for whole in [span / coarsest] + [coarsest / step for step in study_scene.steps] + [
