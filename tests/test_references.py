@@ -1,12 +1,15 @@
 """The numpy references against the standard-library physics, the coursework's printed
 numbers, and the committed seed report."""
 
+import ast
+import importlib.util
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+import mechfmu.references
 from mechfmu.runtime.physics import landing_gear as plg
 from mechfmu.runtime.physics import profiles as pprof
 from mechfmu.runtime.physics import suspension as psp
@@ -312,3 +315,23 @@ def test_follow_load_at_the_limit_load_stays_near():
 def test_seed_report_is_up_to_date():
     committed = (REPO_ROOT / "data" / "seed_report.md").read_text(encoding="utf-8")
     assert build_report() == committed, "regenerate with: python sims/seed_report.py"
+
+
+def test_references_use_the_physics_never_the_models():
+    """The numpy references may reuse runtime.physics (the gear dynamics' right-hand side)
+    but never reach into the FMU classes of runtime.models or runtime.fmi."""
+    package = Path(mechfmu.references.__file__).parent
+    for path in sorted(package.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                base = importlib.util.resolve_name("." * node.level + (node.module or ""),
+                                                   "mechfmu.references") if node.level else \
+                    node.module
+                names = [f"{base}.{alias.name}" for alias in node.names]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            else:
+                continue
+            for name in names:
+                assert not name.startswith(("mechfmu.runtime.models", "mechfmu.runtime.fmi")), \
+                    f"{path.name} imports {name}"

@@ -10,7 +10,6 @@ output at the scene's sample times.
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..runtime.models.landing_gear import _Dynamics
 from ..runtime.physics import gear_dynamics as gd
 from ..runtime.physics import landing_gear as gear
 
@@ -27,11 +26,12 @@ def gear_values(defaults, parameters, effects, inputs):
 
 
 def dynamics_model(values):
-    """The FMU's own right-hand side (models.landing_gear._Dynamics) for the gear ``values``."""
+    """The FMU's own right-hand side (runtime.physics.gear_dynamics.Dynamics) for the gear
+    ``values``."""
     body = gd.make_body(values["bar_length"], values["bar_mass"], values["wheel_mass"])
     d, h = gear.check_geometry(values["attachment_distance"], values["pivot_height"])
     geometry = gd.Geometry(d, h, values["down_angle"], values["airframe_pitch"])
-    return _Dynamics(values, body, geometry, slave=None)
+    return gd.Dynamics(values, body, geometry)
 
 
 def stroke_crossings(dynamics):
@@ -39,7 +39,7 @@ def stroke_crossings(dynamics):
     (the integration restarts at each, as the FMU's does at the kink)."""
     def crossing(limit):
         def event(t, y):
-            return dynamics._length(y) - limit
+            return dynamics.piston_length(y) - limit
         event.terminal = True
         return event
     low, high = dynamics.stroke
@@ -60,7 +60,7 @@ def simulate(values, times):
         t, y = float(solution.t[-1]), solution.y[:, -1]
         if solution.status != 1 or t >= times[-1]:
             break
-        rate = dynamics._kinematics(list(y))[1]
+        rate = dynamics.piston_kinematics(list(y))[1]
         # like the FMU: retraction = rising through stroke_max, extension = falling through
         # stroke_min; every crossing restarts the integration at the kink
         if len(solution.t_events[0]) and rate > 0:

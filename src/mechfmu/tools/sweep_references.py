@@ -229,7 +229,7 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     the first time the piston rises through stroke_max, as the FMU's retraction_time output
     reports it; math.nan if that does not happen by the scene's stop time.
 
-    The equations are the dynamic gear reference's (the FMU's _Dynamics right-hand side and
+    The equations are the dynamic gear reference's (the FMU's Dynamics right-hand side and
     stroke events, restarted at every stroke crossing 1e-9 s off the surface), integrated
     only until the retraction instead of over the whole scene. method/tolerance: solve_ivp's;
     the default LSODA at 1e-12 gives the stored Radau reference's 2.259698139413 s to 1.1e-11 s
@@ -259,7 +259,7 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
         t, y = float(solution.t[-1]), solution.y[:, -1]
         if solution.status != 1 or t >= stop_time:
             return math.nan
-        rate = model._kinematics(list(y))[1]
+        rate = model.piston_kinematics(list(y))[1]
         if len(solution.t_events[0]) and rate > 0.0:
             return t  # rising through stroke_max: the FMU's retraction event
         t_next = min(t + GEAR_EVENT_OFFSET, stop_time)

@@ -8,11 +8,10 @@ from ..fmi.slave import MechSlave, effect, input_, integrator_variables, output,
 from ..physics import gear_dynamics as gd
 from ..physics import hydraulics
 from ..physics import landing_gear as gear
-from ..errors import MechanismError, require_finite, require_positive
-from ..numerics.integrators import Event, make_integrator
+from ..errors import MechanismError, require_finite
+from ..numerics.integrators import make_integrator
 from ..physics.landing_gear import (COURSEWORK_BAR_LENGTH, COURSEWORK_EXTENDED_LENGTH,
                                     COURSEWORK_RETRACTED_LENGTH, DEFAULT_GEOMETRY)
-from ..numerics.stepping import advance_through_events
 from .hydraulic_actuator import HYDRAULIC_PARAMETERS
 
 _PISTON = ("piston_extension", "piston_speed", "piston_acceleration")
@@ -154,11 +153,11 @@ class LandingGear(MechSlave):
             if not v["inertia"]:
                 raise MechanismError("drive = 'dynamics' needs the inertia effect: without "
                                      "inertia the gear has no equation of motion")
-            self.model = _Dynamics(v, body, geometry, self)
+            self.model = gd.Dynamics(v, body, geometry)
             self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
                                               v["max_substep"])
         else:
-            self.model = _InverseDynamics(v, body, geometry)
+            self.model = gd.InverseDynamics(v, body, geometry)
 
     def outputs_at_start(self, time):
         if self.values["drive"] == "dynamics":
@@ -214,13 +213,28 @@ class LandingGear(MechSlave):
         self._note_other_driver(time)
         v = self.values
         if v["drive"] == "dynamics":
-            self.state = self.model.advance(self.integrator, time - step_size, self.state,
-                                            time, v)
+            self.state, crossings = self.model.advance(self.integrator, time - step_size,
+                                                       self.state, time, v)
+            self._count_stroke_events(crossings)
             self.model.publish(v, time, self.state)
             v["rhs_evaluations"] = self.integrator.stats.rhs_evaluations
             v["substeps"] = self.integrator.stats.substeps
             return
         self._kinematics()
+
+    def _count_stroke_events(self, crossings):
+        """Retraction and extension times, stop contacts and a log line per stroke limit
+        reached: (event name, t s, piston length m) from Dynamics.advance."""
+        v = self.values
+        for name, time, length in crossings:
+            if name == "stroke_max" and v["retraction_time"] < 0.0:
+                v["retraction_time"] = time
+            if name == "stroke_min" and v["extension_time"] < 0.0:
+                v["extension_time"] = time
+            if self.model.stops:
+                v["stop_contacts"] += 1
+            self.log(f"{self.instance_name} at t = {time!r} s: piston reached {name} "
+                     f"({length!r} m)", Fmi2Status.ok)
 
     def _kinematics(self):
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
@@ -234,143 +248,6 @@ class LandingGear(MechSlave):
         v["piston_length"], v["piston_rate"] = v["piston_extension"], v["piston_speed"]
         self.model.publish(v, motion)
 
-
-def _moment_terms(values, body, geometry):
-    """Moment functions (angle, omega, airspeed) -> N m of the enabled effects only."""
-    terms = []
-    if values["gravity"]:
-        g = require_finite("gravity_acceleration", values["gravity_acceleration"], "m/s^2")
-        terms.append(lambda angle, omega, airspeed: gd.gravity_moment(angle, body, geometry, g))
-    if values["aero_drag"]:
-        drag = gd.Drag(values["air_density"], values["drag_area"])
-        terms.append(lambda angle, omega, airspeed:
-                     gd.drag_moment(angle, airspeed, body, geometry, drag))
-    if values["pivot_friction"]:
-        friction = gd.Friction(values["viscous_friction"], values["coulomb_friction"],
-                               require_positive("friction_speed", values["friction_speed"],
-                                                "rad/s"))
-        terms.append(lambda angle, omega, airspeed: gd.friction_moment(omega, friction))
-    return terms
-
-
-class _InverseDynamics:
-    """Motion drive: the piston force that produces the prescribed motion."""
-
-    def __init__(self, values, body, geometry):
-        self.body, self.geometry = body, geometry
-        self.inertia = gd.inertia(body) if values["inertia"] else 0.0
-        self.terms = _moment_terms(values, body, geometry)
-        self.gravity = values["gravity_acceleration"] if values["gravity"] else None
-
-    def publish(self, v, motion):
-        angle, omega, alpha = motion
-        arm = v["piston_moment_arm"]
-        external = sum(term(angle, omega, v["airspeed"]) for term in self.terms)
-        v["piston_force_required"] = (self.inertia * alpha - external) / arm if (
-            self.inertia or self.terms) else 0.0
-        v["kinetic_energy"] = 0.5 * self.inertia * omega * omega
-        v["potential_energy"] = (gd.gravity_potential(angle, self.body, self.geometry,
-                                                      self.gravity)
-                                 if self.gravity is not None else 0.0)
-
-
-class _Dynamics:
-    """Dynamics drive: the state equations, their events and the published outputs."""
-
-    def __init__(self, values, body, geometry, slave):
-        self.body, self.geometry, self.slave = body, geometry, slave
-        self.inertia = gd.inertia(body)
-        self.terms = _moment_terms(values, body, geometry)
-        self.gravity = values["gravity_acceleration"] if values["gravity"] else None
-        low = require_positive("stroke_min", values["stroke_min"], "m")
-        high = require_positive("stroke_max", values["stroke_max"], "m")
-        if not low < high:
-            raise MechanismError(f"stroke_min = {low!r} m must be below stroke_max = {high!r} m")
-        self.stroke = (low, high)
-        self.stops = (gd.Stops(low, high, require_positive("stop_stiffness",
-                                                           values["stop_stiffness"], "N/m"),
-                               gd.damping_ratio(values["restitution"]))
-                      if values["end_stops"] else None)
-        self.actuator = (hydraulics.make_actuator(
-            values["supply_pressure"], values["return_pressure"], values["bore"],
-            values["rod_diameter"], values["bulk_modulus"], values["dead_volume"],
-            values["valve_rated_flow"], values["valve_rated_pressure_drop"],
-            values["max_flow"], low, high) if values["hydraulics"] else None)
-        self.initial = (require_finite("initial_angle", values["initial_angle"], "rad"),
-                        require_finite("initial_angular_velocity",
-                                       values["initial_angular_velocity"], "rad/s"),
-                        require_finite("initial_pressure", values["initial_pressure"], "Pa"))
-        self.events = [Event("stroke_max", lambda t, y: self._length(y) - high, +1),
-                       Event("stroke_min", lambda t, y: self._length(y) - low, -1)]
-
-    def initial_state(self):
-        angle, omega, pressure = self.initial
-        state = [angle, omega, 0.0]
-        if self.actuator:
-            state += [pressure, pressure]
-        return state
-
-    def _length(self, y):
-        return gear.piston_motion(y[0], 0.0, 0.0, self.geometry.attachment_distance,
-                                  self.geometry.pivot_height).extension
-
-    def _kinematics(self, y):
-        """Piston length, rate and moment arm at state y."""
-        d, h = self.geometry.attachment_distance, self.geometry.pivot_height
-        piston = gear.piston_motion(y[0], y[1], 0.0, d, h)
-        return piston.extension, piston.speed, d * h * math.sin(y[0]) / piston.extension
-
-    def _drive_force(self, y, v):
-        if self.actuator:
-            return hydraulics.piston_force(y[3], y[4], self.actuator)
-        return v["piston_force"]
-
-    def derivatives(self, y, v):
-        """(dy/dt, acceleration, drive force) at state y with inputs held over the step."""
-        length, rate, arm = self._kinematics(y)
-        force = self._drive_force(y, v)
-        on_piston = force
-        if self.stops:
-            on_piston += gd.stop_force(length, rate, self.inertia / (arm * arm), self.stops)
-        moment = on_piston * arm + sum(term(y[0], y[1], v["airspeed"]) for term in self.terms)
-        alpha = moment / self.inertia
-        rates = [y[1], alpha, force * rate]
-        if self.actuator:
-            rates += hydraulics.pressure_rates(v["valve_command"], y[3], y[4], length, rate,
-                                               self.actuator)
-        return rates, alpha, force
-
-    def advance(self, integrator, t, y, t_end, v):
-        for name in ("piston_force", "valve_command", "airspeed"):
-            require_finite(name, v[name])
-        return advance_through_events(integrator, lambda time, state: self.derivatives(state, v)[0],
-                                      t, y, t_end, self.events, self._on_event)
-
-    def _on_event(self, event, t, y):
-        v = self.slave.values
-        if event.name == "stroke_max" and v["retraction_time"] < 0.0:
-            v["retraction_time"] = t
-        if event.name == "stroke_min" and v["extension_time"] < 0.0:
-            v["extension_time"] = t
-        if self.stops:
-            v["stop_contacts"] += 1
-        self.slave.log(f"{self.slave.instance_name} at t = {t!r} s: piston reached {event.name} "
-                       f"({self._length(y)!r} m)", Fmi2Status.ok)
-        return y
-
-    def publish(self, v, time, y):
-        length, rate, arm = self._kinematics(y)
-        rates, alpha, force = self.derivatives(y, v)
-        v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = y[0], y[1], alpha
-        v["piston_moment_arm"], v["piston_length"], v["piston_rate"] = arm, length, rate
-        v["wheel_speed"] = v["bar_length"] * y[1]
-        v["piston_force_applied"] = force
-        v["piston_work"] = y[2]
-        v["kinetic_energy"] = 0.5 * self.inertia * y[1] * y[1]
-        v["potential_energy"] = (gd.gravity_potential(y[0], self.body, self.geometry, self.gravity)
-                                 if self.gravity is not None else 0.0)
-        if self.actuator:
-            v["cap_pressure"], v["rod_pressure"] = y[3], y[4]
 
 
 # Start values and units of the inputs, for the other-driver warning.

@@ -21,14 +21,22 @@ disabled effect costs nothing):
   length, compressive only, damping from the restitution coefficient e:
   zeta = -ln(e) / sqrt(pi^2 + ln(e)^2), c = 2 zeta sqrt(k m_eff), m_eff = I_B / arm^2.
 
-Units: m, kg, s, rad, N, N m.
+The two drives of LandingGear.fmu compose these: InverseDynamics (motion drive: the piston
+force that produces a prescribed motion) and Dynamics (dynamics drive: the state equations,
+the stroke-limit events and the published outputs). Both read the FMU's variable values
+(a dict keyed by variable name), so the references integrate exactly the FMU's equations.
+
+Units: m, kg, s, rad, N, N m, Pa.
 """
 
 import math
 from collections import namedtuple
 
+from . import hydraulics
 from . import landing_gear as kinematics
-from ..errors import require_between, require_positive
+from ..errors import MechanismError, require_between, require_finite, require_positive
+from ..numerics.integrators import Event
+from ..numerics.stepping import advance_through_events
 
 STANDARD_GRAVITY = 9.80665
 
@@ -120,3 +128,144 @@ def make_body(bar_length, bar_mass, wheel_mass):
     return Body(require_positive("bar_length", bar_length, "m"),
                 require_positive("bar_mass", bar_mass, "kg"),
                 require_between("wheel_mass", wheel_mass, 0.0, math.inf, "kg"))
+
+
+def moment_terms(values, body, geometry):
+    """Moment functions (angle, omega, airspeed) -> N m of the enabled effects only."""
+    terms = []
+    if values["gravity"]:
+        g = require_finite("gravity_acceleration", values["gravity_acceleration"], "m/s^2")
+        terms.append(lambda angle, omega, airspeed: gravity_moment(angle, body, geometry, g))
+    if values["aero_drag"]:
+        drag = Drag(values["air_density"], values["drag_area"])
+        terms.append(lambda angle, omega, airspeed:
+                     drag_moment(angle, airspeed, body, geometry, drag))
+    if values["pivot_friction"]:
+        friction = Friction(values["viscous_friction"], values["coulomb_friction"],
+                            require_positive("friction_speed", values["friction_speed"],
+                                             "rad/s"))
+        terms.append(lambda angle, omega, airspeed: friction_moment(omega, friction))
+    return terms
+
+
+class InverseDynamics:
+    """Motion drive: the piston force that produces the prescribed motion."""
+
+    def __init__(self, values, body, geometry):
+        self.body, self.geometry = body, geometry
+        self.inertia = inertia(body) if values["inertia"] else 0.0
+        self.terms = moment_terms(values, body, geometry)
+        self.gravity = values["gravity_acceleration"] if values["gravity"] else None
+
+    def publish(self, v, motion):
+        """Required piston force (N) and energies (J) into the values ``v`` for ``motion``
+        (angle rad, rate rad/s, acceleration rad/s^2); v["piston_moment_arm"] is set."""
+        angle, omega, alpha = motion
+        arm = v["piston_moment_arm"]
+        external = sum(term(angle, omega, v["airspeed"]) for term in self.terms)
+        v["piston_force_required"] = (self.inertia * alpha - external) / arm if (
+            self.inertia or self.terms) else 0.0
+        v["kinetic_energy"] = 0.5 * self.inertia * omega * omega
+        v["potential_energy"] = (gravity_potential(angle, self.body, self.geometry, self.gravity)
+                                 if self.gravity is not None else 0.0)
+
+
+class Dynamics:
+    """Dynamics drive: the state equations, their events and the published outputs.
+
+    The state y is [theta (rad), omega (rad/s), piston work (J)], plus the cap and rod
+    pressures (Pa) with the hydraulics effect.
+    """
+
+    def __init__(self, values, body, geometry):
+        self.body, self.geometry = body, geometry
+        self.inertia = inertia(body)
+        self.terms = moment_terms(values, body, geometry)
+        self.gravity = values["gravity_acceleration"] if values["gravity"] else None
+        low = require_positive("stroke_min", values["stroke_min"], "m")
+        high = require_positive("stroke_max", values["stroke_max"], "m")
+        if not low < high:
+            raise MechanismError(f"stroke_min = {low!r} m must be below stroke_max = {high!r} m")
+        self.stroke = (low, high)
+        self.stops = (Stops(low, high, require_positive("stop_stiffness",
+                                                        values["stop_stiffness"], "N/m"),
+                            damping_ratio(values["restitution"]))
+                      if values["end_stops"] else None)
+        self.actuator = (hydraulics.make_actuator(
+            values["supply_pressure"], values["return_pressure"], values["bore"],
+            values["rod_diameter"], values["bulk_modulus"], values["dead_volume"],
+            values["valve_rated_flow"], values["valve_rated_pressure_drop"],
+            values["max_flow"], low, high) if values["hydraulics"] else None)
+        self.initial = (require_finite("initial_angle", values["initial_angle"], "rad"),
+                        require_finite("initial_angular_velocity",
+                                       values["initial_angular_velocity"], "rad/s"),
+                        require_finite("initial_pressure", values["initial_pressure"], "Pa"))
+        self.events = [Event("stroke_max", lambda t, y: self.piston_length(y) - high, +1),
+                       Event("stroke_min", lambda t, y: self.piston_length(y) - low, -1)]
+
+    def initial_state(self):
+        angle, omega, pressure = self.initial
+        state = [angle, omega, 0.0]
+        if self.actuator:
+            state += [pressure, pressure]
+        return state
+
+    def piston_length(self, y):
+        """Piston length (m) at state y."""
+        return kinematics.piston_motion(y[0], 0.0, 0.0, self.geometry.attachment_distance,
+                                        self.geometry.pivot_height).extension
+
+    def piston_kinematics(self, y):
+        """Piston length (m), rate (m/s) and moment arm (m) at state y."""
+        d, h = self.geometry.attachment_distance, self.geometry.pivot_height
+        piston = kinematics.piston_motion(y[0], y[1], 0.0, d, h)
+        return piston.extension, piston.speed, d * h * math.sin(y[0]) / piston.extension
+
+    def _drive_force(self, y, v):
+        if self.actuator:
+            return hydraulics.piston_force(y[3], y[4], self.actuator)
+        return v["piston_force"]
+
+    def derivatives(self, y, v):
+        """(dy/dt, acceleration, drive force) at state y with inputs held over the step."""
+        length, rate, arm = self.piston_kinematics(y)
+        force = self._drive_force(y, v)
+        on_piston = force
+        if self.stops:
+            on_piston += stop_force(length, rate, self.inertia / (arm * arm), self.stops)
+        moment = on_piston * arm + sum(term(y[0], y[1], v["airspeed"]) for term in self.terms)
+        alpha = moment / self.inertia
+        rates = [y[1], alpha, force * rate]
+        if self.actuator:
+            rates += hydraulics.pressure_rates(v["valve_command"], y[3], y[4], length, rate,
+                                               self.actuator)
+        return rates, alpha, force
+
+    def advance(self, integrator, t, y, t_end, v):
+        """Integrate from t to t_end (s) with the inputs in ``v`` held; return the state at
+        t_end and the stroke limits crossed on the way, as (event name, t, piston length)."""
+        for name in ("piston_force", "valve_command", "airspeed"):
+            require_finite(name, v[name])
+        crossings = []
+
+        def record(event, time, state):
+            crossings.append((event.name, time, self.piston_length(state)))
+            return state
+        y = advance_through_events(integrator, lambda time, state: self.derivatives(state, v)[0],
+                                   t, y, t_end, self.events, record)
+        return y, crossings
+
+    def publish(self, v, time, y):
+        """The drive's outputs at state y into the values ``v``."""
+        length, rate, arm = self.piston_kinematics(y)
+        rates, alpha, force = self.derivatives(y, v)
+        v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = y[0], y[1], alpha
+        v["piston_moment_arm"], v["piston_length"], v["piston_rate"] = arm, length, rate
+        v["wheel_speed"] = v["bar_length"] * y[1]
+        v["piston_force_applied"] = force
+        v["piston_work"] = y[2]
+        v["kinetic_energy"] = 0.5 * self.inertia * y[1] * y[1]
+        v["potential_energy"] = (gravity_potential(y[0], self.body, self.geometry, self.gravity)
+                                 if self.gravity is not None else 0.0)
+        if self.actuator:
+            v["cap_pressure"], v["rod_pressure"] = y[3], y[4]
