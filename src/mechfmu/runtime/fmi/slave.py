@@ -107,7 +107,8 @@ MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e-3):
     """The parameters and counters every integrating model declares, by the same names.
 
-    A model that declares them keeps its integrator in ``self.integrator``: MechSlave then
+    A model that declares them is an IntegratingSlave, which keeps its integrator in
+    ``self.integrator``: MechSlave then
     bounds the wall-clock time of each communication step by ``max_wall_time``.
     """
     return (
@@ -150,7 +151,7 @@ class MechSlave(Fmi2Slave):
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
         self.pending_error = None  # reported by the next doStep
-        self.integrator = None  # models that integrate set it in check_parameters
+        self.integrator = None  # set by IntegratingSlave.check_parameters (fmi/integrating.py)
         self.real_inputs = tuple(v.name for v in self.VARIABLES
                                  if v.causality == "input" and v.kind is float)
         self.real_outputs = tuple(v.name for v in self.VARIABLES

@@ -1,9 +1,9 @@
 """HydraulicActuator.fmu: the gear's hydraulic actuator as a component of its own."""
 
-from ..fmi.slave import MechSlave, input_, integrator_variables, output, parameter
+from ..fmi.integrating import IntegratingSlave
+from ..fmi.slave import input_, integrator_variables, output, parameter
 from ..physics import hydraulics
 from ..errors import require_finite
-from ..numerics.integrators import make_integrator
 from ..physics.landing_gear import COURSEWORK_EXTENDED_LENGTH, COURSEWORK_RETRACTED_LENGTH
 
 # The actuator's parameters, declared once: LandingGear's hydraulics effect uses them too.
@@ -28,7 +28,7 @@ HYDRAULIC_PARAMETERS = (
 )
 
 
-class HydraulicActuator(MechSlave):
+class HydraulicActuator(IntegratingSlave):
     """Chamber pressures integrated from valve flows and piston motion; force out.
 
     The force depends only on the pressures (states), not directly on the inputs, so a scene
@@ -62,30 +62,23 @@ class HydraulicActuator(MechSlave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.actuator = self.integrator = None
-        self.pressures = None
+        self.actuator = None
 
-    def check_parameters(self):
+    # IntegratingSlave: the state is the cap and rod pressures (Pa).
+    def set_up(self):
         v = self.values
         self.actuator = hydraulics.make_actuator(
             v["supply_pressure"], v["return_pressure"], v["bore"], v["rod_diameter"],
             v["bulk_modulus"], v["dead_volume"], v["valve_rated_flow"],
             v["valve_rated_pressure_drop"], v["max_flow"], v["stroke_min"], v["stroke_max"])
-        self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"], v["max_substep"])
-        pressure = require_finite("initial_pressure", v["initial_pressure"], "Pa")
-        self.pressures = [pressure, pressure]
+        require_finite("initial_pressure", v["initial_pressure"], "Pa")
+        return True
 
-    def outputs_at_start(self, time):
-        self._publish()
+    def initial_state(self, time):
+        pressure = self.values["initial_pressure"]
+        return [pressure, pressure]
 
-    def internal_state(self):
-        return {"pressures": list(self.pressures), "integrator": self.integrator.snapshot()}
-
-    def restore_internal_state(self, saved):
-        self.pressures = list(saved["pressures"])
-        self.integrator.restore(saved["integrator"])
-
-    def update(self, time, step_size):
+    def advance(self, start, time, inputs):
         v = self.values
         command = require_finite("valve_command", v["valve_command"])
         length = require_finite("piston_extension", v["piston_extension"], "m")
@@ -94,14 +87,11 @@ class HydraulicActuator(MechSlave):
         def rhs(t, y):
             return list(hydraulics.pressure_rates(command, y[0], y[1], length, speed,
                                                   self.actuator))
-        self.pressures = self.integrator.advance(rhs, time - step_size, self.pressures, time).y
-        self._publish()
-        v["rhs_evaluations"] = self.integrator.stats.rhs_evaluations
-        v["substeps"] = self.integrator.stats.substeps
+        return self.integrator.advance(rhs, start, self.state, time).y, None
 
-    def _publish(self):
+    def publish(self, time):
         v = self.values
-        p1, p2 = self.pressures
+        p1, p2 = self.state
         v["cap_pressure"], v["rod_pressure"] = p1, p2
         v["piston_force"] = hydraulics.piston_force(p1, p2, self.actuator)
         flows = hydraulics.valve_flows(v["valve_command"], p1, p2, self.actuator)

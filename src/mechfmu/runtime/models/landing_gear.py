@@ -4,12 +4,12 @@ import math
 
 from pythonfmu.enums import Fmi2Status
 
-from ..fmi.slave import MechSlave, effect, input_, integrator_variables, output, parameter
+from ..fmi.integrating import IntegratingSlave
+from ..fmi.slave import effect, input_, integrator_variables, output, parameter
 from ..physics import gear_dynamics as gd
 from ..physics import hydraulics
 from ..physics import landing_gear as gear
 from ..errors import MechanismError, require_finite
-from ..numerics.integrators import make_integrator
 from ..physics.landing_gear import (COURSEWORK_BAR_LENGTH, COURSEWORK_EXTENDED_LENGTH,
                                     COURSEWORK_RETRACTED_LENGTH, DEFAULT_GEOMETRY)
 from .hydraulic_actuator import HYDRAULIC_PARAMETERS
@@ -21,7 +21,7 @@ _MOMENT_EFFECTS = ("gravity", "aero_drag", "pivot_friction")
 _FORCE_DRIVE = ("piston_force", "valve_command")  # the dynamics drive's own inputs
 
 
-class LandingGear(MechSlave):
+class LandingGear(IntegratingSlave):
     """Nose landing gear about its pivot B.
 
     drive = motion: the piston motion is prescribed (inputs piston_extension, piston_speed,
@@ -135,13 +135,12 @@ class LandingGear(MechSlave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.state = None          # [theta, omega, work(, p1, p2)] in the dynamics drive
         self.ignored_inputs = ()   # inputs of the other driver last warned about
-        self.integrator = None
-        self.model = None
+        self.model = None          # gear_dynamics.Dynamics or InverseDynamics
 
-    # --- set-up -----------------------------------------------------------------------
-    def check_parameters(self):
+    # --- set-up (IntegratingSlave: the dynamics drive integrates [theta, omega, work(, p1,
+    # p2)]; the motion drive computes closed forms) ----------------------------------------
+    def set_up(self):
         v = self.values
         d, h = gear.check_geometry(v["attachment_distance"], v["pivot_height"])
         body = gd.make_body(v["bar_length"], v["bar_mass"], v["wheel_mass"])
@@ -154,17 +153,12 @@ class LandingGear(MechSlave):
                 raise MechanismError("drive = 'dynamics' needs the inertia effect: without "
                                      "inertia the gear has no equation of motion")
             self.model = gd.Dynamics(v, body, geometry)
-            self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
-                                              v["max_substep"])
-        else:
-            self.model = gd.InverseDynamics(v, body, geometry)
+            return True
+        self.model = gd.InverseDynamics(v, body, geometry)
+        return False
 
-    def outputs_at_start(self, time):
-        if self.values["drive"] == "dynamics":
-            self.state = self.model.initial_state()
-            self.model.publish(self.values, time, self.state)
-        else:
-            self._kinematics()
+    def initial_state(self, time):
+        return self.model.initial_state()
 
     def _note_other_driver(self, time):
         """Warn when an input of the driver that ``drive`` did not choose is set.
@@ -198,45 +192,40 @@ class LandingGear(MechSlave):
                      f"({starts}) or choose drive = {other!r})", Fmi2Status.warning)
         self.ignored_inputs = tuple(given)
 
-    def internal_state(self):
-        return {"state": None if self.state is None else list(self.state),
-                "integrator": self.integrator.snapshot() if self.integrator else None,
-                "ignored_inputs": list(self.ignored_inputs)}
+    def extra_state(self):
+        return {"ignored_inputs": list(self.ignored_inputs)}
 
-    def restore_internal_state(self, saved):
-        self.state = None if saved["state"] is None else list(saved["state"])
+    def restore_extra_state(self, saved):
         self.ignored_inputs = tuple(saved["ignored_inputs"])
-        if saved["integrator"] is not None:
-            self.integrator.restore(saved["integrator"])
 
+    # --- stepping -----------------------------------------------------------------------
     def update(self, time, step_size):
         self._note_other_driver(time)
-        v = self.values
-        if v["drive"] == "dynamics":
-            self.state, crossings = self.model.advance(self.integrator, time - step_size,
-                                                       self.state, time, v)
-            self._count_stroke_events(crossings)
-            self.model.publish(v, time, self.state)
-            v["rhs_evaluations"] = self.integrator.stats.rhs_evaluations
-            v["substeps"] = self.integrator.stats.substeps
-            return
-        self._kinematics()
+        super().update(time, step_size)
 
-    def _count_stroke_events(self, crossings):
+    def advance(self, start, time, inputs):
+        """Dynamics drive: (state at ``time``, stroke limits crossed); the inputs
+        piston_force, valve_command and airspeed are held over the step."""
+        return self.model.advance(self.integrator, start, self.state, time, self.values)
+
+    def commit(self, time, crossings):
         """Retraction and extension times, stop contacts and a log line per stroke limit
         reached: (event name, t s, piston length m) from Dynamics.advance."""
         v = self.values
-        for name, time, length in crossings:
+        for name, when, length in crossings:
             if name == "stroke_max" and v["retraction_time"] < 0.0:
-                v["retraction_time"] = time
+                v["retraction_time"] = when
             if name == "stroke_min" and v["extension_time"] < 0.0:
-                v["extension_time"] = time
+                v["extension_time"] = when
             if self.model.stops:
                 v["stop_contacts"] += 1
-            self.log(f"{self.instance_name} at t = {time!r} s: piston reached {name} "
+            self.log(f"{self.instance_name} at t = {when!r} s: piston reached {name} "
                      f"({length!r} m)", Fmi2Status.ok)
 
-    def _kinematics(self):
+    def publish(self, time):
+        self.model.publish(self.values, time, self.state)
+
+    def update_without_state(self, time, step_size):
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
         v = self.values
         d, h = v["attachment_distance"], v["pivot_height"]

@@ -2,15 +2,16 @@
 
 from pythonfmu.enums import Fmi2Status
 
-from ..fmi.slave import MechSlave, effect, input_, integrator_variables, output, parameter
+from ..fmi.integrating import IntegratingSlave
+from ..fmi.slave import effect, input_, integrator_variables, output, parameter
 from ..physics import suspension as physics
 from ..physics import suspension_dynamics as dyn
 from ..errors import IntegrationError, MechanismError, SnapThrough, require_finite
-from ..numerics.integrators import Event, make_integrator
+from ..numerics.integrators import Event
+from ..numerics.stepping import advance_through_events
 
 _INPUTS = ("load", "road_height", "road_rate")
 _DYNAMIC_EFFECTS = ("damping", "tyre", "road_input")
-MAX_EVENTS_PER_STEP = 1000
 # A state whose max-norm exceeds BLOWUP_FACTOR (1 + the initial state's max-norm) is an
 # unstable integration (no suspension moves a million metres), refused like the
 # integrators' own per-call growth check, which misses a slower growth spread over calls.
@@ -23,7 +24,7 @@ BLOWUP_FACTOR = 1e6
 ENERGY_GROWTH = 0.5
 
 
-class Suspension(MechSlave):
+class Suspension(IntegratingSlave):
     """Two-spring suspension, static or dynamic.
 
     Static (``dynamics`` off, the default): the equilibrium follows the load continuously from
@@ -112,14 +113,10 @@ class Suspension(MechSlave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.model = None          # dynamics: the Model, right-hand side, inputs, events
-        self.integrator = None
         self.inputs = None
         self.rhs = None
         self.deflection_of = None  # u(t, y)
         self.events = None         # {side: (Event,)}
-        self.y = None              # dynamics: state (y, y'[, z, z'])
-        self.time = None           # time of self.y
-        self.last_inputs = None    # (load, road_height, road_rate) at self.time
         self.side = None           # last stable region visited: NEAR or FAR
         self.blowup = None         # state max-norm beyond which the integration is unstable
 
@@ -128,7 +125,8 @@ class Suspension(MechSlave):
         return physics.make_spring(v["spring_free_length"], v["spring_stiffness"],
                                    v["spring_base_offset"])
 
-    def check_parameters(self):
+    # --- set-up (IntegratingSlave: the dynamics effect integrates (y, y'[, z, z'])) ----------
+    def set_up(self):
         v = self.values
         spring = self._spring()
         limit = physics.limit_point(spring)
@@ -138,7 +136,7 @@ class Suspension(MechSlave):
             if enabled:
                 raise MechanismError(f"effect(s) {', '.join(enabled)} need the dynamics effect "
                                      f"(the static model has no masses)")
-            return
+            return False
         effects = dyn.Effects(v["damping"], v["tyre"], v["road_input"])
         self.model = dyn.make_model(spring, v["mass"], v["damping_coefficient"],
                                     v["tyre_stiffness"], v["unsprung_mass"], effects)
@@ -149,53 +147,39 @@ class Suspension(MechSlave):
                                     dyn.snap_function(self.model, self.inputs, side),
                                     +1 if side == dyn.NEAR else -1),)
                        for side in (dyn.NEAR, dyn.FAR)}
-        self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
-                                          v["max_substep"])
+        return True
 
     def outputs_at_start(self, time):
+        if not self.values["dynamics"]:
+            self.values["branch"] = physics.NEAR  # continuation starts from the unloaded state
+        super().outputs_at_start(time)
+
+    def initial_state(self, time):
         v = self.values
-        if not v["dynamics"]:
-            v["branch"] = physics.NEAR  # continuation starts from the unloaded state
-            self.update(time, 0.0)
-            return
-        self.last_inputs = self._current_inputs()
-        self.inputs.set_constant(time, *self.last_inputs)
-        self.y = dyn.initial_state(self.model, v["initial_deflection"], v["initial_velocity"],
-                                   self.inputs, time)
-        self.time = time
-        self.blowup = BLOWUP_FACTOR * (1.0 + max(abs(x) for x in self.y))
+        self.inputs.set_constant(time, *self.held_inputs)
+        y = dyn.initial_state(self.model, v["initial_deflection"], v["initial_velocity"],
+                              self.inputs, time)
+        self.blowup = BLOWUP_FACTOR * (1.0 + max(abs(x) for x in y))
         u = v["initial_deflection"]
         self.side = (dyn.NEAR if u <= physics.rest_height(self.model.spring) else dyn.FAR)
         v["snap_through"] = False
-        self._publish(time)
+        return y
 
-    # --- FMU state ----------------------------------------------------------------------------
-    def internal_state(self):
-        if self.integrator is None:
-            return {}
-        return {"y": list(self.y), "time": self.time, "last_inputs": list(self.last_inputs),
-                "side": self.side, "blowup": self.blowup,
-                "integrator": self.integrator.snapshot()}
+    def extra_state(self):
+        return {"side": self.side, "blowup": self.blowup}
 
-    def restore_internal_state(self, state):
-        if not state:
-            return
-        self.y, self.time = list(state["y"]), state["time"]
-        self.last_inputs, self.side = tuple(state["last_inputs"]), state["side"]
-        self.blowup = state["blowup"]
-        self.integrator.restore(state["integrator"])
+    def restore_extra_state(self, saved):
+        self.side, self.blowup = saved["side"], saved["blowup"]
 
     # --- stepping ----------------------------------------------------------------------------
-    def _current_inputs(self):
+    def read_inputs(self):
         v = self.values
         return (require_finite("load", v["load"], "N"),
                 require_finite("road_height", v["road_height"], "m"),
                 require_finite("road_rate", v["road_rate"], "m/s"))
 
-    def update(self, time, step_size):
-        if self.values["dynamics"]:
-            self._step_dynamics(time)
-            return
+    def update_without_state(self, time, step_size):
+        """Static: the equilibrium under the load, continued along its branch."""
         v = self.values
         state, snapped = physics.follow_load(
             v["load"], v["branch"], self._spring(), guess=v["deflection"],
@@ -214,56 +198,50 @@ class Suspension(MechSlave):
         v["potential_energy"] = (dyn.spring_energy(state.deflection, self._spring())
                                  - v["load"] * state.deflection)
 
-    def _step_dynamics(self, time):
-        """Integrate from self.time to ``time``; commit the state only if the whole step works."""
+    def advance(self, start, time, end_inputs):
+        """Integrate to ``time`` through the snap-throughs; return (state, (snap-throughs
+        as (t, u, side left), the stable region reached))."""
         v = self.values
-        end_inputs = self._current_inputs()
-        self.inputs.set_step(self.time, time, self.last_inputs, end_inputs)
-        saved = self.integrator.snapshot()
+        self.inputs.set_step(start, time, self.held_inputs, end_inputs)
         snaps = []
-        t, y, side = self.time, self.y, self.side
+        side = [self.side]
+
+        def snap(event, t, y):
+            u = self.deflection_of(t, y)
+            if v["stop_on_snap_through"]:
+                raise SnapThrough(f"dynamic snap-through at t = {t!r} s: deflection "
+                                  f"{u!r} m left the {_NAMES[side[0]]} stable region")
+            snaps.append((t, u, side[0]))
+            side[0] = dyn.FAR if side[0] == dyn.NEAR else dyn.NEAR
+            return y
         check_energy = dyn.passive(self.model, self.inputs)
         if check_energy:
-            kinetic, potential, scale0 = dyn.energy(self.model, self.inputs, t, y)
+            kinetic, potential, scale0 = dyn.energy(self.model, self.inputs, start, self.state)
             energy0 = kinetic + potential
-        try:
-            for _ in range(MAX_EVENTS_PER_STEP):
-                step = self.integrator.advance(self.rhs, t, y, time, self.events[side])
-                t, y = step.t, list(step.y)
-                if step.event is None:
-                    break
-                u = self.deflection_of(t, y)
-                if v["stop_on_snap_through"]:
-                    raise SnapThrough(f"dynamic snap-through at t = {t!r} s: deflection "
-                                      f"{u!r} m left the {_NAMES[side]} stable region")
-                snaps.append((t, u, side))
-                side = dyn.FAR if side == dyn.NEAR else dyn.NEAR
-                if t >= time:
-                    break
-            else:
-                raise IntegrationError(f"more than {MAX_EVENTS_PER_STEP} snap-throughs before "
-                                       f"t = {time!r} s")
-            if check_energy:
-                kinetic, potential, scale = dyn.energy(self.model, self.inputs, time, y)
-                if kinetic + potential - energy0 > ENERGY_GROWTH * max(scale0, scale):
-                    raise IntegrationError(
-                        f"{v['integrator']}: the mechanical energy grew from {energy0:.6g} J "
-                        f"to {kinetic + potential:.6g} J between t = {self.time!r} s and "
-                        f"{time!r} s under a constant load (a passive system cannot gain "
-                        f"energy): unstable: the sub-step max_substep = {v['max_substep']!r} s "
-                        f"exceeds the method's stability limit; reduce max_substep or use "
-                        f"radau")
-            if max(abs(x) for x in y) > self.blowup:
+        y = advance_through_events(self.integrator, self.rhs, start, self.state, time,
+                                   lambda: self.events[side[0]], snap)
+        if check_energy:
+            kinetic, potential, scale = dyn.energy(self.model, self.inputs, time, y)
+            if kinetic + potential - energy0 > ENERGY_GROWTH * max(scale0, scale):
                 raise IntegrationError(
-                    f"{v['integrator']}: solution blew up between t = {self.time!r} s and "
-                    f"{time!r} s (state max-norm {max(abs(x) for x in y):.3g} is more than "
-                    f"{BLOWUP_FACTOR:g} times 1 + that of the initial state): unstable: the "
-                    f"sub-step max_substep = {v['max_substep']!r} s exceeds the method's "
-                    f"stability limit; reduce max_substep or use radau")
-        except MechanismError:
-            self.integrator.restore(saved)
-            raise
-        self.y, self.time, self.side, self.last_inputs = y, time, side, end_inputs
+                    f"{v['integrator']}: the mechanical energy grew from {energy0:.6g} J "
+                    f"to {kinetic + potential:.6g} J between t = {start!r} s and "
+                    f"{time!r} s under a constant load (a passive system cannot gain "
+                    f"energy): unstable: the sub-step max_substep = {v['max_substep']!r} s "
+                    f"exceeds the method's stability limit; reduce max_substep or use "
+                    f"radau")
+        if max(abs(x) for x in y) > self.blowup:
+            raise IntegrationError(
+                f"{v['integrator']}: solution blew up between t = {start!r} s and "
+                f"{time!r} s (state max-norm {max(abs(x) for x in y):.3g} is more than "
+                f"{BLOWUP_FACTOR:g} times 1 + that of the initial state): unstable: the "
+                f"sub-step max_substep = {v['max_substep']!r} s exceeds the method's "
+                f"stability limit; reduce max_substep or use radau")
+        return y, (snaps, side[0])
+
+    def commit(self, time, happened):
+        snaps, self.side = happened
+        v = self.values
         for t_event, u, old in snaps:
             self.log(f"{self.instance_name} at t = {t_event!r} s: snap-through: deflection "
                      f"{u!r} m went from the {_NAMES[old]} to the "
@@ -273,13 +251,12 @@ class Suspension(MechSlave):
         v["snap_through"] = bool(snaps)
         v["snap_through_count"] += len(snaps)
         if self.inputs.mode == "hold":  # the value held from ``time`` on
-            self.inputs.set_constant(time, *end_inputs)
-        self._publish(time)
+            self.inputs.set_constant(time, *self.held_inputs)
 
-    def _publish(self, time):
+    def publish(self, time):
         v = self.values
         spring = self.model.spring
-        m = dyn.motion(self.model, self.inputs, self.rhs, time, self.y)
+        m = dyn.motion(self.model, self.inputs, self.rhs, time, self.state)
         (v["deflection"], v["velocity"], v["acceleration"], v["sprung_displacement"],
          v["unsprung_displacement"], v["tyre_force"], v["kinetic_energy"],
          v["potential_energy"]) = m
@@ -289,8 +266,6 @@ class Suspension(MechSlave):
         v["tangent_stiffness"] = physics.tangent_stiffness(u, spring)
         v["stable"] = v["tangent_stiffness"] > 0.0
         v["branch"] = dyn.region(u, spring)
-        stats = self.integrator.stats
-        v["rhs_evaluations"], v["substeps"] = stats.rhs_evaluations, stats.substeps
 
 
 _NAMES = {dyn.NEAR: "near", dyn.FAR: "far"}

@@ -3,10 +3,10 @@ contact and stopped by a compliant seat, integrated inside each communication st
 
 from pythonfmu.enums import Fmi2Status
 
-from ..fmi.slave import MechSlave, input_, integrator_variables, output, parameter
+from ..fmi.integrating import IntegratingSlave
+from ..fmi.slave import input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
 from ..errors import IntegrationError, MechanismError, require_finite
-from ..numerics.integrators import make_integrator
 from ..numerics.stepping import advance_through_events
 
 _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
@@ -23,7 +23,7 @@ _UNITS = ("m", "m/s", "m/s2")
 ENERGY_GROWTH = 0.1
 
 
-class ValveSpring(MechSlave):
+class ValveSpring(IntegratingSlave):
     """A valve on its spring, pushed open by the rocker's valve end (prescribed motion L(t),
     e.g. ValveTrain's kinematic valve lift) through a compliant contact, closed onto a
     compliant seat (physics/valve_spring.py). The valve's free flight is integrated: when
@@ -108,16 +108,13 @@ class ValveSpring(MechSlave):
         self.modes = None        # vs.Modes read by rhs: the contacts engaged while integrating
         self.rhs = None
         self.events = None       # {vs.Engaged: (Event, ...)}
-        self.integrator = None
-        self.y = None            # (x, v, W) at self.time
-        self.time = None
-        self.last_inputs = None  # (L, L', L'') at self.time
-        self.phase = None        # vs.Phase at self.time
-        self.engaged = None      # vs.Engaged at self.time
+        self.phase = None        # vs.Phase at the last communication point
+        self.engaged = None      # vs.Engaged at the last communication point
         self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
         self.peak_energy = 0.0   # J: largest energy in play so far
 
-    def check_parameters(self):
+    # --- set-up (IntegratingSlave: the state is (x, v, W), the inputs (L, L', L'')) ----------
+    def set_up(self):
         v = self.values
         self.parameters = vs.make_parameters(
             v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
@@ -127,47 +124,36 @@ class ValveSpring(MechSlave):
         self.modes = vs.Modes()
         self.rhs = vs.build_rhs(self.parameters, self.drive, self.modes)
         self.events = vs.build_events(self.parameters, self.drive)
-        self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
-                                          v["max_substep"])
+        return True
 
-    def outputs_at_start(self, time):
-        self.last_inputs = self._current_inputs()
-        self.y = vs.initial_state(self.parameters, *self.last_inputs[:2])
-        self.time = time
-        self.phase = vs.contact_phase(self.parameters, self.last_inputs[0], self.y[0])
-        self.engaged = vs.engagement(self.parameters, *self.last_inputs[:2], *self.y[:2])
-        self._publish()
+    def initial_state(self, time):
+        L, rate, _ = self.held_inputs
+        y = vs.initial_state(self.parameters, L, rate)
+        self.phase = vs.contact_phase(self.parameters, L, y[0])
+        self.engaged = vs.engagement(self.parameters, L, rate, *y[:2])
+        return y
 
-    # --- FMU state ----------------------------------------------------------------------------
-    def internal_state(self):
-        if self.integrator is None:
-            return {}
-        return {"y": list(self.y), "time": self.time, "last_inputs": list(self.last_inputs),
-                "phase": list(self.phase), "engaged": list(self.engaged),
-                "created": self.created,
-                "peak_energy": self.peak_energy, "integrator": self.integrator.snapshot()}
+    def extra_state(self):
+        return {"phase": None if self.phase is None else list(self.phase),
+                "engaged": None if self.engaged is None else list(self.engaged),
+                "created": self.created, "peak_energy": self.peak_energy}
 
-    def restore_internal_state(self, state):
-        if not state:
-            return
-        self.y, self.time = list(state["y"]), state["time"]
-        self.last_inputs = tuple(state["last_inputs"])
-        self.phase = vs.Phase(*state["phase"])
-        self.engaged = vs.Engaged(*state["engaged"])
-        self.created, self.peak_energy = state["created"], state["peak_energy"]
-        self.integrator.restore(state["integrator"])
+    def restore_extra_state(self, saved):
+        if saved["phase"] is not None:
+            self.phase = vs.Phase(*saved["phase"])
+            self.engaged = vs.Engaged(*saved["engaged"])
+        self.created, self.peak_energy = saved["created"], saved["peak_energy"]
 
     # --- stepping ----------------------------------------------------------------------------
-    def _current_inputs(self):
+    def read_inputs(self):
         return tuple(require_finite(name, self.values[name], unit)
                      for name, unit in zip(_INPUTS, _UNITS))
 
-    def update(self, time, step_size):
-        """Integrate from self.time to ``time``; commit the state only if the whole step works."""
+    def advance(self, start, time, end_inputs):
+        """Integrate to ``time`` through the contact events; return (state, (the float,
+        bounce and seat happenings, phase, engaged contacts, energy created, peak energy))."""
         p = self.parameters
-        end_inputs = self._current_inputs()
-        self.drive.set_step(self.time, time, self.last_inputs, end_inputs)
-        saved = self.integrator.snapshot()
+        self.drive.set_step(start, time, self.held_inputs, end_inputs)
         found = []
         phase = [self.phase]
 
@@ -187,18 +173,15 @@ class ValveSpring(MechSlave):
             judge(t, y)
             return y
 
-        self.modes.engaged = vs.resume(p, self.engaged, *self.last_inputs[:2], *self.y[:2])
-        try:
-            y = advance_through_events(self.integrator, self.rhs, self.time, self.y, time,
-                                       lambda: self.events[self.modes.engaged], on_event)
-            judge(time, y)
-            created, peak = self._check_energy(self.time, self.y, time, y)
-        except MechanismError:
-            self.integrator.restore(saved)
-            raise
-        self.y, self.time, self.last_inputs, self.phase = list(y), time, end_inputs, phase[0]
-        self.engaged = self.modes.engaged
-        self.created, self.peak_energy = created, peak
+        self.modes.engaged = vs.resume(p, self.engaged, *self.held_inputs[:2], *self.state[:2])
+        y = advance_through_events(self.integrator, self.rhs, start, self.state, time,
+                                   lambda: self.events[self.modes.engaged], on_event)
+        judge(time, y)
+        created, peak = self._check_energy(start, self.state, time, y)
+        return y, (found, phase[0], self.modes.engaged, created, peak)
+
+    def commit(self, time, happened):
+        found, self.phase, self.engaged, self.created, self.peak_energy = happened
         v = self.values
         for happening in found:
             if happening.kind == vs.FLOAT:
@@ -208,7 +191,6 @@ class ValveSpring(MechSlave):
                 continue  # a closing: counted, not reported
             self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
                      Fmi2Status.warning)
-        self._publish()
 
     def _check_energy(self, t0, y0, t1, y1):
         """(energy created so far, largest energy in play) after a step, or IntegrationError
@@ -227,11 +209,11 @@ class ValveSpring(MechSlave):
                 f"stability limit; reduce max_substep or use radau")
         return created, peak
 
-    def _publish(self):
-        """Outputs at self.time from the state and the inputs given for that time."""
+    def publish(self, time):
+        """Outputs at ``time`` from the state and the inputs given for that time."""
         v, p = self.values, self.parameters
-        lift, velocity, work = self.y
-        L, rate, _ = self.last_inputs
+        lift, velocity, work = self.state
+        L, rate, _ = self.held_inputs
         f = vs.forces(p, L, rate, lift, velocity)
         (v["valve_lift"], v["valve_velocity"], v["valve_acceleration"], v["contact_force"],
          v["seat_force"], v["spring_force"], v["penetration"]) = (
@@ -240,8 +222,6 @@ class ValveSpring(MechSlave):
         v["kinetic_energy"] = vs.kinetic_energy(p, velocity)
         v["elastic_energy"] = vs.elastic_energy(p, L, lift)
         v["contact_work"] = work
-        stats = self.integrator.stats
-        v["rhs_evaluations"], v["substeps"] = stats.rhs_evaluations, stats.substeps
 
 
 def _drive_text(happening):

@@ -1,0 +1,122 @@
+"""The base of the models that integrate a state inside each communication step.
+
+Runs inside the FMU (standard library + pythonfmu only). LandingGear (dynamics drive),
+Suspension (dynamics effect), ValveSpring and HydraulicActuator integrate a state vector
+across each communication step; ``IntegratingSlave`` holds what they share:
+
+- the state and the inputs given at the last communication point (the start of the next
+  step), and the integrator chosen by the ``integrator_variables`` parameters, whose
+  work counters are published as the outputs ``rhs_evaluations`` and ``substeps``;
+- a step that is all or nothing: ``advance`` integrates over the host's communication step
+  (from its start ``time - step_size``, so a host's rounding of its clock never changes the
+  step's length) and returns the new state and what happened on the way, without changing the instance; only when the whole
+  step worked does the base commit the state, ``commit`` apply what happened (counters, log
+  messages) and ``publish`` write the outputs. On an error MechSlave.do_step restores every
+  variable and the internal state below, so a discarded step leaves the instance as before;
+- the FMU state: the state, the inputs, the integrator's own state (its step size and
+  clock) and whatever ``extra_state`` a model adds.
+
+A model implements ``set_up`` (validate, build its equations, say whether it integrates),
+``initial_state``, ``advance`` and ``publish``; if it has them, ``read_inputs``, ``commit``,
+``extra_state``/``restore_extra_state`` and ``update_without_state`` (its configurations
+that integrate nothing, such as the gear's motion drive).
+"""
+
+from ..numerics.integrators import make_integrator
+from .slave import MechSlave
+
+
+class IntegratingSlave(MechSlave):
+    """MechSlave whose outputs follow from a state integrated over each communication step."""
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.state = None        # the integrated state at the last communication point
+        self.held_inputs = None  # the inputs read at that point (read_inputs)
+
+    # --- model contract ---------------------------------------------------------------------
+    def set_up(self):
+        """Validate the parameters and build the equations (raise MechanismError); return
+        whether this configuration integrates (False: update_without_state steps it)."""
+        raise NotImplementedError
+
+    def read_inputs(self):
+        """The inputs given for the current time, checked (raise MechanismError); a tuple
+        that ``advance`` receives, with those of the step's start in self.held_inputs."""
+        return ()
+
+    def initial_state(self, time):
+        """The state at the start ``time`` (s); may set the model's own start values."""
+        raise NotImplementedError
+
+    def advance(self, start, time, inputs):
+        """Integrate from ``start`` (s; state self.state, inputs self.held_inputs) to
+        ``time`` (s) with ``inputs`` at its end; return (state at ``time``, what happened,
+        for ``commit``). Raise MechanismError to discard the step; change nothing that
+        internal_state does not restore."""
+        raise NotImplementedError
+
+    def commit(self, time, happened):
+        """Apply what ``advance`` found (counters, log messages) once the step succeeded."""
+
+    def publish(self, time):
+        """Write the outputs at ``time`` from self.state and self.held_inputs."""
+        raise NotImplementedError
+
+    def update_without_state(self, time, step_size):
+        """Outputs at ``time`` for a configuration that integrates nothing."""
+        raise NotImplementedError
+
+    def extra_state(self):
+        """JSON-serialisable model state beyond the integrated one (override if any)."""
+        return {}
+
+    def restore_extra_state(self, saved):
+        """Inverse of extra_state."""
+
+    # --- MechSlave contract -----------------------------------------------------------------
+    def check_parameters(self):
+        self.integrator = None
+        if self.set_up():
+            v = self.values
+            self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
+                                              v["max_substep"])
+
+    def outputs_at_start(self, time):
+        if self.integrator is None:
+            self.update_without_state(time, 0.0)
+            return
+        self.held_inputs = self.read_inputs()
+        self.state = list(self.initial_state(time))
+        self._publish_with_counters(time)
+
+    def update(self, time, step_size):
+        if self.integrator is None:
+            self.update_without_state(time, step_size)
+            return
+        inputs = self.read_inputs()
+        state, happened = self.advance(time - step_size, time, inputs)
+        # The whole step worked: commit it.
+        self.state, self.held_inputs = list(state), inputs
+        self.commit(time, happened)
+        self._publish_with_counters(time)
+
+    def _publish_with_counters(self, time):
+        self.publish(time)
+        stats = self.integrator.stats
+        self.values["rhs_evaluations"], self.values["substeps"] = (stats.rhs_evaluations,
+                                                                   stats.substeps)
+
+    def internal_state(self):
+        saved = dict(self.extra_state())
+        if self.integrator is not None and self.state is not None:
+            saved.update(state=list(self.state), held_inputs=list(self.held_inputs),
+                         integrator=self.integrator.snapshot())
+        return saved
+
+    def restore_internal_state(self, saved):
+        self.restore_extra_state(saved)
+        if self.integrator is not None and "integrator" in saved:
+            self.state = list(saved["state"])
+            self.held_inputs = tuple(saved["held_inputs"])
+            self.integrator.restore(saved["integrator"])
