@@ -1,17 +1,7 @@
-"""Write data/seed_report.md: the coursework's numbers recomputed from the numpy references."""
+"""Write data/seed_report.md: the coursework's numbers recomputed from the numpy references
+(``mechfmu report``)."""
 
-from pathlib import Path
-
-from mechfmu.tools.report.seed_report import write_report
-
-REPO_ROOT = Path(__file__).resolve().parent.parent
-OUTPUT = REPO_ROOT / "data" / "seed_report.md"
-
-
-def main():
-    path = write_report(OUTPUT)
-    print(f"wrote {path}")
-
+from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    main()
+    script_main(__file__, "report", out="data/seed_report.md")

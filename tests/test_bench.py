@@ -13,7 +13,7 @@ import sys
 import pytest
 
 from conftest import ROOT, SCENES, SWEEPS
-from mechfmu.tools.bench import main
+from mechfmu.cli import main as cli
 from mechfmu.tools.bench import model_cost
 from mechfmu.tools.bench.report import CSV_COLUMNS, RATIO_UNIT, Row, ratio_parts
 from mechfmu.packaging.build import build_all
@@ -43,8 +43,8 @@ def bench(fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
     stdout = io.StringIO()
     with contextlib.redirect_stdout(stdout):
-        status = main(["--quick", "--out", str(out), "--fmu-dir", str(fmu_dir),
-                       "--scenes", str(SCENES), "--sweeps", str(SWEEPS)])
+        status = cli(["bench", "--quick", "--out", str(out), "--fmu-dir", str(fmu_dir),
+                      "--scenes", str(SCENES), "--sweeps", str(SWEEPS)])
     with open(out / "bench.csv", newline="", encoding="utf-8") as handle:
         records = list(csv.DictReader(handle))
     return status, stdout.getvalue(), records, out
@@ -155,8 +155,8 @@ def test_null_fmu_does_nothing_while_the_model_moves(fmu_dir, tmp_path):
 
 
 def test_missing_fmus_stop_with_the_build_command(tmp_path, capsys):
-    assert main(["--quick", "--fmu-dir", str(tmp_path / "none"), "--out",
-                 str(tmp_path / "out")]) == 2
+    assert cli(["bench", "--quick", "--fmu-dir", str(tmp_path / "none"), "--out",
+                str(tmp_path / "out")]) == 2
     assert "mechfmu build" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 

@@ -191,6 +191,22 @@ def test_a_shipped_scene_runs_and_checks_by_name_from_any_directory(fmu_dir, tmp
     assert (tmp_path / "out" / "gear_retraction.csv").is_file()
 
 
+def test_a_script_in_sims_defaults_to_its_repository_and_yields_to_its_arguments(
+        fmu_dir, tmp_path, monkeypatch, capsys):
+    """script_main puts --out and --fmu-dir in the script's repository before the script's
+    own arguments, which win; the exit status is the verb's."""
+    from mechfmu.cli import script_main
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "argv", ["run_gear.py", "--out", str(tmp_path / "mine"),
+                                      "--no-plot"])
+    with pytest.raises(SystemExit) as exit_:
+        script_main(ROOT / "sims" / "run_gear.py", "example", "gear", out="out",
+                    fmu_dir=str(fmu_dir))
+    assert exit_.value.code == 0
+    assert "every sample within 1e-9 relative (+1e-12 absolute): yes" in capsys.readouterr().out
+    assert (tmp_path / "mine" / "gear_retraction.csv").is_file()
+
+
 def test_package_data_ships_every_scene_sweep_and_reference():
     """pyproject's package-data patterns cover every shipped scene, sweep and reference
     CSV, so an installed wheel finds them as a clone does."""

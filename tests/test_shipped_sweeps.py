@@ -2,29 +2,23 @@
 static and dynamic snap-through masses, retraction time against supply pressure, valve float
 speed against preload. `make sweeps` runs them in full."""
 
-import importlib.util
 import math
 
 import pytest
 
-from conftest import ROOT, SWEEPS
+from conftest import SWEEPS
+from mechfmu.cli import main as cli
 from mechfmu.tools import sweep
 from mechfmu.tools.report import sweeps
 
 
-def _script():
-    spec = importlib.util.spec_from_file_location("run_sweeps", ROOT / "sims" / "run_sweeps.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 @pytest.fixture(scope="module")
 def quick(fmu_dir, tmp_path_factory):
-    """sims/run_sweeps.py --quick, run once: (exit status, out folder, findings)."""
+    """mechfmu example sweeps --quick (sims/run_sweeps.py --quick), run once: (exit status,
+    out folder, findings)."""
     out = tmp_path_factory.mktemp("sweeps")
-    status = _script().main(["--quick", "--jobs", "2", "--out", str(out),
-                             "--fmu-dir", str(fmu_dir)])
+    status = cli(["example", "sweeps", "--quick", "--jobs", "2", "--out", str(out),
+                  "--fmu-dir", str(fmu_dir)])
     return status, out, sweeps.analyse(SWEEPS, out)
 
 
@@ -90,11 +84,10 @@ def test_snap_bracket():
 
 def test_failures_name_what_disagrees(quick):
     _, _, findings = quick
-    script = _script()
-    assert script.failures(findings) == []
+    assert sweeps.failures(findings) == []
     findings["suspension"][sweeps.SUDDEN]["inside"] = False
     findings["valve"]["max_relative_error"] = 1e-3
-    problems = script.failures(findings)
+    problems = sweeps.failures(findings)
     assert len(problems) == 2
     assert problems[0].startswith("suspension_mass_sudden: reference mass 234.08")
     assert "valve: float speeds differ by 0.001" in problems[1]

@@ -1,4 +1,5 @@
-"""Compare a result CSV with a reference CSV within explicit tolerances."""
+"""Compare results with references: CSV against CSV within explicit tolerances, and the
+report of a scene run against its reference."""
 
 from dataclasses import dataclass
 
@@ -66,3 +67,44 @@ def compare(result_path, reference_path, rtol=1e-9, atol=1e-12):
             worst = Deviation(name, float(times[span][i]), float(values[i]),
                               float(reference[i]), float(allowed[i]))
     return Comparison(worst_score <= 1.0, shared, int(span.sum()), worst)
+
+
+def worst_deviations(result, reference_path):
+    """Per recorded column that the reference CSV shares: (column, worst |difference|,
+    unit, time of it in s, that difference as a fraction of the column's peak |reference|).
+    The reference is interpolated onto the result's times; ``result`` is a cosim Result."""
+    ref_times, reference = read_csv(reference_path)
+    times = np.asarray(result.times)
+    rows = []
+    for name, values in result.columns.items():
+        if name not in reference:
+            continue
+        expected = np.interp(times, np.asarray(ref_times), np.asarray(reference[name]))
+        difference = np.abs(np.asarray(values) - expected)
+        i = int(np.argmax(difference))
+        peak = max(float(np.max(np.abs(expected))), 1e-300)
+        rows.append((name, float(difference[i]), result.units.get(name) or "",
+                     float(times[i]), float(difference[i]) / peak))
+    return rows
+
+
+def run_report(result, paths, reference=None, rtol=1e-9, atol=1e-12, label="reference"):
+    """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
+    FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
+    verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,
+    Comparison or None)."""
+    lines = [f"{result.scene.name}: {result.meta['steps']} steps of {result.scene.step} s in "
+             f"{result.meta['wall_time_s']:.3f} s wall time"]
+    lines += [f"  [{entry['status']}] {entry['message']}" for entry in result.log
+              if entry["status"] != "ok"]
+    comparison = None
+    if reference is not None:
+        lines.append(f"  worst deviation from the {label} (absolute; as a fraction of the "
+                     f"column's peak |value|):")
+        for name, difference, unit, time, fraction in worst_deviations(result, reference):
+            lines.append(f"    {name:34s} {difference:.2e} {unit:6s} at t = {time:.5g} s "
+                         f"({fraction:.1e} of peak)")
+        comparison = compare(paths["csv"], reference, rtol, atol)
+        lines.append(f"  against the {label} (rtol {rtol:g}, atol {atol:g}): {comparison}")
+    lines += [f"  {kind}: {path}" for kind, path in paths.items()]
+    return lines, comparison

@@ -1,8 +1,17 @@
-"""The ``mechfmu`` command: build, run, export-ssp, check, references, report, docs, study, bench,
-fuzz, sweep."""
+"""The ``mechfmu`` command: build, run, example, export-ssp, check, references, report, docs,
+study, bench, fuzz, sweep.
+
+One argparse tree: every verb and its options are declared here, and each verb calls one
+function of the package (imported when the verb runs, so ``mechfmu run`` never loads the
+study's or the benchmarks' code). The scripts in sims/ call ``script_main`` with their verb.
+"""
 
 import argparse
+import os
 import sys
+from pathlib import Path
+
+from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
 
 def _build(args):
@@ -12,35 +21,55 @@ def _build(args):
     return 0
 
 
+def _scene_failure(error):
+    """Exit status and message for a scene that could not run: 2 for a scene error, 1 for a
+    failed simulation (whose partial results are named)."""
+    from .cosim.scene import SceneError
+    if isinstance(error, SceneError):
+        print(f"scene error: {error}", file=sys.stderr)
+        return 2
+    print(f"simulation failed: {error}", file=sys.stderr)
+    for kind, path in error.paths.items():
+        print(f"partial {kind}: {path}", file=sys.stderr)
+    return 1
+
+
 def _run(args):
-    from .check import compare
+    from .check import run_report
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
     from .cosim.scene import SceneError, find_file
     try:
         result, paths = run_scene(find_file(args.scene), args.out, args.fmu_dir,
                                   plot=not args.no_plot)
-    except SceneError as error:
-        print(f"scene error: {error}", file=sys.stderr)
-        return 2
-    except SimulationError as error:
-        print(f"simulation failed: {error}", file=sys.stderr)
-        for kind, path in error.paths.items():
-            print(f"partial {kind}: {path}", file=sys.stderr)
-        return 1
-    for entry in result.log:
-        if entry["status"] != "ok":
-            print(f"[{entry['status']}] {entry['message']}")
-    print(f"{result.scene.name}: {result.meta['steps']} steps in "
-          f"{result.meta['wall_time_s']:.3f} s")
-    for kind, path in paths.items():
-        print(f"{kind}: {path}")
+    except (SceneError, SimulationError) as error:
+        return _scene_failure(error)
     reference = args.reference or (result.scene.reference if args.check else None)
-    if reference:
-        comparison = compare(paths["csv"], reference, args.rtol, args.atol)
-        print(f"check against {reference}: {comparison}")
-        return 0 if comparison.ok else 1
-    return 0
+    lines, comparison = run_report(result, paths, reference, args.rtol, args.atol)
+    print("\n".join(lines))
+    return 0 if comparison is None or comparison.ok else 1
+
+
+# name: (default output folder, what it shows); each is a function of tools/examples.py
+EXAMPLES = {
+    "gear": ("out", "nose-gear retraction against the closed form (make run)"),
+    "four_bar": ("out", "the coursework four-bar, both circuits, closed form and solver"),
+    "slider_crank": ("out", "offset slider-crank at 3000 rpm on the constraint solver"),
+    "suspension": ("out", "suspension load ramp past the limit load: snap-through"),
+    "suspension_dynamics": ("out", "road bump and sudden load against solve_ivp"),
+    "valve_train": ("out", "valve train forward, inverse and valve float"),
+    "sweeps": ("out/sweeps", "the shipped sweeps against their references (make sweeps)"),
+}
+
+
+def _example(args):
+    from .cosim.master import SimulationError
+    from .cosim.scene import SceneError
+    from .tools import examples
+    try:
+        return getattr(examples, args.example)(args)
+    except (SceneError, SimulationError) as error:
+        return _scene_failure(error)
 
 
 def _export_ssp(args):
@@ -49,8 +78,7 @@ def _export_ssp(args):
     try:
         path = export_ssp(find_file(args.scene), args.out, args.fmu_dir)
     except SceneError as error:
-        print(f"scene error: {error}", file=sys.stderr)
-        return 2
+        return _scene_failure(error)
     print(f"wrote {path}: {summary(path)}")
     return 0
 
@@ -85,34 +113,149 @@ def _docs(args):
     return 0
 
 
-def _study(arguments):
-    from .tools.study import main as study
-    return study(arguments)
+def _study(args):
+    from .tools.study import command
+    return command(args)
 
 
-def _bench(arguments):
-    from .tools.bench import main as bench
-    return bench(arguments)
+def _bench(args):
+    from .tools.bench.suite import command
+    return command(args)
 
 
-# Verbs that parse their own options (``mechfmu study --help``): everything after the verb
-# goes to them unparsed.
-def _fuzz(arguments):
-    from .tools.fuzz import main as fuzz
-    return fuzz(arguments)
+def _fuzz(args):
+    from .runtime.models import MODELS
+    from .tools.fuzz import command
+    unknown = [name for name in args.models if name not in MODELS]
+    if unknown:
+        print(f"fuzz: unknown model(s) {', '.join(unknown)}; known: {', '.join(MODELS)}",
+              file=sys.stderr)
+        return 2
+    return command(args)
 
 
-def _sweep(arguments):
-    from .tools.sweep import main as sweep
-    return sweep(arguments)
+def _sweep(args):
+    from .tools.sweep import command
+    return command(args)
 
 
-PASS_THROUGH = {"study": _study, "bench": _bench, "fuzz": _fuzz, "sweep": _sweep}
+def _at_least_one(text):
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _scene_options(verb, out="out", plot=True):
+    """--out, --fmu-dir and --no-plot: the options of every verb that runs scenes."""
+    verb.add_argument("--out", default=out, help=f"output folder (default: {out})")
+    verb.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    if plot:
+        verb.add_argument("--no-plot", action="store_true", help="skip the PNG")
+
+
+def _example_verbs(verbs):
+    example = verbs.add_parser("example", help="a worked example: shipped scenes checked "
+                               "against their references, with what each check found "
+                               "(sims/run_*.py run these)")
+    examples = example.add_subparsers(dest="example", required=True, metavar="NAME")
+    for name, (out, what) in EXAMPLES.items():
+        verb = examples.add_parser(name, help=what)
+        _scene_options(verb, out, plot=name != "sweeps")
+        if name == "sweeps":
+            verb.add_argument("--quick", action="store_true",
+                              help="a few points of each sweep around its threshold")
+            verb.add_argument("--jobs", type=_at_least_one, default=None,
+                              help="local worker processes")
+            verb.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                              help="run on this Dask cluster (pip install mechfmu[cluster])")
+    example.set_defaults(func=_example)
+
+
+def _measurement_verbs(verbs):
+    """study, bench, fuzz, sweep: the long runs."""
+    from .tools.bench import BENCHMARKS, FULL, QUICK
+    study = verbs.add_parser("study", help="accuracy study: error against wall time (make "
+                             "study)")
+    study.add_argument("--scenes", nargs="*", help="study these scenes only (default: all)")
+    study.add_argument("--quick", action="store_true", help="a small corner of the sweep "
+                       "(the 2 coarsest steps, 6 settings; for tests)")
+    study.add_argument("--repeats", type=_at_least_one, default=3,
+                       help="timed runs per point, median taken (default 3)")
+    study.add_argument("--workers", type=_at_least_one, default=min(2, os.cpu_count() or 1),
+                       help="parallel processes (default: 2 or the cores there are)")
+    study.add_argument("--out", default="data/study", help="output folder")
+    study.add_argument("--scene-dir", default=str(SCENE_DIR),
+                       help="folder of the scene files (default: the shipped scenes)")
+    study.add_argument("--fmu-dir", default="fmus", help="folder of the built FMUs")
+    study.set_defaults(func=_study)
+
+    bench = verbs.add_parser("bench", help="performance benchmarks: master overhead against "
+                             "fmpy, model cost against null FMUs, effects, the closed-form "
+                             "floor, a sweep on 1 and 2 workers (make bench)")
+    bench.add_argument("--repeats", type=_at_least_one, default=None,
+                       help=f"measured repeats per case after one warm-up (default "
+                            f"{FULL.repeats}, --quick {QUICK.repeats})")
+    bench.add_argument("--quick", action="store_true",
+                       help="fewer steps and repeats (for the test; timings are rough)")
+    bench.add_argument("--only", choices=BENCHMARKS,
+                       help="run this benchmark alone and print its rows (writes nothing)")
+    bench.add_argument("--out", default="data/bench", help="output folder (default data/bench)")
+    bench.add_argument("--fmu-dir", default="fmus", help="folder of the built FMUs")
+    bench.add_argument("--scenes", default=str(SCENE_DIR),
+                       help="folder of the scene files (default: the shipped scenes)")
+    bench.add_argument("--sweeps", default=str(SWEEP_DIR),
+                       help="folder of the sweep files (default: the shipped sweeps)")
+    bench.add_argument("--sweep-scenes", type=_at_least_one, default=None,
+                       help=f"scenes of the sweep benchmark (default {FULL.sweep_scenes}, "
+                            f"--quick {QUICK.sweep_scenes})")
+    bench.add_argument("--profile", action="store_true",
+                       help="also print cProfile's top 15 functions of each master")
+    bench.set_defaults(func=_bench)
+
+    fuzz = verbs.add_parser("fuzz", help="random input sequences through every FMU, each in "
+                            "a child process")
+    fuzz.add_argument("models", nargs="*", help="FMU names (default: all)")
+    fuzz.add_argument("--sequences", type=int, default=1000)
+    fuzz.add_argument("--seed", type=int, default=0)
+    fuzz.add_argument("--fmus", default="fmus", help="folder of the built FMUs")
+    fuzz.add_argument("--jobs", type=_at_least_one, default=os.cpu_count() or 1)
+    fuzz.add_argument("--only", type=int, help="run only this sequence index (reproduce)")
+    fuzz.add_argument("--out", default="out/fuzz", help="folder for the progress logs")
+    fuzz.set_defaults(func=_fuzz)
+
+    sweep = verbs.add_parser("sweep", help="run a scene over a grid or sample of parameter "
+                             "values on local processes or a Dask cluster, one CSV row of "
+                             "metrics per point")
+    sweep.add_argument("scene", help="sweep or scene TOML file, or the name of a shipped "
+                       "sweep or scene")
+    sweep.add_argument("--vary", action="append", default=[],
+                       metavar="COMP.PARAM=START:STOP:COUNT",
+                       help="a parameter (or constant input) and its range; repeat for a grid")
+    sweep.add_argument("--link", action="append", default=[],
+                       metavar="COMP.PARAM=FACTOR*COMP.VARIED",
+                       help="a parameter that follows a varied one (target = factor * value)")
+    sweep.add_argument("--samples", type=int, help="draw N points instead of the grid")
+    sweep.add_argument("--seed", type=int, help="seed of the sampling (with --samples)")
+    sweep.add_argument("--method", choices=("lhs", "random"),
+                       help="sampling method (default: lhs, Latin hypercube)")
+    sweep.add_argument("--metrics", nargs="+", default=[], metavar="NAME",
+                       help="final:c.v, max:c.v, min:c.v, time_of_max:c.v, "
+                            "first_time_above:c.v:THRESHOLD, first_time_true:c.v, "
+                            "max_abs_error:c.v")
+    sweep.add_argument("--out", help="output folder (default: out/sweep_<scene>)")
+    sweep.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                       help="parallel processes (default: the number of cores)")
+    sweep.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                       help="run on this Dask cluster instead of local processes "
+                            "(pip install mechfmu[cluster])")
+    sweep.add_argument("--plot", action="store_true", help="one PNG per metric and parameter")
+    sweep.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    sweep.set_defaults(func=_sweep)
 
 
 def parser():
-    from .cosim.scene import REFERENCE_DIR, SCENE_DIR
-    main = argparse.ArgumentParser(prog="mechfmu", description=__doc__)
+    main = argparse.ArgumentParser(prog="mechfmu", description=__doc__.split("\n\n")[0])
     verbs = main.add_subparsers(dest="verb", required=True)
 
     build = verbs.add_parser("build", help="build the FMUs")
@@ -122,15 +265,15 @@ def parser():
 
     run = verbs.add_parser("run", help="run a scene and write CSV, JSON and PNG")
     run.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
-    run.add_argument("--out", default="out", help="output folder (default: out)")
-    run.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
-    run.add_argument("--no-plot", action="store_true", help="skip the PNG")
+    _scene_options(run)
     run.add_argument("--check", action="store_true",
                      help="compare with the scene's reference CSV afterwards")
     run.add_argument("--reference", help="compare with this CSV afterwards")
     run.add_argument("--rtol", type=float, default=1e-9)
     run.add_argument("--atol", type=float, default=1e-12)
     run.set_defaults(func=_run)
+
+    _example_verbs(verbs)
 
     export = verbs.add_parser("export-ssp", help="write a scene as an SSP 1.0 package (the "
                               "system, its parameters and its FMUs) for other co-simulation tools")
@@ -159,23 +302,24 @@ def parser():
     docs = verbs.add_parser("docs", help="print the README's FMU interface tables")
     docs.set_defaults(func=_docs)
 
-    # Listed for --help; main() hands their arguments over before parsing (PASS_THROUGH).
-    verbs.add_parser("study", help="accuracy study: error against wall time (make study; "
-                     "mechfmu study --help)")
-    verbs.add_parser("bench", help="performance benchmarks (make bench; mechfmu bench --help)")
-    verbs.add_parser("fuzz", help="random input sequences through every FMU, each in a child "
-                     "process (mechfmu fuzz --help)")
-    verbs.add_parser("sweep", help="run a scene over a grid or sample of parameter values on a "
-                     "local process pool, one CSV row of metrics per point (mechfmu sweep --help)")
+    _measurement_verbs(verbs)
     return main
 
 
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else list(argv)
-    if argv and argv[0] in PASS_THROUGH:
-        return PASS_THROUGH[argv[0]](argv[1:])
     args = parser().parse_args(argv)
     return args.func(args)
+
+
+def script_main(script, *verb, **paths):
+    """Entry point of a script in sims/: ``mechfmu VERB`` with each option in ``paths``
+    (``out="out"`` -> ``--out <repository>/out``) inside the repository that holds the
+    script, so the script writes to the same place from any directory, followed by the
+    script's own arguments (which win). Exits with the verb's status."""
+    root = Path(script).resolve().parent.parent
+    defaults = [item for option, path in paths.items()
+                for item in (f"--{option.replace('_', '-')}", str(root / path))]
+    sys.exit(main([*verb, *defaults, *sys.argv[1:]]))
 
 
 if __name__ == "__main__":

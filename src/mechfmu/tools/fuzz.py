@@ -23,10 +23,8 @@ Checked after every call (``Finding`` when violated):
 Each sequence is reproducible from (seed, FMU name, index): ``--only INDEX`` re-runs one.
 """
 
-import argparse
 import json
 import math
-import os
 import random
 import subprocess
 import sys
@@ -361,20 +359,10 @@ def fuzz(models, fmu_dir, sequences, seed, work_dir, jobs=2, only=None):
                                                      work_dir, only), models))
 
 
-def main(argv=None):
+def command(args):
+    """``mechfmu fuzz`` with the parsed command line ``args`` (options in mechfmu/cli.py);
+    the exit status."""
     from ..runtime.models import MODELS
-    parser = argparse.ArgumentParser(prog="mechfmu fuzz", description=__doc__.split("\n")[0])
-    parser.add_argument("models", nargs="*", help="FMU names (default: all)")
-    parser.add_argument("--sequences", type=int, default=1000)
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--fmus", default="fmus", help="folder of the built FMUs")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
-    parser.add_argument("--only", type=int, help="run only this sequence index (reproduce)")
-    parser.add_argument("--out", default="out/fuzz", help="folder for the progress logs")
-    args = parser.parse_args(argv)
-    unknown = [name for name in args.models if name not in MODELS]
-    if unknown:
-        parser.error(f"unknown model(s) {', '.join(unknown)}; known: {', '.join(MODELS)}")
     results = fuzz(args.models or list(MODELS), args.fmus, args.sequences, args.seed,
                    args.out, args.jobs, args.only)
     failed = 0
@@ -389,10 +377,7 @@ def main(argv=None):
     return 1 if failed else 0
 
 
-if __name__ == "__main__":
-    if sys.argv[1:2] == ["--child"]:
-        path, model_name, sequences, seed, progress = sys.argv[2:7]
-        only = int(sys.argv[7]) if len(sys.argv) > 7 else None
-        child(path, model_name, int(sequences), int(seed), progress, only)
-        sys.exit(0)
-    sys.exit(main())
+if __name__ == "__main__":  # the child process that fuzz_model starts (never a user command)
+    path, model_name, sequences, seed, progress = sys.argv[2:7]
+    only = int(sys.argv[7]) if len(sys.argv) > 7 else None
+    child(path, model_name, int(sequences), int(seed), progress, only)

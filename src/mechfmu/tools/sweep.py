@@ -23,7 +23,6 @@ times). A metric whose event never happens is ``nan``. A point whose scene fails
 SimulationError) gets its message in ``error`` and empty metrics; the sweep goes on.
 """
 
-import argparse
 import atexit
 import copy
 import csv
@@ -745,38 +744,12 @@ def settings(args):
     return chosen
 
 
-# --- command line ------------------------------------------------------------------------------
+# --- command line (mechfmu sweep; its options are declared in mechfmu/cli.py) ------------
 
-def _arguments(argv):
-    parser = argparse.ArgumentParser(prog="mechfmu sweep", description=__doc__.splitlines()[0])
-    parser.add_argument("scene", help="sweep or scene TOML file, or the name of a "
-                                      "shipped sweep or scene")
-    parser.add_argument("--vary", action="append", default=[], metavar="COMP.PARAM=START:STOP:COUNT",
-                        help="a parameter (or constant input) and its range; repeat for a grid")
-    parser.add_argument("--link", action="append", default=[],
-                        metavar="COMP.PARAM=FACTOR*COMP.VARIED",
-                        help="a parameter that follows a varied one (target = factor * value)")
-    parser.add_argument("--samples", type=int, help="draw N points instead of the grid")
-    parser.add_argument("--seed", type=int, help="seed of the sampling (with --samples)")
-    parser.add_argument("--method", choices=("lhs", "random"),
-                        help="sampling method (default: lhs, Latin hypercube)")
-    parser.add_argument("--metrics", nargs="+", default=[], metavar="NAME",
-                        help="final:c.v, max:c.v, min:c.v, time_of_max:c.v, "
-                             "first_time_above:c.v:THRESHOLD, first_time_true:c.v, "
-                             "max_abs_error:c.v")
-    parser.add_argument("--out", help="output folder (default: out/sweep_<scene>)")
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
-                        help="parallel processes (default: the number of cores)")
-    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                        help="run on this Dask cluster instead of local processes")
-    parser.add_argument("--plot", action="store_true", help="one PNG per metric and parameter")
-    parser.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
-    return parser.parse_args(argv)
-
-
-def main(argv):
+def command(args):
+    """``mechfmu sweep``: run the sweep the parsed command line ``args`` describes; the exit
+    status (2 on a sweep or scene error, 130 when interrupted)."""
     from ..cosim.scene import SceneError
-    args = _arguments(argv)
     try:
         if args.jobs < 1:
             raise SweepError("--jobs must be at least 1")

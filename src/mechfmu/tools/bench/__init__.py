@@ -1,11 +1,27 @@
-"""Benchmarks of the master, the models and the effects: ``python -m mechfmu.tools.bench``.
+"""Benchmarks of the master, the models and the effects: ``mechfmu bench`` (``make bench``).
 
-Also ``mechfmu bench`` and ``make bench``; see the README section "Benchmarks". Timings are
-reported against the issue's targets, never asserted: they depend on the machine.
+See the README section "Benchmarks". Timings are reported against the issue's targets, never
+asserted: they depend on the machine. suite.py runs them; this module holds their settings
+(light, for the command line's help).
 """
 
+from dataclasses import dataclass
 
-def main(argv=None) -> int:
-    """Run the benchmarks with command-line arguments ``argv``; return the exit status."""
-    from .cli import main as run_benchmarks
-    return run_benchmarks(argv)
+BENCHMARKS = ("master_overhead", "model_cost", "effects", "floor", "sweep")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How long each benchmark runs. Lengths in s of simulated time; steps per loop."""
+
+    repeats: int
+    master_lengths_s: tuple  # (short, long) stop times of the gear scene
+    model_steps: int
+    effects_stop_time_s: float = None  # None: the scenes as written (3 s)
+    sweep_scenes: int = 1000  # scenes of the sweep benchmark, run once on 1 and on 2 workers
+
+
+FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
+# The master's lengths stay: a shorter span makes the slope noisy, and the runs are cheap.
+QUICK = Settings(repeats=2, master_lengths_s=FULL.master_lengths_s, model_steps=200,
+                 effects_stop_time_s=0.5, sweep_scenes=16)

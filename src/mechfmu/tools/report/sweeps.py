@@ -3,7 +3,7 @@
 ``run_shipped`` runs them with mechfmu.tools.sweep (``quick``: a few points of each, around the
 thresholds, for the tests); ``analyse`` reads their sweep.csv files and compares them with
 mechfmu.tools.sweep_references; ``report`` writes summary.md and the suspension's two sweeps on
-one plot. Nothing here is typed in: the thresholds come from the references, the sweeps'
+one plot; ``failures`` names what disagrees. Nothing here is typed in: the thresholds come from the references, the sweeps'
 settings from their files and scenes.
 """
 
@@ -207,6 +207,31 @@ def plot_suspension(out_dir, findings):
     pyplot.close(figure)
     temporary.replace(path)
     return path
+
+
+# The scenes' declared tolerances or tighter
+TOLERANCES = {"gear_max_error_s": 1e-6, "valve_max_relative_error": 1e-9,
+              "static_deflection_m": 1e-9}
+
+
+def failures(findings):
+    """What disagrees with the references, as sentences (empty: all agree)."""
+    found = []
+    for name, suspension in findings["suspension"].items():
+        if not suspension["inside"]:
+            found.append(f"{name}: reference mass {suspension['reference_kg']:.4f} kg outside "
+                         f"the sweep's bracket {suspension['bracket_kg']}")
+    static = findings["suspension"][STATIC]["deflection_max_error_m"]
+    if not static <= TOLERANCES["static_deflection_m"]:
+        found.append(f"static deflections differ from the closed form by {static:.3g} m")
+    gear = findings["gear"]
+    if gear["disagree"] or not gear["max_error_s"] <= TOLERANCES["gear_max_error_s"]:
+        found.append(f"gear: retraction times differ by {gear['max_error_s']:.3g} s; "
+                     f"disagreements {gear['disagree']}")
+    valve = findings["valve"]["max_relative_error"]
+    if not valve <= TOLERANCES["valve_max_relative_error"]:
+        found.append(f"valve: float speeds differ by {valve:.3g} (relative)")
+    return found
 
 
 def report(sweep_dir, out_dir, summaries=None):

@@ -14,7 +14,6 @@ study.json          the sweep's definition, the machine and the study's own wall
 accuracy_cost.csv, and the plots and tables are written for every scene it holds.
 """
 
-import argparse
 import csv
 import json
 import math
@@ -25,26 +24,8 @@ import time
 from pathlib import Path
 
 from ...cosim.master import Simulation
-from ...cosim.scene import SCENE_DIR
 from ...cosim.results import atomic_write, versions
 from . import design, measure, report
-
-
-def _arguments(argv):
-    parser = argparse.ArgumentParser(prog="mechfmu study", description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", nargs="*", default=[s.name for s in design.SCENES],
-                        help="study these scenes only (default: all)")
-    parser.add_argument("--quick", action="store_true",
-                        help="a small corner of the sweep (the 2 coarsest steps, 6 settings; for tests)")
-    parser.add_argument("--repeats", type=int, default=3,
-                        help="timed runs per point, median taken (default 3)")
-    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1),
-                        help="parallel processes (default: 2 or the cores there are)")
-    parser.add_argument("--out", default="data/study", help="output folder")
-    parser.add_argument("--scene-dir", default=str(SCENE_DIR),
-                        help="folder of the scene files (default: the shipped scenes)")
-    parser.add_argument("--fmu-dir", default="fmus")
-    return parser.parse_args(argv)
 
 
 def _write_rows(path, rows):
@@ -84,10 +65,12 @@ def _progress(done, total, point):
         print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
 
 
-def main(argv=None):
-    args = _arguments(argv)
-    chosen = [s for s in design.SCENES if s.name in args.scenes]
-    unknown = set(args.scenes) - {s.name for s in design.SCENES}
+def command(args):
+    """``mechfmu study`` with the parsed command line ``args`` (options in mechfmu/cli.py);
+    the exit status."""
+    names = args.scenes or [s.name for s in design.SCENES]
+    chosen = [s for s in design.SCENES if s.name in names]
+    unknown = set(names) - {s.name for s in design.SCENES}
     if unknown:
         print(f"study: unknown scene(s) {', '.join(sorted(unknown))}; studied scenes: "
               f"{', '.join(s.name for s in design.SCENES)}", file=sys.stderr)
