@@ -531,3 +531,16 @@ def test_unreachable_scheduler_is_a_clear_error():
                                                "scheduler there within 2 s"):
         sweep.DaskCluster("tcp://127.0.0.1:9", timeout=2.0)
     assert time.monotonic() - started < 15
+
+
+def test_a_scheduler_without_distributed_names_the_cluster_extra(tmp_path, monkeypatch, capsys):
+    """The base install leaves Dask out: --scheduler then says how to get it."""
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed fails
+    with pytest.raises(sweep.SweepError, match=r"pip install 'mechfmu\[cluster\]'"):
+        sweep.DaskCluster("tcp://127.0.0.1:1")
+    code = cli_main(["sweep", str(write_scene(tmp_path, stop=0.2)), "--vary", "suspension.spring_stiffness=1e4:2e4:2",
+                     "--metrics", "final:suspension.deflection", "--scheduler",
+                     "tcp://127.0.0.1:1", "--out", str(tmp_path / "out"),
+                     "--fmu-dir", str(FMU_DIR)])
+    assert code == 2
+    assert "mechfmu[cluster]" in capsys.readouterr().err

@@ -448,8 +448,10 @@ class DaskCluster:
     def __init__(self, address, timeout=10.0):
         try:
             from distributed import Client
-        except ImportError:  # pragma: no cover - a dependency of mechfmu
-            raise SweepError("--scheduler needs the 'distributed' package") from None
+        except ImportError:  # an optional dependency: the extra mechfmu[cluster]
+            raise SweepError(f"--scheduler {address} needs Dask's 'distributed' package, "
+                             f"which the base install leaves out: pip install "
+                             f"'mechfmu[cluster]'") from None
         try:
             self.client = Client(address, timeout=timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as error:
