@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import sweep
 from ...cosim.results import atomic_write
-from ...cosim.scene import load_scene
+from ...cosim.scene import find_file, load_scene
 from ...references import suspension as suspension_reference
 from .. import sweep_references as reference
 
@@ -35,7 +35,7 @@ def run_shipped(sweep_dir, out_dir, fmu_dir="fmus", jobs=None, quick=False, sche
     """Run the shipped sweeps into out_dir/<name>/; returns {name: summary}."""
     summaries = {}
     for name in names:
-        chosen = sweep.load_sweep_file(Path(sweep_dir) / f"{name}.toml")
+        chosen = sweep.load_sweep_file(find_file(name, (sweep_dir,)))
         chosen.pop("description")
         if quick:
             chosen["varies"] = [sweep.parse_vary(QUICK_VARY[name])]
@@ -53,7 +53,7 @@ def _rows(out_dir, name):
 def _suspension_settings(sweep_dir, name):
     """(the Suspension's scene parameters, g of the load link load.final_value = g * mass)
     of a shipped suspension sweep, from its file and its scene."""
-    settings = sweep.load_sweep_file(Path(sweep_dir) / f"{name}.toml")
+    settings = sweep.load_sweep_file(find_file(name, (sweep_dir,)))
     scene = load_scene(settings["scene_path"], settings["overrides"])
     (link,) = settings["links"]
     return scene.components["suspension"].parameters, link.factor
