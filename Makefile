@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py') src/mechfmu/packaging/c_loader/loader.c
 
-.PHONY: run test fmus references report study bench sweeps clean
+.PHONY: run test fmus references report study bench sweeps docs clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -42,5 +42,10 @@ bench: fmus/.built
 sweeps: fmus/.built
 	$(PY) sims/run_sweeps.py
 
+# The docs site into site/ (open site/index.html); strict: a broken link or reference fails.
+# The variables hush a banner of the mkdocs 1.x plugins about a future mkdocs 2.
+docs: $(VENV)/.installed
+	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict
+
 clean:
-	rm -rf $(VENV) fmus/*.fmu fmus/.built out
+	rm -rf $(VENV) fmus/*.fmu fmus/.built out site

@@ -235,11 +235,6 @@ def test_runner_scripts(fmu_dir, tmp_path, script, expected):
     assert any(tmp_path.glob("*.png"))
 
 
-def test_readme_interface_tables_are_the_generated_ones():
-    from mechfmu.tools.docs import interface_tables
-    assert interface_tables() in (ROOT / "README.md").read_text()
-
-
 def test_components_feeding_no_recorded_output_are_not_instantiated(fmu_dir, tmp_path):
     data = gear_scene(record=["actuator.piston_extension"])
     data["components"]["idle"] = {"fmu": "LoadProfile"}

@@ -108,8 +108,19 @@ def _report(args):
 
 
 def _docs(args):
-    from .tools.docs import interface_tables
-    print(interface_tables())
+    from .cosim.scene import find_file
+    from .tools.docs import interface_tables, reference_plot
+    try:
+        if args.reference_plot:
+            if not args.out:
+                print("docs error: --reference-plot needs --out FILE.png", file=sys.stderr)
+                return 2
+            print(f"wrote {reference_plot(find_file(args.reference_plot), args.out)}")
+        else:
+            print(interface_tables(args.models))
+    except (OSError, ValueError) as error:
+        print(f"docs error: {error}", file=sys.stderr)
+        return 2
     return 0
 
 
@@ -299,7 +310,12 @@ def parser():
     report = verbs.add_parser("report", help="write the seed-reproduction report")
     report.add_argument("--out", default="data/seed_report.md")
     report.set_defaults(func=_report)
-    docs = verbs.add_parser("docs", help="print the README's FMU interface tables")
+    docs = verbs.add_parser("docs", help="print FMU interface tables (Markdown), or plot a "
+                            "scene's reference CSV; make docs builds the site from them")
+    docs.add_argument("models", nargs="*", help="models to print (default: all)")
+    docs.add_argument("--reference-plot", metavar="SCENE",
+                      help="scene TOML file, or the name of a shipped scene, whose reference to plot")
+    docs.add_argument("--out", help="PNG file for --reference-plot")
     docs.set_defaults(func=_docs)
 
     _measurement_verbs(verbs)

@@ -7,7 +7,7 @@ against the scene's tight reference; and writes, into the output folder:
 accuracy_cost.csv   one row per (point, output): errors, cost, work counters, status
 <scene>.png         headline error against cost, log-log, Pareto front marked
 <scene>_sources.png the coupling error alone and the integration error alone
-pareto.md           per scene, the cheapest setting for each target error (README table)
+pareto.md           per scene, the cheapest setting for each target error (the docs' table)
 study.json          the sweep's definition, the machine and the study's own wall time
 
 ``--scenes`` studies some scenes again: the rows of the others are kept from the existing
@@ -53,11 +53,18 @@ def read_rows(path):
     return rows
 
 
-def _headline_unit(args, study_scene):
+def headline_unit(scene_dir, fmu_dir, study_scene):
     """The unit of the scene's headline output, from its FMU's model description."""
-    simulation = Simulation(design.load(args.scene_dir, study_scene), args.fmu_dir)
+    simulation = Simulation(design.load(scene_dir, study_scene), fmu_dir)
     units = {name: variable.unit or "1" for name, _, variable in simulation.recorded}
     return units[study_scene.headline]
+
+
+def pareto_markdown(rows, units):
+    """pareto.md: for each studied scene in ``units`` (scene name -> its headline output's
+    unit), in the design's order, a heading and its cheapest-setting table."""
+    return "\n\n".join(f"#### {s.name}\n\n" + report.front_table(rows, s, units[s.name])
+                        for s in design.SCENES if s.name in units) + "\n"
 
 
 def _progress(done, total, point):
@@ -93,17 +100,15 @@ def command(args):
         if previous.is_file() else []
     rows = kept + rows
     paths = [_write_rows(previous, rows)]
-    tables = []
     reported = [s for s in design.SCENES if any(row["scene"] == s.name for row in rows)]
+    units = {s.name: headline_unit(args.scene_dir, args.fmu_dir, s) for s in reported}
     for study_scene in reported:
-        unit = _headline_unit(args, study_scene)
+        unit = units[study_scene.name]
         paths.append(report.plot_front(rows, study_scene, unit, out / f"{study_scene.name}.png"))
         paths.append(report.plot_sources(rows, study_scene, unit,
                                          out / f"{study_scene.name}_sources.png"))
-        tables.append(f"#### {study_scene.name}\n\n"
-                      + report.front_table(rows, study_scene, unit))
     paths.append(atomic_write(out / "pareto.md",
-                              lambda handle: handle.write("\n\n".join(tables) + "\n")))
+                              lambda handle: handle.write(pareto_markdown(rows, units))))
     elapsed = time.perf_counter() - started
     failed = sorted({(r["scene"], r["integrator"], r["tolerance"], r["max_substep"], r["step"],
                       r["coupling"]) for r in rows if r["status"] != "ok"})
