@@ -22,6 +22,7 @@ def _resolve_scene(text):
 
 def _run(args):
     from .check import compare
+    from .cosim.files import OutputError
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
     from .cosim.scene import SceneError
@@ -31,10 +32,17 @@ def _run(args):
     except SceneError as error:
         print(f"scene error: {error}", file=sys.stderr)
         return 2
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
     except SimulationError as error:
         print(f"simulation failed: {error}", file=sys.stderr)
+        for path in error.moved_aside:
+            print(f"older complete result moved aside: {path}", file=sys.stderr)
         for kind, path in error.paths.items():
             print(f"partial {kind}: {path}", file=sys.stderr)
+        if error.output_error is not None:
+            print(f"output error: {error.output_error}", file=sys.stderr)
         return 1
     for entry in result.log:
         if entry["status"] != "ok":

@@ -45,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cosim.files import atomic_write, inside, save_figure
 from .cosim.results import read_csv, write_json
 from .cosim.scene import read_toml
 
@@ -374,10 +375,7 @@ def shipped_scene(scene, fmu_files):
         file_name, digest, data = fmu_files[spec.fmu]
         local = fmu_cache_dir() / digest / file_name
         if not local.is_file():
-            local.parent.mkdir(parents=True, exist_ok=True)
-            temporary = local.with_name(f".{file_name}.{os.getpid()}.tmp")
-            temporary.write_bytes(data)
-            os.replace(temporary, local)
+            atomic_write(local, data)
         components[name] = dataclasses.replace(spec, fmu=str(local))
     return dataclasses.replace(scene, components=components)
 
@@ -644,12 +642,11 @@ def write_plots(out_dir, rows, names, metrics):
             axis.set_ylabel(metric.text)
             axis.grid(True, linewidth=0.3)
             figure.tight_layout()
-            path = out_dir / f"{safe_name(metric.text)}_vs_{safe_name(name)}.png"
-            temporary = path.with_name(f".{path.name}.tmp")
-            figure.savefig(temporary, format="png", dpi=100)
-            pyplot.close(figure)
-            os.replace(temporary, path)
-            paths.append(path)
+            path = inside(out_dir, f"{safe_name(metric.text)}_vs_{safe_name(name)}.png")
+            try:
+                paths.append(save_figure(path, figure, dpi=100))
+            finally:
+                pyplot.close(figure)
     return paths
 
 

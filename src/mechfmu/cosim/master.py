@@ -39,6 +39,7 @@ class SimulationError(RuntimeError):
 
     def __init__(self, component, time, message, result):
         self.component, self.time, self.result = component, time, result
+        self.paths, self.moved_aside, self.output_error = {}, [], None  # set by run_scene
         super().__init__(f"component {component!r} failed at t = {time!r} s: {message}")
 
 

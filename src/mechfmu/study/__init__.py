@@ -24,8 +24,9 @@ import sys
 import time
 from pathlib import Path
 
+from ..cosim.files import atomic_write
 from ..cosim.master import Simulation
-from ..cosim.results import atomic_write, versions
+from ..cosim.results import versions
 from . import design, measure, report
 
 
@@ -117,8 +118,7 @@ def main(argv=None):
                                          out / f"{study_scene.name}_sources.png"))
         tables.append(f"#### {study_scene.name}\n\n"
                       + report.front_table(rows, study_scene, unit))
-    paths.append(atomic_write(out / "pareto.md",
-                              lambda handle: handle.write("\n\n".join(tables) + "\n")))
+    paths.append(atomic_write(out / "pareto.md", "\n\n".join(tables) + "\n"))
     elapsed = time.perf_counter() - started
     failed = sorted({(r["scene"], r["integrator"], r["tolerance"], r["max_substep"], r["step"],
                       r["coupling"]) for r in rows if r["status"] != "ok"})
@@ -134,8 +134,7 @@ def main(argv=None):
                     "cores": os.cpu_count()},
         "versions": versions(), "command": sys.argv,
     }
-    paths.append(atomic_write(out / "study.json",
-                              lambda handle: json.dump(definition, handle, indent=2)))
+    paths.append(atomic_write(out / "study.json", json.dumps(definition, indent=2)))
     for path in paths:
         print(f"wrote {path}")
     print(f"{len(points)} points ({len(failed)} refused by the FMU, recorded with their "
