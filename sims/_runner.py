@@ -17,18 +17,22 @@ def arguments(description):
 
 def run(scene, args):
     """Run a Scene or sims/scenes/<scene>.toml; exit with a message on a scene or FMU failure."""
-    from mechfmu.cosim.master import SimulationError
+    from mechfmu.cosim.files import OutputError
+    from mechfmu.cosim.interrupt import exit_code
+    from mechfmu.cosim.master import SimulationError, SimulationInterrupted
     from mechfmu.cosim.run import run_scene
     from mechfmu.cosim.scene import Scene, SceneError
     if not isinstance(scene, Scene):
         scene = ROOT / "sims" / "scenes" / f"{scene}.toml"
     try:
         return run_scene(scene, args.out, args.fmu_dir, plot=not args.no_plot)
-    except SceneError as error:
-        sys.exit(f"scene error: {error}")
+    except (SceneError, OutputError) as error:
+        sys.exit(f"{'scene' if isinstance(error, SceneError) else 'output'} error: {error}")
     except SimulationError as error:
-        sys.exit(f"simulation failed: {error}\npartial results: "
-                 + ", ".join(str(p) for p in error.paths.values()))
+        print(f"{'' if isinstance(error, SimulationInterrupted) else 'simulation failed: '}"
+              f"{error}\npartial results: " + ", ".join(str(p) for p in error.paths.values()),
+              file=sys.stderr)
+        sys.exit(exit_code(error.signum) if isinstance(error, SimulationInterrupted) else 1)
 
 
 def report(scene_name, args, rtol, atol, label="reference"):

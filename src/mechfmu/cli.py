@@ -21,29 +21,43 @@ def _resolve_scene(text):
 
 
 def _run(args):
+    # Ctrl-C and SIGTERM are noted from here on and taken between steps (cosim.interrupt).
+    from .cosim.interrupt import InterruptGuard
+    with InterruptGuard() as guard:
+        return _run_guarded(args, guard)
+
+
+def _run_guarded(args, guard):
     from .check import compare
     from .cosim.files import OutputError
-    from .cosim.master import SimulationError
+    from .cosim.interrupt import exit_code, signal_name
+    from .cosim.master import SimulationError, SimulationInterrupted
     from .cosim.run import run_scene
     from .cosim.scene import SceneError
     try:
         result, paths = run_scene(_resolve_scene(args.scene), args.out, args.fmu_dir,
-                                  plot=not args.no_plot)
+                                  plot=not args.no_plot, guard=guard)
     except SceneError as error:
         print(f"scene error: {error}", file=sys.stderr)
-        return 2
+        return exit_code(guard.take()) if guard.requested else 2
     except OutputError as error:
         print(f"output error: {error}", file=sys.stderr)
-        return 2
+        return exit_code(guard.take()) if guard.requested else 2
     except SimulationError as error:
-        print(f"simulation failed: {error}", file=sys.stderr)
+        interrupted = isinstance(error, SimulationInterrupted)
+        print(f"{'' if interrupted else 'simulation failed: '}{error}", file=sys.stderr)
         for path in error.moved_aside:
             print(f"older complete result moved aside: {path}", file=sys.stderr)
         for kind, path in error.paths.items():
             print(f"partial {kind}: {path}", file=sys.stderr)
         if error.output_error is not None:
             print(f"output error: {error.output_error}", file=sys.stderr)
-        return 1
+        return exit_code(error.signum) if interrupted else 1
+    if guard.requested:  # the signal came after the last step, while the files were written
+        print(f"interrupted by {signal_name(guard.take())} after the last step; the results "
+              f"are complete: {', '.join(str(path) for path in paths.values())}",
+              file=sys.stderr)
+        return exit_code(guard.signum)
     for entry in result.log:
         if entry["status"] != "ok":
             print(f"[{entry['status']}] {entry['message']}")

@@ -27,6 +27,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2Boolean, fmi2CallbackAllocateMemoryTYPE,
                        fmi2Integer, fmi2Real, fmi2True, fmi2ValueReference)
 from fmpy import calloc, free
 
+from .interrupt import signal_name
 from .scene import SceneError, split_name
 
 EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.fmi.slave)
@@ -41,6 +42,17 @@ class SimulationError(RuntimeError):
         self.component, self.time, self.result = component, time, result
         self.paths, self.moved_aside, self.output_error = {}, [], None  # set by run_scene
         super().__init__(f"component {component!r} failed at t = {time!r} s: {message}")
+
+
+class SimulationInterrupted(SimulationError):
+    """SIGINT or SIGTERM (``signum``) stopped the run between two steps at ``time``;
+    ``result`` holds the rows computed before."""
+
+    def __init__(self, signum, time, result):
+        super().__init__(None, time, "", result)
+        self.signum = signum
+        RuntimeError.__init__(self, f"interrupted by {signal_name(signum)} at t = {time!r} s "
+                                    f"after {max(len(result.times) - 1, 0)} step(s)")
 
 
 @dataclass
@@ -431,7 +443,7 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls=False, instances=None):
+    def run(self, time_fmi_calls=False, instances=None, stop=None):
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -440,6 +452,9 @@ class Simulation:
         ``instances``: an Instances pool to take the FMU instances from and give them back
         to, reset, for the next run (many short runs: a sweep worker); by default the FMUs
         are extracted and instantiated for this run and freed at its end.
+        ``stop``: an InterruptGuard (mechfmu.cosim.interrupt) asked before each component's
+        instantiation and between steps; when it has received a signal the run stops there
+        with SimulationInterrupted (the rows so far, every instance freed).
         """
         scene = self.scene
         result = Result(scene=scene, columns={name: [] for name, _, _ in self.recorded},
@@ -454,8 +469,11 @@ class Simulation:
         started = clock.perf_counter()
         current = (None, scene.start_time)
         recorders = []
+        stop = stop or _NEVER
         try:
             for name in self.order:
+                if stop.requested:
+                    raise _Stopped(scene.start_time)
                 current = (name, scene.start_time)
                 component = self.components[name]
                 component.slave = instances.acquire(component)
@@ -477,14 +495,19 @@ class Simulation:
             plan = _StepPlan(self, timer)
             recorders = plan.recorders
             current = (None, scene.start_time)
+            if stop.requested:
+                raise _Stopped(scene.start_time)
             plan.start(result, scene.start_time)
             loop_started = clock.perf_counter()
             try:
-                plan.run(result, scene)
+                plan.run(result, scene, stop)
             finally:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
+        except _Stopped as stopped:
+            result.partial = True
+            raise SimulationInterrupted(stop.take(), stopped.time, result) from None
         except _CallFailed as failure:
             result.partial = True
             message = logbook.last_problem(failure.component)
@@ -534,6 +557,24 @@ class Simulation:
 
 # ctypes element type and array('...') code of each FMI type the loop moves.
 _CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (fmi2Boolean, "i")}
+
+
+class _Stopped(Exception):
+    """The run's InterruptGuard received a signal; the loop stopped before the step at
+    ``time``."""
+
+    def __init__(self, time):
+        super().__init__(time)
+        self.time = time
+
+
+class _NoStop:
+    """The ``stop`` of a run nobody can interrupt (a sweep worker's)."""
+
+    requested = False
+
+
+_NEVER = _NoStop()
 
 
 class _CallFailed(Exception):
@@ -678,12 +719,15 @@ class _StepPlan:
             recorder.rows.frombytes(recorder.raw)
         result.times.append(time)
 
-    def run(self, result, scene):
-        """Step from start_time to stop_time, recording after every communication step."""
+    def run(self, result, scene, stop=_NEVER):
+        """Step from start_time to stop_time, recording after every communication step;
+        before each step, stop with _Stopped if ``stop`` has been requested."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
         call, steps, jacobi = self._call, self.steps, self.jacobi
         for index in range(1, len(times)):
             start = times[index - 1]
+            if stop.requested:
+                raise _Stopped(start)
             size = times[index] - start
             if jacobi:  # every input from the previous point's outputs, then every step
                 for _, _, _, sets, _ in steps:
