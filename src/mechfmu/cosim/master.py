@@ -20,13 +20,14 @@ from ctypes import byref
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fmpy import extract, read_model_description
+from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2Boolean, fmi2CallbackAllocateMemoryTYPE,
                        fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE,
                        fmi2Integer, fmi2Real, fmi2True, fmi2ValueReference)
 from fmpy import calloc, free
 
+from .fmu_file import FmuError, checked_description
 from .interrupt import signal_name
 from .scene import SceneError, split_name
 
@@ -94,13 +95,14 @@ def file_version(path):
 
 
 def model_description(path):
-    """fmpy's ModelDescription of the FMU at ``path``, parsed once per file version."""
+    """fmpy's ModelDescription of the FMU at ``path``, checked (fmu_file: FmuError names the
+    file and what is wrong with it) and parsed once per file version."""
     return _parsed_description(*file_version(path))
 
 
 @functools.lru_cache(maxsize=128)
 def _parsed_description(path, mtime_ns, size):
-    return read_model_description(path)
+    return checked_description(path)
 
 
 def _route(environment, instance, status, category, message):
@@ -188,7 +190,11 @@ class Instances:
         slave = FMU2Slave(guid=component.description.guid, unzipDirectory=folder,
                           modelIdentifier=component.description.coSimulation.modelIdentifier,
                           instanceName=component.name)
-        slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+        try:
+            slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+        except Exception:  # fmpy says only "Failed to instantiate model"; the FMU's log says why
+            slave.freeLibrary()
+            raise _InstantiationFailed(component.name) from None
         slave.mechfmu_folder = folder
         self.created += 1
         return slave
@@ -348,7 +354,11 @@ class Simulation:
         self.components = {}
         for name, spec in scene.components.items():
             path = resolve_fmu(spec, scene, fmu_dir)
-            self.components[name] = _Component(spec, path, model_description(path))
+            try:
+                description = model_description(path)
+            except FmuError as error:
+                raise FmuError(f"component {name!r}: FMU file {error}") from None
+            self.components[name] = _Component(spec, path, description)
         self._check()
         self.order, self.lagged = order_components(list(self.components), self.connections,
                                                    self._feedthrough)
@@ -505,6 +515,12 @@ class Simulation:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
+        except _InstantiationFailed as failure:
+            result.partial = True
+            raise SimulationError(failure.component, scene.start_time,
+                                  f"the FMU could not be instantiated; its log: "
+                                  f"{logbook.last_problem(failure.component)} "
+                                  f"[fmi2Instantiate failed]", result) from None
         except _Stopped as stopped:
             result.partial = True
             raise SimulationInterrupted(stop.take(), stopped.time, result) from None
@@ -557,6 +573,14 @@ class Simulation:
 
 # ctypes element type and array('...') code of each FMI type the loop moves.
 _CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (fmi2Boolean, "i")}
+
+
+class _InstantiationFailed(Exception):
+    """fmi2Instantiate of ``component`` returned NULL."""
+
+    def __init__(self, component):
+        super().__init__(component)
+        self.component = component
 
 
 class _Stopped(Exception):
