@@ -186,8 +186,9 @@ def test_grid_sweep_end_to_end(tmp_path, capsys):
                      "--metrics", *METRICS, "--jobs", "2", "--plot",
                      "--fmu-dir", str(FMU_DIR), "--out", str(out)])
     captured = capsys.readouterr()
-    assert code == 0, captured.err
+    assert code == 1, captured.err  # points failed: the command fails, naming them
     assert "6/6 done (3 failed)" in captured.err
+    assert "sweep failed: 3 of 6 point(s) failed (index 1, 3, 5); index 1: " in captured.err
     rows = sweep.read_sweep_csv(out / "sweep.csv")
     assert sorted(row["index"] for row in rows) == list(range(6))
     header = (out / "sweep.csv").read_text().splitlines()[0].split(",")

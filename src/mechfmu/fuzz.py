@@ -375,6 +375,12 @@ def main(argv=None):
     unknown = [name for name in args.models if name not in MODELS]
     if unknown:
         parser.error(f"unknown model(s) {', '.join(unknown)}; known: {', '.join(MODELS)}")
+    for option, value in (("--sequences", args.sequences), ("--jobs", args.jobs)):
+        if value < 1:
+            parser.error(f"{option} = {value} must be at least 1")
+    if args.only is not None and not 0 <= args.only < args.sequences:
+        parser.error(f"--only = {args.only} must lie in [0, {args.sequences - 1}] (a sequence "
+                     f"index of --sequences {args.sequences})")
     results = fuzz(args.models or list(MODELS), args.fmus, args.sequences, args.seed,
                    args.out, args.jobs, args.only)
     failed = 0
