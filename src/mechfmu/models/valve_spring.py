@@ -5,7 +5,8 @@ from pythonfmu.enums import Fmi2Status
 
 from ..fmi.slave import MechSlave, input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
-from ..physics.errors import IntegrationError, MechanismError, require_finite
+from ..physics.errors import (IntegrationError, MechanismError, RangeError, require_finite,
+                              require_positive)
 from ..physics.integrators import make_integrator
 from ..physics.stepping import advance_through_events
 
@@ -59,6 +60,10 @@ class ValveSpring(MechSlave):
         parameter("lash", vs.DEFAULT_LASH, "Clearance between the rocker end and the valve "
                   "tip with the valve closed (0: hydraulic lash adjuster)", unit="m",
                   min=0.0),
+        parameter("max_valve_lift", vs.DEFAULT_MAX_LIFT, "Travel limit: the valve lift at "
+                  "which the spring retainer meets the valve guide (coil bind); a step that "
+                  "would reach it is refused with an error (default: the default cam's "
+                  "10.5 mm plus 2 mm)", unit="m", min=0.0),
         parameter("stop_on_float", False, "true: the valve leaving the rocker (float) "
                   "discards the step with an error instead of a warning"),
         parameter("input_interpolation", "interpolate", "The rocker motion inside a step, "
@@ -66,11 +71,12 @@ class ValveSpring(MechSlave):
                   "velocity and acceleration) or hold (the values at the start of the step, "
                   "acceleration held)", values=vs.INPUT_MODES),
         *integrator_variables(default="dopri5", rtol=1e-10, atol=1e-12, max_substep=2e-5),
+        # nominal: the default cam's magnitudes at 300 rad/s (10.5 mm, 7.6 m/s, 3000 m/s^2)
         input_("rocker_lift", 0.0, "L: position of the rocker's valve end, the kinematic "
-               "valve lift (opening positive)", unit="m"),
-        input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s"),
+               "valve lift (opening positive)", unit="m", nominal=0.01),
+        input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s", nominal=5.0),
         input_("rocker_acceleration", 0.0, "L'' = d(rocker_velocity)/dt (for the "
-               "interpolation inside the step)", unit="m/s2"),
+               "interpolation inside the step)", unit="m/s2", nominal=3000.0),
         output("valve_lift", 0.0, "x: valve opening from the closed valve on its undeformed "
                "seat (negative: pressed into the seat)", unit="m"),
         output("valve_velocity", 0.0, "v = dx/dt", unit="m/s"),
@@ -116,6 +122,8 @@ class ValveSpring(MechSlave):
         self.engaged = None      # vs.Engaged at self.time
         self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
         self.peak_energy = 0.0   # J: largest energy in play so far
+        self.max_lift = None     # m: max_valve_lift, the travel limit
+        self.last_float = None   # s: when the valve last left the rocker (float), for messages
 
     def check_parameters(self):
         v = self.values
@@ -123,16 +131,19 @@ class ValveSpring(MechSlave):
             v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
             v["contact_stiffness"], v["contact_damping"], v["seat_stiffness"],
             v["seat_damping"], v["lash"])
+        self.max_lift = require_positive("max_valve_lift", v["max_valve_lift"], "m")
         self.drive = vs.StepDrive(v["input_interpolation"])
         self.modes = vs.Modes()
         self.rhs = vs.build_rhs(self.parameters, self.drive, self.modes)
-        self.events = vs.build_events(self.parameters, self.drive)
+        self.events = vs.build_events(self.parameters, self.drive, self.max_lift)
         self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
                                           v["max_substep"])
 
     def outputs_at_start(self, time):
         self.last_inputs = self._current_inputs()
         self.y = vs.initial_state(self.parameters, *self.last_inputs[:2])
+        if self.y[0] > self.max_lift:
+            self._refuse_travel(time, self.y, self.last_inputs)
         self.time = time
         self.phase = vs.contact_phase(self.parameters, self.last_inputs[0], self.y[0])
         self.engaged = vs.engagement(self.parameters, *self.last_inputs[:2], *self.y[:2])
@@ -144,7 +155,7 @@ class ValveSpring(MechSlave):
             return {}
         return {"y": list(self.y), "time": self.time, "last_inputs": list(self.last_inputs),
                 "phase": list(self.phase), "engaged": list(self.engaged),
-                "created": self.created,
+                "created": self.created, "last_float": self.last_float,
                 "peak_energy": self.peak_energy, "integrator": self.integrator.snapshot()}
 
     def restore_internal_state(self, state):
@@ -155,6 +166,7 @@ class ValveSpring(MechSlave):
         self.phase = vs.Phase(*state["phase"])
         self.engaged = vs.Engaged(*state["engaged"])
         self.created, self.peak_energy = state["created"], state["peak_energy"]
+        self.last_float = state.get("last_float")
         self.integrator.restore(state["integrator"])
 
     # --- stepping ----------------------------------------------------------------------------
@@ -179,6 +191,10 @@ class ValveSpring(MechSlave):
                     raise MechanismError(_float_message(happening))
 
         def on_event(event, t, y):
+            if event.name == vs.TRAVEL_LIMIT:
+                floated = [h.time for h in found if h.kind == vs.FLOAT]
+                self._refuse_travel(t, y, vs.drive_at(self.drive, t),
+                                    floated[-1] if floated else self.last_float)
             if event.name in vs.SWITCH_EVENTS:
                 L, rate, _ = vs.drive_at(self.drive, t)
                 self.modes.engaged = vs.after_switch(p, self.modes.engaged,
@@ -203,12 +219,26 @@ class ValveSpring(MechSlave):
         for happening in found:
             if happening.kind == vs.FLOAT:
                 v["float_events"] += 1
+                self.last_float = happening.time
             elif happening.kind == vs.SEAT_IMPACT:
                 v["seat_impacts"] += 1
                 continue  # a closing: counted, not reported
             self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
                      Fmi2Status.warning)
         self._publish()
+
+    def _refuse_travel(self, t, y, drive, floated=None):
+        """RangeError: the valve lift reaches max_valve_lift at time t (state y, rocker end
+        ``drive`` = (L, L', L''))."""
+        cause = (f"the valve left the rocker (float) at t = {floated!r} s and flew on"
+                 if floated is not None else
+                 f"the rocker pushes it there (rocker lift {drive[0]:.6g} m)")
+        raise RangeError(
+            "valve_lift", y[0], f"(-inf, {self.max_lift!r}]", "m",
+            f"max_valve_lift, the travel limit: the spring retainer meets the valve guide at "
+            f"t = {t!r} s with the valve moving at {y[1]:.6g} m/s; {cause}; beyond it the "
+            f"valve train is damaged and the model does not apply: lower the camshaft speed, "
+            f"stiffen or preload the spring, or raise max_valve_lift")
 
     def _check_energy(self, t0, y0, t1, y1):
         """(energy created so far, largest energy in play) after a step, or IntegrationError
