@@ -300,3 +300,14 @@ def test_fuzz_refuses_counts_that_are_not_positive(capsys, arguments, message):
     err = capsys.readouterr().err
     assert raised.value.code == 2 and message in err, err
     assert "ok " not in capsys.readouterr().out
+
+
+def test_an_unusable_out_stops_the_sweep_before_any_point(tmp_path, capsys):
+    out = tmp_path / "out"
+    out.write_text("a file, not a folder")
+    code = cli_main(["sweep", str(write_scene(tmp_path)), "--vary", VARY, "--metrics", METRIC,
+                     "--fmu-dir", str(FMU_DIR), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.strip().splitlines() == [f"sweep error: output folder {out} is not a directory"]
+    assert out.read_text() == "a file, not a folder"
