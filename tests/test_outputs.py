@@ -8,7 +8,6 @@ import json
 import os
 import stat
 import subprocess
-import textwrap
 from pathlib import Path
 
 import pytest
@@ -18,33 +17,22 @@ from mechfmu.cosim import files
 from mechfmu.cosim.master import Result, Simulation
 from mechfmu.cosim.results import write_result
 from mechfmu.cosim.scene import SceneError, parse_scene
+from test_robustness import _FAILING_SCENE
 
-GOOD_SCENE = textwrap.dedent("""
-    name = "{name}"
-    stop_time = {stop_time}
-    step = 0.1
-    record = ["gear.gear_angle"]
-    connections = [
-        "actuator.piston_extension -> gear.piston_extension",
-        "actuator.piston_speed -> gear.piston_speed",
-        "actuator.piston_acceleration -> gear.piston_acceleration",
-    ]
-    [components.actuator]
-    fmu = "PistonActuator"
-    parameters = {{ end_extension = {end_extension!r} }}
-    [components.gear]
-    fmu = "LandingGear"
-    inputs = {{ piston_force = 0.0, valve_command = 0.0, airspeed = 0.0 }}
-""")
+PAST_THE_STROKE = 2.1 * 0.3048  # m: test_robustness's scene leaves the gear's assembly range
+
 STROKE_END = 2.0 * 0.3048   # m: the coursework's stroke, retracts within the scene
-PAST_THE_STROKE = 2.1 * 0.3048  # m: leaves the gear's assembly range near t = 2.8 s
 
 
 def write_scene(folder, name="same", stop_time=1.0, end_extension=STROKE_END,
                 file_name="scene.toml"):
+    """test_robustness's gear scene, which fails past the stroke (end_extension 2.1 ft, near
+    t = 2.8 s), renamed and with its stop time and stroke end replaced."""
+    text = (_FAILING_SCENE.replace('name = "failing"', f"name = {json.dumps(name)}")
+            .replace("stop_time = 3.0", f"stop_time = {stop_time!r}")
+            .replace(f"end_extension = {PAST_THE_STROKE!r}", f"end_extension = {end_extension!r}"))
     path = Path(folder) / file_name
-    path.write_text(GOOD_SCENE.format(name=name.replace("\\", "\\\\").replace("\n", "\\n"),
-                                      stop_time=stop_time, end_extension=end_extension))
+    path.write_text(text)
     return path
 
 
