@@ -1053,6 +1053,10 @@ def main(argv):
             print(f"sweep interrupted by {signal_name(signum)}; the rows done are kept (run "
                   f"again with --resume to finish it)", file=sys.stderr)
             return exit_code(signum)
+        if guard.requested:  # after the last point, while the files were written
+            print(f"sweep interrupted by {signal_name(guard.take())} after the last point; "
+                  f"the sweep is complete: {summary['csv']}", file=sys.stderr)
+            return exit_code(guard.signum)
     print(f"{summary['name']}: {summary['done']} point(s), {summary['failed']} failed, "
           f"{summary['wall_time_s']:.2f} s ({summary['scenes_per_s']:.1f} scenes/s) on "
           f"{summary['where']}")

@@ -71,12 +71,12 @@ class ValveSpring(MechSlave):
                   "velocity and acceleration) or hold (the values at the start of the step, "
                   "acceleration held)", values=vs.INPUT_MODES),
         *integrator_variables(default="dopri5", rtol=1e-10, atol=1e-12, max_substep=2e-5),
-        # nominal: the default cam's magnitudes at 300 rad/s (10.5 mm, 7.6 m/s, 3000 m/s^2)
+        # nominal: the magnitude of a valve lift (the default cam's is 10.5 mm), not 1 m
         input_("rocker_lift", 0.0, "L: position of the rocker's valve end, the kinematic "
                "valve lift (opening positive)", unit="m", nominal=0.01),
-        input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s", nominal=5.0),
+        input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s"),
         input_("rocker_acceleration", 0.0, "L'' = d(rocker_velocity)/dt (for the "
-               "interpolation inside the step)", unit="m/s2", nominal=3000.0),
+               "interpolation inside the step)", unit="m/s2"),
         output("valve_lift", 0.0, "x: valve opening from the closed valve on its undeformed "
                "seat (negative: pressed into the seat)", unit="m"),
         output("valve_velocity", 0.0, "v = dx/dt", unit="m/s"),
