@@ -186,8 +186,9 @@ def test_grid_sweep_end_to_end(tmp_path, capsys):
                      "--metrics", *METRICS, "--jobs", "2", "--plot",
                      "--fmu-dir", str(FMU_DIR), "--out", str(out)])
     captured = capsys.readouterr()
-    assert code == 0, captured.err
+    assert code == 1, captured.err  # points failed: the command fails, naming them
     assert "6/6 done (3 failed)" in captured.err
+    assert "sweep failed: 3 of 6 point(s) failed (index 1, 3, 5); index 1: " in captured.err
     rows = sweep.read_sweep_csv(out / "sweep.csv")
     assert sorted(row["index"] for row in rows) == list(range(6))
     header = (out / "sweep.csv").read_text().splitlines()[0].split(",")
@@ -275,9 +276,19 @@ def test_interrupted_sweep_keeps_rows(tmp_path):
     assert summary["done"] == 2 and summary["points"] == 8
 
 
+def _default_signals():
+    """In the child: the default dispositions, whatever the test runner inherited (a shell
+    running it in the background ignores SIGINT)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 @needs_fmus
-def test_sigint_to_the_command(tmp_path):
-    """Ctrl-C on ``python -m mechfmu sweep``: exit 130, rows kept, JSON marked interrupted."""
+@pytest.mark.parametrize("signum, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_to_the_command(tmp_path, signum, code):
+    """Ctrl-C (to the process group, as a terminal sends it) or SIGTERM on ``python -m
+    mechfmu sweep``: exit 130 / 143, rows kept, JSON marked interrupted with the signal and
+    current (before, SIGTERM left it at done: 0)."""
     scene_path = write_scene(tmp_path, stop=1.0)
     out = tmp_path / "out"
     environment = dict(os.environ, PYTHONPATH=str(ROOT / "src"))
@@ -287,7 +298,7 @@ def test_sigint_to_the_command(tmp_path):
          "--metrics", "max:suspension.deflection", "--jobs", "2",
          "--fmu-dir", str(FMU_DIR), "--out", str(out)],
         cwd=tmp_path, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        start_new_session=True)
+        start_new_session=True, preexec_fn=_default_signals)
     try:
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:
@@ -297,17 +308,21 @@ def test_sigint_to_the_command(tmp_path):
             time.sleep(0.05)
         else:
             pytest.fail("no rows appeared")
-        os.killpg(process.pid, signal.SIGINT)  # as the terminal does: the whole group
+        if signum == signal.SIGINT:
+            os.killpg(process.pid, signum)  # as the terminal does: the whole group
+        else:
+            process.send_signal(signum)
         _, err = process.communicate(timeout=30)
     finally:
         if process.poll() is None:
             process.kill()
-    assert process.returncode == 130, err.decode()
+    assert process.returncode == code, err.decode()
     rows = sweep.read_sweep_csv(out / "sweep.csv")
     assert 2 <= len(rows) < 40
     assert all(row["error"] is None for row in rows)
     summary = json.loads((out / "sweep.json").read_text())
     assert summary["interrupted"] is True and summary["done"] == len(rows)
+    assert summary["signal"] == signum.name
 
 
 # --- links and sweep files -------------------------------------------------------------------

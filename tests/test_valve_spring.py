@@ -377,3 +377,60 @@ def test_random_speeds_and_springs_give_finite_outputs_or_a_named_error(
             assert NAMED.search(model.log_queue[-1].msg), model.log_queue[-1].msg
             break
         assert all(math.isfinite(model.values[name]) for name in OUTPUTS)
+
+
+# --- the travel limit ----------------------------------------------------------------------------
+
+def test_at_ten_times_the_cam_speed_the_valve_stops_at_its_travel_limit(fmu_dir, tmp_path):
+    """The issue's run: valve_train_dynamic with the camshaft 10 times as fast (3000 rad/s).
+    The valve floats off the 10.5 mm cam and used to fly 117 mm; now the step in which it
+    reaches max_valve_lift (12.5 mm: the retainer meets the valve guide) is refused with
+    the limit named, and the rows before it are kept."""
+    from mechfmu.cosim.master import SimulationError
+    from mechfmu.cosim.scene import load_scene
+    scene = load_scene(SCENES / "valve_train_dynamic.toml")
+    scene.components["camshaft"].parameters["speed"] = 6000.0
+    with pytest.raises(SimulationError) as raised:
+        run_scene(scene, tmp_path, fmu_dir, plot=False)
+    error = raised.value
+    assert error.component == "valve"
+    assert re.search(r"valve at t = \S+ s: valve_lift = 0\.0125\d* m is outside the valid "
+                     r"range \(-inf, 0\.0125\] m \(max_valve_lift, the travel limit: the spring "
+                     r"retainer meets the valve guide", str(error)), str(error)
+    assert "the valve left the rocker (float) at t = 0.000421" in str(error)
+    lifts = error.result.columns["valve.valve_lift"]
+    assert 0.0105 < max(lifts) <= 0.0125 and len(lifts) > 10
+    assert error.result.columns["valve.float_events"][-1] >= 1
+
+
+def test_the_travel_limit_discards_the_step_and_keeps_the_state():
+    drive = cam_drive(3000.0)
+    model = slave(drive, max_valve_lift=0.011)
+    names = ("valve_lift", "valve_velocity", "contact_force", "float_events", "contact_work")
+    for i in range(1, 400):
+        kept = {name: model.values[name] for name in names}
+        model.values.update(inputs(drive(i * 1e-5)))
+        if not model.do_step((i - 1) * 1e-5, 1e-5):
+            break
+    else:
+        pytest.fail("the valve never reached 11 mm")
+    message = model.log_queue[-1].msg
+    assert "valve_lift = 0.011" in message and "(-inf, 0.011] m (max_valve_lift" in message
+    assert {name: model.values[name] for name in names} == kept
+    assert kept["valve_lift"] < 0.011
+
+
+@pytest.mark.parametrize("value", [0.0, -0.01, math.nan, math.inf])
+def test_an_invalid_travel_limit_is_refused(value):
+    model = ValveSpring(instance_name="limit")
+    model.values.update(max_valve_lift=value)
+    model.exit_initialization_mode()
+    assert f"max_valve_lift = {value!r} m is outside the valid range" in model.pending_error
+
+
+def test_a_rocker_already_beyond_the_travel_limit_is_refused_at_the_start():
+    model = ValveSpring(instance_name="limit")
+    model.values.update(rocker_lift=0.02)
+    model.exit_initialization_mode()
+    assert "valve_lift = 0.01987" in model.pending_error
+    assert "(-inf, 0.0125] m (max_valve_lift" in model.pending_error

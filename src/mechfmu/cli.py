@@ -21,29 +21,53 @@ def _build(args):
     return 0
 
 
-def _scene_failure(error):
-    """Exit status and message for a scene that could not run: 2 for a scene error, 1 for a
-    failed simulation (whose partial results are named)."""
+def _scene_failure(error, guard=None):
+    """Exit status and message for a scene that could not run: 2 for a scene or output error,
+    1 for a failed simulation (whose partial results and any older result moved aside are
+    named), 130/143 when SIGINT/SIGTERM stopped it (``guard``: the command's InterruptGuard)."""
+    from .cosim.files import OutputError
+    from .cosim.interrupt import exit_code
+    from .cosim.master import SimulationInterrupted
     from .cosim.scene import SceneError
-    if isinstance(error, SceneError):
-        print(f"scene error: {error}", file=sys.stderr)
-        return 2
-    print(f"simulation failed: {error}", file=sys.stderr)
+    if isinstance(error, (SceneError, OutputError)):
+        kind = "scene" if isinstance(error, SceneError) else "output"
+        print(f"{kind} error: {error}", file=sys.stderr)
+        return exit_code(guard.take()) if guard is not None and guard.requested else 2
+    interrupted = isinstance(error, SimulationInterrupted)
+    print(f"{'' if interrupted else 'simulation failed: '}{error}", file=sys.stderr)
+    for path in getattr(error, "moved_aside", ()):
+        print(f"older complete result moved aside: {path}", file=sys.stderr)
     for kind, path in error.paths.items():
         print(f"partial {kind}: {path}", file=sys.stderr)
-    return 1
+    if getattr(error, "output_error", None) is not None:
+        print(f"output error: {error.output_error}", file=sys.stderr)
+    return exit_code(error.signum) if interrupted else 1
 
 
 def _run(args):
+    # Ctrl-C and SIGTERM are noted from here on and taken between steps (cosim.interrupt).
+    from .cosim.interrupt import InterruptGuard
+    with InterruptGuard() as guard:
+        return _run_guarded(args, guard)
+
+
+def _run_guarded(args, guard):
     from .check import run_report
+    from .cosim.files import OutputError
+    from .cosim.interrupt import exit_code, signal_name
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
     from .cosim.scene import SceneError, find_file
     try:
         result, paths = run_scene(find_file(args.scene), args.out, args.fmu_dir,
-                                  plot=not args.no_plot)
-    except (SceneError, SimulationError) as error:
-        return _scene_failure(error)
+                                  plot=not args.no_plot, guard=guard)
+    except (SceneError, OutputError, SimulationError) as error:
+        return _scene_failure(error, guard)
+    if guard.requested:  # the signal came after the last step, while the files were written
+        print(f"interrupted by {signal_name(guard.take())} after the last step; the results "
+              f"are complete: {', '.join(str(path) for path in paths.values())}",
+              file=sys.stderr)
+        return exit_code(guard.signum)
     reference = args.reference or (result.scene.reference if args.check else None)
     lines, comparison = run_report(result, paths, reference, args.rtol, args.atol)
     print("\n".join(lines))
@@ -138,10 +162,16 @@ def _fuzz(args):
     from .runtime.models import MODELS
     from .tools.fuzz import command
     unknown = [name for name in args.models if name not in MODELS]
-    if unknown:
-        print(f"fuzz: unknown model(s) {', '.join(unknown)}; known: {', '.join(MODELS)}",
-              file=sys.stderr)
-        return 2
+    problems = [f"unknown model(s) {', '.join(unknown)}; known: {', '.join(MODELS)}"] if unknown else []
+    problems += [f"{option} = {value} must be at least 1"
+                 for option, value in (("--sequences", args.sequences), ("--jobs", args.jobs))
+                 if value < 1]
+    if args.only is not None and not 0 <= args.only < args.sequences:
+        problems.append(f"--only = {args.only} must lie in [0, {args.sequences - 1}] (a "
+                        f"sequence index of --sequences {args.sequences})")
+    if problems:
+        print(f"mechfmu fuzz: error: {problems[0]}", file=sys.stderr)
+        raise SystemExit(2)
     return command(args)
 
 
@@ -230,7 +260,7 @@ def _measurement_verbs(verbs):
     fuzz.add_argument("--sequences", type=int, default=1000)
     fuzz.add_argument("--seed", type=int, default=0)
     fuzz.add_argument("--fmus", default="fmus", help="folder of the built FMUs")
-    fuzz.add_argument("--jobs", type=_at_least_one, default=os.cpu_count() or 1)
+    fuzz.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     fuzz.add_argument("--only", type=int, help="run only this sequence index (reproduce)")
     fuzz.add_argument("--out", default="out/fuzz", help="folder for the progress logs")
     fuzz.set_defaults(func=_fuzz)
@@ -262,6 +292,12 @@ def _measurement_verbs(verbs):
                             "(pip install mechfmu[cluster])")
     sweep.add_argument("--plot", action="store_true", help="one PNG per metric and parameter")
     sweep.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    sweep.add_argument("--retries", type=int, default=None,
+                       help="extra attempts of a point whose worker process died, the last "
+                            "one alone (default: 2)")
+    sweep.add_argument("--resume", action="store_true",
+                       help="continue the stopped sweep in --out: keep its rows without an "
+                            "error, run the other points")
     sweep.set_defaults(func=_sweep)
 
 

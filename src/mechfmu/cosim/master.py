@@ -20,13 +20,15 @@ from ctypes import byref
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fmpy import extract, read_model_description
+from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (FMU2Slave, fmi2Boolean, fmi2CallbackAllocateMemoryTYPE,
                        fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE,
                        fmi2Integer, fmi2Real, fmi2True, fmi2ValueReference)
 from fmpy import calloc, free
 
+from .fmu_file import FmuError, checked_description
+from .interrupt import signal_name
 from .scene import SceneError, split_name
 
 EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.runtime.fmi.slave)
@@ -39,7 +41,19 @@ class SimulationError(RuntimeError):
 
     def __init__(self, component, time, message, result):
         self.component, self.time, self.result = component, time, result
+        self.paths, self.moved_aside, self.output_error = {}, [], None  # set by run_scene
         super().__init__(f"component {component!r} failed at t = {time!r} s: {message}")
+
+
+class SimulationInterrupted(SimulationError):
+    """SIGINT or SIGTERM (``signum``) stopped the run between two steps at ``time``;
+    ``result`` holds the rows computed before."""
+
+    def __init__(self, signum, time, result):
+        super().__init__(None, time, "", result)
+        self.signum = signum
+        RuntimeError.__init__(self, f"interrupted by {signal_name(signum)} at t = {time!r} s "
+                                    f"after {max(len(result.times) - 1, 0)} step(s)")
 
 
 @dataclass
@@ -81,13 +95,14 @@ def file_version(path):
 
 
 def model_description(path):
-    """fmpy's ModelDescription of the FMU at ``path``, parsed once per file version."""
+    """fmpy's ModelDescription of the FMU at ``path``, checked (fmu_file: FmuError names the
+    file and what is wrong with it) and parsed once per file version."""
     return _parsed_description(*file_version(path))
 
 
 @functools.lru_cache(maxsize=128)
 def _parsed_description(path, mtime_ns, size):
-    return read_model_description(path)
+    return checked_description(path)
 
 
 def _route(environment, instance, status, category, message):
@@ -175,7 +190,11 @@ class Instances:
         slave = FMU2Slave(guid=component.description.guid, unzipDirectory=folder,
                           modelIdentifier=component.description.coSimulation.modelIdentifier,
                           instanceName=component.name)
-        slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+        try:
+            slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+        except Exception:  # fmpy says only "Failed to instantiate model"; the FMU's log says why
+            slave.freeLibrary()
+            raise _InstantiationFailed(component.name) from None
         slave.mechfmu_folder = folder
         self.created += 1
         return slave
@@ -335,7 +354,11 @@ class Simulation:
         self.components = {}
         for name, spec in scene.components.items():
             path = resolve_fmu(spec, scene, fmu_dir)
-            self.components[name] = _Component(spec, path, model_description(path))
+            try:
+                description = model_description(path)
+            except FmuError as error:
+                raise FmuError(f"component {name!r}: FMU file {error}") from None
+            self.components[name] = _Component(spec, path, description)
         self._check()
         self.order, self.lagged = order_components(list(self.components), self.connections,
                                                    self._feedthrough)
@@ -430,7 +453,7 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls=False, instances=None):
+    def run(self, time_fmi_calls=False, instances=None, stop=None):
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -439,6 +462,9 @@ class Simulation:
         ``instances``: an Instances pool to take the FMU instances from and give them back
         to, reset, for the next run (many short runs: a sweep worker); by default the FMUs
         are extracted and instantiated for this run and freed at its end.
+        ``stop``: an InterruptGuard (mechfmu.cosim.interrupt) asked before each component's
+        instantiation and between steps; when it has received a signal the run stops there
+        with SimulationInterrupted (the rows so far, every instance freed).
         """
         scene = self.scene
         result = Result(scene=scene, columns={name: [] for name, _, _ in self.recorded},
@@ -453,8 +479,11 @@ class Simulation:
         started = clock.perf_counter()
         current = (None, scene.start_time)
         recorders = []
+        stop = stop or _NEVER
         try:
             for name in self.order:
+                if stop.requested:
+                    raise _Stopped(scene.start_time)
                 current = (name, scene.start_time)
                 component = self.components[name]
                 component.slave = instances.acquire(component)
@@ -476,14 +505,25 @@ class Simulation:
             plan = _StepPlan(self, timer)
             recorders = plan.recorders
             current = (None, scene.start_time)
+            if stop.requested:
+                raise _Stopped(scene.start_time)
             plan.start(result, scene.start_time)
             loop_started = clock.perf_counter()
             try:
-                plan.run(result, scene)
+                plan.run(result, scene, stop)
             finally:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
+        except _InstantiationFailed as failure:
+            result.partial = True
+            raise SimulationError(failure.component, scene.start_time,
+                                  f"the FMU could not be instantiated; its log: "
+                                  f"{logbook.last_problem(failure.component)} "
+                                  f"[fmi2Instantiate failed]", result) from None
+        except _Stopped as stopped:
+            result.partial = True
+            raise SimulationInterrupted(stop.take(), stopped.time, result) from None
         except _CallFailed as failure:
             result.partial = True
             message = logbook.last_problem(failure.component)
@@ -533,6 +573,32 @@ class Simulation:
 
 # ctypes element type and array('...') code of each FMI type the loop moves.
 _CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (fmi2Boolean, "i")}
+
+
+class _InstantiationFailed(Exception):
+    """fmi2Instantiate of ``component`` returned NULL."""
+
+    def __init__(self, component):
+        super().__init__(component)
+        self.component = component
+
+
+class _Stopped(Exception):
+    """The run's InterruptGuard received a signal; the loop stopped before the step at
+    ``time``."""
+
+    def __init__(self, time):
+        super().__init__(time)
+        self.time = time
+
+
+class _NoStop:
+    """The ``stop`` of a run nobody can interrupt (a sweep worker's)."""
+
+    requested = False
+
+
+_NEVER = _NoStop()
 
 
 class _CallFailed(Exception):
@@ -677,12 +743,15 @@ class _StepPlan:
             recorder.rows.frombytes(recorder.raw)
         result.times.append(time)
 
-    def run(self, result, scene):
-        """Step from start_time to stop_time, recording after every communication step."""
+    def run(self, result, scene, stop=_NEVER):
+        """Step from start_time to stop_time, recording after every communication step;
+        before each step, stop with _Stopped if ``stop`` has been requested."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
         call, steps, jacobi = self._call, self.steps, self.jacobi
         for index in range(1, len(times)):
             start = times[index - 1]
+            if stop.requested:
+                raise _Stopped(start)
             size = times[index] - start
             if jacobi:  # every input from the previous point's outputs, then every step
                 for _, _, _, sets, _ in steps:

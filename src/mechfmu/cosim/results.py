@@ -1,35 +1,17 @@
 """Result files of a run: CSV, JSON metadata and a PNG plot, each written atomically."""
 
 import csv
-import io
 import json
-import os
 import platform
 import sys
-import tempfile
 from importlib import metadata
-from pathlib import Path
+
+from .files import atomic_write, atomic_write_all, inside, move_aside, save_figure
 
 
-def atomic_write(path, write):
-    """Write ``path`` through ``write(handle)`` on a temporary file, then rename it over."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle = tempfile.NamedTemporaryFile("w", dir=path.parent, prefix=f".{path.name}.",
-                                         suffix=".tmp", delete=False, newline="",
-                                         encoding="utf-8")
-    try:
-        with handle:
-            write(handle)
-        os.replace(handle.name, path)
-    except BaseException:
-        os.unlink(handle.name)
-        raise
-    return path
-
-
-def write_csv(path, times, columns):
-    """CSV with 'time' then one column per name; floats in shortest round-trip form."""
+def csv_writer(times, columns):
+    """A callback writing the CSV text: 'time' then one column per name; floats in shortest
+    round-trip form."""
     names = list(columns)
 
     def write(handle):
@@ -37,7 +19,12 @@ def write_csv(path, times, columns):
         writer.writerow(["time", *names])
         for i, time in enumerate(times):
             writer.writerow([repr(float(time)), *(repr(float(columns[n][i])) for n in names)])
-    return atomic_write(path, write)
+    return write
+
+
+def write_csv(path, times, columns):
+    """Write the CSV of csv_writer atomically; returns its path."""
+    return atomic_write(path, csv_writer(times, columns))
 
 
 def read_csv(path):
@@ -64,8 +51,14 @@ def versions():
     return found
 
 
+def json_text(data):
+    """The JSON text of a result's or a sweep's metadata (anything else as str)."""
+    return json.dumps(data, indent=2, default=str)
+
+
 def write_json(path, data):
-    return atomic_write(path, lambda handle: json.dump(data, handle, indent=2, default=str))
+    """Write json_text(data) atomically; returns its path."""
+    return atomic_write(path, json_text(data))
 
 
 def write_plot(path, times, columns, units, title):
@@ -87,21 +80,26 @@ def write_plot(path, times, columns, units, title):
     axes[-1, 0].set_xlabel("time [s]")
     figure.suptitle(title)
     figure.tight_layout()
-    buffer = io.BytesIO()
-    figure.savefig(buffer, format="png", dpi=100)
-    pyplot.close(figure)
-    path = Path(path)
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_bytes(buffer.getvalue())
-    os.replace(temporary, path)
-    return path
+    try:
+        return save_figure(path, figure, dpi=100)
+    finally:
+        pyplot.close(figure)
+
+
+RESULT_FILES = ("csv", "json", "png")
+
+
+def result_stem(result):
+    """'<scene>' for a complete run, '<scene>.partial' for a failed or interrupted one."""
+    return result.scene.name + (".partial" if result.partial else "")
 
 
 def write_result(result, out_dir, plot=True):
-    """Write <scene>.csv, .json and .png (``.partial`` in the names for a failed run)."""
-    out_dir = Path(out_dir)
-    stem = result.scene.name + (".partial" if result.partial else "")
-    paths = {"csv": write_csv(out_dir / f"{stem}.csv", result.times, result.columns)}
+    """Write <scene>.csv and .json as a pair (both or neither), then .png; ``.partial`` in
+    the names for a failed or interrupted run. Every file lands inside ``out_dir``
+    (OutputError otherwise). Returns {kind: path}."""
+    stem = result_stem(result)
+    paths = {kind: inside(out_dir, f"{stem}.{kind}") for kind in RESULT_FILES}
     meta = dict(result.meta)
     meta.update({"scene": result.scene.name, "scene_file": str(result.scene.path),
                  "description": result.scene.description, "partial": result.partial,
@@ -109,9 +107,18 @@ def write_result(result, out_dir, plot=True):
                  "step": result.scene.step, "recorded": list(result.columns),
                  "units": result.units, "versions": versions(), "command": sys.argv,
                  "log": [entry for entry in result.log if entry["status"] != "ok"]})
-    paths["json"] = write_json(out_dir / f"{stem}.json", meta)
+    atomic_write_all({paths["csv"]: csv_writer(result.times, result.columns),
+                      paths["json"]: json_text(meta)})
+    written = {"csv": paths["csv"], "json": paths["json"]}
     if plot and result.times:
-        paths["png"] = write_plot(out_dir / f"{stem}.png", result.times, result.columns,
-                                  result.units, f"{result.scene.name}"
-                                  + (" (partial)" if result.partial else ""))
-    return paths
+        written["png"] = write_plot(paths["png"], result.times, result.columns,
+                                    result.units, f"{result.scene.name}"
+                                    + (" (partial)" if result.partial else ""))
+    return written
+
+
+def move_aside_complete(scene_name, out_dir):
+    """Rename an older complete result of ``scene_name`` in ``out_dir`` (<scene>.csv, .json,
+    .png) to <scene>.previous.*, so a failed or interrupted run leaves no complete-looking
+    result that is not its own. Returns the new paths."""
+    return move_aside([inside(out_dir, f"{scene_name}.{kind}") for kind in RESULT_FILES])

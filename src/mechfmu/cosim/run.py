@@ -1,30 +1,51 @@
 """Run a scene end to end: check it, simulate it, write its result files."""
 
-from .master import Simulation, SimulationError, parameter_values
-from .results import write_result
+from contextlib import nullcontext
+
+from .files import OutputError, output_folder
+from .interrupt import InterruptGuard, signal_name
+from .master import Simulation, SimulationError, SimulationInterrupted, parameter_values
+from .results import move_aside_complete, write_result
 from .scene import Scene, load_scene
 
 
-def run_scene(scene, out_dir, fmu_dir=None, plot=True):
+def run_scene(scene, out_dir, fmu_dir=None, plot=True, guard=None):
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
-    Returns (Result, {kind: path}). On a component failure the rows computed so far are
-    written as '<scene>.partial.csv' (and .json, .png) and the SimulationError is re-raised
-    with ``paths`` set.
+    The scene and the output folder (created if missing, OutputError if it cannot be
+    written) are checked before anything runs. Returns (Result, {kind: path}).
+
+    SIGINT and SIGTERM are taken between steps: ``guard`` is an InterruptGuard the caller
+    has installed (the command line, for its whole duration), or None for one installed
+    here for the run. On a component failure or such a signal an older complete result of
+    the same name is moved aside (<scene>.previous.*), the rows computed so far are written
+    as '<scene>.partial.csv' (and .json, .png; the JSON says ``interrupted`` and the
+    signal) and the SimulationError (SimulationInterrupted) is re-raised with ``paths`` and
+    ``moved_aside`` set (and ``output_error`` if the partial files could not be written).
     """
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene)
-    simulation = Simulation(scene, fmu_dir)
-    setup = {"components": parameter_values(simulation), "order": simulation.order,
-             "connections": [str(c) for c in simulation.connections],
-             "pruned": simulation.pruned,
-             "lagged_connections": [str(c) for c in simulation.lagged]}
-    try:
-        result = simulation.run()
-    except SimulationError as error:
-        error.result.meta.update(setup, error=str(error), failed_component=error.component,
-                                 failed_at=error.time)
-        error.paths = write_result(error.result, out_dir, plot)
-        raise
-    result.meta.update(setup, error=None)
-    return result, write_result(result, out_dir, plot)
+    with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
+        if not isinstance(scene, Scene):
+            scene = load_scene(scene)
+        simulation = Simulation(scene, fmu_dir)
+        out_dir = output_folder(out_dir)
+        setup = {"components": parameter_values(simulation), "order": simulation.order,
+                 "connections": [str(c) for c in simulation.connections],
+                 "pruned": simulation.pruned,
+                 "lagged_connections": [str(c) for c in simulation.lagged]}
+        try:
+            result = simulation.run(stop=guard)
+        except SimulationError as error:
+            interrupted = isinstance(error, SimulationInterrupted)
+            error.moved_aside = move_aside_complete(scene.name, out_dir)
+            error.result.meta.update(
+                setup, error=str(error), failed_component=error.component,
+                failed_at=error.time, interrupted=interrupted,
+                signal=signal_name(error.signum) if interrupted else None,
+                moved_aside=[str(path) for path in error.moved_aside])
+            try:
+                error.paths = write_result(error.result, out_dir, plot)
+            except OutputError as problem:  # the failure is the news; the writer's joins it
+                error.output_error = problem
+            raise
+        result.meta.update(setup, error=None, interrupted=False, signal=None)
+        return result, write_result(result, out_dir, plot)

@@ -30,6 +30,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from .files import plain_file_name
+
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
@@ -176,8 +178,13 @@ def parse_scene(data, path):
     if coupling not in COUPLINGS:
         raise SceneError(f"{where}: coupling = {coupling!r} is not one of "
                          f"{', '.join(COUPLINGS)}")
+    name = data.get("name", path.stem)
+    problem = plain_file_name(name)
+    if problem:
+        raise SceneError(f"{where}: name = {name!r} must be a plain file name (the result "
+                         f"files are named after it inside the output folder): {problem}")
     return Scene(
-        name=data.get("name", path.stem), path=path, start_time=start_time,
+        name=name, path=path, start_time=start_time,
         stop_time=stop_time, step=step, components=components, connections=connections,
         record=record, description=data.get("description", ""), coupling=coupling,
         reference=(path.parent / reference).resolve() if reference else None)

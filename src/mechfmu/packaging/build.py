@@ -13,6 +13,7 @@ the FMU keeps pythonfmu's plain binary, and the build says so.
 
 import importlib
 import importlib.util
+import io
 import os
 import platform
 import shlex
@@ -27,6 +28,7 @@ from pathlib import Path
 from pythonfmu import FmuBuilder
 
 from .binary_patch import patch_exit_finaliser
+from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
 
 RUNTIME_ROOT = Path(__file__).resolve().parents[1] / "runtime"  # the FMU runtime; no numpy
@@ -163,14 +165,13 @@ def build_model(name, out_dir, staging, null=False, loader=None):
                                  project_files=[package], canGetAndSetFMUstate=True)
     if loader is None:
         loader = compile_loader(staging / f"loader_{fmu_name}")
-    _rewrite_linux_binary(built, fmu_name, loader)
-    final = Path(out_dir) / f"{fmu_name}.fmu"
-    os.replace(built, final)  # atomic: a reader never sees a half-written FMU
-    return final
+    # atomic: a reader never sees a half-written FMU
+    return atomic_write(Path(out_dir) / f"{fmu_name}.fmu",
+                        _rewrite_linux_binary(built, fmu_name, loader))
 
 
 def _rewrite_linux_binary(fmu, name, loader):
-    """Rewrite the FMU with its Linux binary patched (see binary_patch) and, when the loader
+    """The FMU's bytes with its Linux binary patched (see binary_patch) and, when the loader
     was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so; report both."""
     member = f"binaries/linux64/{name}.so"
     loader_path, loader_message = loader
@@ -178,7 +179,7 @@ def _rewrite_linux_binary(fmu, name, loader):
         entries = [(info, archive.read(info)) for info in archive.infolist()]
     if member not in {info.filename for info, _ in entries}:
         raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu 0.7 FMU?")
-    patched_fmu = fmu.with_suffix(".patched")
+    patched_fmu = io.BytesIO()
     with zipfile.ZipFile(patched_fmu, "w", zipfile.ZIP_DEFLATED) as archive:
         for info, data in entries:
             if info.filename == member:
@@ -191,13 +192,13 @@ def _rewrite_linux_binary(fmu, name, loader):
                     archive.writestr(inner, data, zipfile.ZIP_DEFLATED)
                     data = Path(loader_path).read_bytes()
             archive.writestr(info, data)
-    os.replace(patched_fmu, fmu)
     if loader_path is not None:
         print(f"{name}: C loader as {member} (loads libpython itself in hosts without Python), "
               f"pythonfmu's library as {pythonfmu_library_name(name)}")
     else:
         print(f"{name}: no C loader ({loader_message}): pythonfmu's plain binary, which loads "
               "only in hosts that already run Python (such as fmpy)")
+    return patched_fmu.getvalue()
 
 
 def build_all(out_dir, names=None, null=False):

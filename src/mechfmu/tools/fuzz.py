@@ -62,14 +62,19 @@ def declarations(model_name, description=None):
         bound = (lambda text: None if text is None else kind(text)) if kind in (int, float) \
             else (lambda text: None)
         declared[v.name] = Variable(v.name, kind, v.causality, start, v.description or "",
-                                    min=bound(v.min), max=bound(v.max))
+                                    min=bound(v.min), max=bound(v.max),
+                                    nominal=bound(getattr(v, "nominal", None))
+                                    if kind is float else None)
     return declared
 
 
 def _scale(variable):
-    """A typical magnitude of a Real variable, for random walks."""
+    """A typical magnitude of a Real variable, for random walks: a quarter of its range, or
+    its nominal value, or its start value, or 1."""
     if variable.min is not None and variable.max is not None:
         return max(abs(variable.max - variable.min), 1e-12) / 4
+    if getattr(variable, "nominal", None):
+        return abs(variable.nominal)
     return abs(variable.start) if variable.start else 1.0
 
 

@@ -36,9 +36,8 @@ unknowns) in initialization mode. fmpy.ssp is run through ``simulate_ssp_fmpy`` 
 fills the gaps of fmpy 0.3.32's simulate_ssp for the duration of the call.
 """
 
+import io
 import math
-import os
-import tempfile
 import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -46,6 +45,7 @@ from pathlib import Path
 from fmpy import read_model_description
 
 from .. import __version__
+from ..cosim.files import atomic_write
 from ..cosim.master import Simulation, default_fmu_dir, resolve_fmu
 from ..cosim.scene import Scene, SceneError, load_scene
 
@@ -250,21 +250,13 @@ def export_ssp(scene, out, fmu_dir=None):
     The file is written to a temporary name and renamed, so a reader never sees half of it.
     """
     root, resources = describe(scene, fmu_dir)
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{out.name}.", dir=out.parent)
-    os.close(handle)
-    try:
-        with zipfile.ZipFile(temporary, "w") as package:
-            package.writestr(zipfile.ZipInfo(SSD_NAME, date_time=(1980, 1, 1, 0, 0, 0)),
-                             ssd_bytes(root), compress_type=zipfile.ZIP_DEFLATED)
-            for resource, path in resources.items():
-                package.write(path, resource, compress_type=zipfile.ZIP_STORED)
-        os.replace(temporary, out)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
-    return out
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as package:
+        package.writestr(zipfile.ZipInfo(SSD_NAME, date_time=(1980, 1, 1, 0, 0, 0)),
+                         ssd_bytes(root), compress_type=zipfile.ZIP_DEFLATED)
+        for resource, path in resources.items():
+            package.write(path, resource, compress_type=zipfile.ZIP_STORED)
+    return atomic_write(out, buffer.getvalue())
 
 
 def summary(ssp):

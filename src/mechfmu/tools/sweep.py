@@ -12,15 +12,19 @@ instance per component and resets it between points. It writes into ``--out``
 sweep.csv    one row per point: index, each varied and linked parameter, each metric, error,
              wall_time_s, worker; a row is appended and flushed as each point finishes (rows
              in completion order)
-sweep.json   the sweep's definition and its state (written at the start, replaced atomically
-             at the end; ``"interrupted": true`` after Ctrl-C)
+sweep.json   the sweep's definition and its state (replaced atomically after every point;
+             ``"interrupted": true`` and the signal after Ctrl-C or SIGTERM)
 <metric>_vs_<parameter>.png   with ``--plot``
+
+A point lost with its worker process is run again (``--retries``, the last attempt alone);
+``--resume`` finishes a stopped sweep without redoing its finished points.
 
 Metrics: ``final:c.v``, ``max:c.v``, ``min:c.v``, ``time_of_max:c.v``,
 ``first_time_above:c.v:THRESHOLD``, ``first_time_true:c.v`` (Boolean or 0/1 flag columns),
 ``max_abs_error:c.v`` (against the scene's reference CSV, interpolated onto the result's
 times). A metric whose event never happens is ``nan``. A point whose scene fails (SceneError,
-SimulationError) gets its message in ``error`` and empty metrics; the sweep goes on.
+SimulationError) gets its message in ``error`` and empty metrics; the sweep goes on, and the
+command exits 1 at the end, naming the failed points.
 """
 
 import atexit
@@ -28,6 +32,8 @@ import copy
 import csv
 import dataclasses
 import hashlib
+import io
+import json
 import math
 import multiprocessing.util
 import os
@@ -38,12 +44,15 @@ import sys
 import tempfile
 import threading
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import nullcontext
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
+from ..cosim.files import atomic_write, inside, save_figure
 from ..cosim.results import read_csv, write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml
 
@@ -373,10 +382,7 @@ def shipped_scene(scene, fmu_files):
         file_name, digest, data = fmu_files[spec.fmu]
         local = fmu_cache_dir() / digest / file_name
         if not local.is_file():
-            local.parent.mkdir(parents=True, exist_ok=True)
-            temporary = local.with_name(f".{file_name}.{os.getpid()}.tmp")
-            temporary.write_bytes(data)
-            os.replace(temporary, local)
+            atomic_write(local, data)
         components[name] = dataclasses.replace(spec, fmu=str(local))
     return dataclasses.replace(scene, components=components)
 
@@ -421,7 +427,11 @@ def resolve_fmus(scene, fmu_dir):
 # --- where the points run ----------------------------------------------------------------------
 
 class LocalPool:
-    """Worker processes on this machine (concurrent.futures), reading the FMUs in place."""
+    """Worker processes on this machine (concurrent.futures), reading the FMUs in place.
+
+    A worker process that dies (killed, out of memory, a crash in an FMU) breaks the whole
+    executor: every point not finished is lost with BrokenProcessPool. ``restart`` replaces
+    the executor; run_sweep resubmits the lost points (see _run_points)."""
 
     def __init__(self, jobs):
         self.workers, self.where = jobs, f"local, {jobs} process(es)"
@@ -433,8 +443,24 @@ class LocalPool:
     def submit(self, *arguments):
         return self.executor.submit(run_point, *arguments)
 
-    def completed(self, futures):
-        return as_completed(futures)
+    def wait(self, futures, timeout):
+        """The futures among ``futures`` that are done, waiting up to ``timeout`` s for one."""
+        return wait(futures, timeout=timeout, return_when=FIRST_COMPLETED).done
+
+    @staticmethod
+    def lost(error):
+        """Whether a point failed because its worker process died (not because of itself)."""
+        return isinstance(error, BrokenProcessPool)
+
+    def restart(self):
+        """A new executor in place of a broken one."""
+        self.executor.shutdown(wait=False, cancel_futures=True)
+        self.executor = ProcessPoolExecutor(max_workers=self.workers, initializer=_worker_init)
+
+    def alone(self):
+        """A pool of one new worker process, for a point on its last attempt: if that worker
+        dies too, the point is the cause, not a neighbour."""
+        return LocalPool(1)
 
     def close(self, interrupted):
         self.executor.shutdown(wait=not interrupted, cancel_futures=interrupted)
@@ -443,7 +469,9 @@ class LocalPool:
 class DaskCluster:
     """An existing Dask cluster (``--scheduler tcp://HOST:PORT``). The FMUs are sent to the
     workers once (scattered) with their content hash, so the workers need mechfmu and a
-    libpython, not the client's files."""
+    libpython, not the client's files. The scheduler reschedules the points of a worker that
+    dies (up to its distributed.scheduler.allowed-failures, then KilledWorker: the point's
+    error)."""
 
     def __init__(self, address, timeout=10.0):
         try:
@@ -452,6 +480,7 @@ class DaskCluster:
             raise SweepError(f"--scheduler {address} needs Dask's 'distributed' package, "
                              f"which the base install leaves out: pip install "
                              f"'mechfmu[cluster]'") from None
+        probe_scheduler(address, timeout)
         try:
             self.client = Client(address, timeout=timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as error:
@@ -475,12 +504,74 @@ class DaskCluster:
     def submit(self, *arguments):
         return self.client.submit(run_point, *arguments, pure=False)
 
-    def completed(self, futures):
-        from distributed import as_completed as dask_completed
-        return dask_completed(futures, loop=self.client.loop)
+    @staticmethod
+    def wait(futures, timeout):
+        """The futures among ``futures`` that are done, polling up to ``timeout`` s."""
+        deadline = time.monotonic() + timeout
+        while True:
+            done = [future for future in futures if future.done()]
+            if done or time.monotonic() >= deadline:
+                return done
+            time.sleep(0.02)
+
+    @staticmethod
+    def lost(error):
+        return False  # the scheduler has retried it already
+
+    def restart(self):
+        pass
+
+    def alone(self):
+        return self
 
     def close(self, interrupted):
         self.client.close()
+
+
+def probe_scheduler(address, timeout):
+    """Check that a Dask scheduler answers at ``address`` (tcp://HOST:PORT) within
+    ``timeout`` s: a TCP connection, then Dask's handshake (each side sends a small framed
+    message first). distributed itself would wait for ever for a handshake from a server
+    that stays silent, and reads garbage as frame lengths (asking for exabytes); SweepError
+    says which of the three failed. Other address schemes are left to distributed."""
+    scheme, _, location = address.partition("://")
+    if not location:
+        scheme, location = "tcp", address
+    if scheme != "tcp":
+        return
+    host, _, port = location.rpartition(":")
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
+    except (OSError, ValueError) as error:
+        raise SweepError(f"--scheduler {address}: cannot reach a Dask scheduler there within "
+                         f"{timeout:g} s: {error}") from None
+    from concurrent.futures import ThreadPoolExecutor  # own event loop, whoever calls us
+    with ThreadPoolExecutor(1) as thread:
+        problem = thread.submit(_handshake_problem, f"tcp://{location}", timeout).result()
+    if problem:
+        raise SweepError(f"--scheduler {address}: {problem}")
+
+
+def _handshake_problem(address, timeout):
+    """None if a Dask comm at ``address`` completes its handshake within ``timeout`` s, else
+    what went wrong (one line)."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def handshake():
+        comm = await connect(address, timeout=timeout)
+        await comm.close()
+    try:
+        asyncio.run(asyncio.wait_for(handshake(), timeout))
+    except (asyncio.TimeoutError, TimeoutError):
+        return (f"something accepted the connection but sent no Dask handshake within "
+                f"{timeout:g} s: is it a Dask scheduler?")
+    except Exception as error:  # garbage parsed as Dask frames fails in many ways
+        text = " ".join(f"{type(error).__name__}: {error}".split())
+        return (f"something answered there, but not a Dask scheduler (its first message "
+                f"is not a Dask handshake: {text[:200]})")
+    return None
 
 
 # --- the runner --------------------------------------------------------------------------------
@@ -502,15 +593,16 @@ def safe_name(text):
 
 
 class Progress:
-    """One line on stderr: done/total, rate, time left."""
+    """One line on stderr: done/total, rate, time left; ``already``: points done before
+    (a resumed sweep), not counted in the rate."""
 
-    def __init__(self, total, stream=None):
-        self.total, self.started = total, time.perf_counter()
+    def __init__(self, total, stream=None, already=0):
+        self.total, self.started, self.already = total, time.perf_counter(), already
         self.stream = stream or sys.stderr
 
     def update(self, done, failed):
         elapsed = time.perf_counter() - self.started
-        rate = done / elapsed if elapsed > 0 else 0.0
+        rate = (done - self.already) / elapsed if elapsed > 0 else 0.0
         left = (self.total - done) / rate if rate > 0 else math.inf
         left_text = f"{left:.0f} s" if math.isfinite(left) else "?"
         end = "\n" if done == self.total else ""
@@ -519,18 +611,155 @@ class Progress:
         self.stream.flush()
 
 
+DEFAULT_RETRIES = 2  # extra attempts of a point whose worker process died; the last one alone
+# What a resumed sweep must share with the stopped one (its sweep.json): the points and
+# what is computed at each, including the FMU files' contents.
+RESUME_KEYS = ("scene_file", "overrides", "varies", "links", "method", "seed", "samples",
+               "metrics", "points", "fmus")
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM (``signum``) stopped the sweep; the rows done are kept."""
+
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
+
+
+class _Stopped(Exception):
+    """The sweep's InterruptGuard received a signal."""
+
+
+def at_least(option, value, minimum):
+    """``value`` if it is a whole number >= ``minimum``, else SweepError naming the option."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise SweepError(f"{option} = {value!r} must be at least {minimum} (a whole number)")
+    return value
+
+
+def fmu_digests(scene):
+    """{component: SHA-256 of its FMU file} (resolved paths): what a resumed sweep checks."""
+    return {name: hashlib.sha256(Path(spec.fmu).read_bytes()).hexdigest()
+            for name, spec in scene.components.items()}
+
+
+@dataclasses.dataclass
+class _Task:
+    """One point to run: its index, its varied and linked values (the CSV's order), its
+    scene, and how many times it was sent to a worker."""
+    index: int
+    point: list
+    scene: object
+    attempts: int = 0
+
+
+def _run_points(runner, tasks, arguments, retries, guard, record, summary):
+    """Run every task on ``runner``, calling ``record(task, (values, error, wall, worker))``
+    as each finishes.
+
+    A task lost with its worker process (runner.lost: the local pool broke) is sent again
+    to a new pool, up to ``retries`` more times; the last attempt runs alone in a pool of
+    one process, so a point that kills its worker every time fails by itself and the
+    points that only shared a pool with it are never blamed. Every 0.25 s at most the
+    guard is asked; a signal raises _Stopped.
+    """
+    waiting, last_chance = list(tasks), []
+    while waiting or last_chance:
+        if waiting:
+            pool, batch, waiting = runner, waiting, []
+        else:
+            pool, batch = runner.alone(), [last_chance.pop(0)]
+        lost = []
+        try:
+            pending = {pool.submit(task.index, task.scene, *arguments): task
+                       for task in batch}
+            while pending:
+                if guard.requested:
+                    raise _Stopped()
+                for future in pool.wait(list(pending), 0.25):
+                    task = pending.pop(future)
+                    task.attempts += 1
+                    try:
+                        outcome = future.result()[1:]
+                    except Exception as failure:  # the worker failed, not the scene
+                        if pool.lost(failure):
+                            lost.append(task)
+                            continue
+                        outcome = ({}, f"worker: {type(failure).__name__}: {failure}", None,
+                                   None)
+                    record(task, outcome)
+        finally:
+            if pool is not runner:
+                pool.close(interrupted=guard.requested)
+        if not lost:
+            continue
+        if pool is runner:
+            runner.restart()
+            summary["pool_restarts"] += 1
+        for task in sorted(lost, key=lambda task: task.index):
+            if task.attempts > retries:
+                alone = ", the last one alone" if retries else " (--retries 0)"
+                record(task, ({}, f"worker: its process died on each of {task.attempts} "
+                                  f"attempt(s){alone}", None, None))
+                continue
+            summary["retried"] += 1
+            (last_chance if task.attempts == retries else waiting).append(task)
+
+
+def _resumed_rows(csv_path, json_path, summary, header):
+    """The raw rows of a stopped sweep's sweep.csv to keep (one per point, those without an
+    error), after checking that its sweep.json defines the same sweep (RESUME_KEYS) and its
+    header is ``header``; SweepError otherwise."""
+    if not json_path.is_file() or not csv_path.is_file():
+        raise SweepError(f"nothing to resume in {csv_path.parent}: no sweep.json and "
+                         f"sweep.csv of a stopped sweep there")
+    try:
+        previous = json.loads(json_path.read_text(encoding="utf-8"))
+        with open(csv_path, newline="", encoding="utf-8") as handle:
+            lines = list(csv.reader(handle))
+    except (OSError, ValueError) as error:
+        raise SweepError(f"cannot resume from {csv_path.parent}: {error}") from None
+    current = json.loads(json.dumps(summary, default=str))
+    differ = [key for key in RESUME_KEYS if previous.get(key) != current.get(key)]
+    if differ or not lines or lines[0] != header:
+        what = ", ".join(differ) or "CSV columns"
+        raise SweepError(f"cannot resume the sweep in {csv_path.parent}: its {what} differ "
+                         f"from this one's; run it without --resume, or into another --out")
+    kept, error_column = {}, header.index("error")
+    for line in lines[1:]:
+        if len(line) == len(header) and not line[error_column] and line[0].isdigit() \
+                and int(line[0]) < summary["points"]:
+            kept.setdefault(int(line[0]), line)
+    return list(kept.values())
+
+
+def _csv_text(header, lines):
+    handle = io.StringIO()
+    csv.writer(handle, lineterminator="\n").writerows([header, *lines])
+    return handle.getvalue()
+
+
 def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None, seed=None,
               method="lhs", fmu_dir="fmus", plot=False, on_point=None, progress=True,
-              scheduler=None, links=(), overrides=None, name=None):
+              scheduler=None, links=(), overrides=None, name=None, resume=False,
+              retries=DEFAULT_RETRIES, guard=None):
     """Run the sweep; returns the summary dict written to sweep.json.
 
     The points run on ``jobs`` local worker processes, or on the Dask cluster whose
     scheduler is at ``scheduler`` (tcp://HOST:PORT). ``links`` set parameters that follow
-    varied ones; ``overrides`` replace the scene's stop_time or step. ``on_point(row)`` is
-    called after each row is written (tests raise KeyboardInterrupt from it). On
-    KeyboardInterrupt the pending points are cancelled, the JSON is marked ``interrupted``
-    and the exception is re-raised.
+    varied ones; ``overrides`` replace the scene's stop_time or step. The counts (jobs,
+    samples, seed, retries) and the output folder are checked before anything runs.
+    ``on_point(row)`` is called after each row is written (tests raise KeyboardInterrupt
+    from it). A point lost with its worker process is retried ``retries`` times (the last
+    one alone). sweep.json is rewritten after every point. ``resume``: keep the rows of the
+    stopped sweep in ``out_dir`` that have no error (it must be the same sweep: RESUME_KEYS)
+    and run the other points. SIGINT and SIGTERM are taken between points (``guard``: an
+    InterruptGuard the caller installed, or None for one installed here): the pending
+    points are cancelled, the JSON is marked ``interrupted`` with the signal and
+    SweepInterrupted (a KeyboardInterrupt) is raised, as it is for a KeyboardInterrupt.
     """
+    from ..cosim.files import output_folder
+    from ..cosim.interrupt import InterruptGuard, signal_name
     from ..cosim.scene import load_scene
     scene_path = Path(scene_path)
     unknown = set(overrides or {}) - SCENE_OVERRIDES
@@ -542,9 +771,14 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
         raise SweepError("give at least one --vary")
     if not metrics:
         raise SweepError("give at least one metric (--metrics)")
+    jobs = at_least("--jobs", os.cpu_count() or 1 if jobs is None else jobs, 1)
+    retries = at_least("--retries", retries, 0)
     if samples is None and seed is not None:
         raise SweepError("--seed needs --samples")
     if samples is not None:
+        at_least("--samples", samples, 1)
+        if seed is not None:
+            at_least("--seed", seed, 0)
         points = sample_points(varies, samples, seed, method)
         method_name = method
     else:
@@ -552,12 +786,11 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
         method_name = "grid"
     kinds, references = check_sweep(scene, varies, metrics, fmu_dir, links)
     scene = resolve_fmus(scene, fmu_dir)
-    jobs = jobs or os.cpu_count() or 1
     name = name or scene.name
-    out_dir = Path(out_dir) if out_dir else Path("out") / f"sweep_{name}"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    csv_path, json_path = out_dir / "sweep.csv", out_dir / "sweep.json"
-    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs)
+    out_dir = output_folder(Path(out_dir) if out_dir else Path("out") / f"sweep_{name}")
+    csv_path, json_path = inside(out_dir, "sweep.csv"), inside(out_dir, "sweep.json")
+    names = [v.name for v in varies] + [k.name for k in links]
+    header = ["index", *names, *(m.text for m in metrics), "error", "wall_time_s", "worker"]
     summary = {
         "name": name, "scene": scene.name, "scene_file": str(scene_path.resolve()),
         "overrides": dict(overrides or {}),
@@ -566,65 +799,70 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
         "links": [{"name": k.name, "kind": kinds[k.name][0], "type": kinds[k.name][1],
                    "factor": k.factor, "source": k.source} for k in links],
         "method": method_name, "seed": seed, "samples": samples,
-        "metrics": [m.text for m in metrics], "jobs": runner.workers,
-        "scheduler": scheduler, "where": runner.where, "fmu_dir": str(fmu_dir),
+        "metrics": [m.text for m in metrics], "fmus": fmu_digests(scene), "jobs": None,
+        "scheduler": scheduler, "where": None, "fmu_dir": str(fmu_dir),
         "points": len(points), "started": _now(), "finished": None, "done": 0, "failed": 0,
-        "interrupted": False, "wall_time_s": None, "scenes_per_s": None, "csv": str(csv_path),
-        "command": sys.argv,
+        "failed_indices": [], "resumed": 0, "retries": retries, "retried": 0,
+        "pool_restarts": 0, "interrupted": False, "signal": None, "wall_time_s": None,
+        "scenes_per_s": None, "csv": str(csv_path), "command": sys.argv,
     }
-    write_json(json_path, summary)
-    names = [v.name for v in varies] + [k.name for k in links]
-    header = ["index", *names, *(m.text for m in metrics), "error", "wall_time_s", "worker"]
-    started = time.perf_counter()
-    meter = Progress(len(points)) if progress else None
-    rows = []
-    handle = open(csv_path, "w", newline="", encoding="utf-8")
-    writer = csv.writer(handle, lineterminator="\n")
-    writer.writerow(header)
-    handle.flush()
-    futures = {}
-    try:
-        shipped = runner.ship(sorted({spec.fmu for spec in scene.components.values()}))
-        for index, values in enumerate(points):
+    kept = _resumed_rows(csv_path, json_path, summary, header) if resume else []
+    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs)
+    summary.update(jobs=runner.workers, where=runner.where, resumed=len(kept), done=len(kept))
+    finished = {int(line[0]) for line in kept}
+    tasks = []
+    for index, values in enumerate(points):
+        if index not in finished:
             assigned = point_values(varies, links, kinds, values)
-            future = runner.submit(index, point_scene(scene, kinds, assigned), metrics,
-                                   references, shipped)
-            futures[future] = (index, [assigned[n] for n in names])
-        for future in runner.completed(list(futures)):
-            index, point = futures[future]
-            try:
-                _, values, error, wall, worker = future.result()
-            except Exception as failure:  # the worker itself failed (died, cannot unpickle)
-                values, wall, worker = {}, None, None
-                error = f"worker: {type(failure).__name__}: {failure}"
-            row = {"index": index, **dict(zip(names, point)), **values,
-                   "error": error, "wall_time_s": wall, "worker": worker}
-            writer.writerow([_format(row.get(key)) for key in header])
-            handle.flush()
-            rows.append(row)
-            summary["done"] += 1
-            summary["failed"] += error is not None
-            if meter:
-                meter.update(summary["done"], summary["failed"])
-            if on_point:
-                on_point(row)
-    except KeyboardInterrupt:
-        for future in futures:
-            future.cancel()
-        summary["interrupted"] = True
-        raise
-    finally:
-        handle.close()
-        runner.close(summary["interrupted"])
-        summary["finished"] = _now()
-        summary["wall_time_s"] = time.perf_counter() - started
-        summary["scenes_per_s"] = summary["done"] / summary["wall_time_s"]
-        if meter and summary["interrupted"]:
-            meter.stream.write("\n")
-        if plot and rows:
-            summary["plots"] = [str(p) for p in write_plots(out_dir, rows,
-                                                                 names[:len(varies)], metrics)]
+            tasks.append(_Task(index, [assigned[n] for n in names],
+                               point_scene(scene, kinds, assigned)))
+    atomic_write(csv_path, _csv_text(header, kept))  # the header and the rows kept
+    write_json(json_path, summary)
+    started = time.perf_counter()
+    meter = Progress(len(points), already=len(kept)) if progress else None
+    handle = open(csv_path, "a", newline="", encoding="utf-8")
+    writer = csv.writer(handle, lineterminator="\n")
+
+    def record(task, outcome):
+        values, error, wall, worker = outcome
+        row = {"index": task.index, **dict(zip(names, task.point)), **values,
+               "error": error, "wall_time_s": wall, "worker": worker}
+        writer.writerow([_format(row.get(key)) for key in header])
+        handle.flush()
+        summary["done"] += 1
+        if error is not None:
+            summary["failed"] += 1
+            summary["failed_indices"] = sorted([*summary["failed_indices"], task.index])
         write_json(json_path, summary)
+        if meter:
+            meter.update(summary["done"], summary["failed"])
+        if on_point:
+            on_point(row)
+
+    stopped_by = None
+    with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
+        try:
+            shipped = runner.ship(sorted({spec.fmu for spec in scene.components.values()}))
+            _run_points(runner, tasks, (metrics, references, shipped), retries, guard, record,
+                        summary)
+        except (KeyboardInterrupt, _Stopped) as stop:
+            stopped_by = guard.take() if guard.requested else getattr(stop, "signum",
+                                                                      signal.SIGINT)
+            summary["interrupted"], summary["signal"] = True, signal_name(stopped_by)
+        finally:
+            handle.close()
+            runner.close(summary["interrupted"])
+            summary["finished"] = _now()
+            summary["wall_time_s"] = time.perf_counter() - started
+            summary["scenes_per_s"] = (summary["done"] - len(kept)) / summary["wall_time_s"]
+            if meter and summary["interrupted"]:
+                meter.stream.write("\n")
+            if plot and summary["done"]:
+                summary["plots"] = [str(p) for p in write_plots(
+                    out_dir, read_sweep_csv(csv_path), names[:len(varies)], metrics)]
+            write_json(json_path, summary)
+    if stopped_by is not None:
+        raise SweepInterrupted(stopped_by)
     return summary
 
 
@@ -645,12 +883,11 @@ def write_plots(out_dir, rows, names, metrics):
             axis.set_ylabel(metric.text)
             axis.grid(True, linewidth=0.3)
             figure.tight_layout()
-            path = out_dir / f"{safe_name(metric.text)}_vs_{safe_name(name)}.png"
-            temporary = path.with_name(f".{path.name}.tmp")
-            figure.savefig(temporary, format="png", dpi=100)
-            pyplot.close(figure)
-            os.replace(temporary, path)
-            paths.append(path)
+            path = inside(out_dir, f"{safe_name(metric.text)}_vs_{safe_name(name)}.png")
+            try:
+                paths.append(save_figure(path, figure, dpi=100))
+            finally:
+                pyplot.close(figure)
     return paths
 
 
@@ -748,25 +985,49 @@ def settings(args):
 
 # --- command line (mechfmu sweep; its options are declared in mechfmu/cli.py) ------------
 
+def failure_line(summary, csv_path, shown=20):
+    """'N of M point(s) failed (index ...); index I: <its error>' for a sweep with failures."""
+    indices = summary["failed_indices"]
+    listed = ", ".join(str(i) for i in indices[:shown])
+    if len(indices) > shown:
+        listed += f", ... ({len(indices) - shown} more in the CSV)"
+    first = next(row for row in read_sweep_csv(csv_path) if row["index"] == indices[0])
+    return (f"{summary['failed']} of {summary['points']} point(s) failed (index {listed}); "
+            f"index {indices[0]}: {first['error']}")
+
+
 def command(args):
     """``mechfmu sweep``: run the sweep the parsed command line ``args`` describes; the exit
-    status (2 on a sweep or scene error, 130 when interrupted)."""
+    status (0 all points done, 1 any point failed, 2 on a sweep, scene or output error,
+    130/143 when SIGINT/SIGTERM stopped it)."""
+    from ..cosim.files import OutputError
+    from ..cosim.interrupt import InterruptGuard, exit_code, signal_name
     from ..cosim.scene import SceneError
-    try:
-        if args.jobs < 1:
-            raise SweepError("--jobs must be at least 1")
-        summary = run_sweep(**settings(args), out_dir=args.out, jobs=args.jobs,
-                            fmu_dir=args.fmu_dir, plot=args.plot, scheduler=args.scheduler)
-    except (SweepError, SceneError) as error:
-        print(f"sweep error: {error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("sweep interrupted; rows done are kept", file=sys.stderr)
-        return 130
+    with InterruptGuard() as guard:  # SIGINT and SIGTERM: taken between points
+        try:
+            summary = run_sweep(**settings(args), out_dir=args.out, jobs=args.jobs,
+                                fmu_dir=args.fmu_dir, plot=args.plot, scheduler=args.scheduler,
+                                resume=args.resume, guard=guard,
+                                retries=DEFAULT_RETRIES if args.retries is None else args.retries)
+        except (SweepError, SceneError, OutputError) as error:
+            print(f"sweep error: {error}", file=sys.stderr)
+            return exit_code(guard.take()) if guard.requested else 2
+        except KeyboardInterrupt as stop:
+            signum = getattr(stop, "signum", signal.SIGINT)
+            print(f"sweep interrupted by {signal_name(signum)}; the rows done are kept (run "
+                  f"again with --resume to finish it)", file=sys.stderr)
+            return exit_code(signum)
+        if guard.requested:  # after the last point, while the files were written
+            print(f"sweep interrupted by {signal_name(guard.take())} after the last point; "
+                  f"the sweep is complete: {summary['csv']}", file=sys.stderr)
+            return exit_code(guard.signum)
     print(f"{summary['name']}: {summary['done']} point(s), {summary['failed']} failed, "
           f"{summary['wall_time_s']:.2f} s ({summary['scenes_per_s']:.1f} scenes/s) on "
           f"{summary['where']}")
     print(f"csv: {summary['csv']}")
     for plot in summary.get("plots", []):
         print(f"png: {plot}")
+    if summary["failed"]:
+        print(f"sweep failed: {failure_line(summary, summary['csv'])}", file=sys.stderr)
+        return 1
     return 0

@@ -59,18 +59,20 @@ class Variable:
     kind: float, int, bool or str. causality: 'parameter', 'input' or 'output'.
     depends: for outputs, the names of the inputs they depend on directly.
     values: for str parameters, the accepted values (documented in the description).
+    nominal: for a Real, its typical magnitude (FMI's nominal attribute), where the start
+    value does not tell it (an input that starts at 0).
     """
 
     __slots__ = ("name", "kind", "causality", "start", "unit", "min", "max",
-                 "description", "depends", "values")
+                 "description", "depends", "values", "nominal")
 
     def __init__(self, name, kind, causality, start, description, unit=None,
-                 min=None, max=None, depends=(), values=None):
+                 min=None, max=None, depends=(), values=None, nominal=None):
         if unit is not None and unit not in UNITS:
             raise ValueError(f"unit {unit!r} of {name} is not in UNITS")
         self.name, self.kind, self.causality, self.start = name, kind, causality, start
         self.description, self.unit, self.min, self.max = description, unit, min, max
-        self.depends, self.values = tuple(depends), values
+        self.depends, self.values, self.nominal = tuple(depends), values, nominal
 
 
 def parameter(name, start, description, unit=None, min=None, max=None, values=None):
@@ -79,9 +81,10 @@ def parameter(name, start, description, unit=None, min=None, max=None, values=No
                     values=values)
 
 
-def input_(name, start, description, unit=None, min=None, max=None):
-    """A continuous input with a start value."""
-    return Variable(name, type(start), "input", start, description, unit, min, max)
+def input_(name, start, description, unit=None, min=None, max=None, nominal=None):
+    """A continuous input with a start value (and a typical magnitude: nominal)."""
+    return Variable(name, type(start), "input", start, description, unit, min, max,
+                    nominal=nominal)
 
 
 def output(name, start, description, unit=None, depends=(), min=None, max=None):
@@ -354,6 +357,8 @@ class MechSlave(Fmi2Slave):
                 bound = getattr(variable, attribute)
                 if bound is not None:
                     typed.set(attribute, repr(float(bound)) if variable.kind is float else str(bound))
+            if variable.nominal is not None:
+                typed.set("nominal", repr(float(variable.nominal)))
         if used_units:
             units = Element("UnitDefinitions")
             for unit in sorted(used_units):

@@ -4,7 +4,11 @@ A linkage model computes its outputs from the drive inputs at each communication
 either by its closed form or by following one assembly branch with the planar constraint
 solver (physics/planar.py). The solver's branch is the model's internal state (the last
 converged position, rates and drive), saved and restored with the FMU state, so a rolled
-back instance re-steps identically.
+back instance re-steps identically. The closed form keeps the last drive too: a drive change
+that passes a singular position the mechanism cannot be followed through (a change point
+of a four-bar, where two assembly branches cross, or a range where it does not assemble)
+is refused by both solvers with the same message (planar.crossing_error), never answered on
+the other branch.
 """
 
 from ..fmi.slave import MechSlave, output, parameter
@@ -44,6 +48,8 @@ class LinkageSlave(MechSlave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.follower = None
+        self.model = None       # planar.Mechanism: the solver's, and the closed form's crossings
+        self.last_drive = None  # the closed form's drive at its last communication point
 
     def driver_inputs(self):
         """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""
@@ -88,14 +94,20 @@ class LinkageSlave(MechSlave):
             raise RangeError("singularity_threshold", v["singularity_threshold"], "[1, inf)")
         self.check_geometry()
         self.follower = None
+        self.model = self.mechanism()
         if v["solver"] == "constraint_solver":
             self.follower = planar.BranchFollower(
-                self.mechanism(), v["solver_tolerance"], v["max_iterations"],
+                self.model, v["solver_tolerance"], v["max_iterations"],
                 v["singularity_threshold"])
+
+    def _drive_now(self, time):
+        return [tuple(map(float, d)) for d in self.drive(time)]
 
     def outputs_at_start(self, time):
         if self.follower is None:
             self._write(self.closed_form(time), 0, 0.0)
+            if self.model.has_crossings:
+                self.last_drive = self._drive_now(time)
         else:
             solution = self.follower.assemble(self.guess(time), self.drive(time))
             self._write(self.from_solution(solution, time), solution.iterations,
@@ -104,7 +116,14 @@ class LinkageSlave(MechSlave):
 
     def update(self, time, step_size):
         if self.follower is None:
+            if self.model.has_crossings:
+                drive = self._drive_now(time)
+                refused = planar.crossing_error(self.model, self.last_drive, drive)
+                if refused:
+                    raise refused
             self._write(self.closed_form(time), 0, 0.0)
+            if self.model.has_crossings:
+                self.last_drive = drive
         else:
             solution = self.follower.follow(self.drive(time), step_size)
             self._write(self.from_solution(solution, time), solution.iterations,
@@ -119,8 +138,12 @@ class LinkageSlave(MechSlave):
 
     # --- FMU state ----------------------------------------------------------------------
     def internal_state(self):
-        return {"follower": None if self.follower is None else self.follower.snapshot()}
+        return {"follower": None if self.follower is None else self.follower.snapshot(),
+                "last_drive": None if self.last_drive is None
+                else [list(d) for d in self.last_drive]}
 
     def restore_internal_state(self, state):
         if self.follower is not None and state.get("follower") is not None:
             self.follower.restore(state["follower"])
+        if state.get("last_drive") is not None:
+            self.last_drive = [tuple(d) for d in state["last_drive"]]

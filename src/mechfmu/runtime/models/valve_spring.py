@@ -6,7 +6,8 @@ from pythonfmu.enums import Fmi2Status
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.slave import input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
-from ..errors import IntegrationError, MechanismError, require_finite
+from ..errors import (IntegrationError, MechanismError, RangeError, require_finite,
+                      require_positive)
 from ..numerics.stepping import advance_through_events
 
 _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
@@ -59,6 +60,10 @@ class ValveSpring(IntegratingSlave):
         parameter("lash", vs.DEFAULT_LASH, "Clearance between the rocker end and the valve "
                   "tip with the valve closed (0: hydraulic lash adjuster)", unit="m",
                   min=0.0),
+        parameter("max_valve_lift", vs.DEFAULT_MAX_LIFT, "Travel limit: the valve lift at "
+                  "which the spring retainer meets the valve guide (coil bind); a step that "
+                  "would reach it is refused with an error (default: the default cam's "
+                  "10.5 mm plus 2 mm)", unit="m", min=0.0),
         parameter("stop_on_float", False, "true: the valve leaving the rocker (float) "
                   "discards the step with an error instead of a warning"),
         parameter("input_interpolation", "interpolate", "The rocker motion inside a step, "
@@ -66,8 +71,9 @@ class ValveSpring(IntegratingSlave):
                   "velocity and acceleration) or hold (the values at the start of the step, "
                   "acceleration held)", values=vs.INPUT_MODES),
         *integrator_variables(default="dopri5", rtol=1e-10, atol=1e-12, max_substep=2e-5),
+        # nominal: the magnitude of a valve lift (the default cam's is 10.5 mm), not 1 m
         input_("rocker_lift", 0.0, "L: position of the rocker's valve end, the kinematic "
-               "valve lift (opening positive)", unit="m"),
+               "valve lift (opening positive)", unit="m", nominal=0.01),
         input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s"),
         input_("rocker_acceleration", 0.0, "L'' = d(rocker_velocity)/dt (for the "
                "interpolation inside the step)", unit="m/s2"),
@@ -112,6 +118,8 @@ class ValveSpring(IntegratingSlave):
         self.engaged = None      # vs.Engaged at the last communication point
         self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
         self.peak_energy = 0.0   # J: largest energy in play so far
+        self.max_lift = None     # m: max_valve_lift, the travel limit
+        self.last_float = None   # s: when the valve last left the rocker (float), for messages
 
     # --- set-up (IntegratingSlave: the state is (x, v, W), the inputs (L, L', L'')) ----------
     def set_up(self):
@@ -120,15 +128,18 @@ class ValveSpring(IntegratingSlave):
             v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
             v["contact_stiffness"], v["contact_damping"], v["seat_stiffness"],
             v["seat_damping"], v["lash"])
+        self.max_lift = require_positive("max_valve_lift", v["max_valve_lift"], "m")
         self.drive = vs.StepDrive(v["input_interpolation"])
         self.modes = vs.Modes()
         self.rhs = vs.build_rhs(self.parameters, self.drive, self.modes)
-        self.events = vs.build_events(self.parameters, self.drive)
+        self.events = vs.build_events(self.parameters, self.drive, self.max_lift)
         return True
 
     def initial_state(self, time):
         L, rate, _ = self.held_inputs
         y = vs.initial_state(self.parameters, L, rate)
+        if y[0] > self.max_lift:
+            self._refuse_travel(time, y, self.held_inputs)
         self.phase = vs.contact_phase(self.parameters, L, y[0])
         self.engaged = vs.engagement(self.parameters, L, rate, *y[:2])
         return y
@@ -136,13 +147,15 @@ class ValveSpring(IntegratingSlave):
     def extra_state(self):
         return {"phase": None if self.phase is None else list(self.phase),
                 "engaged": None if self.engaged is None else list(self.engaged),
-                "created": self.created, "peak_energy": self.peak_energy}
+                "created": self.created, "peak_energy": self.peak_energy,
+                "last_float": self.last_float}
 
     def restore_extra_state(self, saved):
         if saved["phase"] is not None:
             self.phase = vs.Phase(*saved["phase"])
             self.engaged = vs.Engaged(*saved["engaged"])
         self.created, self.peak_energy = saved["created"], saved["peak_energy"]
+        self.last_float = saved["last_float"]
 
     # --- stepping ----------------------------------------------------------------------------
     def read_inputs(self):
@@ -165,6 +178,10 @@ class ValveSpring(IntegratingSlave):
                     raise MechanismError(_float_message(happening))
 
         def on_event(event, t, y):
+            if event.name == vs.TRAVEL_LIMIT:
+                floated = [h.time for h in found if h.kind == vs.FLOAT]
+                self._refuse_travel(t, y, vs.drive_at(self.drive, t),
+                                    floated[-1] if floated else self.last_float)
             if event.name in vs.SWITCH_EVENTS:
                 L, rate, _ = vs.drive_at(self.drive, t)
                 self.modes.engaged = vs.after_switch(p, self.modes.engaged,
@@ -186,11 +203,25 @@ class ValveSpring(IntegratingSlave):
         for happening in found:
             if happening.kind == vs.FLOAT:
                 v["float_events"] += 1
+                self.last_float = happening.time
             elif happening.kind == vs.SEAT_IMPACT:
                 v["seat_impacts"] += 1
                 continue  # a closing: counted, not reported
             self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
                      Fmi2Status.warning)
+
+    def _refuse_travel(self, t, y, drive, floated=None):
+        """RangeError: the valve lift reaches max_valve_lift at time t (state y, rocker end
+        ``drive`` = (L, L', L''))."""
+        cause = (f"the valve left the rocker (float) at t = {floated!r} s and flew on"
+                 if floated is not None else
+                 f"the rocker pushes it there (rocker lift {drive[0]:.6g} m)")
+        raise RangeError(
+            "valve_lift", y[0], f"(-inf, {self.max_lift!r}]", "m",
+            f"max_valve_lift, the travel limit: the spring retainer meets the valve guide at "
+            f"t = {t!r} s with the valve moving at {y[1]:.6g} m/s; {cause}; beyond it the "
+            f"valve train is damaged and the model does not apply: lower the camshaft speed, "
+            f"stiffen or preload the spring, or raise max_valve_lift")
 
     def _check_energy(self, t0, y0, t1, y1):
         """(energy created so far, largest energy in play) after a step, or IntegrationError

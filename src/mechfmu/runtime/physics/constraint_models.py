@@ -8,7 +8,7 @@ in the solver's error messages. Coordinates per body: (x, y, phi) in m, m, rad.
 
 import math
 
-from .four_bar import change_point_angles, singular_position_kind
+from .four_bar import singular_crossing, singular_position_kind
 from .planar import GROUND, PHI, Y, Driver, Mechanism, PointOnLine, Revolute, translational
 
 def _angle(q, body):
@@ -42,18 +42,10 @@ def four_bar(ground, crank, coupler, rocker):
         # linearly at a change point, at ratios that depend on the lengths).
         return singular_position_kind(d, a, b, c, _angle(q, 0))
 
-    change_points = change_point_angles(d, a, b, c)
-
     def crossing(start, end):
-        # A crank angle c + 2 pi n in [start, end] (either order): the drive reaches or
-        # passes a change point, where the branches cross.
-        low, high = sorted((start[0][0], end[0][0]))
-        for angle in change_points:
-            nearest = angle + 2.0 * math.pi * math.ceil((low - angle) / (2.0 * math.pi))
-            if nearest <= high:
-                return (f"change point: all four links collinear at crank angle "
-                        f"{nearest!r} rad")
-        return None
+        # a change point reached or passed, or a range where the linkage does not assemble
+        # jumped, between the two crank angles: the closed form asks the same
+        return singular_crossing(d, a, b, c, start[0][0], end[0][0])
 
     joints = [Revolute("crank pivot O2", 0, (0.0, 0.0), GROUND, (0.0, 0.0)),
               Revolute("crank pin A", 0, (a, 0.0), 1, (0.0, 0.0)),

@@ -55,14 +55,15 @@ CIRCUITS = (OPEN, CROSSED)
 # b + c or |b - c| are toggle positions: the input cannot tell which side it is on.
 TOGGLE_ULPS = 8
 
-# S + L and P + Q this close (relative to L) make a change-point linkage.
+# S + L and P + Q this close (relative to L, the longest link) make a change-point linkage:
+# the one tolerance of every decision "on the Grashof boundary" (grashof_class,
+# change_point_angles, singular_crossing), scaled to the link lengths; never an exact
+# comparison, so lengths like 5 and 2 inches, inexact in binary, still count.
 CHANGE_POINT_TOLERANCE = 1e-12
 
 # Names of the singular positions of a crank-driven four-bar (error messages).
 TOGGLE = "toggle position: coupler and rocker collinear"
 CHANGE_POINT = "change point: all four links collinear"
-# A toggle crank angle with |cos(theta2)| this close to 1 lies on the ground line.
-_FLAT_COSINE = 1e-9
 
 GrashofClass = namedtuple("GrashofClass", "code name description")
 GRASHOF_CLASSES = (
@@ -115,7 +116,8 @@ def grashof_class(ground, crank, coupler, rocker):
     """Grashof class code (see GRASHOF_CLASSES) of a four-bar with the given lengths (m).
 
     With S, L the shortest and longest lengths and P, Q the other two: S + L = P + Q within
-    CHANGE_POINT_TOLERANCE * L is a change point (6), S + L > P + Q a triple-rocker (5), and
+    CHANGE_POINT_TOLERANCE * L is a change point (6; decided by change_point_angles, so the
+    class and the solvers' change points always agree), S + L > P + Q a triple-rocker (5), and
     otherwise (Grashof) the shortest link names the class: crank 1, ground 2, coupler 3,
     rocker 4.
 
@@ -129,7 +131,7 @@ def grashof_class(ground, crank, coupler, rocker):
     ordered = sorted(lengths)
     shortest, longest = ordered[0], ordered[3]
     excess = (shortest + longest) - (ordered[1] + ordered[2])
-    if abs(excess) <= CHANGE_POINT_TOLERANCE * longest:
+    if change_point_angles(*lengths):  # |excess| <= CHANGE_POINT_TOLERANCE * longest
         return 6
     if excess > 0.0:
         return 5
@@ -170,40 +172,104 @@ def crank_angle_range(*linkage):
     return max(low, -1.0), min(high, 1.0)
 
 
-def singular_position_kind(ground, crank, coupler, rocker, crank_angle):
-    """TOGGLE or CHANGE_POINT: the kind of singular position nearest to ``crank_angle`` (rad).
+def _toggles(d, a, b, c):
+    """(crank angle in [0, pi], kind) of the singular positions with the crank pin above the
+    ground line (their mirror images -angle are singular too).
 
-    The crank angles of the toggle positions (coupler and rocker collinear) solve
-    |A - O4| = coupler + rocker or |coupler - rocker|, i.e. cos(theta2) = (a^2 + d^2 - f^2) /
-    (2ad); one with cos(theta2) = +-1 has the crank on the ground line too, all four links
-    collinear: a change point (only in change-point linkages, S + L = P + Q). The nearest
-    such angle decides the name; TOGGLE if the crank has no toggle at all.
+    The toggles (coupler and rocker collinear) put the crank pin at f = |A - O4| = b + c or
+    |b - c| from the rocker pivot, i.e. cos(theta2) = (a^2 + d^2 - f^2) / (2ad). One of them
+    at theta2 = 0 (f = |d - a|) or pi (f = d + a) has the crank on the ground line as well:
+    all four links collinear, a change point. That happens exactly when |d - a| = |b - c| or
+    d + a = b + c, decided within CHANGE_POINT_TOLERANCE times the longest link (and then
+    S + L = P + Q: the smallest of the three pairings' differences is the Grashof excess).
     """
-    d, a, b, c = ground, crank, coupler, rocker
-    nearest = None
-    for reach in (b + c, abs(b - c)):
-        cosine = (a * a + d * d - reach * reach) / (2.0 * a * d)
-        if abs(cosine) > 1.0 + _FLAT_COSINE:
+    tolerance = CHANGE_POINT_TOLERANCE * max(d, a, b, c)
+    found = []
+    for reach, flat, centre in ((abs(b - c), abs(d - a), 0.0), (b + c, d + a, math.pi)):
+        if abs(flat - reach) <= tolerance:
+            found.append((centre, CHANGE_POINT))
             continue
-        angle = math.acos(max(-1.0, min(1.0, cosine)))
+        cosine = (a * a + d * d - reach * reach) / (2.0 * a * d)
+        if -1.0 <= cosine <= 1.0:
+            found.append((math.acos(cosine), TOGGLE))
+    return found
+
+
+def singular_position_kind(ground, crank, coupler, rocker, crank_angle):
+    """TOGGLE or CHANGE_POINT: the kind of singular position nearest to ``crank_angle`` (rad);
+    TOGGLE if the crank has no singular position at all (see _toggles)."""
+    nearest = None
+    for angle, kind in _toggles(ground, crank, coupler, rocker):
         distance = min(abs(math.remainder(crank_angle - angle, 2.0 * math.pi)),
                        abs(math.remainder(crank_angle + angle, 2.0 * math.pi)))
         if nearest is None or distance < nearest[0]:
-            nearest = (distance, abs(abs(cosine) - 1.0) <= _FLAT_COSINE)
-    return CHANGE_POINT if nearest is not None and nearest[1] else TOGGLE
+            nearest = (distance, kind)
+    return CHANGE_POINT if nearest is not None and nearest[1] == CHANGE_POINT else TOGGLE
 
 
 def change_point_angles(ground, crank, coupler, rocker):
     """Crank angles (rad, 0 and/or pi) of the change points: toggle positions with the crank
     on the ground line, all four links collinear, where two assembly branches cross. Empty
-    unless S + L = P + Q (to rounding)."""
-    d, a, b, c = ground, crank, coupler, rocker
-    angles = set()
-    for reach in (b + c, abs(b - c)):
-        cosine = (a * a + d * d - reach * reach) / (2.0 * a * d)
-        if abs(abs(cosine) - 1.0) <= _FLAT_COSINE:
-            angles.add(0.0 if cosine > 0.0 else math.pi)
-    return sorted(angles)
+    unless S + L = P + Q (within CHANGE_POINT_TOLERANCE times the longest link)."""
+    return sorted(angle for angle, kind in _toggles(ground, crank, coupler, rocker)
+                  if kind == CHANGE_POINT)
+
+
+BRANCHES_CROSS = "there two assembly branches cross and the motion may continue on either"
+
+
+def singular_crossing(ground, crank, coupler, rocker, start_angle, end_angle):
+    """The first singular position the crank passes on its way from ``start_angle`` to
+    ``end_angle`` (rad, not wrapped: the drive turns through every angle in between), as
+    (position, consequence) texts, or None.
+
+    Passed are: a change point reached or passed (0 or pi plus whole turns in the closed
+    interval), where two assembly branches cross so that two samples either side cannot
+    tell on which the linkage went on; and a toggle gap crossed, a range of crank angles
+    around 0 or pi where the linkage does not assemble, lying between two angles that both
+    assemble (a drive ending inside the gap is not a crossing: the end itself does not
+    assemble, which the closed form and the solver each report). Both solvers of the
+    four-bar ask this before they solve (planar.crossing_error), so they refuse the same
+    drive changes with the same message.
+    """
+    d, a, b, c = check_four_bar(ground, crank, coupler, rocker)
+    rising = end_angle >= start_angle
+    low, high = (start_angle, end_angle) if rising else (end_angle, start_angle)
+    passed = []  # (distance from the start along the drive, position, consequence)
+    for centre in change_point_angles(d, a, b, c):
+        first = centre + 2.0 * math.pi * math.ceil((low - centre) / (2.0 * math.pi))
+        last = centre + 2.0 * math.pi * math.floor((high - centre) / (2.0 * math.pi))
+        if first <= high:
+            angle = first if rising else last
+            passed.append((abs(angle - start_angle),
+                           f"{CHANGE_POINT} at crank angle {angle!r} rad", BRANCHES_CROSS))
+    interval = crank_angle_range(d, a, b, c)
+    if interval is not None and _assembles((d, a, b, c), end_angle):
+        flats = change_point_angles(d, a, b, c)
+        cos_low, cos_high = interval
+        # the gaps (centre, half width): cos(theta2) > cos_high around 0, < cos_low around pi
+        for centre, half, exists in ((0.0, math.acos(cos_high), cos_high < 1.0),
+                                     (math.pi, math.pi - math.acos(cos_low), cos_low > -1.0)):
+            if not exists or centre in flats:
+                continue
+            first = centre + 2.0 * math.pi * math.ceil((low - centre) / (2.0 * math.pi))
+            last = centre + 2.0 * math.pi * math.floor((high - centre) / (2.0 * math.pi))
+            if first <= high:
+                middle = first if rising else last
+                edge = middle - half if rising else middle + half
+                passed.append((abs(edge - start_angle), f"{TOGGLE} at crank angle {edge!r} rad",
+                               f"the linkage does not assemble between crank angles "
+                               f"{middle - half!r} and {middle + half!r} rad, so no motion "
+                               f"joins the two drive values"))
+    if not passed:
+        return None
+    return min(passed)[1:]
+
+
+def _assembles(lengths, crank_angle):
+    """Whether the linkage assembles at ``crank_angle`` (rad), with _solve's tolerance."""
+    to_high, to_low, tolerance = _reach_margins(lengths, crank_angle)
+    return to_high >= -tolerance and to_low >= -tolerance
 
 
 def _wrap(angle):
@@ -248,14 +314,22 @@ def _crank_pin_distance(a, d, crank_angle):
     return math.sqrt((a - d) ** 2 + 4.0 * a * d * half * half)
 
 
+def _reach_margins(lengths, crank_angle):
+    """(b + c - f, f - |b - c|, tolerance) in m: how far the crank pin's distance f from the
+    rocker pivot lies inside the reach of coupler and rocker; within the tolerance of either
+    end (TOGGLE_ULPS eps (b + c)) the linkage is at a toggle."""
+    d, a, b, c = lengths
+    f = _crank_pin_distance(a, d, crank_angle)
+    return (b + c) - f, f - abs(b - c), TOGGLE_ULPS * sys.float_info.epsilon * (b + c)
+
+
 def _solve(lengths, crank_angle, circuit):
     """(coupler_angle, rocker_angle, toggle) for validated lengths; see ``position``."""
     d, a, b, c = lengths
     t2 = crank_angle
     f = _crank_pin_distance(a, d, t2)
     high, low = b + c, abs(b - c)
-    tolerance = TOGGLE_ULPS * sys.float_info.epsilon * high
-    to_high, to_low = high - f, f - low
+    to_high, to_low, tolerance = _reach_margins(lengths, t2)
     if to_high < -tolerance or to_low < -tolerance:
         lo, hi = crank_angle_range(d, a, b, c)
         raise RangeError(

@@ -258,8 +258,10 @@ class Mechanism:
     ``diagnose(q)``: optional callable naming the configuration in error messages;
     ``singularity(q)``: optional callable naming the singular condition nearest to q (for
     example "toggle position: coupler and rocker collinear");
-    ``crossing(start_drive, end_drive)``: optional callable naming a singular position where
-    assembly branches cross (a change point) that a drive change reaches or passes, or None.
+    ``crossing(start_drive, end_drive)``: optional callable returning (position,
+    consequence), two texts naming a singular position that a drive change reaches or passes
+    and cannot be followed through (a change point, where assembly branches cross, or a
+    range where the mechanism does not assemble), or None (see crossing_error).
     """
 
     def __init__(self, name, bodies, joints, length_scale, diagnose=None, singularity=None,
@@ -281,6 +283,7 @@ class Mechanism:
         self.diagnose = diagnose or (lambda q: "q = [" + ", ".join(f"{v:.6g}" for v in q) + "]")
         self.singularity = singularity or (lambda q: "constraint Jacobian rank loss")
         self.crossing = crossing or (lambda start, end: None)
+        self.has_crossings = crossing is not None  # whether a drive change can be refused
 
     def singular_position(self, q):
         """'<nearest singular condition> at <configuration>' for error messages."""
@@ -402,6 +405,20 @@ def analyse(mechanism, q, drive, singularity_threshold=DEFAULT_SINGULARITY_THRES
     return qdot, qddot, condition, determinant_sign(factored)
 
 
+def crossing_error(mechanism, start, end):
+    """SingularConfiguration for a drive change from ``start`` to ``end`` (lists of (value,
+    rate, acceleration)) that passes a singular position the mechanism cannot be followed
+    through (``mechanism.crossing``), or None. One message for the solver and for a
+    mechanism's closed form alike."""
+    passed = mechanism.crossing(start, end)
+    if not passed:
+        return None
+    position, consequence = passed
+    return SingularConfiguration(
+        f"{mechanism.name}: the drive passes through a singular position, {position}, "
+        f"between {[d[0] for d in start]} and {[d[0] for d in end]}: {consequence}")
+
+
 class BranchFollower:
     """Follows one assembly branch of a driven mechanism from one drive value to the next.
 
@@ -452,15 +469,13 @@ class BranchFollower:
         A drive change that reaches or passes a point where two assembly branches cross (a
         change point, named by the mechanism's ``crossing``) is refused: there the sign of
         det(Phi_q) flips along each branch, so it cannot tell them apart, and the branch
-        that keeps the sign is the other one.
+        that keeps the sign is the other one. So is one that jumps a range of drive values
+        where the mechanism does not assemble (crossing_error).
         """
         drive = [tuple(map(float, d)) for d in drive]
-        passed = self.mechanism.crossing(self.drive, drive)
-        if passed:
-            raise SingularConfiguration(
-                f"{self.mechanism.name}: the drive passes through a singular position, "
-                f"{passed}, between {[d[0] for d in self.drive]} and {[d[0] for d in drive]}: "
-                f"there two assembly branches cross and the motion may continue on either")
+        refused = crossing_error(self.mechanism, self.drive, drive)
+        if refused:
+            raise refused
         last = self.solution
         guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         try:

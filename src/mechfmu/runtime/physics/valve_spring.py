@@ -43,6 +43,13 @@ W(t) - W(0) = T + V - (T + V)(0) + (energy the dashpots dissipated): with both d
 the balance is exact, and with them on T + V can never gain more than W (the FMU refuses a
 step that does: an unstable integration).
 
+Travel limit: the valve can open only so far before its spring retainer meets the valve guide
+(or the spring reaches coil bind), max_valve_lift, 12.5 mm by default (2 mm beyond the 10.5
+mm of the default cam through the rocker). That is a collision that damages a valve train,
+not an operating regime, so the model has no contact law there: the FMU refuses the step in
+which the valve would reach it (the terminal event travel_limit, x rising through the limit),
+naming the limit, the time and whether the valve had floated.
+
 Neglected: gravity on the valve (about 1 N against hundreds of N of spring force), friction
 in the valve guide, the spring's own surge modes (its moving mass is lumped into m), the
 rocker's reaction (the rocker end is a prescribed motion), and the drive's compliance other
@@ -70,6 +77,9 @@ DEFAULT_SEAT_STIFFNESS = 1e8
 # c_s = 2 zeta sqrt(k_s m): 300 N s/m is zeta = 0.047, a restitution of about 0.86.
 DEFAULT_SEAT_DAMPING = 300.0
 DEFAULT_LASH = 0.0  # m: a hydraulic lash adjuster keeps the rocker on the valve
+# m: retainer-to-guide clearance at the closed valve: the default cam's 10.5 mm of valve lift
+# plus 2 mm, a usual margin to coil bind
+DEFAULT_MAX_LIFT = 0.0125
 
 INPUT_MODES = ("interpolate", "hold")
 
@@ -81,6 +91,7 @@ Phase = namedtuple("Phase", "touching open landed")
 Engaged = namedtuple("Engaged", "contact seat")
 CONTACT, SEAT = 0, 1
 SWITCH_EVENTS = ("contact_switch", "seat_switch")  # event names, indexed by CONTACT, SEAT
+TRAVEL_LIMIT = "travel_limit"  # event name: the valve lift rising through max_valve_lift
 Happening = namedtuple("Happening", "kind time lift velocity drive")
 FLOAT, REBOUND, SEAT_IMPACT, BOUNCE = "float", "rebound", "seat impact", "bounce"
 
@@ -359,10 +370,11 @@ def build_rhs(p, drive, modes):
     return rhs
 
 
-def build_events(p, drive):
+def build_events(p, drive, max_lift=None):
     """{Engaged: events to watch in that mode}: each contact's switch function crossing
     towards the other mode (falling while engaged, rising while idle) ends the segment, and
-    d falling through 0 (the valve leaving the rocker) is located for the float report."""
+    d falling through 0 (the valve leaving the rocker) is located for the float report;
+    with ``max_lift`` (m), the valve lift rising through it (TRAVEL_LIMIT) as well."""
     def contact(t, y):
         L, rate, _ = drive_at(drive, t)
         return contact_switch(p, penetration(p, L, y[0]), rate - y[1])
@@ -373,9 +385,11 @@ def build_events(p, drive):
     def separation(t, y):
         return penetration(p, drive_at(drive, t)[0], y[0])
 
-    leaving = Event("separation", separation, -1)
+    always = [Event("separation", separation, -1)]
+    if max_lift is not None:
+        always.append(Event(TRAVEL_LIMIT, lambda t, y: y[0] - max_lift, 1))
     return {Engaged(c, s): (Event(SWITCH_EVENTS[CONTACT], contact, -1 if c else 1),
-                            Event(SWITCH_EVENTS[SEAT], seat, -1 if s else 1), leaving)
+                            Event(SWITCH_EVENTS[SEAT], seat, -1 if s else 1), *always)
             for c in (False, True) for s in (False, True)}
 
 

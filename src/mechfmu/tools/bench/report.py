@@ -8,7 +8,8 @@ import platform
 from dataclasses import dataclass
 from pathlib import Path
 
-from ...cosim.results import atomic_write, versions
+from ...cosim.files import atomic_write
+from ...cosim.results import versions
 
 CSV_COLUMNS = ("benchmark", "case", "value", "unit", "target", "meets_target", "repeats",
                "notes")
@@ -125,6 +126,5 @@ def write_outputs(out_dir, rows, info):
     out_dir = Path(out_dir)
     text = f"{markdown_table(rows)}\n\n{machine_line(info)}\n"
     return {"csv": write_csv(out_dir / "bench.csv", rows),
-            "md": atomic_write(out_dir / "bench.md", lambda handle: handle.write(text)),
-            "machine": atomic_write(out_dir / "machine.json",
-                                    lambda handle: json.dump(info, handle, indent=2))}
+            "md": atomic_write(out_dir / "bench.md", text),
+            "machine": atomic_write(out_dir / "machine.json", json.dumps(info, indent=2))}

@@ -7,10 +7,9 @@ the coursework's own stated results, which appear only in columns or sentences l
 "coursework says".
 """
 
-from pathlib import Path
-
 import numpy as np
 
+from mechfmu.cosim.files import atomic_write
 from mechfmu.runtime.physics.landing_gear import COURSEWORK_STROKE_TIME
 from mechfmu.runtime.physics.suspension import (COURSEWORK_BASE_OFFSET, COURSEWORK_FREE_LENGTH,
                                         COURSEWORK_MASS, COURSEWORK_STIFFNESS, GRAVITY)
@@ -393,7 +392,4 @@ def build_report():
 
 def write_report(path):
     """Write ``build_report()`` to ``path`` (parent directories created); return the Path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(build_report(), encoding="utf-8")
-    return path
+    return atomic_write(path, build_report())

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import sweep
-from ...cosim.results import atomic_write
+from ...cosim.files import atomic_write, save_figure
 from ...cosim.scene import find_file, load_scene
 from ...references import suspension as suspension_reference
 from .. import sweep_references as reference
@@ -201,12 +201,10 @@ def plot_suspension(out_dir, findings):
     axis.grid(True, linewidth=0.3)
     axis.legend()
     figure.tight_layout()
-    path = Path(out_dir) / "suspension_mass.png"
-    temporary = path.with_name(f".{path.name}.tmp")
-    figure.savefig(temporary, format="png", dpi=100)
-    pyplot.close(figure)
-    temporary.replace(path)
-    return path
+    try:
+        return save_figure(Path(out_dir) / "suspension_mass.png", figure, dpi=100)
+    finally:
+        pyplot.close(figure)
 
 
 # The scenes' declared tolerances or tighter
@@ -238,6 +236,6 @@ def report(sweep_dir, out_dir, summaries=None):
     """Analyse, write summary.md and the suspension plot; returns (findings, Markdown)."""
     findings = analyse(sweep_dir, out_dir)
     text = markdown(findings, summaries)
-    atomic_write(Path(out_dir) / "summary.md", lambda handle: handle.write(text))
+    atomic_write(Path(out_dir) / "summary.md", text)
     plot_suspension(out_dir, findings)
     return findings, text

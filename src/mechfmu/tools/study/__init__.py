@@ -23,8 +23,9 @@ import sys
 import time
 from pathlib import Path
 
+from ...cosim.files import atomic_write
 from ...cosim.master import Simulation
-from ...cosim.results import atomic_write, versions
+from ...cosim.results import versions
 from . import design, measure, report
 
 
@@ -107,8 +108,7 @@ def command(args):
         paths.append(report.plot_front(rows, study_scene, unit, out / f"{study_scene.name}.png"))
         paths.append(report.plot_sources(rows, study_scene, unit,
                                          out / f"{study_scene.name}_sources.png"))
-    paths.append(atomic_write(out / "pareto.md",
-                              lambda handle: handle.write(pareto_markdown(rows, units))))
+    paths.append(atomic_write(out / "pareto.md", pareto_markdown(rows, units)))
     elapsed = time.perf_counter() - started
     failed = sorted({(r["scene"], r["integrator"], r["tolerance"], r["max_substep"], r["step"],
                       r["coupling"]) for r in rows if r["status"] != "ok"})
@@ -124,8 +124,7 @@ def command(args):
                     "cores": os.cpu_count()},
         "versions": versions(), "command": sys.argv,
     }
-    paths.append(atomic_write(out / "study.json",
-                              lambda handle: json.dump(definition, handle, indent=2)))
+    paths.append(atomic_write(out / "study.json", json.dumps(definition, indent=2)))
     for path in paths:
         print(f"wrote {path}")
     print(f"{len(points)} points ({len(failed)} refused by the FMU, recorded with their "

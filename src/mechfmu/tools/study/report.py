@@ -7,6 +7,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+from ...cosim.files import save_figure  # noqa: E402
 from .design import ADAPTIVE, TIGHTEST  # noqa: E402
 
 TARGETS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
@@ -92,9 +93,7 @@ def plot_front(rows, study_scene, unit, path):
     axes.grid(True, which="both", alpha=0.3)
     axes.legend(fontsize=8)
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return path
+    return _save(path, figure)
 
 
 def plot_sources(rows, study_scene, unit, path):
@@ -135,6 +134,12 @@ def plot_sources(rows, study_scene, unit, path):
             axes.legend(fontsize=8)
     figure.suptitle(f"{study_scene.name}: the two error sources apart")
     figure.tight_layout()
-    figure.savefig(path, dpi=110)
-    plt.close(figure)
-    return path
+    return _save(path, figure)
+
+
+def _save(path, figure):
+    """Write the figure atomically and free it."""
+    try:
+        return save_figure(path, figure, dpi=110)
+    finally:
+        plt.close(figure)
