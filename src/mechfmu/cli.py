@@ -16,7 +16,8 @@ from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
 def _build(args):
     from .packaging.build import build_all
-    for path in build_all(args.out, args.models or None):
+    for path in build_all(args.out, args.models or None, fmi_version=args.fmi_version,
+                          embed_python=args.embed_python):
         print(f"built {path}")
     return 0
 
@@ -272,6 +273,11 @@ def parser():
     build = verbs.add_parser("build", help="build the FMUs")
     build.add_argument("models", nargs="*", help="model names (default: all)")
     build.add_argument("--out", default="fmus", help="output folder (default: fmus)")
+    build.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
+                       help="FMI 2.0 (pythonfmu, default) or FMI 3.0 (pythonfmu3) co-simulation")
+    build.add_argument("--embed-python", action="store_true",
+                       help="carry this interpreter's libpython and the standard library the "
+                            "models import, so the FMUs run where no Python is installed")
     build.set_defaults(func=_build)
 
     run = verbs.add_parser("run", help="run a scene and write CSV, JSON and PNG")

@@ -10,12 +10,14 @@
  * i (Integer) or b (Boolean): one CSV row "time,outputs..." after initialisation and after
  * every step (%.17g: doubles round-trip exactly). Exit status: 0 when every call returned
  * fmi2OK or fmi2Warning; 1 for a failed call (named on stderr); 2 for bad arguments or an FMU
- * that cannot be loaded.
+ * that cannot be loaded. At the end it names on stderr every libpython in the process
+ * ("host: loaded /path/libpython3.x.so.1.0"), the one the FMU's loader found.
  */
 
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <limits.h>
+#include <link.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -47,6 +49,17 @@ static void logger(fmi2ComponentEnvironment environment, fmi2String instance, fm
     vfprintf(stderr, message, args);
     va_end(args);
     fputc('\n', stderr);
+}
+
+/* dl_iterate_phdr callback: name each libpython mapped into this process. */
+static int name_libpython(struct dl_phdr_info *info, size_t size, void *data)
+{
+    (void)size;
+    (void)data;
+    if (info->dlpi_name && strstr(info->dlpi_name, "libpython")) {
+        fprintf(stderr, "host: loaded %s\n", info->dlpi_name);
+    }
+    return 0;
 }
 
 static double input_value(const Input *input, double t)
@@ -203,5 +216,6 @@ int main(int argc, char **argv)
         freeInstance(c);
     }
     fflush(stdout);
+    dl_iterate_phdr(name_libpython, NULL);
     return failed;
 }

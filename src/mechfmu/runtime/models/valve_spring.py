@@ -1,10 +1,8 @@
 """ValveSpring.fmu: the valve as a mass on its spring, driven by the rocker through a compliant
 contact and stopped by a compliant seat, integrated inside each communication step."""
 
-from pythonfmu.enums import Fmi2Status
-
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import input_, integrator_variables, output, parameter
+from ..fmi.slave import Status, input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
 from ..errors import IntegrationError, MechanismError, require_finite
 from ..numerics.stepping import advance_through_events
@@ -190,7 +188,7 @@ class ValveSpring(IntegratingSlave):
                 v["seat_impacts"] += 1
                 continue  # a closing: counted, not reported
             self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
-                     Fmi2Status.warning)
+                     Status.warning)
 
     def _check_energy(self, t0, y0, t1, y1):
         """(energy created so far, largest energy in play) after a step, or IntegrationError
