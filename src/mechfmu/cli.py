@@ -1,5 +1,5 @@
-"""The ``mechfmu`` command: build, run, example, export-ssp, check, references, report, docs,
-study, bench, fuzz, sweep.
+"""The ``mechfmu`` command: build, run, example, export-ssp, export-fmu, check, references,
+report, docs, study, bench, fuzz, sweep.
 
 One argparse tree: every verb and its options are declared here, and each verb calls one
 function of the package (imported when the verb runs, so ``mechfmu run`` never loads the
@@ -81,6 +81,22 @@ def _export_ssp(args):
     except SceneError as error:
         return _scene_failure(error)
     print(f"wrote {path}: {summary(path)}")
+    return 0
+
+
+def _export_fmu(args):
+    from .cosim.scene import SceneError, find_file
+    from .tools.container import export_scene_fmu
+    schedule = {"scene": None, "sequential": True, "parallel": False}[args.schedule]
+    try:
+        summary = export_scene_fmu(find_file(args.scene), args.out, args.fmu_dir, schedule)
+    except SceneError as error:
+        return _scene_failure(error)
+    mode = ("sequential (Gauss-Seidel in this order)" if summary.sequential
+            else "parallel (every link one step late)")
+    print(f"wrote {summary.path}: {len(summary.components)} FMUs "
+          f"({', '.join(summary.components)}), {mode}, step {summary.step!r} s, "
+          f"outputs: {', '.join(summary.outputs)}")
     return 0
 
 
@@ -298,6 +314,19 @@ def parser():
     export.add_argument("out", help="the .ssp file to write")
     export.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
     export.set_defaults(func=_export_ssp)
+
+    container = verbs.add_parser("export-fmu", help="pack a scene (its FMUs, connections and "
+                                 "parameters) into one container FMU (FMI 2.0, "
+                                 "fmu-manipulation-toolbox) for tools that take one FMU")
+    container.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    container.add_argument("out", help="the .fmu file to write")
+    container.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    container.add_argument("--schedule", choices=("scene", "sequential", "parallel"),
+                           default="scene",
+                           help="scene (default): sequential for gauss_seidel scenes, parallel "
+                                "for jacobi ones; sequential: each FMU sees the outputs of those "
+                                "stepped before it; parallel: every link lags one step")
+    container.set_defaults(func=_export_fmu)
 
     check = verbs.add_parser("check", help="compare a result CSV with a reference CSV")
     check.add_argument("result")

@@ -54,9 +54,10 @@ static void logger(fmi2ComponentEnvironment environment, fmi2String instance, fm
 /* dl_iterate_phdr callback: name each libpython mapped into this process. */
 static int name_libpython(struct dl_phdr_info *info, size_t size, void *data)
 {
+    const char *base = info->dlpi_name ? strrchr(info->dlpi_name, '/') : NULL;
     (void)size;
     (void)data;
-    if (info->dlpi_name && strstr(info->dlpi_name, "libpython")) {
+    if (base && strncmp(base + 1, "libpython", 9) == 0) {
         fprintf(stderr, "host: loaded %s\n", info->dlpi_name);
     }
     return 0;

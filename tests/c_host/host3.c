@@ -14,12 +14,14 @@
  * FMU after step K while the others go on; --reload-first loads the first FMU again after
  * all are unloaded and runs it once more from the start (rows "R,time,..."). Exit status: 0
  * when every call returned OK or Warning; 1 for a failed call (named on stderr); 2 for bad
- * arguments or an FMU that cannot be loaded.
+ * arguments or an FMU that cannot be loaded. At the end it names on stderr every libpython in
+ * the process ("host3: loaded /path/libpython3.x.so.1.0").
  */
 
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <limits.h>
+#include <link.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -66,6 +68,18 @@ static void logger(fmi3InstanceEnvironment environment, fmi3Status status,
 {
     fprintf(stderr, "[%s] %s status %d: %s\n", category ? category : "",
             environment ? (const char *)environment : "", (int)status, message);
+}
+
+/* dl_iterate_phdr callback: name each libpython mapped into this process. */
+static int name_libpython(struct dl_phdr_info *info, size_t size, void *data)
+{
+    const char *base = info->dlpi_name ? strrchr(info->dlpi_name, '/') : NULL;
+    (void)size;
+    (void)data;
+    if (base && strncmp(base + 1, "libpython", 9) == 0) {
+        fprintf(stderr, "host3: loaded %s\n", info->dlpi_name);
+    }
+    return 0;
 }
 
 static double input_value(const Input *input, double t)
@@ -290,5 +304,6 @@ int main(int argc, char **argv)
     for (i = 0; i < n_fmus; i++) stop(&fmus[i]);
     if (reload && !run_alone(&fmus[0], "R", n_steps, h)) return 1;
     fflush(stdout);
+    dl_iterate_phdr(name_libpython, NULL);
     return 0;
 }

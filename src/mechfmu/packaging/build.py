@@ -29,6 +29,12 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+# Imported here, before any FMU runs in this process: an FMU run by fmpy puts its resources/
+# first on sys.path, and its copy of pythonfmu (without the builder's binaries) would then
+# shadow the installed one.
+from pythonfmu import FmuBuilder as Fmi2Builder
+from pythonfmu3 import FmuBuilder as Fmi3Builder
+
 from .binary_patch import patch_exit_finaliser
 from ..runtime.models import MODELS
 
@@ -176,10 +182,8 @@ def _entry_script(name, fmu_name, inner_module, fmi_version=2):
 def _builder(fmi_version):
     """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags."""
     if fmi_version == 2:
-        from pythonfmu import FmuBuilder
-        return FmuBuilder, {"canGetAndSetFMUstate": True}
-    from pythonfmu3 import FmuBuilder
-    return FmuBuilder, {"canGetAndSetFMUState": True, "canSerializeFMUState": True,
+        return Fmi2Builder, {"canGetAndSetFMUstate": True}
+    return Fmi3Builder, {"canGetAndSetFMUState": True, "canSerializeFMUState": True,
                         "canHandleVariableCommunicationStepSize": True}
 
 
