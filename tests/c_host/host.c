@@ -11,7 +11,8 @@
  * every step (%.17g: doubles round-trip exactly). Exit status: 0 when every call returned
  * fmi2OK or fmi2Warning; 1 for a failed call (named on stderr); 2 for bad arguments or an FMU
  * that cannot be loaded. At the end it names on stderr every libpython in the process
- * ("host: loaded /path/libpython3.x.so.1.0"), the one the FMU's loader found.
+ * ("host: loaded /path/libpython3.x.so.1.0"), the one the FMU's loader found, and the time
+ * fmi2Instantiate took (the first instantiation loads and starts Python).
  */
 
 #define _GNU_SOURCE
@@ -23,6 +24,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "fmi2Functions.h"
 
@@ -169,8 +171,13 @@ int main(int argc, char **argv)
             fprintf(stderr, "host: fmi2GetVersion returned '%s'\n", getVersion());
             return 2;
         }
+        struct timespec before, after;
+        clock_gettime(CLOCK_MONOTONIC, &before);
         c = instantiate("c_host", fmi2CoSimulation, argv[3], resources, &callbacks, fmi2False,
                         fmi2True);
+        clock_gettime(CLOCK_MONOTONIC, &after);
+        fprintf(stderr, "host: fmi2Instantiate took %.4f s\n",
+                (double)(after.tv_sec - before.tv_sec) + 1e-9 * (after.tv_nsec - before.tv_nsec));
         if (!c) {
             fprintf(stderr, "host: fmi2Instantiate returned NULL\n");
             return 2;

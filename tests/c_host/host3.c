@@ -27,6 +27,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "fmi3Functions.h"
 
@@ -102,6 +103,7 @@ static void *resolve(void *library, const char *name)
 static int start(Fmu *fmu)
 {
     char directory[PATH_MAX], path[PATH_MAX + 64], resources[PATH_MAX + 64];
+    struct timespec before, after;
     int i;
     if (!realpath(fmu->directory, directory)) {
         perror(fmu->directory);
@@ -129,9 +131,13 @@ static int start(Fmu *fmu)
         fprintf(stderr, "host3: fmi3GetVersion returned '%s'\n", fmu->getVersion());
         return 0;
     }
+    clock_gettime(CLOCK_MONOTONIC, &before);
     fmu->instance = fmu->instantiate(fmu->id, fmu->token, resources, fmi3False, fmi3True,
                                      fmi3False, fmi3False, NULL, 0, (void *)fmu->id, logger,
                                      NULL);
+    clock_gettime(CLOCK_MONOTONIC, &after);
+    fprintf(stderr, "host3: %s: fmi3InstantiateCoSimulation took %.4f s\n", fmu->id,
+            (double)(after.tv_sec - before.tv_sec) + 1e-9 * (after.tv_nsec - before.tv_nsec));
     if (!fmu->instance) {
         fprintf(stderr, "host3: fmi3InstantiateCoSimulation returned NULL\n");
         return 0;

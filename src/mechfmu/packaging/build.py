@@ -183,8 +183,10 @@ def _builder(fmi_version):
     """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags."""
     if fmi_version == 2:
         return Fmi2Builder, {"canGetAndSetFMUstate": True}
-    return Fmi3Builder, {"canGetAndSetFMUState": True, "canSerializeFMUState": True,
-                        "canHandleVariableCommunicationStepSize": True}
+    # FMU states are not serialised (as in FMI 2.0): an integrator's state holds Python
+    # objects that pythonfmu3's JSON serialisation cannot write.
+    return Fmi3Builder, {"canGetAndSetFMUState": True, "canSerializeFMUState": False,
+                         "canHandleVariableCommunicationStepSize": True}
 
 
 def build_model(name, out_dir, staging, null=False, loader=None, fmi_version=2, embed=None):
@@ -222,8 +224,9 @@ def build_model(name, out_dir, staging, null=False, loader=None, fmi_version=2, 
 
 
 def _rewrite_fmu(fmu, name, loader, fmi_version, extra):
-    """Rewrite the FMU with its Linux binary patched (see binary_patch) and, when the loader
-    was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so; report both.
+    """Rewrite the FMU with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
+    binary_patch; pythonfmu3's library has other code there and is left as built) and, when
+    the loader was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so.
     ``extra`` maps further member names to their bytes (the embedded Python). pythonfmu3's
     C++ sources are left out: they cannot rebuild this FMU's binary (the loader)."""
     member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
@@ -238,8 +241,9 @@ def _rewrite_fmu(fmu, name, loader, fmi_version, extra):
         for info, data in entries:
             info.compress_type = zipfile.ZIP_DEFLATED
             if info.filename == member:
-                data, message = patch_exit_finaliser(data)
-                print(f"{name}: {message}")
+                if fmi_version == 2:
+                    data, message = patch_exit_finaliser(data)
+                    print(f"{name}: {message}")
                 if loader_path is not None:
                     inner = zipfile.ZipInfo(member[:-len(".so")] + PYTHONFMU_SUFFIX,
                                             info.date_time)

@@ -55,6 +55,8 @@ class Fmi2Binding(Fmi2Slave):
             if variable is None:
                 continue
             typed = element[0]
+            if variable.kind is float and typed.get("start") is not None:
+                typed.set("start", repr(float(variable.start)))  # pythonfmu writes %.16g
             if variable.unit is not None:
                 typed.set("unit", variable.unit)
             for attribute in ("min", "max"):
