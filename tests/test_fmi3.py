@@ -10,6 +10,8 @@ each FMI 3.0 FMU in exactly the conditions of the scene.
 """
 
 import math
+import re
+import zipfile
 
 import numpy as np
 import pytest
@@ -22,6 +24,8 @@ from conftest import SCENES
 from fmu_checks import assert_fmutool_clean
 from fmu_driver import Driven
 from mechfmu.cosim.master import Simulation
+from mechfmu.packaging import build
+from mechfmu.packaging.binary_patch import find_symbol_offset
 from mechfmu.cosim.scene import load_scene
 from mechfmu.runtime.models import MODELS
 
@@ -197,3 +201,17 @@ def test_fmi3_fmu_runs_in_a_c_host_on_another_python(host3, fmu3_dir, tmp_path):
     assert loaded == [str(newest / "lib" / "libpython3.13.so.1.0")]
     assert largest_relative_difference(rows, fmpy_rows(str(fmu3_dir / "ValveSpring.fmu"))) \
         <= 1e-12
+
+
+def test_fmi3_loader_exports_every_fmi3_function(fmu3_dir):
+    """All 75 functions of fmi3Functions.h: co-simulation and the common ones forwarded, the
+    other interface types' instantiation refused (these FMUs are co-simulation only)."""
+    header = (build.fmi_headers() / "fmi3Functions.h").read_text()
+    names = sorted(set(re.findall(r"#define (fmi3\w+)\s+fmi3FullName\(", header)))
+    assert len(names) == 75
+    with zipfile.ZipFile(fmu3_dir / "LandingGear.fmu") as archive:
+        loader = archive.read("binaries/x86_64-linux/LandingGear.so")
+        assert b"_Py_NoneStruct" not in loader
+        assert "binaries/x86_64-linux/LandingGear.pythonfmu.so" in archive.namelist()
+        assert not [n for n in archive.namelist() if n.startswith("sources/")]
+    assert [name for name in names if find_symbol_offset(loader, name.encode()) is None] == []

@@ -16,29 +16,13 @@
  */
 
 #define _GNU_SOURCE
-#include <dlfcn.h>
+#define HOST_NAME "host"
 #include <limits.h>
-#include <link.h>
-#include <math.h>
 #include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#include <time.h>
 
 #include "fmi2Functions.h"
+#include "host_common.h"
 
-#define MAX_VARIABLES 64
-
-typedef struct {
-    fmi2ValueReference vr;
-    double a, b, c, d, w;
-} Input;
-
-typedef struct {
-    char type;
-    fmi2ValueReference vr;
-} Output;
 
 static void logger(fmi2ComponentEnvironment environment, fmi2String instance, fmi2Status status,
                    fmi2String category, fmi2String message, ...)
@@ -51,33 +35,6 @@ static void logger(fmi2ComponentEnvironment environment, fmi2String instance, fm
     vfprintf(stderr, message, args);
     va_end(args);
     fputc('\n', stderr);
-}
-
-/* dl_iterate_phdr callback: name each libpython mapped into this process. */
-static int name_libpython(struct dl_phdr_info *info, size_t size, void *data)
-{
-    const char *base = info->dlpi_name ? strrchr(info->dlpi_name, '/') : NULL;
-    (void)size;
-    (void)data;
-    if (base && strncmp(base + 1, "libpython", 9) == 0) {
-        fprintf(stderr, "host: loaded %s\n", info->dlpi_name);
-    }
-    return 0;
-}
-
-static double input_value(const Input *input, double t)
-{
-    return input->a + input->b * t + input->c * sin(input->w * t) + input->d * cos(input->w * t);
-}
-
-static void *resolve(void *library, const char *name)
-{
-    void *address = dlsym(library, name);
-    if (!address) {
-        fprintf(stderr, "host: %s not found: %s\n", name, dlerror());
-        exit(2);
-    }
-    return address;
 }
 
 #define CHECK(call) \
@@ -113,24 +70,9 @@ int main(int argc, char **argv)
     h = strtod(argv[5], NULL);
     for (i = 6; i < argc; i++) {
         if (strcmp(argv[i], "-i") == 0 && i + 1 < argc && n_inputs < MAX_VARIABLES) {
-            Input *input = &inputs[n_inputs++];
-            unsigned vr;
-            memset(input, 0, sizeof *input);
-            if (sscanf(argv[++i], "%u=%lf,%lf,%lf,%lf,%lf", &vr, &input->a, &input->b,
-                       &input->c, &input->d, &input->w) < 2) {
-                fprintf(stderr, "host: bad input '%s'\n", argv[i]);
-                return 2;
-            }
-            input->vr = vr;
+            if (!parse_input(argv[++i], &inputs[n_inputs++])) return 2;
         } else if (strcmp(argv[i], "-o") == 0 && i + 1 < argc && n_outputs < MAX_VARIABLES) {
-            Output *output = &outputs[n_outputs++];
-            unsigned vr;
-            if (sscanf(argv[++i], "%c:%u", &output->type, &vr) != 2
-                || !strchr("rib", output->type)) {
-                fprintf(stderr, "host: bad output '%s'\n", argv[i]);
-                return 2;
-            }
-            output->vr = vr;
+            if (!parse_output(argv[++i], &outputs[n_outputs++])) return 2;
         } else {
             fprintf(stderr, "host: bad argument '%s'\n", argv[i]);
             return 2;
@@ -177,7 +119,7 @@ int main(int argc, char **argv)
                         fmi2True);
         clock_gettime(CLOCK_MONOTONIC, &after);
         fprintf(stderr, "host: dlopen to fmi2Instantiate took %.4f s\n",
-                (double)(after.tv_sec - before.tv_sec) + 1e-9 * (after.tv_nsec - before.tv_nsec));
+                seconds_between(&before, &after));
         if (!c) {
             fprintf(stderr, "host: fmi2Instantiate returned NULL\n");
             return 2;

@@ -19,30 +19,13 @@
  */
 
 #define _GNU_SOURCE
-#include <dlfcn.h>
+#define HOST_NAME "host3"
 #include <limits.h>
-#include <link.h>
-#include <math.h>
-#include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#include <time.h>
 
 #include "fmi3Functions.h"
+#include "host_common.h"
 
 #define MAX_FMUS 8
-#define MAX_VARIABLES 64
-
-typedef struct {
-    fmi3ValueReference vr;
-    double a, b, c, d, w;
-} Input;
-
-typedef struct {
-    char type;
-    fmi3ValueReference vr;
-} Output;
 
 typedef struct {
     const char *directory, *id, *token;
@@ -69,33 +52,6 @@ static void logger(fmi3InstanceEnvironment environment, fmi3Status status,
 {
     fprintf(stderr, "[%s] %s status %d: %s\n", category ? category : "",
             environment ? (const char *)environment : "", (int)status, message);
-}
-
-/* dl_iterate_phdr callback: name each libpython mapped into this process. */
-static int name_libpython(struct dl_phdr_info *info, size_t size, void *data)
-{
-    const char *base = info->dlpi_name ? strrchr(info->dlpi_name, '/') : NULL;
-    (void)size;
-    (void)data;
-    if (base && strncmp(base + 1, "libpython", 9) == 0) {
-        fprintf(stderr, "host3: loaded %s\n", info->dlpi_name);
-    }
-    return 0;
-}
-
-static double input_value(const Input *input, double t)
-{
-    return input->a + input->b * t + input->c * sin(input->w * t) + input->d * cos(input->w * t);
-}
-
-static void *resolve(void *library, const char *name)
-{
-    void *address = dlsym(library, name);
-    if (!address) {
-        fprintf(stderr, "host3: %s not found: %s\n", name, dlerror());
-        exit(2);
-    }
-    return address;
 }
 
 /* Loads and instantiates one FMU and takes it through initialisation at t = 0; 0 when it
@@ -137,7 +93,7 @@ static int start(Fmu *fmu)
                                      NULL);
     clock_gettime(CLOCK_MONOTONIC, &after);
     fprintf(stderr, "host3: %s: dlopen to fmi3InstantiateCoSimulation took %.4f s\n", fmu->id,
-            (double)(after.tv_sec - before.tv_sec) + 1e-9 * (after.tv_nsec - before.tv_nsec));
+            seconds_between(&before, &after));
     if (!fmu->instance) {
         fprintf(stderr, "host3: fmi3InstantiateCoSimulation returned NULL\n");
         return 0;
@@ -240,7 +196,6 @@ static int parse(int argc, char **argv, Fmu *fmus, int *n_fmus, long *release_af
     int i;
     for (i = 3; i < argc; i++) {
         Fmu *fmu = *n_fmus ? &fmus[*n_fmus - 1] : NULL;
-        unsigned vr;
         if (strcmp(argv[i], "--release-first-after") == 0 && i + 1 < argc) {
             *release_after = strtol(argv[++i], NULL, 10);
         } else if (strcmp(argv[i], "--reload-first") == 0) {
@@ -252,22 +207,10 @@ static int parse(int argc, char **argv, Fmu *fmus, int *n_fmus, long *release_af
             fmu->token = argv[++i];
         } else if (strcmp(argv[i], "-i") == 0 && fmu && i + 1 < argc
                    && fmu->n_inputs < MAX_VARIABLES) {
-            Input *input = &fmu->inputs[fmu->n_inputs++];
-            if (sscanf(argv[++i], "%u=%lf,%lf,%lf,%lf,%lf", &vr, &input->a, &input->b,
-                       &input->c, &input->d, &input->w) < 2) {
-                fprintf(stderr, "host3: bad input '%s'\n", argv[i]);
-                return 0;
-            }
-            input->vr = vr;
+            if (!parse_input(argv[++i], &fmu->inputs[fmu->n_inputs++])) return 0;
         } else if (strcmp(argv[i], "-o") == 0 && fmu && i + 1 < argc
                    && fmu->n_outputs < MAX_VARIABLES) {
-            Output *output = &fmu->outputs[fmu->n_outputs++];
-            if (sscanf(argv[++i], "%c:%u", &output->type, &vr) != 2
-                || !strchr("rib", output->type)) {
-                fprintf(stderr, "host3: bad output '%s'\n", argv[i]);
-                return 0;
-            }
-            output->vr = vr;
+            if (!parse_output(argv[++i], &fmu->outputs[fmu->n_outputs++])) return 0;
         } else {
             fprintf(stderr, "host3: bad argument '%s'\n", argv[i]);
             return 0;

@@ -168,29 +168,17 @@ FORWARD(EnterInitializationMode, (fmi2Component c), (c))
 FORWARD(ExitInitializationMode, (fmi2Component c), (c))
 FORWARD(Terminate, (fmi2Component c), (c))
 FORWARD(Reset, (fmi2Component c), (c))
-FORWARD(GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Real value[]),
-        (c, vr, nvr, value))
-FORWARD(GetInteger,
-        (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Integer value[]),
-        (c, vr, nvr, value))
-FORWARD(GetBoolean,
-        (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2Boolean value[]),
-        (c, vr, nvr, value))
-FORWARD(GetString,
-        (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]),
-        (c, vr, nvr, value))
-FORWARD(SetReal,
-        (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Real value[]),
-        (c, vr, nvr, value))
-FORWARD(SetInteger,
-        (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Integer value[]),
-        (c, vr, nvr, value))
-FORWARD(SetBoolean,
-        (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2Boolean value[]),
-        (c, vr, nvr, value))
-FORWARD(SetString,
-        (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]),
-        (c, vr, nvr, value))
+#define VALUES_GET(T) (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2##T value[])
+#define VALUES_SET(T) \
+    (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2##T value[])
+#define TYPED(T) \
+    FORWARD(Get##T, VALUES_GET(T), (c, vr, nvr, value)) \
+    FORWARD(Set##T, VALUES_SET(T), (c, vr, nvr, value))
+TYPED(Real)
+TYPED(Integer)
+TYPED(Boolean)
+TYPED(String)
+#undef TYPED
 FORWARD(GetFMUstate, (fmi2Component c, fmi2FMUstate *FMUstate), (c, FMUstate))
 FORWARD(SetFMUstate, (fmi2Component c, fmi2FMUstate FMUstate), (c, FMUstate))
 FORWARD(FreeFMUstate, (fmi2Component c, fmi2FMUstate *FMUstate), (c, FMUstate))

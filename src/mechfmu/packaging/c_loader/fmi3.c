@@ -16,7 +16,7 @@
 #include "python_runtime.h"
 
 /* Every FMI 3.0 function, as X(name, parameters, arguments), except the three instantiation
- * functions and fmi3GetVersion and fmi3FreeInstance, which are written out below. */
+ * functions, fmi3GetVersion and fmi3FreeInstance, which are written out below. */
 #define VALUES_GET(T) \
     (fmi3Instance instance, const fmi3ValueReference valueReferences[], \
      size_t nValueReferences, fmi3##T values[], size_t nValues)
@@ -167,9 +167,7 @@
 #define POINTER(name, params, args) fmi3##name##TYPE *name;
 static struct {
     fmi3GetVersionTYPE *GetVersion;
-    fmi3InstantiateModelExchangeTYPE *InstantiateModelExchange;
     fmi3InstantiateCoSimulationTYPE *InstantiateCoSimulation;
-    fmi3InstantiateScheduledExecutionTYPE *InstantiateScheduledExecution;
     fmi3FreeInstanceTYPE *FreeInstance;
     FMI3_FORWARDED(POINTER)
 } real;
@@ -185,8 +183,6 @@ static int resolve_functions(void *library)
     REQUIRED(GetVersion)
     REQUIRED(InstantiateCoSimulation)
     REQUIRED(FreeInstance)
-    OPTIONAL(InstantiateModelExchange, , )
-    OPTIONAL(InstantiateScheduledExecution, , )
     FMI3_FORWARDED(OPTIONAL)
 #undef REQUIRED
 #undef OPTIONAL
@@ -242,22 +238,20 @@ FMI3_Export fmi3Instance fmi3InstantiateCoSimulation(
     return instance;
 }
 
+/* These FMUs are co-simulation only (their modelDescription.xml says so). */
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wunused-parameter"
+
 FMI3_Export fmi3Instance fmi3InstantiateModelExchange(
     fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
     fmi3LogMessageCallback logMessage)
 {
-    fmi3Instance instance;
-    if (!ready() || !real.InstantiateModelExchange) {
-        report_failure(instanceEnvironment, logMessage, instanceName);
-        return NULL;
+    if (logMessage) {
+        logMessage(instanceEnvironment, fmi3Error, "logStatusError",
+                   "this FMU is co-simulation only: use fmi3InstantiateCoSimulation");
     }
-    loader_before_interpreter_start();
-    instance = real.InstantiateModelExchange(instanceName, instantiationToken, resourcePath,
-                                             visible, loggingOn, instanceEnvironment,
-                                             logMessage);
-    loader_after_interpreter_start();
-    return instance;
+    return NULL;
 }
 
 FMI3_Export fmi3Instance fmi3InstantiateScheduledExecution(
@@ -266,18 +260,11 @@ FMI3_Export fmi3Instance fmi3InstantiateScheduledExecution(
     fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
     fmi3LockPreemptionCallback lockPreemption, fmi3UnlockPreemptionCallback unlockPreemption)
 {
-    fmi3Instance instance;
-    if (!ready() || !real.InstantiateScheduledExecution) {
-        report_failure(instanceEnvironment, logMessage, instanceName);
-        return NULL;
-    }
-    loader_before_interpreter_start();
-    instance = real.InstantiateScheduledExecution(
-        instanceName, instantiationToken, resourcePath, visible, loggingOn, instanceEnvironment,
-        logMessage, clockUpdate, lockPreemption, unlockPreemption);
-    loader_after_interpreter_start();
-    return instance;
+    return fmi3InstantiateModelExchange(instanceName, instantiationToken, resourcePath, visible,
+                                        loggingOn, instanceEnvironment, logMessage);
 }
+
+#pragma GCC diagnostic pop
 
 FMI3_Export void fmi3FreeInstance(fmi3Instance instance)
 {

@@ -142,6 +142,20 @@ def bound_text(variable, bound):
     return repr(float(bound)) if variable.kind is float else str(bound)
 
 
+def describe(element, variable):
+    """Write ``variable``'s unit, min and max onto its typed element of a model description
+    (FMI 2.0: the <Real> inside <ScalarVariable>; FMI 3.0: the <Float64> itself), and its
+    start value exactly (pythonfmu and pythonfmu3 write 16 significant digits)."""
+    if variable.kind is float and element.get("start") is not None:
+        element.set("start", repr(float(variable.start)))
+    if variable.unit is not None:
+        element.set("unit", variable.unit)
+    for attribute in ("min", "max"):
+        bound = getattr(variable, attribute)
+        if bound is not None:
+            element.set(attribute, bound_text(variable, bound))
+
+
 def fmi_attributes(variable):
     """(variability, initial or None) of a declared variable, as the names both FMI versions
     use: parameters are fixed and exact; Real inputs and outputs continuous, others discrete;
@@ -150,3 +164,28 @@ def fmi_attributes(variable):
         return "fixed", "exact"
     variability = "continuous" if variable.kind is float else "discrete"
     return variability, ("calculated" if variable.causality == "output" else None)
+
+
+def registered(variable, types, causalities, variabilities, initials, getter, setter):
+    """The pythonfmu or pythonfmu3 variable object of a declared variable.
+
+    types: {float, int, bool, str: that package's variable class}; causalities,
+    variabilities, initials: its enums; getter(), setter(value): the value's accessors.
+    """
+    variability, initial = fmi_attributes(variable)
+    options = dict(variability=getattr(variabilities, variability))
+    if initial is not None:
+        options["initial"] = getattr(initials, initial)
+    return types[variable.kind](variable.name, causality=getattr(causalities, variable.causality),
+                                description=variable.description, getter=getter, setter=setter,
+                                **options)
+
+
+def reading_initial_outputs(read):
+    """A binding's get method: ``read`` (the package's own) after refreshing the outputs in
+    initialisation mode (MechSlave.refresh_initial_outputs)."""
+    def get(self, vrs):
+        self.refresh_initial_outputs()
+        return read(self, vrs)
+    get.__name__ = read.__name__
+    return get

@@ -11,7 +11,7 @@ from xml.etree.ElementTree import Element, SubElement
 from pythonfmu import (Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer,
                        Real, String)
 
-from .declarations import bound_text, fmi_attributes, unit_definitions
+from .declarations import describe, reading_initial_outputs, registered, unit_definitions
 
 _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 
@@ -21,32 +21,18 @@ class Fmi2Binding(Fmi2Slave):
 
     def register_declared(self, variable):
         """Register one declared variable; its value lives in self.values."""
-        name = variable.name
-        variability, initial = fmi_attributes(variable)
-        options = dict(variability=getattr(Fmi2Variability, variability))
-        if initial is not None:
-            options["initial"] = getattr(Fmi2Initial, initial)
-        values = self.values
-        self.register_variable(_FMI_TYPES[variable.kind](
-            name, causality=getattr(Fmi2Causality, variable.causality),
-            description=variable.description, getter=lambda: values[name],
-            setter=lambda value: self._set(name, value), **options))
+        name, values = variable.name, self.values
+        self.register_variable(registered(
+            variable, _FMI_TYPES, Fmi2Causality, Fmi2Variability, Fmi2Initial,
+            getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
     def finish_registration(self):
         """Nothing beyond the declared variables in FMI 2.0."""
 
     # Outputs read in initialisation mode are computed from what the host has set so far.
-    def get_real(self, vrs):
-        self.refresh_initial_outputs()
-        return super().get_real(vrs)
-
-    def get_integer(self, vrs):
-        self.refresh_initial_outputs()
-        return super().get_integer(vrs)
-
-    def get_boolean(self, vrs):
-        self.refresh_initial_outputs()
-        return super().get_boolean(vrs)
+    get_real = reading_initial_outputs(Fmi2Slave.get_real)
+    get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
+    get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
 
     def to_xml(self, model_options=dict()):
         root = super().to_xml(model_options)
@@ -54,15 +40,7 @@ class Fmi2Binding(Fmi2Slave):
             variable = self.declared.get(element.get("name"))
             if variable is None:
                 continue
-            typed = element[0]
-            if variable.kind is float and typed.get("start") is not None:
-                typed.set("start", repr(float(variable.start)))  # pythonfmu writes %.16g
-            if variable.unit is not None:
-                typed.set("unit", variable.unit)
-            for attribute in ("min", "max"):
-                bound = getattr(variable, attribute)
-                if bound is not None:
-                    typed.set(attribute, bound_text(variable, bound))
+            describe(element[0], variable)
         units = unit_definitions(v.unit for v in self.VARIABLES)
         if units is not None:
             root.insert(list(root).index(root.find("CoSimulation")) + 1, units)

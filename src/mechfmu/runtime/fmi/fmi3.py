@@ -14,7 +14,7 @@ from xml.etree.ElementTree import Element, SubElement
 from pythonfmu3 import (Boolean, Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Variability,
                         Float64, Int32, String)
 
-from .declarations import bound_text, fmi_attributes, unit_definitions
+from .declarations import describe, reading_initial_outputs, registered, unit_definitions
 
 _FMI_TYPES = {float: Float64, int: Int32, bool: Boolean, str: String}
 _MODEL_ATTRIBUTES = ("description", "author", "license")
@@ -25,16 +25,10 @@ class Fmi3Binding(Fmi3Slave):
 
     def register_declared(self, variable):
         """Register one declared variable; its value lives in self.values."""
-        name = variable.name
-        variability, initial = fmi_attributes(variable)
-        options = dict(variability=getattr(Fmi3Variability, variability))
-        if initial is not None:
-            options["initial"] = getattr(Fmi3Initial, initial)
-        values = self.values
-        self.register_variable(_FMI_TYPES[variable.kind](
-            name, causality=getattr(Fmi3Causality, variable.causality),
-            description=variable.description, getter=lambda: values[name],
-            setter=lambda value: self._set(name, value), **options))
+        name, values = variable.name, self.values
+        self.register_variable(registered(
+            variable, _FMI_TYPES, Fmi3Causality, Fmi3Variability, Fmi3Initial,
+            getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
     def finish_registration(self):
         """The independent variable: the instance's time, the end of its last step (s)."""
@@ -43,17 +37,10 @@ class Fmi3Binding(Fmi3Slave):
                                        description="Simulation time", unit="s",
                                        getter=lambda: self.time_reached))
 
-    def get_float64(self, vrs):
-        self.refresh_initial_outputs()
-        return super().get_float64(vrs)
-
-    def get_int32(self, vrs):
-        self.refresh_initial_outputs()
-        return super().get_int32(vrs)
-
-    def get_boolean(self, vrs):
-        self.refresh_initial_outputs()
-        return super().get_boolean(vrs)
+    # Outputs read in initialisation mode are computed from what the host has set so far.
+    get_float64 = reading_initial_outputs(Fmi3Slave.get_float64)
+    get_int32 = reading_initial_outputs(Fmi3Slave.get_int32)
+    get_boolean = reading_initial_outputs(Fmi3Slave.get_boolean)
 
     def to_xml(self, model_options=dict()):
         root = super().to_xml(model_options)
@@ -65,14 +52,7 @@ class Fmi3Binding(Fmi3Slave):
             variable = self.declared.get(element.get("name"))
             if variable is None:
                 continue
-            if variable.kind is float and element.get("start") is not None:
-                element.set("start", repr(float(variable.start)))  # pythonfmu3 writes %.16g
-            if variable.unit is not None:
-                element.set("unit", variable.unit)
-            for attribute in ("min", "max"):
-                bound = getattr(variable, attribute)
-                if bound is not None:
-                    element.set(attribute, bound_text(variable, bound))
+            describe(element, variable)
         units = unit_definitions([*(v.unit for v in self.VARIABLES), "s"])
         root.insert(list(root).index(root.find("CoSimulation")) + 1, units)
         root.remove(root.find("ModelStructure"))
