@@ -2,7 +2,7 @@
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
-FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py') src/mechfmu/packaging/c_loader/loader.c
+FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
 .PHONY: run test fmus references report study bench sweeps docs clean
 

@@ -22,3 +22,20 @@ def fmu_dir():
     if missing:
         build_all(FMU_DIR, missing)
     return FMU_DIR
+
+
+@pytest.fixture(scope="session")
+def fmu3_dir(tmp_path_factory):
+    """Every model as an FMI 3.0 FMU (mechfmu build --fmi-version 3), built for this run."""
+    folder = tmp_path_factory.mktemp("fmi3")
+    build_all(folder, fmi_version=3)
+    return folder
+
+
+@pytest.fixture(scope="session")
+def embedded_dir(tmp_path_factory):
+    """Every model as an FMI 2.0 FMU with its own Python runtime (mechfmu build
+    --embed-python), built for this run."""
+    folder = tmp_path_factory.mktemp("embedded")
+    build_all(folder, embed_python=True)
+    return folder

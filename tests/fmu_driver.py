@@ -1,26 +1,51 @@
-"""Drive one FMU directly through fmpy, collecting statuses and log messages."""
+"""Drive one FMU directly through fmpy, collecting statuses and log messages (FMI 2.0 through
+the master's LogBook, FMI 3.0 through fmpy's FMU3Slave and a callback of its own)."""
 
 from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
+from fmpy.fmi3 import FMU3Slave
 
 from mechfmu.cosim.master import LogBook, accessor
 
 
+class _Fmi3Log:
+    """FMI 3.0 log messages, in the LogBook's form (FMI 3 passes no instance name)."""
+
+    def __init__(self, instance):
+        self.instance, self.messages = instance, []
+
+    def __call__(self, environment, status, category, message):
+        self.messages.append({"instance": self.instance, "status": status,
+                              "category": category.decode(), "message": message.decode()})
+
+    def last_problem(self, instance):
+        problems = [m["message"] for m in self.messages if m["status"] > 1]
+        return problems[-1] if problems else ""
+
+
 class Driven:
-    """An instantiated, initialised FMU; ``step`` returns True or the error text."""
+    """An instantiated, initialised FMU (FMI 2.0 or 3.0); ``step`` returns True or the error
+    text."""
 
     def __init__(self, path, parameters=None, inputs=None, start_time=0.0, instance="under_test"):
         self.description = read_model_description(str(path))
         self.variables = {v.name: v for v in self.description.modelVariables}
         self.folder = extract(str(path))
-        self.logbook = LogBook()
-        self.slave = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
-                               modelIdentifier=self.description.coSimulation.modelIdentifier,
-                               instanceName=instance)
-        self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
-        self.slave.setupExperiment(startTime=start_time)
-        self.slave.enterInitializationMode()
+        options = dict(guid=self.description.guid, unzipDirectory=self.folder,
+                       modelIdentifier=self.description.coSimulation.modelIdentifier,
+                       instanceName=instance)
+        if self.description.fmiVersion.startswith("3"):
+            self.logbook = _Fmi3Log(instance)
+            self.slave = FMU3Slave(**options)
+            self.slave.instantiate(loggingOn=True, logMessage=self.logbook)
+            self.slave.enterInitializationMode(startTime=start_time)
+        else:
+            self.logbook = LogBook()
+            self.slave = FMU2Slave(**options)
+            self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+            self.slave.setupExperiment(startTime=start_time)
+            self.slave.enterInitializationMode()
         self.set(**(parameters or {}))
         self.set(**(inputs or {}))
         self.slave.exitInitializationMode()

@@ -59,7 +59,7 @@ def _imports(source):
 
 @pytest.mark.parametrize("model", list(MODELS))
 def test_code_inside_the_fmu_imports_only_the_standard_library(fmu_dir, model):
-    allowed = set(sys.stdlib_module_names) | {"pythonfmu", f"mechfmu_fmu_{model}"}
+    allowed = set(sys.stdlib_module_names) | {"pythonfmu", "pythonfmu3", f"mechfmu_fmu_{model}"}
     with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
         ours = [n for n in archive.namelist()
                 if n.endswith(".py") and not n.startswith("resources/pythonfmu/")]

@@ -1,5 +1,5 @@
-"""The ``mechfmu`` command: build, run, example, export-ssp, check, references, report, docs,
-study, bench, fuzz, sweep.
+"""The ``mechfmu`` command: build, run, example, export-ssp, export-fmu, check, references,
+report, docs, study, bench, fuzz, sweep.
 
 One argparse tree: every verb and its options are declared here, and each verb calls one
 function of the package (imported when the verb runs, so ``mechfmu run`` never loads the
@@ -16,7 +16,8 @@ from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
 def _build(args):
     from .packaging.build import build_all
-    for path in build_all(args.out, args.models or None):
+    for path in build_all(args.out, args.models or None, fmi_version=args.fmi_version,
+                          embed_python=args.embed_python):
         print(f"built {path}")
     return 0
 
@@ -104,6 +105,22 @@ def _export_ssp(args):
     except SceneError as error:
         return _scene_failure(error)
     print(f"wrote {path}: {summary(path)}")
+    return 0
+
+
+def _export_fmu(args):
+    from .cosim.scene import SceneError, find_file
+    from .tools.container import export_scene_fmu
+    schedule = {"scene": None, "sequential": True, "parallel": False}[args.schedule]
+    try:
+        summary = export_scene_fmu(find_file(args.scene), args.out, args.fmu_dir, schedule)
+    except SceneError as error:
+        return _scene_failure(error)
+    mode = ("sequential (Gauss-Seidel in this order)" if summary.sequential
+            else "parallel (every link one step late)")
+    print(f"wrote {summary.path}: {len(summary.components)} FMUs "
+          f"({', '.join(summary.components)}), {mode}, step {summary.step!r} s, "
+          f"outputs: {', '.join(summary.outputs)}")
     return 0
 
 
@@ -308,6 +325,11 @@ def parser():
     build = verbs.add_parser("build", help="build the FMUs")
     build.add_argument("models", nargs="*", help="model names (default: all)")
     build.add_argument("--out", default="fmus", help="output folder (default: fmus)")
+    build.add_argument("--fmi-version", type=int, choices=(2, 3), default=2,
+                       help="FMI 2.0 (pythonfmu, default) or FMI 3.0 (pythonfmu3) co-simulation")
+    build.add_argument("--embed-python", action="store_true",
+                       help="carry this interpreter's libpython and the standard library the "
+                            "models import, so the FMUs run where no Python is installed")
     build.set_defaults(func=_build)
 
     run = verbs.add_parser("run", help="run a scene and write CSV, JSON and PNG")
@@ -328,6 +350,19 @@ def parser():
     export.add_argument("out", help="the .ssp file to write")
     export.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
     export.set_defaults(func=_export_ssp)
+
+    container = verbs.add_parser("export-fmu", help="pack a scene (its FMUs, connections and "
+                                 "parameters) into one container FMU (FMI 2.0, "
+                                 "fmu-manipulation-toolbox) for tools that take one FMU")
+    container.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    container.add_argument("out", help="the .fmu file to write")
+    container.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    container.add_argument("--schedule", choices=("scene", "sequential", "parallel"),
+                           default="scene",
+                           help="scene (default): sequential for gauss_seidel scenes, parallel "
+                                "for jacobi ones; sequential: each FMU sees the outputs of those "
+                                "stepped before it; parallel: every link lags one step")
+    container.set_defaults(func=_export_fmu)
 
     check = verbs.add_parser("check", help="compare a result CSV with a reference CSV")
     check.add_argument("result")

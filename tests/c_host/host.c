@@ -10,31 +10,19 @@
  * i (Integer) or b (Boolean): one CSV row "time,outputs..." after initialisation and after
  * every step (%.17g: doubles round-trip exactly). Exit status: 0 when every call returned
  * fmi2OK or fmi2Warning; 1 for a failed call (named on stderr); 2 for bad arguments or an FMU
- * that cannot be loaded.
+ * that cannot be loaded. At the end it names on stderr every libpython in the process
+ * ("host: loaded /path/libpython3.x.so.1.0"), the one the FMU's loader found, and the time
+ * time from dlopen to the return of fmi2Instantiate (loading libpython and starting it).
  */
 
 #define _GNU_SOURCE
-#include <dlfcn.h>
+#define HOST_NAME "host"
 #include <limits.h>
-#include <math.h>
 #include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
 
 #include "fmi2Functions.h"
+#include "host_common.h"
 
-#define MAX_VARIABLES 64
-
-typedef struct {
-    fmi2ValueReference vr;
-    double a, b, c, d, w;
-} Input;
-
-typedef struct {
-    char type;
-    fmi2ValueReference vr;
-} Output;
 
 static void logger(fmi2ComponentEnvironment environment, fmi2String instance, fmi2Status status,
                    fmi2String category, fmi2String message, ...)
@@ -47,21 +35,6 @@ static void logger(fmi2ComponentEnvironment environment, fmi2String instance, fm
     vfprintf(stderr, message, args);
     va_end(args);
     fputc('\n', stderr);
-}
-
-static double input_value(const Input *input, double t)
-{
-    return input->a + input->b * t + input->c * sin(input->w * t) + input->d * cos(input->w * t);
-}
-
-static void *resolve(void *library, const char *name)
-{
-    void *address = dlsym(library, name);
-    if (!address) {
-        fprintf(stderr, "host: %s not found: %s\n", name, dlerror());
-        exit(2);
-    }
-    return address;
 }
 
 #define CHECK(call) \
@@ -84,6 +57,7 @@ int main(int argc, char **argv)
     double h, t = 0.0;
     char directory[PATH_MAX], path[PATH_MAX + 64], resources[PATH_MAX + 64];
     void *library;
+    struct timespec before, after;
     fmi2Component c = NULL;
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
 
@@ -96,24 +70,9 @@ int main(int argc, char **argv)
     h = strtod(argv[5], NULL);
     for (i = 6; i < argc; i++) {
         if (strcmp(argv[i], "-i") == 0 && i + 1 < argc && n_inputs < MAX_VARIABLES) {
-            Input *input = &inputs[n_inputs++];
-            unsigned vr;
-            memset(input, 0, sizeof *input);
-            if (sscanf(argv[++i], "%u=%lf,%lf,%lf,%lf,%lf", &vr, &input->a, &input->b,
-                       &input->c, &input->d, &input->w) < 2) {
-                fprintf(stderr, "host: bad input '%s'\n", argv[i]);
-                return 2;
-            }
-            input->vr = vr;
+            if (!parse_input(argv[++i], &inputs[n_inputs++])) return 2;
         } else if (strcmp(argv[i], "-o") == 0 && i + 1 < argc && n_outputs < MAX_VARIABLES) {
-            Output *output = &outputs[n_outputs++];
-            unsigned vr;
-            if (sscanf(argv[++i], "%c:%u", &output->type, &vr) != 2
-                || !strchr("rib", output->type)) {
-                fprintf(stderr, "host: bad output '%s'\n", argv[i]);
-                return 2;
-            }
-            output->vr = vr;
+            if (!parse_output(argv[++i], &outputs[n_outputs++])) return 2;
         } else {
             fprintf(stderr, "host: bad argument '%s'\n", argv[i]);
             return 2;
@@ -130,6 +89,7 @@ int main(int argc, char **argv)
         fprintf(stderr, "host: the Python C API is already loaded in this process\n");
         return 2;
     }
+    clock_gettime(CLOCK_MONOTONIC, &before);
     library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
     if (!library) {
         fprintf(stderr, "host: cannot load %s: %s\n", path, dlerror());
@@ -157,6 +117,9 @@ int main(int argc, char **argv)
         }
         c = instantiate("c_host", fmi2CoSimulation, argv[3], resources, &callbacks, fmi2False,
                         fmi2True);
+        clock_gettime(CLOCK_MONOTONIC, &after);
+        fprintf(stderr, "host: dlopen to fmi2Instantiate took %.4f s\n",
+                seconds_between(&before, &after));
         if (!c) {
             fprintf(stderr, "host: fmi2Instantiate returned NULL\n");
             return 2;
@@ -203,5 +166,6 @@ int main(int argc, char **argv)
         freeInstance(c);
     }
     fflush(stdout);
+    dl_iterate_phdr(name_libpython, NULL);
     return failed;
 }

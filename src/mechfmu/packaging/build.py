@@ -1,14 +1,19 @@
-"""Build every model of the registry into an FMU with pythonfmu (host side).
+"""Build every model of the registry into an FMU, FMI 2.0 or FMI 3.0 (host side).
 
 Each FMU carries only the code that runs inside it: the standard-library package
-``mechfmu.runtime`` (plus pythonfmu's own Python files, which its builder adds).
+``mechfmu.runtime`` (plus pythonfmu's or pythonfmu3's own Python files, which their builders
+add). The two versions come from the same model classes and declarations: the FMU's copy of
+the runtime binds them to pythonfmu (FMI 2.0) or to pythonfmu3 (FMI 3.0; see
+runtime/fmi/binding.py).
 
-Its Linux binary is mechfmu's C loader (``c_loader/loader.c``, compiled here with the system C
-compiler) when one is found: pythonfmu's library leaves the Python C API unresolved, so only a
-host that already runs Python (fmpy) can load it; the loader finds and loads libpython first
-and forwards every FMI call, so C and C++ hosts load the FMU too. pythonfmu's library (with
-binary_patch's exit fix) then sits next to it as ``<Name>.pythonfmu.so``. Without a compiler
-the FMU keeps pythonfmu's plain binary, and the build says so.
+Its Linux binary is mechfmu's C loader (``c_loader/``: python_runtime.c with fmi2.c or fmi3.c,
+compiled here with the system C compiler) when one is found: pythonfmu's library leaves the
+Python C API unresolved, so only a host that already runs Python (fmpy) can load it; the
+loader finds and loads a libpython first and forwards every FMI call, so C and C++ hosts load
+the FMU too. pythonfmu's library (with binary_patch's exit fix where it applies) then sits
+next to it as ``<Name>.pythonfmu.so``. Without a compiler the FMU keeps pythonfmu's plain
+binary, and the build says so. ``embed_python`` adds the build interpreter's own runtime
+(embed.py), for machines without Python.
 """
 
 import importlib
@@ -25,16 +30,27 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from pythonfmu import FmuBuilder
+# Imported here, before any FMU runs in this process: an FMU run by fmpy puts its resources/
+# first on sys.path, and its copy of pythonfmu (without the builder's binaries) would then
+# shadow the installed one.
+from pythonfmu import FmuBuilder as Fmi2Builder
+from pythonfmu3 import FmuBuilder as Fmi3Builder
 
 from .binary_patch import patch_exit_finaliser
 from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
 
 RUNTIME_ROOT = Path(__file__).resolve().parents[1] / "runtime"  # the FMU runtime; no numpy
-LOADER_SOURCE = Path(__file__).resolve().parent / "c_loader" / "loader.c"
+LOADER_DIR = Path(__file__).resolve().parent / "c_loader"
+LOADER_RUNTIME_SOURCE = LOADER_DIR / "python_runtime.c"  # finds and starts libpython
 PYTHONFMU_SUFFIX = ".pythonfmu.so"  # pythonfmu's library, next to the loader <Name>.so
 LOADER_FLAGS = ("-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-fvisibility=hidden")
+FMI_VERSIONS = (2, 3)
+# binaries/<folder> of the Linux x86-64 binary, per FMI version
+PLATFORM_FOLDER = {2: "linux64", 3: "x86_64-linux"}
+# the FMU's copy of runtime/fmi/binding.py for FMI 3.0
+FMI3_BINDING = ('"""FMI 3.0: this copy of the runtime binds to pythonfmu3 (written by mechfmu '
+                'build)."""\n\nfrom .fmi3 import Fmi3Binding as Binding  # noqa: F401\n')
 
 
 def pythonfmu_library_name(name):
@@ -43,7 +59,8 @@ def pythonfmu_library_name(name):
 
 
 def fmi_headers():
-    """fmpy's copy of the FMI 2.0 headers (fmi2Functions.h and its includes)."""
+    """fmpy's copy of the FMI 2.0 and 3.0 headers (fmi2Functions.h, fmi3Functions.h and their
+    includes)."""
     spec = importlib.util.find_spec("fmpy")
     if spec is None or not spec.origin:
         return Path("fmpy-is-not-installed") / "c-code"
@@ -63,12 +80,13 @@ def _c_string(text):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def compile_loader(folder, runtime=None):
-    """Compile the C loader into ``folder``/loader.so; return (path or None, message).
+def compile_loader(folder, runtime=None, fmi_version=2):
+    """Compile the C loader for FMI ``fmi_version`` into ``folder``/loader<version>.so; return
+    (path or None, message).
 
     The compiler is $CC (may carry arguments) or ``cc``. On any failure the path is None and
     the message says why; the caller then ships pythonfmu's plain binary. ``runtime`` is
-    (soname, libdir, major.minor) of the libpython to look for; default python_runtime().
+    (soname, libdir, major.minor) of the libpython to look for first; default python_runtime().
     """
     if not sys.platform.startswith("linux") or platform.machine() not in ("x86_64", "AMD64"):
         return None, f"not built on Linux x86-64 ({sys.platform}, {platform.machine()})"
@@ -77,16 +95,16 @@ def compile_loader(folder, runtime=None):
     if not argv or shutil.which(argv[0]) is None:
         return None, f"C compiler {compiler!r} not found (set CC or install cc)"
     headers = fmi_headers()
-    if not (headers / "fmi2Functions.h").is_file():
-        return None, f"FMI 2.0 headers not found in {headers}"
+    if not (headers / f"fmi{fmi_version}Functions.h").is_file():
+        return None, f"FMI {fmi_version}.0 headers not found in {headers}"
     soname, libdir, version = runtime or python_runtime()
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    target = folder / "loader.so"
+    target = folder / f"loader{fmi_version}.so"
     command = [*argv, *LOADER_FLAGS, f"-I{headers}",
                f"-DPYTHON_SONAME={_c_string(soname)}", f"-DPYTHON_LIBDIR={_c_string(libdir)}",
-               f"-DPYTHON_VERSION={_c_string(version)}",
-               str(LOADER_SOURCE), "-o", str(target), "-ldl"]
+               f"-DPYTHON_VERSION={_c_string(version)}", str(LOADER_RUNTIME_SOURCE),
+               str(LOADER_DIR / f"fmi{fmi_version}.c"), "-o", str(target), "-ldl"]
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=120)
     except (OSError, subprocess.SubprocessError) as error:
@@ -96,23 +114,36 @@ def compile_loader(folder, runtime=None):
         return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
     where = f" (first looked for in {libdir})" if libdir else ""
     warnings = " ".join(done.stderr.split())[:400]
-    return target, (f"compiled with {compiler} for Python {version}: {soname}{where}"
+    return target, (f"compiled with {compiler} for FMI {fmi_version}.0, Python {version} first: "
+                    f"{soname}{where}, then any 3.x >= 3.10"
                     + (f"; compiler warnings: {warnings}" if warnings else ""))
 
 
-def runtime_package(name):
+def runtime_package(name, fmi_version=2):
     """Private package name of the runtime inside ``name``.fmu.
 
     Every FMU carries its own copy under its own name: FMUs loaded into one Python process
     (fmpy runs them in the host interpreter) then never share modules, and a host's own
     mechfmu, or an FMU extracted earlier and since deleted, cannot shadow this one's code.
+    FMI 3.0 FMUs use names of their own, so both versions of a model load side by side.
     """
-    return f"mechfmu_fmu_{name}"
+    return f"mechfmu_fmu_{name}" if fmi_version == 2 else f"mechfmu_fmu{fmi_version}_{name}"
 
 
-def _stage_runtime(target):
-    """Copy the FMU runtime (mechfmu.runtime) into the package folder ``target``."""
+def _entry_module(fmu_name, fmi_version):
+    """Name of the FMU's entry module (pythonfmu imports it by this name)."""
+    # Not the model's name: fmpy puts a module of its own under sys.modules[model name], so a
+    # second load of the FMU would import that one.
+    return (f"mechfmu_entry_{fmu_name}" if fmi_version == 2
+            else f"mechfmu_entry{fmi_version}_{fmu_name}")
+
+
+def _stage_runtime(target, fmi_version):
+    """Copy the FMU runtime (mechfmu.runtime) into the package folder ``target``, bound to
+    pythonfmu (FMI 2.0) or pythonfmu3 (FMI 3.0)."""
     shutil.copytree(RUNTIME_ROOT, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    if fmi_version == 3:
+        (target / "fmi" / "binding.py").write_text(FMI3_BINDING)
 
 
 def null_name(name):
@@ -120,15 +151,26 @@ def null_name(name):
     return f"{name}Null"
 
 
-def _entry_script(name, fmu_name, inner_module):
+def _entry_script(name, fmu_name, inner_module, fmi_version=2):
     """Source of the FMU's entry module: the model's class, or its null subclass."""
     # pythonfmu 0.7's loader (findClass) re-runs this file at every instantiation and then
     # releases one reference to the module namespace that it only borrowed: after the first
     # instance is freed the namespace is gone and the next load crashes or fails. Each run
     # of the file therefore keeps one reference of its own. Only the model may be a class here.
-    header = (f'"""FMU entry point for {fmu_name}."""\n'
+    header = (f'"""FMU entry point for {fmu_name} (FMI {fmi_version}.0)."""\n'
               "import sys\n"
               "sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n")
+    null_step = ("    def do_step(self, current_time, step_size):\n"
+                 "        return True\n")
+    if fmi_version == 3:
+        # pythonfmu3 finds the class by a regular expression on its line, which must name
+        # Fmi3Slave among the bases (it is already one of the model's, through the binding).
+        docstring = (f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
+                     if fmu_name != name else f'    """{name} as an FMI 3.0 slave."""\n')
+        return header + ("from pythonfmu3 import Fmi3Slave  # noqa: E402\n"
+                         f"import {inner_module} as model_module  # noqa: E402\n\n\n"
+                         f"class {fmu_name}(model_module.{name}, Fmi3Slave):\n" + docstring
+                         + (null_step if fmu_name != name else ""))
     if fmu_name == name:
         return header + f"from {inner_module} import {name}  # noqa: E402,F401\n"
     # The null variant: the model's module, not its class, enters the namespace, so the
@@ -136,81 +178,121 @@ def _entry_script(name, fmu_name, inner_module):
     return header + (f"import {inner_module} as model_module  # noqa: E402\n\n\n"
                      f"class {fmu_name}(model_module.{name}):\n"
                      f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
-                     "    def do_step(self, current_time, step_size):\n"
-                     "        return True\n")
+                     + null_step)
 
 
-def build_model(name, out_dir, staging, null=False, loader=None):
+def _builder(fmi_version):
+    """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags."""
+    if fmi_version == 2:
+        return Fmi2Builder, {"canGetAndSetFMUstate": True}
+    # FMU states are not serialised (as in FMI 2.0): an integrator's state holds Python
+    # objects that pythonfmu3's JSON serialisation cannot write.
+    return Fmi3Builder, {"canGetAndSetFMUState": True, "canSerializeFMUState": False,
+                         "canHandleVariableCommunicationStepSize": True}
+
+
+def build_model(name, out_dir, staging, null=False, loader=None, fmi_version=2, embed=None):
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
     null=True builds ``out_dir``/``name``Null.fmu instead: the same variables, parameters and
     initialisation, but a do_step that returns at once, so its outputs keep the values of
     initialisation (the baseline of the model-cost benchmark, mechfmu.tools.bench).
 
-    ``loader`` is compile_loader's (path or None, message); None compiles it here.
+    ``loader`` is compile_loader's (path or None, message) for ``fmi_version``; None compiles
+    it here. ``embed`` is an embed.EmbeddedPython: the FMU then carries that Python runtime.
     """
+    if fmi_version not in FMI_VERSIONS:
+        raise ValueError(f"FMI version {fmi_version!r} is not one of {FMI_VERSIONS}")
     module = MODELS[name]
     importlib.import_module(module)  # fail early, with a Python traceback, on a broken model
     fmu_name = null_name(name) if null else name
-    folder = staging / fmu_name
+    folder = staging / f"{fmu_name}_fmi{fmi_version}"
     folder.mkdir()
-    package = folder / runtime_package(fmu_name)
-    _stage_runtime(package)
+    package = folder / runtime_package(fmu_name, fmi_version)
+    _stage_runtime(package, fmi_version)
     inner_module = module.replace("mechfmu.runtime.", f"{package.name}.", 1)
-    # The entry module must not be named like the model: fmpy puts a module of its own
-    # under sys.modules[model name], so a second load of the FMU would import that one.
-    script = folder / f"mechfmu_entry_{fmu_name}.py"
-    script.write_text(_entry_script(name, fmu_name, inner_module))
-    built = FmuBuilder.build_FMU(script, dest=staging / f"out_{fmu_name}",
-                                 project_files=[package], canGetAndSetFMUstate=True)
+    script = folder / f"{_entry_module(fmu_name, fmi_version)}.py"
+    script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version))
+    builder, options = _builder(fmi_version)
+    built = builder.build_FMU(script, dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
+                              project_files=[package], **options)
     if loader is None:
-        loader = compile_loader(staging / f"loader_{fmu_name}")
+        loader = compile_loader(staging / f"loader_{fmu_name}", fmi_version=fmi_version)
+    extra = embed.files_for(built, staging / f"embed_{fmu_name}_fmi{fmi_version}") if embed else {}
     # atomic: a reader never sees a half-written FMU
     return atomic_write(Path(out_dir) / f"{fmu_name}.fmu",
-                        _rewrite_linux_binary(built, fmu_name, loader))
+                        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra))
 
 
-def _rewrite_linux_binary(fmu, name, loader):
-    """The FMU's bytes with its Linux binary patched (see binary_patch) and, when the loader
-    was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so; report both."""
-    member = f"binaries/linux64/{name}.so"
+def _rewrite_fmu(fmu, name, loader, fmi_version, extra):
+    """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
+    binary_patch; pythonfmu3's library has other code there and is left as built) and, when
+    the loader was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so.
+    ``extra`` maps further member names to their bytes (the embedded Python). pythonfmu3's
+    C++ sources are left out: they cannot rebuild this FMU's binary (the loader)."""
+    member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
     loader_path, loader_message = loader
     with zipfile.ZipFile(fmu) as archive:
-        entries = [(info, archive.read(info)) for info in archive.infolist()]
+        entries = [(info, archive.read(info)) for info in archive.infolist()
+                   if not info.filename.startswith("sources/")]
     if member not in {info.filename for info, _ in entries}:
-        raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu 0.7 FMU?")
+        raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu FMU?")
     patched_fmu = io.BytesIO()
     with zipfile.ZipFile(patched_fmu, "w", zipfile.ZIP_DEFLATED) as archive:
         for info, data in entries:
+            info.compress_type = zipfile.ZIP_DEFLATED
             if info.filename == member:
-                data, message = patch_exit_finaliser(data)
-                print(f"{name}: {message}")
+                if fmi_version == 2:
+                    data, message = patch_exit_finaliser(data)
+                    print(f"{name}: {message}")
                 if loader_path is not None:
-                    inner = zipfile.ZipInfo(f"binaries/linux64/{pythonfmu_library_name(name)}",
+                    inner = zipfile.ZipInfo(member[:-len(".so")] + PYTHONFMU_SUFFIX,
                                             info.date_time)
                     inner.external_attr = info.external_attr
                     archive.writestr(inner, data, zipfile.ZIP_DEFLATED)
                     data = Path(loader_path).read_bytes()
             archive.writestr(info, data)
+        for filename, data in extra.items():
+            entry = zipfile.ZipInfo(filename, (2020, 1, 1, 0, 0, 0))
+            entry.external_attr = 0o755 << 16 if filename.endswith(".so") or ".so." in filename \
+                else 0o644 << 16
+            # the stdlib zip stays uncompressed inside (zipimport reads it without zlib, which
+            # is itself an extension module); the FMU's own deflate compresses it
+            archive.writestr(entry, data, zipfile.ZIP_DEFLATED)
     if loader_path is not None:
         print(f"{name}: C loader as {member} (loads libpython itself in hosts without Python), "
               f"pythonfmu's library as {pythonfmu_library_name(name)}")
     else:
         print(f"{name}: no C loader ({loader_message}): pythonfmu's plain binary, which loads "
               "only in hosts that already run Python (such as fmpy)")
+    if extra:
+        print(f"{name}: embedded Python runtime, {len(extra)} files, "
+              f"{sum(len(data) for data in extra.values()) / 1e6:.1f} MB before compression")
     return patched_fmu.getvalue()
 
 
-def build_all(out_dir, names=None, null=False):
+def build_all(out_dir, names=None, null=False, fmi_version=2, embed_python=False):
     """Build the named models (default: all of MODELS); return the FMU paths.
 
     null=True builds their null variants (``<name>Null.fmu``, see build_model).
+    fmi_version: 2 (FMI 2.0, pythonfmu) or 3 (FMI 3.0, pythonfmu3), from the same models.
+    embed_python=True: each FMU carries this interpreter's libpython and the part of the
+    standard library it imports (embed.py), so it runs where no Python is installed.
     """
+    if fmi_version not in FMI_VERSIONS:
+        raise ValueError(f"FMI version {fmi_version!r} is not one of {FMI_VERSIONS}")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="mechfmu_build_", dir=out_dir) as temp:
-        loader = compile_loader(Path(temp) / "c_loader")
+        loader = compile_loader(Path(temp) / "c_loader", fmi_version=fmi_version)
         print(f"C loader: {loader[1]}" if loader[0] is not None else
               f"C loader not built: {loader[1]}; the FMUs keep pythonfmu's plain binary")
-        return [build_model(name, out_dir, Path(temp), null, loader)
+        embed = None
+        if embed_python:
+            from .embed import EmbeddedPython
+            if loader[0] is None:
+                raise RuntimeError("--embed-python needs the C loader, which starts the "
+                                   f"embedded runtime: {loader[1]}")
+            embed = EmbeddedPython.of_this_interpreter()
+        return [build_model(name, out_dir, Path(temp), null, loader, fmi_version, embed)
                 for name in (names or MODELS)]

@@ -2,10 +2,8 @@
 
 import math
 
-from pythonfmu.enums import Fmi2Status
-
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import effect, input_, integrator_variables, output, parameter
+from ..fmi.slave import Status, effect, input_, integrator_variables, output, parameter
 from ..physics import gear_dynamics as gd
 from ..physics import hydraulics
 from ..physics import landing_gear as gear
@@ -189,7 +187,7 @@ class LandingGear(IntegratingSlave):
                      f"the {other} drive's input{'s' if plural else ''} {values} "
                      f"{'are' if plural else 'is'} ignored (leave "
                      f"{'them at their start values' if plural else 'it at its start value'} "
-                     f"({starts}) or choose drive = {other!r})", Fmi2Status.warning)
+                     f"({starts}) or choose drive = {other!r})", Status.warning)
         self.ignored_inputs = tuple(given)
 
     def extra_state(self):
@@ -220,7 +218,7 @@ class LandingGear(IntegratingSlave):
             if self.model.stops:
                 v["stop_contacts"] += 1
             self.log(f"{self.instance_name} at t = {when!r} s: piston reached {name} "
-                     f"({length!r} m)", Fmi2Status.ok)
+                     f"({length!r} m)", Status.ok)
 
     def publish(self, time):
         self.model.publish(self.values, time, self.state)

@@ -1,9 +1,7 @@
 """Suspension.fmu: static (load in, equilibrium out) or dynamic (sprung mass integrated)."""
 
-from pythonfmu.enums import Fmi2Status
-
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import effect, input_, integrator_variables, output, parameter
+from ..fmi.slave import Status, effect, input_, integrator_variables, output, parameter
 from ..physics import suspension as physics
 from ..physics import suspension_dynamics as dyn
 from ..errors import IntegrationError, MechanismError, SnapThrough, require_finite
@@ -189,7 +187,7 @@ class Suspension(IntegratingSlave):
                      f"{v['load']!r} N passed the limit of branch "
                      f"{'near' if v['branch'] == physics.NEAR else 'far'}; deflection jumps "
                      f"from {v['deflection']!r} m to {state.deflection!r} m",
-                     Fmi2Status.warning)
+                     Status.warning)
             v["snap_through_count"] += 1
         (v["deflection"], v["spring_force"], v["secant_stiffness"], v["tangent_stiffness"],
          v["stable"], v["branch"]) = state
@@ -247,7 +245,7 @@ class Suspension(IntegratingSlave):
                      f"{u!r} m went from the {_NAMES[old]} to the "
                      f"{_NAMES[dyn.FAR if old == dyn.NEAR else dyn.NEAR]} stable region "
                      f"(load {dyn.load_at(self.inputs, t_event)!r} N)",
-                     Fmi2Status.warning)
+                     Status.warning)
         v["snap_through"] = bool(snaps)
         v["snap_through_count"] += len(snaps)
         if self.inputs.mode == "hold":  # the value held from ``time`` on

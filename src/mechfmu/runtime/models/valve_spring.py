@@ -1,10 +1,8 @@
 """ValveSpring.fmu: the valve as a mass on its spring, driven by the rocker through a compliant
 contact and stopped by a compliant seat, integrated inside each communication step."""
 
-from pythonfmu.enums import Fmi2Status
-
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import input_, integrator_variables, output, parameter
+from ..fmi.slave import Status, input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
 from ..errors import (IntegrationError, MechanismError, RangeError, require_finite,
                       require_positive)
@@ -208,7 +206,7 @@ class ValveSpring(IntegratingSlave):
                 v["seat_impacts"] += 1
                 continue  # a closing: counted, not reported
             self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
-                     Fmi2Status.warning)
+                     Status.warning)
 
     def _refuse_travel(self, t, y, drive, floated=None):
         """RangeError: the valve lift reaches max_valve_lift at time t (state y, rocker end

@@ -2,9 +2,7 @@
 
 import math
 
-from pythonfmu.enums import Fmi2Status
-
-from ..fmi.slave import effect, input_, output, parameter
+from ..fmi.slave import Status, effect, input_, output, parameter
 from ..physics import cam_laws, constraint_models
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
@@ -181,8 +179,8 @@ class ValveTrain(LinkageSlave):
             if v["stop_on_float"]:
                 v["contact_lost"] = True
                 raise MechanismError(message)
-            self.log(message, Fmi2Status.warning)
+            self.log(message, Status.warning)
         elif not lost and v["contact_lost"]:
             self.log(f"valve contact restored at t = {time!r} s (contact force {force:.6g} N)",
-                     Fmi2Status.warning)
+                     Status.warning)
         v["contact_lost"] = lost

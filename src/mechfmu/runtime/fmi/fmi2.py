@@ -1,0 +1,66 @@
+"""FMI 2.0 binding of MechSlave over pythonfmu 0.7 (runs inside the FMU).
+
+Registers the declared variables (declarations.py) with pythonfmu and writes what pythonfmu's
+model description lacks: units, min/max, Outputs with their input dependencies and
+InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared``,
+``VARIABLES``, ``_set`` and ``refresh_initial_outputs``.
+"""
+
+from xml.etree.ElementTree import Element, SubElement
+
+from pythonfmu import (Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer,
+                       Real, String)
+
+from .declarations import describe, reading_initial_outputs, registered, unit_definitions
+
+_FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
+
+
+class Fmi2Binding(Fmi2Slave):
+    """pythonfmu's Fmi2Slave, fed from MechSlave's declarations."""
+
+    def register_declared(self, variable):
+        """Register one declared variable; its value lives in self.values."""
+        name, values = variable.name, self.values
+        self.register_variable(registered(
+            variable, _FMI_TYPES, Fmi2Causality, Fmi2Variability, Fmi2Initial,
+            getter=lambda: values[name], setter=lambda value: self._set(name, value)))
+
+    def finish_registration(self):
+        """Nothing beyond the declared variables in FMI 2.0."""
+
+    # Outputs read in initialisation mode are computed from what the host has set so far.
+    get_real = reading_initial_outputs(Fmi2Slave.get_real)
+    get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
+    get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
+
+    def to_xml(self, model_options=dict()):
+        root = super().to_xml(model_options)
+        for element in root.iter("ScalarVariable"):
+            variable = self.declared.get(element.get("name"))
+            if variable is None:
+                continue
+            describe(element[0], variable)
+        units = unit_definitions(v.unit for v in self.VARIABLES)
+        if units is not None:
+            root.insert(list(root).index(root.find("CoSimulation")) + 1, units)
+        root.remove(root.find("ModelStructure"))
+        root.append(self._model_structure())
+        return root
+
+    def _model_structure(self):
+        index = {v.name: i for i, v in enumerate(self.VARIABLES, start=1)}
+        structure = Element("ModelStructure")
+        outputs = [v for v in self.VARIABLES if v.causality == "output"]
+        if outputs:
+            node = SubElement(structure, "Outputs")
+            for variable in outputs:
+                depends = " ".join(str(index[name]) for name in variable.depends)
+                SubElement(node, "Unknown", index=str(index[variable.name]),
+                           dependencies=depends)
+            # Calculated outputs are initial unknowns; without a dependencies attribute
+            # they may depend on every known (parameters and inputs).
+            node = SubElement(structure, "InitialUnknowns")
+            for variable in outputs:
+                SubElement(node, "Unknown", index=str(index[variable.name]))
+        return structure
