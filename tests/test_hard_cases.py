@@ -338,6 +338,16 @@ def test_loads_next_to_the_limit_load(spring, side, log_delta):
         u_star, f_star, curvature = _limit_decimal(spring)
         assert relative(limit.load, f_star) <= 1e-13   # the float limit load itself
         force_scale = 16 * EPS * float(f_star)           # rounding of F near F*
+        # within LIMIT_LOAD_RTOL of F* the load is the limit load: its equilibrium is the
+        # limit point (marginal), whatever the last bits of W and F* are
+        within = abs(load - limit.load) <= sus.LIMIT_LOAD_RTOL * limit.load
+        if within:
+            event("within the limit band")
+            eq, snapped = sus.follow_load(load, sus.NEAR, spring)
+            assert not snapped and eq.branch == sus.NEAR and eq.marginal and not eq.stable
+            assert eq.deflection == pytest.approx(float(u_star), rel=1e-12)
+            assert abs(eq.tangent_stiffness) <= sus.MARGINAL_RTOL * 2.0 * spring.stiffness
+            return
         if load > limit.load:
             event("above")
             with pytest.raises(SnapThrough, match="limit load") as raised:

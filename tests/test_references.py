@@ -269,16 +269,51 @@ def test_follow_load_snaps_once_on_ramp():
     loads = np.linspace(0.0, 1.5 * F_star, 301)
     path = sp.follow_load(loads, L0, K0, D0)
     assert set(path) == {"deflection", "spring_force", "secant_stiffness", "tangent_stiffness",
-                         "stable", "branch", "snap_through"}
+                         "stable", "marginal", "branch", "snap_through"}
+    # Sample 200 is the limit load to within rounding (200 * step vs F*, which differ in the
+    # last bits, either way, depending on the CPU): it is the limit point, marginal, not a
+    # snap-through; the snap happens at the next sample.
+    at_limit = int(np.argmin(np.abs(loads - F_star)))
+    assert at_limit == 200 and abs(loads[at_limit] - F_star) <= 1e-14 * F_star
+    first_past = at_limit + 1
     assert path["snap_through"].sum() == 1.0
-    first_past = int(np.argmax(loads > F_star))
     assert path["snap_through"][first_past] == 1.0
     assert np.all(path["branch"][:first_past] == sp.NEAR)
     assert np.all(path["branch"][first_past:] == sp.FAR)
-    assert np.all(path["stable"] == 1.0)
+    assert path["marginal"][at_limit] == 1.0 and path["stable"][at_limit] == 0.0
+    assert abs(path["tangent_stiffness"][at_limit]) <= sp.MARGINAL_RTOL * 2.0 * K0
+    others = np.arange(loads.size) != at_limit
+    assert np.all(path["stable"][others] == 1.0) and np.all(path["marginal"][others] == 0.0)
+    # the neighbours are clearly stable: their stiffness is far outside the marginal band
+    assert path["tangent_stiffness"][at_limit - 1] > 1e3 * sp.MARGINAL_RTOL * 2.0 * K0
     assert close(path["spring_force"], loads, scale=F_star)
     jump = np.diff(path["deflection"])
     assert int(np.argmax(jump)) == first_past - 1 and jump.max() > 0.5
+
+
+def test_limit_load_within_rounding_is_marginal_on_both_sides():
+    """A load a few ulps either side of F* (or -F* on the far branch) is the limit point:
+    the same classification whatever the last bits are."""
+    u_star, F_star = sp.limit_point(L0, K0, D0)
+    h = float(sp.rest_height(L0, D0))
+    near = F_star * (1.0 + np.array([-4e-16, -2.2e-16, 0.0, 2.2e-16, 4e-16]))
+    path = sp.follow_load(near, L0, K0, D0)
+    assert np.all(path["marginal"] == 1.0) and np.all(path["stable"] == 0.0)
+    assert np.all(path["branch"] == sp.NEAR) and path["snap_through"].sum() == 0.0
+    assert np.allclose(path["deflection"], u_star, rtol=0.0, atol=1e-15 * L0)
+    far = np.concatenate([[2.0 * F_star], -near])
+    path = sp.follow_load(far, L0, K0, D0)
+    assert np.all(path["branch"] == sp.FAR) and path["snap_through"].sum() == 1.0
+    assert np.all(path["marginal"][1:] == 1.0) and path["marginal"][0] == 0.0
+    assert np.allclose(path["deflection"][1:], 2.0 * h - u_star, rtol=0.0, atol=1e-15 * L0)
+    spring = psp.make_spring(L0, K0, D0)
+    for W in near:
+        state, snapped = psp.follow_load(W, psp.NEAR, spring)
+        assert not snapped and state.branch == psp.NEAR and state.marginal and not state.stable
+        assert math.isclose(state.deflection, u_star, rel_tol=1e-14)
+    for W in -near:
+        state, snapped = psp.follow_load(W, psp.FAR, spring)
+        assert not snapped and state.branch == psp.FAR and state.marginal and not state.stable
 
 
 def test_follow_load_matches_physics_continuation():
@@ -300,13 +335,17 @@ def test_follow_load_matches_physics_continuation():
                             abs_tol=tolerance * L0)
         if abs(abs(W) - F_star) >= 0.01 * F_star:
             assert path["stable"][i] == float(state.stable)
+        assert path["marginal"][i] == float(state.marginal)
     assert path["snap_through"].sum() == 3.0  # up past F*, down past -F*, up past F*
 
 
 def test_follow_load_at_the_limit_load_stays_near():
     u_star, F_star = sp.limit_point(L0, K0, D0)
-    path = sp.follow_load([0.0, F_star, np.nextafter(F_star, np.inf)], L0, K0, D0)
-    assert list(path["snap_through"]) == [0.0, 0.0, 1.0]
+    # One ulp above F* is still the limit load (within LIMIT_LOAD_RTOL); 1e-9 F* above is past.
+    path = sp.follow_load([0.0, F_star, np.nextafter(F_star, np.inf), F_star * (1 + 1e-9)],
+                          L0, K0, D0)
+    assert list(path["snap_through"]) == [0.0, 0.0, 0.0, 1.0]
+    assert list(path["marginal"]) == [0.0, 1.0, 1.0, 0.0]
     assert path["deflection"][1] == pytest.approx(u_star, abs=1e-7)
 
 

@@ -25,6 +25,12 @@ NEWTON_STEPS = 3
 # np.roots returns a double root as a conjugate pair split by ~sqrt(eps); a pair closer to
 # the real axis than this (relative to the problem's length scale) counts as one real root.
 DOUBLE_ROOT_TOLERANCE = 1e-6
+# Stability with a tolerance, as the physics (runtime/physics/suspension.py) defines it: at a
+# limit point dF/du is rounding noise of either sign, so |dF/du| <= MARGINAL_RTOL * 2 k is
+# marginal, and a load within LIMIT_LOAD_RTOL * F* of a limit load is that limit load (its
+# equilibrium the limit point). A load 1e-12 F* off the limit has dF/du ~ 1e-6 * 2 k.
+MARGINAL_RTOL = 1e-9
+LIMIT_LOAD_RTOL = 1e-12
 
 
 def rest_height(L, d):
@@ -66,6 +72,15 @@ def limit_point(L, k, d):
     v_star = np.sqrt((s_star - d) * (s_star + d))
     u_star = float(rest_height(L, d) - v_star)
     return u_star, float(spring_force(u_star, L, k, d))
+
+
+def stability(tangent, k):
+    """(stable, marginal) float 0/1 arrays for tangent stiffnesses dF/du (N/m) of springs of
+    stiffness k (N/m): stable where dF/du > MARGINAL_RTOL * 2 k, marginal where
+    |dF/du| <= MARGINAL_RTOL * 2 k."""
+    tangent = np.asarray(tangent, dtype=float)
+    band = MARGINAL_RTOL * 2.0 * k
+    return (tangent > band).astype(float), (np.abs(tangent) <= band).astype(float)
 
 
 def _polish(u, W, L, k, d):
@@ -131,8 +146,12 @@ def follow_load(W_array, L, k, d):
     sample if the load already exceeds F* there). On the near branch the equilibrium is the
     smallest root, on the far branch the largest.
 
+    A load within LIMIT_LOAD_RTOL * F* of a branch's limit load has the limit point as its
+    equilibrium (no snap-through).
+
     Columns: deflection, spring_force, secant_stiffness, tangent_stiffness, stable (1.0 where
-    dF/du > 0), branch (0 near, 1 far), snap_through (0/1), all float arrays.
+    dF/du > MARGINAL_RTOL * 2 k), marginal (1.0 where |dF/du| <= MARGINAL_RTOL * 2 k: a limit
+    point), branch (0 near, 1 far), snap_through (0/1), all float arrays.
     """
     loads = np.atleast_1d(np.asarray(W_array, dtype=float))
     u_star, F_star = limit_point(L, k, d)
@@ -141,11 +160,19 @@ def follow_load(W_array, L, k, d):
     branch = np.empty(n)
     snap = np.zeros(n)
     current = NEAR
+    band = LIMIT_LOAD_RTOL * F_star
+    h = float(rest_height(L, d))
     for i, W in enumerate(loads):
-        exists = W <= F_star if current == NEAR else W >= -F_star
+        exists = W <= F_star + band if current == NEAR else W >= -F_star - band
         if not exists:
             current = FAR if current == NEAR else NEAR
             snap[i] = 1.0
+        if current == NEAR and abs(W - F_star) <= band:
+            deflection[i], branch[i] = u_star, current
+            continue
+        if current == FAR and abs(W + F_star) <= band:
+            deflection[i], branch[i] = 2.0 * h - u_star, current
+            continue
         roots = equilibria(W, L, k, d)
         u = roots[0] if current == NEAR else roots[-1]
         # Within rounding of the limit load the two roots next to it may come out complex;
@@ -157,12 +184,14 @@ def follow_load(W_array, L, k, d):
         deflection[i] = u
         branch[i] = current
     tangent = tangent_stiffness(deflection, L, k, d)
+    stable, marginal = stability(tangent, k)
     return {
         "deflection": deflection,
         "spring_force": spring_force(deflection, L, k, d),
         "secant_stiffness": secant_stiffness(deflection, L, k, d),
         "tangent_stiffness": tangent,
-        "stable": (tangent > 0.0).astype(float),
+        "stable": stable,
+        "marginal": marginal,
         "branch": branch,
         "snap_through": snap,
     }

@@ -155,12 +155,14 @@ class System:
         s = np.sqrt(d * d + (h - u) ** 2)
         stretch = -u * (2.0 * h - u) / (L + s)  # s - L without cancellation
         tangent = statics.tangent_stiffness(u, L, k, d)
+        stable, marginal = statics.stability(tangent, k)
         return {
             "deflection": u, "velocity": dy - dz, "acceleration": ddy - ddz,
             "sprung_displacement": y, "unsprung_displacement": z, "tyre_force": tyre_force,
             "spring_force": statics.spring_force(u, L, k, d),
             "secant_stiffness": statics.secant_stiffness(u, L, k, d),
-            "tangent_stiffness": tangent, "stable": (tangent > 0.0).astype(float),
+            "tangent_stiffness": tangent, "stable": stable,
+            "marginal": marginal,
             "kinetic_energy": 0.5 * self.m * dy * dy + kinetic_extra,
             "potential_energy": k * stretch * stretch - W * y + potential_extra,
         }

@@ -84,7 +84,13 @@ class Suspension(IntegratingSlave):
                unit="N/m", depends=_INPUTS),
         output("tangent_stiffness", 0.0, "dF/du: decides stability and natural frequency",
                unit="N/m", depends=_INPUTS),
-        output("stable", True, "tangent_stiffness > 0", depends=_INPUTS),
+        output("stable", True, "tangent_stiffness > MARGINAL_RTOL * 2 k (MARGINAL_RTOL = "
+               f"{physics.MARGINAL_RTOL:g}): the equilibrium is stable", depends=_INPUTS),
+        output("marginal", False, "|tangent_stiffness| <= MARGINAL_RTOL * 2 k: a limit point "
+               "(the load within LIMIT_LOAD_RTOL = "
+               f"{physics.LIMIT_LOAD_RTOL:g} of the limit load), neither stable nor unstable; "
+               "stable, marginal and unstable (both false) exclude each other",
+               depends=_INPUTS),
         output("snap_through", False, "true on a step where the load passed a limit load "
                "and the equilibrium jumped to the other stable branch (dynamics: the "
                "deflection crossed from one stable region to the other)", depends=_INPUTS),
@@ -190,7 +196,7 @@ class Suspension(IntegratingSlave):
                      Status.warning)
             v["snap_through_count"] += 1
         (v["deflection"], v["spring_force"], v["secant_stiffness"], v["tangent_stiffness"],
-         v["stable"], v["branch"]) = state
+         v["stable"], v["branch"], v["marginal"]) = state
         v["snap_through"] = snapped
         v["sprung_displacement"] = state.deflection
         v["potential_energy"] = (dyn.spring_energy(state.deflection, self._spring())
@@ -262,7 +268,7 @@ class Suspension(IntegratingSlave):
         v["spring_force"] = physics.spring_force(u, spring)
         v["secant_stiffness"] = physics.secant_stiffness(u, spring)
         v["tangent_stiffness"] = physics.tangent_stiffness(u, spring)
-        v["stable"] = v["tangent_stiffness"] > 0.0
+        v["stable"], v["marginal"] = physics.stability(v["tangent_stiffness"], spring)
         v["branch"] = dyn.region(u, spring)
 
 

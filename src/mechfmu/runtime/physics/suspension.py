@@ -15,6 +15,17 @@ F reaches its limit load F* (near branch) and -F* (far branch, the mirror image 
 u = h). The two stable branches are u < h - v* ("near") and u > h + v* ("far"),
 v* = sqrt(s*^2 - d^2); between them the equilibria are unstable.
 
+At the limit points themselves the equilibrium is marginal (dF/du = 0): there the computed
+tangent stiffness is rounding noise of either sign (a few 1e-16 of the stiffness scale 2 k),
+so stability is classified with a tolerance: stable if dF/du > MARGINAL_RTOL * 2 k,
+marginal if |dF/du| <= MARGINAL_RTOL * 2 k, unstable otherwise. A load within
+LIMIT_LOAD_RTOL * F* of a limit load is that limit load (its equilibrium is the limit point,
+marginal, and no snap-through happens): at the double root F(u) = F* a relative load error e
+moves u by ~sqrt(e) L, so the branch's end cannot be resolved closer than that anyway.
+The two tolerances are far apart: a load just outside the band, |W - F*| = 1e-12 F*, has
+dF/du ~ 1e-6 * 2 k, three decades above the marginal band, so neither classification
+hinges on the last bit.
+
 Lengths in m, stiffness in N/m, forces in N.
 """
 
@@ -32,6 +43,11 @@ COURSEWORK_BASE_OFFSET = 0.2
 COURSEWORK_MASS = 180.0 + 31.0
 
 NEAR, FAR = 0, 1  # stable branches
+# |dF/du| <= MARGINAL_RTOL * 2 k counts as zero stiffness (a limit point; see the module
+# docstring): rounding leaves ~1e-15 of 2 k there, a load 1e-12 F* off the limit ~1e-6.
+MARGINAL_RTOL = 1e-9
+# A load within LIMIT_LOAD_RTOL * F* of a limit load is that limit load.
+LIMIT_LOAD_RTOL = 1e-12
 MAX_ITERATIONS = 200
 # Largest |h - u| (m) solve_on_branch looks for an equilibrium at: beyond about 1e154 m the
 # products in spring_force overflow. Loads above 2 k MAX_DEFLECTION are refused by name.
@@ -40,7 +56,7 @@ MAX_DEFLECTION = 1e150
 Spring = namedtuple("Spring", "free_length stiffness base_offset")
 LimitPoint = namedtuple("LimitPoint", "deflection load")
 Equilibrium = namedtuple(
-    "Equilibrium", "deflection spring_force secant_stiffness tangent_stiffness stable branch")
+    "Equilibrium", "deflection spring_force secant_stiffness tangent_stiffness stable branch marginal")
 
 
 def make_spring(spring_free_length, spring_stiffness, spring_base_offset):
@@ -85,6 +101,14 @@ def tangent_stiffness(deflection, spring):
     return 2.0 * k * (1.0 - L * d * d / (s * s * s))
 
 
+def stability(tangent, spring):
+    """(stable, marginal) for a tangent stiffness dF/du (N/m): stable if it exceeds
+    MARGINAL_RTOL * 2 k, marginal if |dF/du| is within it (a limit point), neither if the
+    equilibrium is unstable."""
+    band = MARGINAL_RTOL * 2.0 * spring.stiffness
+    return tangent > band, abs(tangent) <= band
+
+
 def limit_point(spring):
     """Deflection (m) and load (N) where the near branch ends (dF/du = 0)."""
     L, _, d = spring
@@ -115,6 +139,11 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
     W = require_finite("load", load, "N")
     limit = limit_point(spring)
     low, high = _branch_interval(branch, spring)
+    band = LIMIT_LOAD_RTOL * limit.load
+    if branch == NEAR and abs(W - limit.load) <= band:
+        return limit.deflection  # the limit point itself (marginal), see the module docstring
+    if branch == FAR and abs(W + limit.load) <= band:
+        return low
     if branch == NEAR and W > limit.load:
         raise SnapThrough(f"load = {W!r} N exceeds the limit load {limit.load!r} N "
                           f"of the near branch (at deflection {limit.deflection!r} m)")
@@ -199,8 +228,9 @@ def _polish(u, load, spring, low, high, steps=3):
 def equilibrium(deflection, spring, branch):
     """All outputs of the static model at a known deflection."""
     tangent = tangent_stiffness(deflection, spring)
+    stable, marginal = stability(tangent, spring)
     return Equilibrium(deflection, spring_force(deflection, spring),
-                       secant_stiffness(deflection, spring), tangent, tangent > 0.0, branch)
+                       secant_stiffness(deflection, spring), tangent, stable, branch, marginal)
 
 
 def follow_load(load, branch, spring, guess=None, continue_past_limit=True):
