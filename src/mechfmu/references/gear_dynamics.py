@@ -5,6 +5,13 @@ the reference checks the FMU's integration, events and co-simulation plumbing, n
 derivation), integrated by scipy's Radau at rtol = atol = 1e-12, restarted at every
 stroke-limit crossing (where the end-stop force has a kink), and evaluated by its dense
 output at the scene's sample times.
+
+The pieces are contiguous and each sample is assigned to one by its start time
+(references/breakpoints.py), so no sample falls between pieces whatever the event times round
+to. The 1e-9 s step off the stroke surface after a crossing is taken with an explicit method
+(DOP853): Radau's Newton iteration, started exactly on the kink, can fail there on some CPUs'
+BLAS kernels ("required step size is less than spacing between numbers"); over 1e-9 s the
+problem is not stiff. A failed integration raises, naming the time, never leaves a gap.
 """
 
 import numpy as np
@@ -12,8 +19,15 @@ from scipy.integrate import solve_ivp
 
 from ..runtime.physics import gear_dynamics as gd
 from ..runtime.physics import landing_gear as gear
+from .breakpoints import piece_of_samples
 
 TOLERANCE = 1e-12
+# Off the stroke surface after a crossing (s), so the restarted integration does not refire.
+STEP_OFF = 1e-9
+# A piece that starts within SURFACE_RTOL * (stroke_max - stroke_min) of a stroke limit
+# starts on it: its end there is no crossing (the FMU's rule: an event needs a nonzero
+# event function at the step start), whatever the sign of the rounding-level distance.
+SURFACE_RTOL = 1e-12
 
 
 def gear_values(defaults, parameters, effects, inputs):
@@ -56,30 +70,38 @@ def simulate(values, times):
         solution = solve_ivp(rhs, (t, times[-1]), y, method="Radau", rtol=TOLERANCE,
                              atol=TOLERANCE, dense_output=True,
                              events=stroke_crossings(dynamics))
+        if solution.status == -1:
+            raise RuntimeError(f"gear reference: Radau failed at t = {t!r} s: "
+                               f"{solution.message}")
         pieces.append((t, float(solution.t[-1]), solution.sol))
+        start_length = dynamics.piston_length(list(y))
         t, y = float(solution.t[-1]), solution.y[:, -1]
         if solution.status != 1 or t >= times[-1]:
             break
-        rate = dynamics.piston_kinematics(list(y))[1]
         # like the FMU: retraction = rising through stroke_max, extension = falling through
-        # stroke_min; every crossing restarts the integration at the kink
-        if len(solution.t_events[0]) and rate > 0:
+        # stroke_min, decided by the side the piece started on (not by the sign of the
+        # piston rate at the event, which is rounding noise where the piston rests on a
+        # stop); every crossing restarts the integration at the kink
+        low, high = dynamics.stroke
+        surface = SURFACE_RTOL * (high - low)
+        if len(solution.t_events[0]) and start_length < high - surface:
             events["stroke_max"].append(t)
-        if len(solution.t_events[1]) and rate < 0:
+        if len(solution.t_events[1]) and start_length > low + surface:
             events["stroke_min"].append(t)
-        t_next = min(t + 1e-9, times[-1])  # step off the surface so it does not refire
-        step = solve_ivp(rhs, (t, t_next), y, method="Radau", rtol=TOLERANCE, atol=TOLERANCE,
+        t_next = min(t + STEP_OFF, times[-1])  # step off the surface so it does not refire
+        step = solve_ivp(rhs, (t, t_next), y, method="DOP853", rtol=TOLERANCE, atol=TOLERANCE,
                          dense_output=True)
+        if step.status == -1:
+            raise RuntimeError(f"gear reference: the step off the stroke surface at "
+                               f"t = {t!r} s failed: {step.message}")
         pieces.append((t, t_next, step.sol))
         t, y = t_next, step.y[:, -1]
+    else:
+        raise RuntimeError(f"gear reference: more than 10000 stroke crossings by t = {t!r} s")
+    owner = piece_of_samples([p[0] for p in pieces], [p[1] for p in pieces], times)
     columns = {}
-    for time in times:
-        for start, end, sol in reversed(pieces):
-            if start <= time <= end:
-                state = list(sol(time))
-                break
-        else:
-            raise RuntimeError(f"no solution piece covers t = {time}")
+    for time, index in zip(times, owner):
+        state = list(pieces[index][2](time))
         sample = dict(values, retraction_time=-1.0, extension_time=-1.0)
         dynamics.publish(sample, time, state)
         # the FMU records a stroke event once it has happened (rising/falling crossings)
