@@ -760,3 +760,19 @@ def test_property_over_long_profiles_are_refused(law, rise, dwell, ret):
     with pytest.raises(RangeError) as info:
         cl.check_profile(law, 0.005, 0.0, rise, dwell, ret)
     assert repr(total) in str(info.value) and repr(TAU) in str(info.value)
+
+
+def test_contact_lost_needs_a_force_below_rounding_of_its_terms():
+    # a = -(k x + F0) / m exactly balances the spring: zero force up to rounding, which is
+    # a touching contact, not a float, whatever sign the last bits give the sum
+    lift = 0.0071
+    balance = -(STIFFNESS * lift + PRELOAD) / MASS
+    scale = STIFFNESS * lift + PRELOAD
+    for accel in (balance, np.nextafter(balance, 0.0), np.nextafter(balance, -np.inf)):
+        force = vt.contact_force(MASS, STIFFNESS, PRELOAD, lift, accel)
+        assert abs(force) <= 1e-12 * scale
+        assert not vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, accel)
+    pulled = balance * (1.0 + 1e-6)   # the rocker would have to pull by ~1e-6 of the terms
+    assert vt.contact_force(MASS, STIFFNESS, PRELOAD, lift, pulled) < -1e-7 * scale
+    assert vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, pulled)
+    assert not vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, balance * (1.0 - 1e-6))

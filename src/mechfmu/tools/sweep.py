@@ -19,7 +19,9 @@ sweep.json   the sweep's definition and its state (replaced atomically after eve
 A point lost with its worker process is run again (``--retries``, the last attempt alone);
 ``--resume`` finishes a stopped sweep without redoing its finished points.
 
-Metrics: ``final:c.v``, ``max:c.v``, ``min:c.v``, ``time_of_max:c.v``,
+Metrics: ``final:c.v``, ``max:c.v``, ``min:c.v``, ``time_of_max:c.v`` (the first time the
+signal comes within TIME_OF_MAX_RTOL of its largest |value| below its maximum, so a plateau
+gives its start whatever its last bits are),
 ``first_time_above:c.v:THRESHOLD``, ``first_time_true:c.v`` (Boolean or 0/1 flag columns),
 ``max_abs_error:c.v`` (against the scene's reference CSV, interpolated onto the result's
 times). A metric whose event never happens is ``nan``. A point whose scene fails (SceneError,
@@ -223,6 +225,14 @@ def parse_metric(text):
     return Metric(text, kind, variable, threshold)
 
 
+# time_of_max: values within TIME_OF_MAX_RTOL * max|values| of the maximum count as the
+# maximum. On a plateau (a valve dwell, a settled deflection) the samples differ only by
+# rounding, ~1e-16 relative, which differs between CPUs' kernels: argmax alone would pick a
+# different sample on another machine. 1e-9 is far above rounding and far below any
+# difference a metric is meant to resolve.
+TIME_OF_MAX_RTOL = 1e-9
+
+
 def first_time(times, mask):
     """Time of the first True in ``mask``, or nan."""
     hits = np.flatnonzero(mask)
@@ -242,7 +252,12 @@ def evaluate_metric(metric, times, values, reference=None):
     if kind == "min":
         return float(np.min(values))
     if kind == "time_of_max":
-        return float(times[int(np.argmax(values))])
+        finite = values[np.isfinite(values)]
+        if finite.size == 0:
+            return math.nan
+        peak = float(np.max(finite))
+        band = TIME_OF_MAX_RTOL * float(np.max(np.abs(finite)))
+        return first_time(times, values >= peak - band)
     if kind == "first_time_above":
         return first_time(times, values > metric.threshold)
     if kind == "first_time_true":

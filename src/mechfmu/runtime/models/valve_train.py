@@ -167,7 +167,8 @@ class ValveTrain(LinkageSlave):
             return
         force = vt.contact_force(v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
                                  v["valve_lift"], v["valve_acceleration"])
-        lost = force < 0.0
+        lost = vt.contact_lost(v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
+                               v["valve_lift"], v["valve_acceleration"])
         v["contact_force"] = force
         if lost and not v["contact_lost"]:
             v["float_events"] += 1

@@ -520,6 +520,24 @@ def contact_force(valve_mass, spring_stiffness, spring_preload, valve_lift, valv
     return m * accel + k * lift + preload
 
 
+# The contact force m a + k lift + F0 is a sum of terms of kN that cancel where the valve is
+# about to float; rounding leaves ~1e-16 of their magnitudes. A force below
+# -FLOAT_RTOL * (|m a| + |k lift| + F0) is lost contact; one within the band is a touching
+# contact (zero force), not a float, so the classification does not hinge on the last bit.
+FLOAT_RTOL = 1e-9
+
+
+def contact_lost(valve_mass, spring_stiffness, spring_preload, valve_lift, valve_acceleration):
+    """True if the rocker would have to pull the valve (contact force below
+    -FLOAT_RTOL times the terms' magnitude, N): the valve floats. Arguments as
+    contact_force (kg, N/m, N, m, m/s^2)."""
+    force = contact_force(valve_mass, spring_stiffness, spring_preload, valve_lift,
+                          valve_acceleration)
+    scale = (abs(valve_mass * valve_acceleration) + abs(spring_stiffness * valve_lift)
+             + abs(spring_preload))
+    return force < -FLOAT_RTOL * scale
+
+
 def _golden_minimum(function, low, high):
     """Minimum value and its abscissa of a unimodal ``function`` on [low, high]."""
     x1 = high - GOLDEN * (high - low)

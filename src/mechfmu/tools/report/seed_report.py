@@ -236,11 +236,12 @@ def _suspension_section():
         secant = float(sp.secant_stiffness(u, L, K, D))
         tangent = float(sp.tangent_stiffness(u, L, K, D))
         force = float(sp.spring_force(u, L, K, D))
-        stable = tangent > 0.0
+        stable, marginal = (bool(x) for x in sp.stability(tangent, K))
         frequency = _f(np.sqrt(tangent / MASS) / (2 * np.pi), 4) if stable else "-"
         says = f"u = {says_u[i]}, Kef = {says_k[i]:.4e}" if i < len(says_u) else "(missed)"
         rows.append([f"u{i + 1}", _f(u, 10), _f(force, 6), _f(secant, 2), _f(tangent, 2),
-                     "stable" if stable else "unstable", frequency, says])
+                     "stable" if stable else "marginal" if marginal else "unstable",
+                     frequency, says])
     out += [_table(["", "u (m)", "F(u) (N)", "secant F/u (N/m)", "tangent dF/du (N/m)",
                     "stability", "f_n (Hz)", "coursework says"], rows), ""]
     out += [f"The coursework's secant stiffness Kef = F/u is positive at all three; only the "
