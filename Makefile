@@ -1,29 +1,106 @@
 # Two commands on a fresh clone: `make run` and `make test` (see README.md).
+# Installs are exact: requirements.lock.txt pins every dependency (extras test, docs, cluster
+# included) with its hashes, for every Python from 3.10 (`make lock` refreshes it).
+# Another interpreter: `make test PYTHON=/path/to/python3.12` uses its own .venv-3.12 and
+# fmus-3.12 (the FMUs are built for the interpreter that builds them), leaving .venv alone.
 PYTHON ?= python3
+ifeq ($(origin PYTHON),command line)
+PYVER := $(shell $(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+VENV := .venv-$(PYVER)
+FMUS := fmus-$(PYVER)
+else
 VENV := .venv
+FMUS := fmus
+endif
 PY := $(VENV)/bin/python
+# The tests (and `mechfmu run` without --fmu-dir) find the FMUs here.
+export MECHFMU_FMU_DIR := $(CURDIR)/$(FMUS)
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
-.PHONY: run test fmus references report study bench sweeps docs clean
+.PHONY: run test fmus references report study bench sweeps docs clean lock test-latest \
+	test-portable test-other-python
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml requirements.lock.txt
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check -e '.[test]'
+	$(PY) -m pip install --quiet --disable-pip-version-check --require-hashes \
+		-r requirements.lock.txt
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps -e .
 	touch $@
 
-fmus/.built: $(VENV)/.installed $(FMU_SOURCES)
-	$(VENV)/bin/mechfmu build --out fmus
+$(FMUS)/.built: $(VENV)/.installed $(FMU_SOURCES)
+	$(VENV)/bin/mechfmu build --out $(FMUS)
 	touch $@
 
 fmus: $(VENV)/.installed
-	$(VENV)/bin/mechfmu build --out fmus
-	touch fmus/.built
+	$(VENV)/bin/mechfmu build --out $(FMUS)
+	touch $(FMUS)/.built
 
-run: fmus/.built
+run: $(FMUS)/.built
 	$(PY) sims/run_gear.py
 
-test: fmus/.built
+test: $(FMUS)/.built
 	$(PY) -m pytest -q
+
+# Refresh the lock from pyproject.toml (needs the network): uv resolves once for every Python
+# >= 3.10 (markers where versions differ) with the hashes of every platform's files. uv is
+# installed into .venv-lock for this alone; installing from the lock needs only pip.
+lock:
+	$(PYTHON) -m venv .venv-lock
+	.venv-lock/bin/python -m pip install --quiet --disable-pip-version-check uv
+	.venv-lock/bin/uv pip compile pyproject.toml --universal --python-version 3.10 \
+		--generate-hashes --extra test --extra docs --extra cluster --no-header --quiet \
+		-o requirements.lock.txt
+
+# The suite against the newest releases pyproject.toml allows (not the lock): its own
+# .venv-latest and fmus-latest.
+test-latest:
+	rm -rf .venv-latest fmus-latest
+	$(PYTHON) -m venv .venv-latest
+	.venv-latest/bin/python -m pip install --quiet --disable-pip-version-check --upgrade \
+		-e '.[test]'
+	.venv-latest/bin/mechfmu build --out fmus-latest
+	MECHFMU_FMU_DIR=$(CURDIR)/fmus-latest .venv-latest/bin/python -m pytest -q
+
+# The numeric layers (physics, references, FMU runs against references, scenes, small
+# studies and sweeps) with numpy's SIMD dispatch narrowed as on other CPUs: without AVX-512,
+# then without AVX2 and FMA as well (tests/portable.py lists what this CPU has of them).
+PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.py \
+	tests/test_physics_linkages.py tests/test_physics_profiles.py \
+	tests/test_physics_suspension.py tests/test_references.py tests/test_hard_cases.py \
+	tests/test_integrators.py tests/test_planar.py tests/test_four_bar_boundary.py \
+	tests/test_gear_dynamics.py tests/test_suspension_dynamics.py tests/test_valve_spring.py \
+	tests/test_scenes.py tests/test_outputs.py tests/test_fmus.py tests/test_linkage_fmus.py \
+	tests/test_coupling.py tests/test_study.py tests/test_sweep.py \
+	tests/test_sweep_references.py tests/test_portable.py
+test-portable: $(FMUS)/.built
+	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx512)" $(PY) -m pytest -q \
+		-p no:cacheprovider $(PORTABLE_TESTS)
+	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx2)" $(PY) -m pytest -q \
+		-p no:cacheprovider $(PORTABLE_TESTS)
+
+# The fast numeric layer on the other CPythons that pyenv provides (OTHER_PYTHONS: versions
+# under `pyenv root`/versions), each in its own .venv-X.Y and fmus-X.Y.
+OTHER_PYTHONS ?= 3.10 3.13
+PYENV_ROOT ?= $(shell pyenv root 2>/dev/null || echo $(HOME)/.pyenv)
+OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.py \
+	tests/test_physics_linkages.py tests/test_physics_profiles.py \
+	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
+	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
+	tests/test_portable.py
+test-other-python:
+	@set -e; for version in $(OTHER_PYTHONS); do \
+		python=$$(ls -d $(PYENV_ROOT)/versions/$$version.*/bin/python3 2>/dev/null \
+			| sort -V | tail -n 1); \
+		if [ -z "$$python" ]; then \
+			echo "no CPython $$version under $(PYENV_ROOT)/versions"; exit 1; fi; \
+		echo "== $$python"; \
+		$(MAKE) --no-print-directory PYTHON=$$python \
+			TESTS="$(OTHER_TESTS)" test-subset; \
+	done
+
+# (helper of test-other-python) the TESTS files with PYTHON's venv and FMUs
+test-subset: $(FMUS)/.built
+	$(PY) -m pytest -q -p no:cacheprovider $(TESTS)
 
 references: $(VENV)/.installed
 	$(VENV)/bin/mechfmu references
@@ -32,14 +109,14 @@ report: $(VENV)/.installed
 	$(PY) sims/seed_report.py
 
 # Long measurements, not tests (the suite runs small versions of them).
-study: fmus/.built
+study: $(FMUS)/.built
 	$(VENV)/bin/mechfmu study
 
-bench: fmus/.built
+bench: $(FMUS)/.built
 	$(VENV)/bin/mechfmu bench
 
 # The shipped parameter sweeps, checked against their references (out/sweeps/summary.md).
-sweeps: fmus/.built
+sweeps: $(FMUS)/.built
 	$(PY) sims/run_sweeps.py
 
 # The docs site into site/ (open site/index.html); strict: a broken link or reference fails.
@@ -48,4 +125,4 @@ docs: $(VENV)/.installed
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict
 
 clean:
-	rm -rf $(VENV) fmus/*.fmu fmus/.built out site
+	rm -rf $(VENV) $(FMUS)/*.fmu $(FMUS)/.built out site

@@ -1,5 +1,6 @@
 """Shared fixtures: the built FMUs and small helpers to run scenes written inline."""
 
+import os
 from pathlib import Path
 
 import pytest
@@ -9,7 +10,7 @@ from mechfmu.packaging.build import build_all
 from mechfmu.runtime.models import MODELS
 
 ROOT = Path(__file__).resolve().parent.parent
-FMU_DIR = ROOT / "fmus"
+FMU_DIR = Path(os.environ.get("MECHFMU_FMU_DIR") or ROOT / "fmus")  # make sets it
 SCENES = SCENE_DIR  # the shipped scenes (package data)
 REFERENCES = REFERENCE_DIR
 SWEEPS = SWEEP_DIR

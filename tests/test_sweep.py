@@ -18,7 +18,7 @@ from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import REFERENCE_DIR, load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
-FMU_DIR = ROOT / "fmus"
+FMU_DIR = Path(os.environ.get("MECHFMU_FMU_DIR") or ROOT / "fmus")  # make sets it
 
 needs_fmus = pytest.mark.skipif(not (FMU_DIR / "Suspension.fmu").is_file(),
                                 reason="FMUs not built")

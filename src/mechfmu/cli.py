@@ -13,6 +13,11 @@ from pathlib import Path
 
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
+# Where the verbs find (and build writes) the FMUs unless told: the Makefile exports
+# MECHFMU_FMU_DIR (fmus-X.Y for another interpreter's venv).
+FMU_DIR = os.environ.get("MECHFMU_FMU_DIR") or "fmus"
+FMU_DIR_HELP = "folder of built FMUs (default: $MECHFMU_FMU_DIR, else fmus)"
+
 
 def _build(args):
     from .packaging.build import build_all
@@ -207,7 +212,7 @@ def _at_least_one(text):
 def _scene_options(verb, out="out", plot=True):
     """--out, --fmu-dir and --no-plot: the options of every verb that runs scenes."""
     verb.add_argument("--out", default=out, help=f"output folder (default: {out})")
-    verb.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    verb.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     if plot:
         verb.add_argument("--no-plot", action="store_true", help="skip the PNG")
 
@@ -245,7 +250,7 @@ def _measurement_verbs(verbs):
     study.add_argument("--out", default="data/study", help="output folder")
     study.add_argument("--scene-dir", default=str(SCENE_DIR),
                        help="folder of the scene files (default: the shipped scenes)")
-    study.add_argument("--fmu-dir", default="fmus", help="folder of the built FMUs")
+    study.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     study.set_defaults(func=_study)
 
     bench = verbs.add_parser("bench", help="performance benchmarks: master overhead against "
@@ -259,7 +264,7 @@ def _measurement_verbs(verbs):
     bench.add_argument("--only", choices=BENCHMARKS,
                        help="run this benchmark alone and print its rows (writes nothing)")
     bench.add_argument("--out", default="data/bench", help="output folder (default data/bench)")
-    bench.add_argument("--fmu-dir", default="fmus", help="folder of the built FMUs")
+    bench.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     bench.add_argument("--scenes", default=str(SCENE_DIR),
                        help="folder of the scene files (default: the shipped scenes)")
     bench.add_argument("--sweeps", default=str(SWEEP_DIR),
@@ -276,7 +281,7 @@ def _measurement_verbs(verbs):
     fuzz.add_argument("models", nargs="*", help="FMU names (default: all)")
     fuzz.add_argument("--sequences", type=int, default=1000)
     fuzz.add_argument("--seed", type=int, default=0)
-    fuzz.add_argument("--fmus", default="fmus", help="folder of the built FMUs")
+    fuzz.add_argument("--fmus", default=FMU_DIR, help=FMU_DIR_HELP)
     fuzz.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     fuzz.add_argument("--only", type=int, help="run only this sequence index (reproduce)")
     fuzz.add_argument("--out", default="out/fuzz", help="folder for the progress logs")
@@ -308,7 +313,7 @@ def _measurement_verbs(verbs):
                        help="run on this Dask cluster instead of local processes "
                             "(pip install mechfmu[cluster])")
     sweep.add_argument("--plot", action="store_true", help="one PNG per metric and parameter")
-    sweep.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    sweep.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     sweep.add_argument("--retries", type=int, default=None,
                        help="extra attempts of a point whose worker process died, the last "
                             "one alone (default: 2)")
@@ -348,7 +353,7 @@ def parser():
                               "system, its parameters and its FMUs) for other co-simulation tools")
     export.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
     export.add_argument("out", help="the .ssp file to write")
-    export.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    export.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     export.set_defaults(func=_export_ssp)
 
     container = verbs.add_parser("export-fmu", help="pack a scene (its FMUs, connections and "
@@ -356,7 +361,7 @@ def parser():
                                  "fmu-manipulation-toolbox) for tools that take one FMU")
     container.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
     container.add_argument("out", help="the .fmu file to write")
-    container.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
+    container.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     container.add_argument("--schedule", choices=("scene", "sequential", "parallel"),
                            default="scene",
                            help="scene (default): sequential for gauss_seidel scenes, parallel "

@@ -11,6 +11,7 @@ component, the time and the FMU's own log message, and carries the rows computed
 
 import ctypes
 import functools
+import os
 import shutil
 from array import array
 import tempfile
@@ -69,9 +70,11 @@ class Result:
     partial: bool = False
 
 
-def default_fmu_dir():
-    """``./fmus`` of the current folder (the repository root in the README's commands)."""
-    return Path.cwd() / "fmus"
+def default_fmu_dir() -> Path:
+    """The folder of built FMUs: $MECHFMU_FMU_DIR if set (the Makefile sets it, e.g. to
+    fmus-3.12 for another interpreter), else ``./fmus`` of the current folder (the
+    repository root in the README's commands)."""
+    return Path(os.environ.get("MECHFMU_FMU_DIR") or Path.cwd() / "fmus")
 
 
 def resolve_fmu(spec, scene, fmu_dir):
