@@ -13,6 +13,7 @@ import mechfmu.references
 from mechfmu.runtime.physics import landing_gear as plg
 from mechfmu.runtime.physics import profiles as pprof
 from mechfmu.runtime.physics import suspension as psp
+from mechfmu.references import drives
 from mechfmu.references import landing_gear as lg
 from mechfmu.references import suspension as sp
 from mechfmu.tools.report.seed_report import build_report
@@ -314,6 +315,27 @@ def test_limit_load_within_rounding_is_marginal_on_both_sides():
     for W in -near:
         state, snapped = psp.follow_load(W, psp.FAR, spring)
         assert not snapped and state.branch == psp.FAR and state.marginal and not state.stable
+
+
+def test_ramp_ends_a_rounding_error_off_are_the_ends_in_reference_and_physics():
+    """The shaft's acceleration jumps at both ends of its speed ramp; a sample time one
+    rounding error either side of an end (t + dt accumulated vs k dt) is that end in both the
+    reference and the FMU's physics, so neither classification hinges on the last bit."""
+    start, ramp, w0, w1 = 0.3, 0.5, 10.0, 60.0
+    slope = (w1 - w0) / ramp
+    for end, inside in ((start, slope), (start + ramp, 0.0)):
+        times = np.array([np.nextafter(end, -1.0), end, np.nextafter(end, 2.0)])
+        columns = drives.rotation(times, 0.2, w0, w1, ramp, start_time=start)
+        assert np.all(columns["acceleration"] == inside)
+        for i, t in enumerate(times):
+            sample = pprof.rotation(float(t), 0.2, w0, w1, ramp, start_time=start)
+            assert sample.rate2 == inside
+            assert math.isclose(sample.value, columns["angle"][i], rel_tol=1e-14)
+            assert math.isclose(sample.rate, columns["speed"][i], rel_tol=1e-14)
+    # 1e-6 of the ramp time before it starts is before it: the band is no wider than stated
+    early = start - 1e-6 * ramp
+    assert drives.rotation([early], 0.2, w0, w1, ramp, start_time=start)["acceleration"][0] == 0
+    assert pprof.rotation(early, 0.2, w0, w1, ramp, start_time=start).rate2 == 0.0
 
 
 def test_follow_load_matches_physics_continuation():

@@ -7,6 +7,10 @@ t0 the shaft turns at w0. Units: rad, rad/s, rad/s^2, s.
 
 import numpy as np
 
+# Times within TIME_SNAP * ramp_time of a ramp end count as that end (the physics' value,
+# runtime/physics/profiles.TIME_SNAP, restated: references do not import the profiles).
+TIME_SNAP = 1e-9
+
 
 def rotation(times, initial_angle, initial_speed, speed, ramp_time, start_time=0.0, ratio=1.0):
     """Columns 'angle', 'speed', 'acceleration' at ``times``; speeds scaled by ``ratio``
@@ -18,8 +22,12 @@ def rotation(times, initial_angle, initial_speed, speed, ramp_time, start_time=0
         slope = (w1 - w0) / ramp_time
         angle = (initial_angle + w0 * np.minimum(t, 0.0) + w0 * during
                  + 0.5 * slope * during ** 2 + w1 * np.maximum(t - ramp_time, 0.0))
-        rate = np.where(t < 0.0, w0, np.where(t < ramp_time, w0 + slope * during, w1))
-        acceleration = np.where((t >= 0.0) & (t < ramp_time), slope, 0.0)
+        # The acceleration jumps at both ends of the ramp: a sample within TIME_SNAP of the
+        # ramp time of an end counts as that end, as in runtime/physics/profiles.rotation,
+        # so the classification does not hinge on how the sample time was rounded.
+        ramping = (t >= -TIME_SNAP * ramp_time) & (t < ramp_time * (1.0 - TIME_SNAP))
+        rate = np.where(ramping, w0 + slope * during, np.where(t < 0.0, w0, w1))
+        acceleration = np.where(ramping, slope, 0.0)
     else:
         angle = initial_angle + np.where(t < 0.0, w0 * t, w1 * t)
         rate = np.where(t < 0.0, w0, w1)

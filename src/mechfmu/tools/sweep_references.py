@@ -244,26 +244,33 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     tol = require_positive("tolerance", tolerance)
     # Validation of the gear values is the FMU's (require_* raise MechanismError/RangeError,
     # both ValueErrors), exactly as for the scene reference.
-    from ..references.gear_dynamics import dynamics_model, stroke_crossings
+    from ..references.gear_dynamics import SURFACE_RTOL, dynamics_model, stroke_crossings
     model = dynamics_model(values)
 
     def rhs(t, y):
         return model.derivatives(list(y), values)[0]
 
     t, y = 0.0, np.array(model.initial_state(), dtype=float)
+    high = model.stroke[1]
+    surface = SURFACE_RTOL * (high - model.stroke[0])
     for _ in range(10_000):
         solution = solve_ivp(rhs, (t, stop_time), y, method=method, rtol=tol, atol=tol,
                              events=stroke_crossings(model))
         if solution.status == -1:
             raise RuntimeError(f"solve_ivp failed at t = {t} s: {solution.message}")
+        start_length = model.piston_length(list(y))
         t, y = float(solution.t[-1]), solution.y[:, -1]
         if solution.status != 1 or t >= stop_time:
             return math.nan
-        rate = model.piston_kinematics(list(y))[1]
-        if len(solution.t_events[0]) and rate > 0.0:
-            return t  # rising through stroke_max: the FMU's retraction event
+        # rising through stroke_max (the FMU's retraction event): the piece started below
+        # it, as references/gear_dynamics decides (not by the rate's sign at the event)
+        if len(solution.t_events[0]) and start_length < high - surface:
+            return t
         t_next = min(t + GEAR_EVENT_OFFSET, stop_time)
-        step = solve_ivp(rhs, (t, t_next), y, method=method, rtol=tol, atol=tol)
+        step = solve_ivp(rhs, (t, t_next), y, method="DOP853", rtol=tol, atol=tol)
+        if step.status == -1:
+            raise RuntimeError(f"solve_ivp failed stepping off the stroke surface at "
+                               f"t = {t} s: {step.message}")
         t, y = t_next, step.y[:, -1]
     raise RuntimeError("more than 10000 stroke crossings")
 

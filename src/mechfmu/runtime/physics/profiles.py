@@ -170,9 +170,12 @@ def rotation(time, initial_angle, initial_speed, final_speed, ramp_time, start_t
     the ramp, a line after it. The acceleration is the ramp's on [start, start + ramp).
     """
     elapsed = time - start_time
-    if elapsed < 0.0:  # before the start the shaft turns at initial_speed
+    # Within TIME_SNAP * ramp_time of either end of the ramp a time counts as that end (the
+    # acceleration jumps there): a sample a rounding error early still sees the ramp start.
+    ramping = ramp_time > 0.0 and -TIME_SNAP * ramp_time <= elapsed < ramp_time * (1.0 - TIME_SNAP)
+    if elapsed < 0.0 and not ramping:  # before the start the shaft turns at initial_speed
         return Sample(initial_angle + initial_speed * elapsed, initial_speed, 0.0)
-    if ramp_time > 0.0 and elapsed < ramp_time * (1.0 - TIME_SNAP):
+    if ramping:
         rate = (final_speed - initial_speed) / ramp_time
         return Sample(initial_angle + elapsed * (initial_speed + 0.5 * rate * elapsed),
                       initial_speed + rate * elapsed, rate)
