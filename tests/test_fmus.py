@@ -210,6 +210,29 @@ def test_suspension_snap_through_is_flagged_logged_and_continued(fmu_dir):
         suspension.close()
 
 
+def test_suspension_at_the_limit_load_is_marginal_whatever_its_last_bits(fmu_dir):
+    """The FMU's own limit_load output, and one rounding error either side of it, is the
+    limit point: marginal, not stable, no snap-through; 1e-6 below it is stable."""
+    limit = limit_point(make_spring(0.5, 1e4, 0.2))
+    suspension = Driven(fmu_dir / "Suspension.fmu")
+    try:
+        assert suspension.step(0.1, load=(1.0 - 1e-6) * limit.load) is True
+        assert suspension.get("stable") and not suspension.get("marginal")
+        assert suspension.get("tangent_stiffness") > 1.0  # N/m, far outside the 2e-5 band
+        at = suspension.get("limit_load")
+        for load in (math.nextafter(at, 0.0), at, math.nextafter(at, math.inf)):
+            assert suspension.step(0.1, load=load) is True
+            assert suspension.get("marginal") and not suspension.get("stable")
+            assert not suspension.get("snap_through") and suspension.get("branch") == 0
+            assert abs(suspension.get("tangent_stiffness")) <= 1e-9 * 2.0 * 1e4
+            assert math.isclose(suspension.get("deflection"), limit.deflection, rel_tol=1e-12)
+        assert suspension.step(0.1, load=1.01 * limit.load) is True
+        assert suspension.get("snap_through") and suspension.get("stable")
+        assert not suspension.get("marginal")
+    finally:
+        suspension.close()
+
+
 def test_suspension_can_stop_at_the_limit_load_instead(fmu_dir):
     limit = limit_point(make_spring(0.5, 1e4, 0.2))
     suspension = Driven(fmu_dir / "Suspension.fmu", parameters={"stop_on_snap_through": True})
