@@ -396,3 +396,19 @@ def test_references_use_the_physics_never_the_models():
             for name in names:
                 assert not name.startswith(("mechfmu.runtime.models", "mechfmu.runtime.fmi")), \
                     f"{path.name} imports {name}"
+
+
+def test_every_sample_belongs_to_exactly_one_piece_whatever_the_event_times_round_to():
+    from mechfmu.references.breakpoints import piece_of_samples
+    event = 0.632  # an event time that a sample falls on, and just either side of it
+    starts = [0.0, event, event + 1e-9, 1.5]
+    ends = [event, event + 1e-9, 1.5, 2.0]
+    times = np.array([0.0, np.nextafter(event, 0.0), event, np.nextafter(event, 1.0),
+                      event + 1e-9, 1.0, 1.5, 2.0, np.nextafter(2.0, 3.0)])
+    owner = piece_of_samples(starts, ends, times)
+    assert list(owner) == [0, 0, 1, 1, 2, 2, 3, 3, 3]
+    # a rounding error before the first start still belongs to the first piece
+    assert list(piece_of_samples([1e-17], [1.0], [0.0, 0.5])) == [0, 0]
+    # beyond the integrated span (an integration that stopped early) is an error naming t
+    with pytest.raises(ValueError, match=r"t = 2\.5 s lies outside .*\[0\.0, 2\.0\]"):
+        piece_of_samples(starts, ends, [0.0, 2.5])

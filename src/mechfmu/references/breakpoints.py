@@ -35,5 +35,5 @@ def piece_of_samples(starts, ends, times, slack=1e-9):
     if np.any(outside):
         t = float(times[np.flatnonzero(outside)[0]])
         raise ValueError(f"sample t = {t!r} s lies outside the integrated span "
-                         f"[{starts[0]!r}, {ends[-1]!r}] s")
+                         f"[{float(starts[0])!r}, {float(ends[-1])!r}] s")
     return np.clip(np.searchsorted(starts, times, side="right") - 1, 0, starts.size - 1)
