@@ -250,7 +250,8 @@ def _measurement_verbs(verbs):
 
     bench = verbs.add_parser("bench", help="performance benchmarks: master overhead against "
                              "fmpy, model cost against null FMUs, effects, the closed-form "
-                             "floor, a sweep on 1 and 2 workers (make bench)")
+                             "floor, a sweep on 1 and 2 workers, the dynamic scenes against "
+                             "real time, cost growth with the stop time (make bench)")
     bench.add_argument("--repeats", type=_at_least_one, default=None,
                        help=f"measured repeats per case after one warm-up (default "
                             f"{FULL.repeats}, --quick {QUICK.repeats})")
