@@ -46,7 +46,7 @@ def _loop(simulation):
     return {"loop": simulation.run().meta["loop_time_s"]}
 
 
-def measure(scene_dir, fmu_dir, repeats: int, stop_fraction: float = None) -> list:
+def measure(scene_dir, fmu_dir, repeats: int, stop_fraction: "float | None" = None) -> list:
     """Rows of benchmark 6: per dynamic scene, loop wall time (s) / simulated time (s).
     ``stop_fraction`` (0, 1] shortens each scene to that part of its span (None: as
     written)."""
