@@ -54,8 +54,9 @@ def test_evaluations_at_target_errors_interpolate_between_runs():
         {"problem": "p", "library": "x", "method": "m", "error": 1e-3, "rhs_evaluations": 100},
         {"problem": "p", "library": "x", "method": "m", "error": 1e-7, "rhs_evaluations": 1000}])
     summary = wp.evaluations_at(frame, (1e-5, 1e-9))
-    assert summary.loc[0, "evaluations at 1e-05"] == pytest.approx(10 ** 2.5)
-    assert math.isnan(summary.loc[0, "evaluations at 1e-09"])
+    assert summary.loc[0, "at 1e-05"] == pytest.approx(10 ** 2.5)
+    assert math.isnan(summary.loc[0, "at 1e-09"])
+    assert summary.loc[0, "observed order"] == pytest.approx(4.0)  # 1e4 less error, 10x work
 
 
 def test_command_writes_the_csv_and_the_table(tmp_path, capsys):

@@ -188,14 +188,18 @@ def table(problems=tuple(PROBLEMS), tolerances=TOLERANCES, repeats: int = 3) -> 
     return pd.DataFrame(rows, columns=list(COLUMNS))
 
 
-def evaluations_at(frame: pd.DataFrame, targets=TARGET_ERRORS) -> pd.DataFrame:
-    """Right-hand-side evaluations each (problem, library, method) needs for each target
-    error: log-log interpolation between its two runs that bracket it (NaN if none do)."""
+def evaluations_at(frame: pd.DataFrame, targets=TARGET_ERRORS,
+                   column: str = "rhs_evaluations") -> pd.DataFrame:
+    """What each (problem, library, method) spends in ``column`` (right-hand-side
+    evaluations, or wall_time_s) for each target error: log-log interpolation between its
+    two runs that bracket it (NaN if none do); and its observed order, the least-squares
+    slope of -log(error) against log(evaluations) over its runs (a method of order p
+    gives about p: error ~ evaluations^-p)."""
     out = []
     for (problem, library, method), group in frame.groupby(["problem", "library", "method"],
                                                            sort=False):
-        points = sorted(zip(np.log10(np.maximum(group["error"], 1e-300)),
-                            np.log10(group["rhs_evaluations"])))
+        errors = np.log10(np.maximum(group["error"].to_numpy(), 1e-300))
+        points = sorted(zip(errors, np.log10(group[column].to_numpy())))
         row = {"problem": problem, "library": library, "method": method}
         for target in targets:
             x, found = math.log10(target), math.nan
@@ -203,22 +207,32 @@ def evaluations_at(frame: pd.DataFrame, targets=TARGET_ERRORS) -> pd.DataFrame:
                 if e0 <= x <= e1 and e1 > e0:
                     found = 10.0 ** (n0 + (n1 - n0) * (x - e0) / (e1 - e0))
                     break
-            row[f"evaluations at {target:g}"] = found
+            row[f"at {target:g}"] = found
+        work = np.log10(group["rhs_evaluations"].to_numpy())
+        row["observed order"] = (-float(np.polyfit(work, errors, 1)[0])
+                                 if len(group) > 1 and np.ptp(work) > 0 else math.nan)
         out.append(row)
     return pd.DataFrame(out)
 
 
 def markdown(frame: pd.DataFrame) -> str:
-    """work_precision.md: evaluations at the target errors, per problem."""
-    summary = evaluations_at(frame)
+    """work_precision.md: per problem, the evaluations and the wall time (median) each
+    method needs at the target errors, and its observed order."""
+    calls = evaluations_at(frame)
+    walls = evaluations_at(frame, column="wall_time_s")
+    heads = [f"at {target:g}" for target in TARGET_ERRORS]
     lines = []
-    for problem, group in summary.groupby("problem", sort=False):
-        heads = [c for c in group.columns if c.startswith("evaluations at")]
+    for problem in calls["problem"].unique():
         lines += [f"#### {problem}", "", "| library | method | " + " | ".join(
-            f"RHS calls, error {h.split()[-1]}" for h in heads) + " |",
-            "|---|---|" + "---:|" * len(heads)]
-        for _, row in group.iterrows():
+            f"RHS calls, error {h[3:]}" for h in heads) + " | " + " | ".join(
+            f"ms, error {h[3:]}" for h in heads) + " | observed order |",
+            "|---|---|" + "---:|" * (2 * len(heads) + 1)]
+        for (_, row), (_, wall) in zip(calls[calls["problem"] == problem].iterrows(),
+                                       walls[walls["problem"] == problem].iterrows()):
             cells = ["" if math.isnan(row[h]) else f"{row[h]:.0f}" for h in heads]
-            lines.append(f"| {row['library']} | {row['method']} | " + " | ".join(cells) + " |")
+            cells += ["" if math.isnan(wall[h]) else f"{wall[h] * 1e3:.3g}" for h in heads]
+            order = "" if math.isnan(row["observed order"]) else f"{row['observed order']:.1f}"
+            lines.append(f"| {row['library']} | {row['method']} | " + " | ".join(cells)
+                         + f" | {order} |")
         lines.append("")
     return "\n".join(lines)
