@@ -35,7 +35,7 @@ report: $(VENV)/.installed
 study: fmus/.built
 	$(VENV)/bin/mechfmu study
 
-work-precision:
+work-precision: $(VENV)/.installed
 	$(VENV)/bin/mechfmu study --work-precision
 
 bench: fmus/.built
