@@ -73,3 +73,44 @@ def _whole_steps(scene, fraction):
     """A span (s) of at least one step, a whole number of steps, ``fraction`` of the scene's."""
     steps = max(1, round(scene.steps * fraction))
     return steps * scene.step
+
+
+# --- what a larger communication step does to a scene's reference check -------------------
+
+# (rtol, atol) of the shipped valve scenes' reference checks (tests/test_scenes.py)
+CHECK_TOLERANCES = {"valve_train_dynamic": (1e-6, 1e-3), "valve_float_dynamic": (1e-5, 1e-3)}
+
+
+def step_accuracy(scene_dir, fmu_dir, name: str, steps, repeats: int = 3):
+    """pandas DataFrame: ``name`` run at each communication step in ``steps`` (s, each
+    dividing the span), its loop wall time per simulated s (median of ``repeats``), the
+    right-hand-side evaluations, and its reference check at CHECK_TOLERANCES[name]: the
+    worst deviation as a fraction of its allowance (<= 1 passes), its column and time."""
+    import tempfile
+
+    import pandas as pd
+
+    from ...check import compare
+    from ...cosim.run import run_scene
+    from ...cosim.scene import find_file
+
+    rtol, atol = CHECK_TOLERANCES[name]
+    shipped = load_scene(find_file(name, (scene_dir,)))
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="mechfmu_step_accuracy_") as out:
+        for step in steps:
+            scene = dataclasses.replace(shipped, step=float(step))
+            loops = []
+            for _ in range(repeats):
+                result, paths = run_scene(scene, out, fmu_dir, plot=False)
+                loops.append(result.meta["loop_time_s"])
+            check = compare(paths["csv"], scene.reference, rtol, atol)
+            loops.sort()
+            rows.append({"scene": name, "step_s": float(step),
+                         "wall_per_simulated": loops[len(loops) // 2]
+                         / (scene.stop_time - scene.start_time),
+                         "rhs_evaluations": result.columns["valve.rhs_evaluations"][-1]
+                         if "valve.rhs_evaluations" in result.columns else float("nan"),
+                         "worst_of_allowance": check.worst.size / check.worst.allowed,
+                         "worst_column": check.worst.column, "worst_time_s": check.worst.time})
+    return pd.DataFrame(rows)
