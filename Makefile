@@ -17,8 +17,8 @@ PY := $(VENV)/bin/python
 export MECHFMU_FMU_DIR := $(CURDIR)/$(FMUS)
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
-.PHONY: run test fmus references report study bench sweeps docs clean lock test-latest \
-	test-portable test-other-python
+.PHONY: run test fmus references report study work-precision bench sweeps docs clean lock \
+	test-latest test-portable test-other-python test-subset
 
 $(VENV)/.installed: pyproject.toml requirements.lock.txt
 	$(PYTHON) -m venv $(VENV)
@@ -111,6 +111,9 @@ report: $(VENV)/.installed
 # Long measurements, not tests (the suite runs small versions of them).
 study: $(FMUS)/.built
 	$(VENV)/bin/mechfmu study
+
+work-precision: $(VENV)/.installed
+	$(VENV)/bin/mechfmu study --work-precision
 
 bench: $(FMUS)/.built
 	$(VENV)/bin/mechfmu bench
