@@ -7,6 +7,7 @@ the check's allowance; > 1 fails). See docs/dynamics.md, "Dynamic scenes against
 """
 
 import argparse
+import os
 from pathlib import Path
 
 import pandas as pd
@@ -21,7 +22,8 @@ STEPS = {"valve_train_dynamic": (1e-5, 2e-5, 5e-5, 1e-4, 5e-4),
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--fmu-dir", default=str(ROOT / "fmus"))
+    parser.add_argument("--fmu-dir",
+                        default=os.environ.get("MECHFMU_FMU_DIR") or str(ROOT / "fmus"))
     args = parser.parse_args()
     frame = pd.concat([step_accuracy(SCENE_DIR, args.fmu_dir, name, steps, args.repeats)
                        for name, steps in STEPS.items()], ignore_index=True)

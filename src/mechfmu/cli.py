@@ -412,8 +412,11 @@ def script_main(script, *verb, **paths):
     """Entry point of a script in sims/: ``mechfmu VERB`` with each option in ``paths``
     (``out="out"`` -> ``--out <repository>/out``) inside the repository that holds the
     script, so the script writes to the same place from any directory, followed by the
-    script's own arguments (which win). Exits with the verb's status."""
+    script's own arguments (which win); ``fmu_dir`` is $MECHFMU_FMU_DIR when that is set
+    (the Makefile's FMU folder of the interpreter). Exits with the verb's status."""
     root = Path(script).resolve().parent.parent
+    if "fmu_dir" in paths and os.environ.get("MECHFMU_FMU_DIR"):
+        paths = dict(paths, fmu_dir=os.environ["MECHFMU_FMU_DIR"])  # another interpreter's
     defaults = [item for option, path in paths.items()
                 for item in (f"--{option.replace('_', '-')}", str(root / path))]
     sys.exit(main([*verb, *defaults, *sys.argv[1:]]))
