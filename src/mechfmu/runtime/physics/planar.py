@@ -438,17 +438,29 @@ class BranchFollower:
         self.solution = None
         self.drive = None
         self.sign = 0
+        # The compiled kernels of the fast path (planar_kernel), None for joint types it
+        # does not know; the LU row order in use and the condition estimate's start column.
+        from . import planar_kernel  # here: planar_kernel imports this module's joints
+        try:
+            self.kernel = planar_kernel.MechanismKernel(mechanism)
+        except planar_kernel.Unsupported:
+            self.kernel = None
+        self.kernel_module = planar_kernel
+        self.order = None
+        self.column = None
 
     def snapshot(self):
-        return {"solution": None if self.solution is None else
-                [list(v) if isinstance(v, list) else v for v in self.solution],
-                "drive": None if self.drive is None else [list(d) for d in self.drive],
-                "sign": self.sign}
+        """The branch state. Solutions and drives are never changed in place, so the
+        snapshot shares them (JSON writes the tuples as arrays)."""
+        return {"solution": self.solution, "drive": self.drive, "sign": self.sign,
+                "order": self.order, "column": self.column}
 
     def restore(self, state):
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
         self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
         self.sign = state["sign"]
+        self.order = None if state.get("order") is None else tuple(state["order"])
+        self.column = state.get("column")
 
     def _solve(self, guess, drive):
         q, iterations, residual = solve_position(self.mechanism, guess, drive, self.tolerance,
@@ -478,6 +490,11 @@ class BranchFollower:
             raise refused
         last = self.solution
         guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
+        if self.kernel is not None:
+            solution = self._fast_solve(guess, drive)
+            if solution is not None:
+                self.solution, self.drive = solution, drive
+                return solution
         try:
             solution, sign = self._solve(guess, drive)
             if sign == self.sign:
@@ -493,6 +510,70 @@ class BranchFollower:
         solution = self._continue(drive)
         self.solution, self.drive = solution, drive
         return solution
+
+    def _lu(self, values):
+        """The LU kernel and factors of the scaled Jacobian ``values`` (non-zeros): in the
+        row order of the last step while its pivots stay within a factor 2 of their
+        columns' largest, else in partial pivoting's order here. None if singular."""
+        kernel = self.kernel
+        if self.order is not None:
+            lu = kernel.lu(self.order)
+            factors = lu.factor(values)
+            if factors is not None:
+                return lu, factors
+        try:
+            _, pivots = lu_factor(kernel.dense(values))
+            lu = kernel.lu(tuple(pivots))
+        except (Singular, ZeroDivisionError):
+            return None
+        factors = lu.factor(values)
+        if factors is None:
+            return None
+        self.order = lu.order
+        return lu, factors
+
+    def _fast_solve(self, guess, drive):
+        """solve_position and analyse on the compiled kernels, for the regular case: the
+        same Newton iteration, tolerance and stopping rule, the condition number estimated
+        (planar_kernel.inverse_one_norm). Returns None, changing nothing but the cached LU
+        order, whenever anything is not regular (no convergence within 4 iterations, a
+        singular or ill-conditioned Jacobian, a change of the det sign): _solve then takes
+        the step from the same guess, with the exact condition number and its messages."""
+        kernel, tolerance = self.kernel, self.tolerance
+        scale = kernel.column_scale
+        small_enough = 1e-2 * math.sqrt(tolerance)
+        q = guess
+        residual = kernel.residual(q, drive)
+        for iteration in range(1, min(self.max_iterations, 4) + 1):
+            factored = self._lu(kernel.jacobian(q))
+            if factored is None:
+                return None
+            lu, factors = factored
+            step = lu.solve(factors, residual)
+            q = [a - b * c for a, b, c in zip(q, step, scale)]
+            residual = kernel.residual(q, drive)
+            size = max(map(abs, residual))
+            if not math.isfinite(size):
+                return None
+            if size <= tolerance and max(map(abs, step)) <= small_enough:
+                break
+        else:
+            return None
+        values = kernel.jacobian(q)
+        factored = self._lu(values)
+        if factored is None:
+            return None
+        lu, factors = factored
+        if lu.sign(factors) != self.sign:
+            return None
+        inverse_norm, self.column = self.kernel_module.inverse_one_norm(
+            lu, factors, kernel.size, self.column)
+        condition = kernel.one_norm(values) * inverse_norm
+        if not condition <= self.singularity_threshold:
+            return None
+        qdot = [v * c for v, c in zip(lu.solve(factors, kernel.rates(drive)), scale)]
+        qddot = [v * c for v, c in zip(lu.solve(factors, kernel.gamma(q, qdot, drive)), scale)]
+        return Solution(q, qdot, qddot, iteration, size, condition)
 
     def _end_is_singular(self, drive):
         try:
