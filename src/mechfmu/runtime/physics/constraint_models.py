@@ -8,7 +8,7 @@ in the solver's error messages. Coordinates per body: (x, y, phi) in m, m, rad.
 
 import math
 
-from .four_bar import singular_crossing, singular_position_kind
+from .four_bar import singular_crossings, singular_position_kind
 from .planar import GROUND, PHI, Y, Driver, Mechanism, PointOnLine, Revolute, translational
 
 def _angle(q, body):
@@ -42,10 +42,12 @@ def four_bar(ground, crank, coupler, rocker):
         # linearly at a change point, at ratios that depend on the lengths).
         return singular_position_kind(d, a, b, c, _angle(q, 0))
 
+    crossings = singular_crossings(d, a, b, c)
+
     def crossing(start, end):
         # a change point reached or passed, or a range where the linkage does not assemble
         # jumped, between the two crank angles: the closed form asks the same
-        return singular_crossing(d, a, b, c, start[0][0], end[0][0])
+        return crossings(start[0][0], end[0][0])
 
     joints = [Revolute("crank pivot O2", 0, (0.0, 0.0), GROUND, (0.0, 0.0)),
               Revolute("crank pin A", 0, (a, 0.0), 1, (0.0, 0.0)),
