@@ -448,12 +448,16 @@ class BranchFollower:
         self.kernel_module = planar_kernel
         self.order = None
         self.column = None
+        self.history = None  # (qdot, qddot, dt) of the solution before the last, and dt to it
+        self.factored = None  # (LU kernel, factors) of Phi_q at factored_at, if known
+        self.factored_at = None  # where the fast path last factored Phi_q (None: solution.q)
 
     def snapshot(self):
         """The branch state. Solutions and drives are never changed in place, so the
         snapshot shares them (JSON writes the tuples as arrays)."""
         return {"solution": self.solution, "drive": self.drive, "sign": self.sign,
-                "order": self.order, "column": self.column}
+                "order": self.order, "column": self.column, "history": self.history,
+                "factored_at": self.factored_at}
 
     def restore(self, state):
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
@@ -461,6 +465,9 @@ class BranchFollower:
         self.sign = state["sign"]
         self.order = None if state.get("order") is None else tuple(state["order"])
         self.column = state.get("column")
+        self.history = None if state.get("history") is None else tuple(state["history"])
+        self.factored_at = state.get("factored_at")
+        self.factored = None  # worked out again from factored_at and order when needed
 
     def _solve(self, guess, drive):
         q, iterations, residual = solve_position(self.mechanism, guess, drive, self.tolerance,
@@ -473,6 +480,7 @@ class BranchFollower:
         drive = [tuple(map(float, d)) for d in drive]
         self.solution, self.sign = self._solve(guess, drive)
         self.drive = drive
+        self.history = self.factored = self.factored_at = None
         return self.solution
 
     def follow(self, drive, dt):
@@ -489,12 +497,14 @@ class BranchFollower:
         if refused:
             raise refused
         last = self.solution
-        guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         if self.kernel is not None:
-            solution = self._fast_solve(guess, drive)
+            solution = self._fast_solve(self._fast_guess(dt), drive)
             if solution is not None:
+                self.history = (last.qdot, last.qddot, dt) if dt > 0.0 else None
                 self.solution, self.drive = solution, drive
                 return solution
+        self.history = self.factored = self.factored_at = None
+        guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         try:
             solution, sign = self._solve(guess, drive)
             if sign == self.sign:
@@ -532,22 +542,62 @@ class BranchFollower:
         self.order = lu.order
         return lu, factors
 
+    def _fast_guess(self, dt):
+        """Predictor q + q' dt + q'' dt^2/2 + j dt^3/6 + s dt^4/24, the jerk j and snap s
+        from the rates at the last two solutions (Taylor's expansion of q' and q'' back over
+        the last step h: a(-h) - a = -j h + s h^2/2, v(-h) - v + a h = j h^2/2 - s h^3/6).
+        Without history: the generic path's q + q' dt + q'' dt^2/2."""
+        last = self.solution
+        if self.history is None or not dt > 0.0:
+            return [q + v * dt + 0.5 * a * dt * dt
+                    for q, v, a in zip(last.q, last.qdot, last.qddot)]
+        v_before, a_before, h = self.history
+        # With da = a(-h) - a and db = v(-h) - v + a h: j = (6 db + 2 da h)/h^2 and
+        # s = 6 da/h^2 + 12 db/h^3, so the guess is linear in q, v, a, v(-h) and a(-h).
+        c3, c4 = dt ** 3 / 6.0, dt ** 4 / 24.0
+        ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)          # coefficient of da
+        kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h ** 3    # coefficient of db
+        cv, ca = dt - kb, 0.5 * dt * dt - ka + kb * h
+        return [q + cv * v + ca * a + ka * ab + kb * vb
+                for q, v, a, vb, ab in zip(last.q, last.qdot, last.qddot, v_before, a_before)]
+
     def _fast_solve(self, guess, drive):
-        """solve_position and analyse on the compiled kernels, for the regular case: the
-        same Newton iteration, tolerance and stopping rule, the condition number estimated
-        (planar_kernel.inverse_one_norm). Returns None, changing nothing but the cached LU
-        order, whenever anything is not regular (no convergence within 4 iterations, a
-        singular or ill-conditioned Jacobian, a change of the det sign): _solve then takes
-        the step from the same guess, with the exact condition number and its messages."""
+        """solve_position and analyse on the compiled kernels, for the regular case.
+
+        The first corrections reuse the factors of Phi_q at the last solution (the chord
+        method): from the predictor _fast_guess the first one is already tiny, and the
+        chord's linear rate (about cond(Phi_q) times the change of Phi_q over the step) small.
+        They go on while each is below 1e-8 and 1e-2 times the one before; otherwise
+        Newton's own corrections follow, with Phi_q factored at every iterate. The stopping
+        rule is solve_position's (scaled residual <= tolerance, last correction <= 1e-2
+        sqrt(tolerance)) after a Newton correction, and a correction <= 1e-12 (scaled) after
+        a chord one; then one more correction with the factors of Phi_q at the converged
+        position, which the velocity, the acceleration, the determinant's sign and the
+        condition estimate (planar_kernel.inverse_one_norm) need anyway, leaves Newton's
+        quadratic accuracy (the residual reported is the one before it). The factors are
+        kept for the next step. Returns None, having changed nothing but the cached LU
+        order, whenever anything is not regular (no convergence within 4 corrections or
+        max_iterations, a singular or ill-conditioned Jacobian, a change of the det sign):
+        _solve then takes the step from the generic guess, with the exact condition number
+        and its messages.
+        """
         kernel, tolerance = self.kernel, self.tolerance
         scale = kernel.column_scale
-        small_enough = 1e-2 * math.sqrt(tolerance)
-        q = guess
-        residual = kernel.residual(q, drive)
-        for iteration in range(1, min(self.max_iterations, 4) + 1):
-            factored = self._lu(kernel.jacobian(q))
+        newton_small = 1e-2 * math.sqrt(tolerance)
+        factored = self.factored
+        if factored is None:
+            at = self.solution.q if self.factored_at is None else self.factored_at
+            factored = self._lu(kernel.jacobian(at))
             if factored is None:
                 return None
+        q = guess
+        residual = kernel.residual(q, drive)
+        chord, last = True, math.inf
+        for iteration in range(1, min(self.max_iterations, 4) + 1):
+            if not chord:
+                factored = self._lu(kernel.jacobian(q))
+                if factored is None:
+                    return None
             lu, factors = factored
             step = lu.solve(factors, residual)
             q = [a - b * c for a, b, c in zip(q, step, scale)]
@@ -555,8 +605,12 @@ class BranchFollower:
             size = max(map(abs, residual))
             if not math.isfinite(size):
                 return None
-            if size <= tolerance and max(map(abs, step)) <= small_enough:
+            correction = max(map(abs, step))
+            if size <= tolerance and correction <= (1e-12 if chord else newton_small):
                 break
+            if chord and not (correction <= 1e-8 and correction <= 1e-2 * last):
+                chord = False
+            last = correction
         else:
             return None
         values = kernel.jacobian(q)
@@ -566,11 +620,14 @@ class BranchFollower:
         lu, factors = factored
         if lu.sign(factors) != self.sign:
             return None
-        inverse_norm, self.column = self.kernel_module.inverse_one_norm(
+        inverse_norm, column = self.kernel_module.inverse_one_norm(
             lu, factors, kernel.size, self.column)
         condition = kernel.one_norm(values) * inverse_norm
         if not condition <= self.singularity_threshold:
             return None
+        self.column, self.factored, self.factored_at = column, factored, q
+        if chord:
+            q = [a - b * c for a, b, c in zip(q, lu.solve(factors, residual), scale)]
         qdot = [v * c for v, c in zip(lu.solve(factors, kernel.rates(drive)), scale)]
         qddot = [v * c for v, c in zip(lu.solve(factors, kernel.gamma(q, qdot, drive)), scale)]
         return Solution(q, qdot, qddot, iteration, size, condition)

@@ -225,12 +225,18 @@ class MechanismKernel:
         lines += [f"    {s}" for s in e.gamma]
         lines.append("    return [" + ", ".join(
             f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.gamma_rows)) + "]")
+        columns = {}
+        for m, (_, j) in enumerate(self.pattern):
+            columns.setdefault(j, []).append(f"abs(v[{m}])")
+        lines += ["def one_norm(v):", "    return max(" + ", ".join(
+            " + ".join(terms) for terms in columns.values()) + ")"]
         lines += ["def rates(d):", "    return [" + ", ".join(
             f"d[{e.rate_rows[i]}][1] * {_num(rs[i])}" if i in e.rate_rows else "0.0"
             for i in range(n)) + "]"]
         exec(compile("\n".join(lines) + "\n", f"<{mechanism.name} kernel>", "exec"), namespace)
         self.residual, self.jacobian = namespace["residual"], namespace["jacobian"]
         self.gamma, self.rates = namespace["gamma"], namespace["rates"]
+        self.one_norm = namespace["one_norm"]  # 1-norm of the scaled Jacobian's non-zeros
         self.orders = {}
 
     def dense(self, values):
@@ -246,13 +252,6 @@ class MechanismKernel:
         if kernel is None:
             kernel = self.orders[order] = LuKernel(self.pattern, self.size, order)
         return kernel
-
-    def one_norm(self, values):
-        """1-norm (largest absolute column sum) of the scaled Jacobian from its non-zeros."""
-        sums = [0.0] * self.size
-        for (_, j), v in zip(self.pattern, values):
-            sums[j] += abs(v)
-        return max(sums)
 
 
 class LuKernel:
@@ -356,15 +355,17 @@ def inverse_one_norm(lu, F, n, start=None, iterations=5):
         x = [0.0] * n
         x[start] = 1.0
         column = start
+    solve, solve_t, copysign = lu.solve, lu.solve_t, math.copysign
     for _ in range(iterations):
-        y = lu.solve(F, x)
+        y = solve(F, x)
         value = sum(map(abs, y))
         if value <= estimate:
             break
         estimate = value
-        z = lu.solve_t(F, [1.0 if v >= 0.0 else -1.0 for v in y])
-        best = max(range(n), key=lambda i: abs(z[i]))
-        if best == column or abs(z[best]) <= sum(a * b for a, b in zip(z, x)):
+        z = solve_t(F, [copysign(1.0, v) for v in y])
+        magnitudes = list(map(abs, z))
+        best = magnitudes.index(max(magnitudes))
+        if best == column or magnitudes[best] <= sum(a * b for a, b in zip(z, x)):
             break
         column = best
         x = [0.0] * n
