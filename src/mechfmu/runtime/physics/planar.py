@@ -582,7 +582,6 @@ class BranchFollower:
         and its messages.
         """
         kernel, tolerance = self.kernel, self.tolerance
-        scale = kernel.column_scale
         newton_small = 1e-2 * math.sqrt(tolerance)
         factored = self.factored
         if factored is None:
@@ -595,29 +594,37 @@ class BranchFollower:
         chord, last = True, math.inf
         for iteration in range(1, min(self.max_iterations, 4) + 1):
             if not chord:
-                factored = self._lu(kernel.jacobian(q))
+                factored = self._lu(values)
                 if factored is None:
                     return None
             lu, factors = factored
-            step = lu.solve(factors, residual)
-            q = [a - b * c for a, b, c in zip(q, step, scale)]
-            residual = kernel.residual(q, drive)
+            q, correction = lu.correct(factors, residual, q)
+            residual, values = kernel.residual_jacobian(q, drive)
             size = max(map(abs, residual))
             if not math.isfinite(size):
                 return None
-            correction = max(map(abs, step))
-            if size <= tolerance and correction <= (1e-12 if chord else newton_small):
+            if size <= tolerance and correction <= (1e-10 if chord else newton_small):
                 break
             if chord and not (correction <= 1e-8 and correction <= 1e-2 * last):
                 chord = False
             last = correction
         else:
             return None
-        values = kernel.jacobian(q)
-        factored = self._lu(values)
-        if factored is None:
-            return None
-        lu, factors = factored
+        while True:
+            factored, at = self._lu(values), q
+            if factored is None:
+                return None
+            lu, factors = factored
+            if not chord:
+                break
+            # A chord step's error is its linear rate times the correction: one correction
+            # with Phi_q at q removes it (Newton). When it is not negligible (> 1e-13,
+            # scaled), the rates need Phi_q at the corrected position: factor it there.
+            q, polish = lu.correct(factors, residual, q)
+            if polish <= 1e-13:
+                break
+            residual, values = kernel.residual_jacobian(q, drive)
+            size, chord = max(map(abs, residual)), False
         if lu.sign(factors) != self.sign:
             return None
         inverse_norm, column = self.kernel_module.inverse_one_norm(
@@ -625,11 +632,9 @@ class BranchFollower:
         condition = kernel.one_norm(values) * inverse_norm
         if not condition <= self.singularity_threshold:
             return None
-        self.column, self.factored, self.factored_at = column, factored, q
-        if chord:
-            q = [a - b * c for a, b, c in zip(q, lu.solve(factors, residual), scale)]
-        qdot = [v * c for v, c in zip(lu.solve(factors, kernel.rates(drive)), scale)]
-        qddot = [v * c for v, c in zip(lu.solve(factors, kernel.gamma(q, qdot, drive)), scale)]
+        self.column, self.factored, self.factored_at = column, factored, at
+        qdot = lu.solve_scaled(factors, kernel.rates(drive))
+        qddot = lu.solve_scaled(factors, kernel.gamma(q, qdot, drive))
         return Solution(q, qdot, qddot, iteration, size, condition)
 
     def _end_is_singular(self, drive):

@@ -221,6 +221,12 @@ class MechanismKernel:
         lines.append("    return (" + ", ".join(
             f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
             for key in self.pattern) + ",)")
+        lines += ["def residual_jacobian(q, d):", *_unpack(n)]
+        lines += [f"    {s}" for s in e.residual + e.jacobian]
+        lines.append("    return [" + ", ".join(
+            f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows)) + "], (" +
+            ", ".join(f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
+                      for key in self.pattern) + ",)")
         lines += ["def gamma(q, qd, d):", *_unpack(n, rates=True)]
         lines += [f"    {s}" for s in e.gamma]
         lines.append("    return [" + ", ".join(
@@ -236,6 +242,7 @@ class MechanismKernel:
         exec(compile("\n".join(lines) + "\n", f"<{mechanism.name} kernel>", "exec"), namespace)
         self.residual, self.jacobian = namespace["residual"], namespace["jacobian"]
         self.gamma, self.rates = namespace["gamma"], namespace["rates"]
+        self.residual_jacobian = namespace["residual_jacobian"]
         self.one_norm = namespace["one_norm"]  # 1-norm of the scaled Jacobian's non-zeros
         self.orders = {}
 
@@ -250,7 +257,8 @@ class MechanismKernel:
         """The LuKernel for row order ``order`` (compiled once, then cached)."""
         kernel = self.orders.get(order)
         if kernel is None:
-            kernel = self.orders[order] = LuKernel(self.pattern, self.size, order)
+            kernel = self.orders[order] = LuKernel(self.pattern, self.size, order,
+                                                   self.column_scale)
         return kernel
 
 
@@ -259,7 +267,7 @@ class LuKernel:
     another candidate of its column); ``solve(F, b)``, ``solve_t(F, c)`` (A^T x = c);
     ``sign(F)``: sign of det(A)."""
 
-    def __init__(self, pattern, n, order):
+    def __init__(self, pattern, n, order, scale):
         self.order = order
         position = {row: k for k, row in enumerate(order)}  # original row -> position
         index = {key: m for m, key in enumerate(pattern)}
@@ -290,8 +298,11 @@ class LuKernel:
         names = [f"a{i}_{j}" for i, j in multipliers + upper]
         lines.append(f"    if not isfinite({' + '.join(f'a{k}_{k}' for k in range(n))}):"
                      " return None")
-        lines.append(f"    return ({', '.join(names)},)")
-        unpack = f"    {', '.join(names)}, = F"
+        parity = _parity(order)
+        lines.append(f"    negative = {' + '.join(f'(a{k}_{k} < 0.0)' for k in range(n))}")
+        lines.append(f"    return ({', '.join(names)}, "
+                     f"{parity} if negative % 2 == 0 else {-parity})")
+        unpack = f"    {', '.join(names)}, _ = F"
         lower_of = {i: [k for (r, k) in multipliers if r == i] for i in range(n)}
         upper_of = {k: [j for (r, j) in upper if r == k and j != k] for k in range(n)}
         # A = P^T L U with row k of P A being original row order[k].
@@ -303,6 +314,14 @@ class LuKernel:
             terms = "".join(f" - a{k}_{j} * y{j}" for j in upper_of[k])
             lines.append(f"    y{k} = (y{k}{terms}) / a{k}_{k}")
         lines.append(f"    return [{', '.join(f'y{j}' for j in range(n))}]")
+        body = lines[lines.index("def solve(F, b):") + 1:-1]
+        # The same substitutions, the solution scaled by ``scale`` (the coordinates of a
+        # scaled system), and a Newton correction q - scale x with max |x|.
+        lines += ["def solve_scaled(F, b):", *body,
+                  f"    return [{', '.join(f'y{j} * {scale[j]!r}' for j in range(n))}]"]
+        lines += ["def correct(F, b, q):", *body,
+                  f"    return ([{', '.join(f'q[{j}] - y{j} * {scale[j]!r}' for j in range(n))}],"
+                  f" max({', '.join(f'abs(y{j})' for j in range(n))}))"]
         # A^T x = c: U^T w = c, L^T z = w, x[order[k]] = z[k].
         lines += ["def solve_t(F, c):", unpack]
         upper_col = {j: [k for (k, jj) in upper if jj == j and k != j] for j in range(n)}
@@ -317,14 +336,16 @@ class LuKernel:
         for k, row in enumerate(order):
             inverse[row] = k
         lines.append(f"    return [{', '.join(f'w{inverse[r]}' for r in range(n))}]")
-        parity = _parity(order)
-        lines += ["def sign(F):", unpack,
-                  f"    negative = {' + '.join(f'(a{k}_{k} < 0.0)' for k in range(n))}",
-                  f"    return {parity} if negative % 2 == 0 else {-parity}"]
         namespace = {"isfinite": math.isfinite}
         exec(compile("\n".join(lines) + "\n", "<planar LU kernel>", "exec"), namespace)
         self.factor, self.solve = namespace["factor"], namespace["solve"]
-        self.solve_t, self.sign = namespace["solve_t"], namespace["sign"]
+        self.solve_t = namespace["solve_t"]
+        self.solve_scaled, self.correct = namespace["solve_scaled"], namespace["correct"]
+
+    @staticmethod
+    def sign(F):
+        """Sign of det(A) from factor()'s result."""
+        return F[-1]
 
 
 def _parity(order):
