@@ -590,7 +590,7 @@ class BranchFollower:
             if factored is None:
                 return None
         q = guess
-        residual = kernel.residual(q, drive)
+        residual, values = kernel.residual(q, drive), None
         chord, last = True, math.inf
         for iteration in range(1, min(self.max_iterations, 4) + 1):
             if not chord:

@@ -54,7 +54,7 @@ def _sum(terms):
     if not parts:
         return "0.0"
     text = " ".join(parts)
-    return "(" + (text[2:] if text.startswith("+ ") else text) + ")"
+    return "(" + text.removeprefix("+ ") + ")"
 
 
 class _Body:
@@ -143,7 +143,7 @@ def _point_on_line(e, k, row, joint):
     e.residual.append(f"n{k}x = {nx}; n{k}y = {ny}")
     e.residual_rows.append(f"n{k}x * ({pix} - {pjx}) + n{k}y * ({piy} - {pjy})")
     e.jacobian.append(parts)
-    n, d = (f"n{k}x", f"n{k}y"), (f"d{k}x", f"d{k}y")
+    n = (f"n{k}x", f"n{k}y")
     if not bi.ground:
         e.entry(row, bi.column(0), n[0])
         e.entry(row, bi.column(1), n[1])
@@ -239,7 +239,8 @@ class MechanismKernel:
         lines += ["def rates(d):", "    return [" + ", ".join(
             f"d[{e.rate_rows[i]}][1] * {_num(rs[i])}" if i in e.rate_rows else "0.0"
             for i in range(n)) + "]"]
-        exec(compile("\n".join(lines) + "\n", f"<{mechanism.name} kernel>", "exec"), namespace)
+        source = "\n".join(lines) + "\n"  # generated here from the joints, nothing read in
+        exec(compile(source, f"<{mechanism.name} kernel>", "exec"), namespace)  # noqa: S102
         self.residual, self.jacobian = namespace["residual"], namespace["jacobian"]
         self.gamma, self.rates = namespace["gamma"], namespace["rates"]
         self.residual_jacobian = namespace["residual_jacobian"]
@@ -319,9 +320,10 @@ class LuKernel:
         # scaled system), and a Newton correction q - scale x with max |x|.
         lines += ["def solve_scaled(F, b):", *body,
                   f"    return [{', '.join(f'y{j} * {scale[j]!r}' for j in range(n))}]"]
+        corrected = ", ".join(f"q[{j}] - y{j} * {scale[j]!r}" for j in range(n))
+        largest = ", ".join(f"abs(y{j})" for j in range(n))
         lines += ["def correct(F, b, q):", *body,
-                  f"    return ([{', '.join(f'q[{j}] - y{j} * {scale[j]!r}' for j in range(n))}],"
-                  f" max({', '.join(f'abs(y{j})' for j in range(n))}))"]
+                  f"    return ([{corrected}], max({largest}))"]
         # A^T x = c: U^T w = c, L^T z = w, x[order[k]] = z[k].
         lines += ["def solve_t(F, c):", unpack]
         upper_col = {j: [k for (k, jj) in upper if jj == j and k != j] for j in range(n)}
@@ -336,10 +338,18 @@ class LuKernel:
         for k, row in enumerate(order):
             inverse[row] = k
         lines.append(f"    return [{', '.join(f'w{inverse[r]}' for r in range(n))}]")
+        transposed = lines[lines.index("def solve_t(F, c):") + 2:]
+        # One step of Hager's estimator: y = A^-1 x, its 1-norm, and z = A^-T sign(y).
+        lines += ["def hager_step(F, b):", *body,
+                  f"    c = ({', '.join(f'1.0 if y{j} >= 0.0 else -1.0' for j in range(n))},)",
+                  *transposed[:-1],
+                  f"    return {' + '.join(f'abs(y{j})' for j in range(n))}, "
+                  + transposed[-1].strip()[len("return "):]]
         namespace = {"isfinite": math.isfinite}
-        exec(compile("\n".join(lines) + "\n", "<planar LU kernel>", "exec"), namespace)
+        source = "\n".join(lines) + "\n"  # generated here from the pattern, nothing read in
+        exec(compile(source, "<planar LU kernel>", "exec"), namespace)  # noqa: S102
         self.factor, self.solve = namespace["factor"], namespace["solve"]
-        self.solve_t = namespace["solve_t"]
+        self.solve_t, self.hager_step = namespace["solve_t"], namespace["hager_step"]
         self.solve_scaled, self.correct = namespace["solve_scaled"], namespace["correct"]
 
     @staticmethod
@@ -376,14 +386,12 @@ def inverse_one_norm(lu, F, n, start=None, iterations=5):
         x = [0.0] * n
         x[start] = 1.0
         column = start
-    solve, solve_t, copysign = lu.solve, lu.solve_t, math.copysign
+    step = lu.hager_step
     for _ in range(iterations):
-        y = solve(F, x)
-        value = sum(map(abs, y))
+        value, z = step(F, x)
         if value <= estimate:
             break
         estimate = value
-        z = solve_t(F, [copysign(1.0, v) for v in y])
         magnitudes = list(map(abs, z))
         best = magnitudes.index(max(magnitudes))
         if best == column or magnitudes[best] <= sum(a * b for a, b in zip(z, x)):
