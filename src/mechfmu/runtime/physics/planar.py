@@ -493,9 +493,10 @@ class BranchFollower:
         where the mechanism does not assemble (crossing_error).
         """
         drive = [tuple(map(float, d)) for d in drive]
-        refused = crossing_error(self.mechanism, self.drive, drive)
-        if refused:
-            raise refused
+        if self.mechanism.has_crossings:
+            refused = crossing_error(self.mechanism, self.drive, drive)
+            if refused:
+                raise refused
         last = self.solution
         if self.kernel is not None:
             solution = self._fast_solve(self._fast_guess(dt), drive)

@@ -131,7 +131,29 @@ def _revolute(e, k, row, joint):
     e.gamma_rows += [" + ".join(gx) or "0.0", " + ".join(gy) or "0.0"]
 
 
+def _point_on_line_on_ground(e, k, row, joint):
+    """A point of a body on a fixed line: the normal is a constant, folded into the code
+    (a zero component drops its Jacobian entry)."""
+    bi = _Body(joint.body_i)
+    nx, ny = float(joint.normal_j[0]), float(joint.normal_j[1])
+    pix, piy = bi.point(joint.point_i)
+    pjx, pjy = _num(joint.point_j[0]), _num(joint.point_j[1])
+    aix, aiy = bi.rotate(joint.point_i)
+    e.residual_rows.append(_sum([(nx, f"({pix} - {pjx})"), (ny, f"({piy} - {pjy})")]))
+    e.jacobian.append(f"a{k}ix = {aix}; a{k}iy = {aiy}")
+    e.gamma.append(f"a{k}ix = {aix}; a{k}iy = {aiy}")
+    for coordinate, value in ((0, nx), (1, ny)):
+        if value != 0.0:
+            e.entry(row, bi.column(coordinate), _num(value))
+    # n . perp(a_i) = n_y a_ix - n_x a_iy; gamma = n . a_i w_i^2
+    e.entry(row, bi.column(2), _sum([(ny, f"a{k}ix"), (-nx, f"a{k}iy")]))
+    e.gamma_rows.append(f"{_sum([(nx, f'a{k}ix'), (ny, f'a{k}iy')])} * {bi.w} * {bi.w}")
+
+
 def _point_on_line(e, k, row, joint):
+    if joint.body_j is GROUND and joint.body_i is not GROUND:
+        _point_on_line_on_ground(e, k, row, joint)
+        return
     bi, bj = _Body(joint.body_i), _Body(joint.body_j)
     nx, ny = bj.rotate(joint.normal_j)
     pix, piy = bi.point(joint.point_i)
@@ -283,7 +305,7 @@ class LuKernel:
             below = [i for i in range(k + 1, n) if (i, k) in nonzero]
             right = [j for j in range(k + 1, n) if (k, j) in nonzero]
             for i in below:
-                lines.append(f"    if abs(a{k}_{k}) < 0.5 * abs(a{i}_{k}): return None")
+                lines.append(f"    if a{k}_{k} * a{k}_{k} < 0.25 * a{i}_{k} * a{i}_{k}: return None")
             if not below:
                 lines.append(f"    if a{k}_{k} == 0.0: return None")
             for i in below:
