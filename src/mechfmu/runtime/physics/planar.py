@@ -559,8 +559,8 @@ class BranchFollower:
         ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)          # coefficient of da
         kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h ** 3    # coefficient of db
         cv, ca = dt - kb, 0.5 * dt * dt - ka + kb * h
-        return [q + cv * v + ca * a + ka * ab + kb * vb
-                for q, v, a, vb, ab in zip(last.q, last.qdot, last.qddot, v_before, a_before)]
+        return self.kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before,
+                                   cv, ca, ka, kb)
 
     def _fast_solve(self, guess, drive):
         """solve_position and analyse on the compiled kernels, for the regular case.
@@ -611,21 +611,25 @@ class BranchFollower:
             last = correction
         else:
             return None
-        while True:
-            factored, at = self._lu(values), q
+        rates = kernel.rates(drive)
+        for _ in range(2):
+            factored = self._lu(values)
             if factored is None:
                 return None
             lu, factors = factored
-            if not chord:
-                break
-            # A chord step's error is its linear rate times the correction: one correction
-            # with Phi_q at q removes it (Newton). When it is not negligible (> 1e-13,
-            # scaled), the rates need Phi_q at the corrected position: factor it there.
-            q, polish = lu.correct(factors, residual, q)
-            if polish <= 1e-13:
+            # One more correction with Phi_q at q: after chord steps it removes their error
+            # (their linear rate times the last correction), after Newton's it is at the
+            # level of rounding. The rates are solved with the same factors, so when the
+            # correction is not negligible (> 1e-13, scaled) Phi_q is factored again at the
+            # corrected position.
+            corrected, final, qdot = lu.correct_and_solve(factors, residual, q, rates)
+            at, q = q, corrected
+            if final <= 1e-13:
                 break
             residual, values = kernel.residual_jacobian(q, drive)
-            size, chord = max(map(abs, residual)), False
+            size = max(map(abs, residual))
+        else:
+            return None
         if lu.sign(factors) != self.sign:
             return None
         inverse_norm, column = self.kernel_module.inverse_one_norm(
@@ -634,7 +638,6 @@ class BranchFollower:
         if not condition <= self.singularity_threshold:
             return None
         self.column, self.factored, self.factored_at = column, factored, at
-        qdot = lu.solve_scaled(factors, kernel.rates(drive))
         qddot = lu.solve_scaled(factors, kernel.gamma(q, qdot, drive))
         return Solution(q, qdot, qddot, iteration, size, condition)
 

@@ -243,6 +243,8 @@ class MechanismKernel:
         lines.append("    return (" + ", ".join(
             f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
             for key in self.pattern) + ",)")
+        lines += ["def predict(q, v, a, vb, ab, cv, ca, ka, kb):"]
+        lines += [f"    return [{', '.join(f'q[{j}] + cv * v[{j}] + ca * a[{j}] + ka * ab[{j}] + kb * vb[{j}]' for j in range(n))}]"]
         lines += ["def residual_jacobian(q, d):", *_unpack(n)]
         lines += [f"    {s}" for s in e.residual + e.jacobian]
         lines.append("    return [" + ", ".join(
@@ -266,6 +268,7 @@ class MechanismKernel:
         self.residual, self.jacobian = namespace["residual"], namespace["jacobian"]
         self.gamma, self.rates = namespace["gamma"], namespace["rates"]
         self.residual_jacobian = namespace["residual_jacobian"]
+        self.predict = namespace["predict"]  # the fast path's predictor, unrolled
         self.one_norm = namespace["one_norm"]  # 1-norm of the scaled Jacobian's non-zeros
         self.orders = {}
 
@@ -346,6 +349,11 @@ class LuKernel:
         largest = ", ".join(f"abs(y{j})" for j in range(n))
         lines += ["def correct(F, b, q):", *body,
                   f"    return ([{corrected}], max({largest}))"]
+        # The final correction and the velocity: two right-hand sides, one unpacking.
+        second = [line.replace("y", "v").replace("b[", "r[") for line in body[1:]]
+        velocity = ", ".join(f"v{j} * {scale[j]!r}" for j in range(n))
+        lines += ["def correct_and_solve(F, b, q, r):", *body, *second,
+                  f"    return [{corrected}], max({largest}), [{velocity}]"]
         # A^T x = c: U^T w = c, L^T z = w, x[order[k]] = z[k].
         lines += ["def solve_t(F, c):", unpack]
         upper_col = {j: [k for (k, jj) in upper if jj == j and k != j] for j in range(n)}
@@ -373,6 +381,7 @@ class LuKernel:
         self.factor, self.solve = namespace["factor"], namespace["solve"]
         self.solve_t, self.hager_step = namespace["solve_t"], namespace["hager_step"]
         self.solve_scaled, self.correct = namespace["solve_scaled"], namespace["correct"]
+        self.correct_and_solve = namespace["correct_and_solve"]
 
     @staticmethod
     def sign(F):
