@@ -440,7 +440,6 @@ class BranchFollower:
         self.sign = 0
         # The compiled kernels of the fast path (planar_kernel), None for joint types it
         # does not know; the LU row order in use and the condition estimate's start column.
-        from . import planar_kernel  # here: planar_kernel imports this module's joints
         try:
             self.kernel = planar_kernel.MechanismKernel(mechanism)
         except planar_kernel.Unsupported:
@@ -705,3 +704,8 @@ class BranchFollower:
         change = [(0.0, b[0] - a[0], 0.0) for a, b in zip(start, end)]
         tangent = mechanism.unscale(lu_solve(factored, mechanism.velocity_rhs(change)))
         return [v + fraction * t for v, t in zip(q, tangent)]
+
+
+# At the end: planar_kernel imports this module's joints. Not lazily, in BranchFollower: an
+# FMU's runtime must be imported whole while its extracted folder exists.
+from . import planar_kernel  # noqa: E402
