@@ -29,7 +29,10 @@ from .report import Row, Target, ratio_row
 from .timing import side_by_side_medians
 
 BENCHMARK = "model cost"
-TARGET = Target(1.2, "<= 1.2")  # the issue: a model at most 1.2x its null twin
+# Issue 21: a closed form (every model but the constraint solvers) at most 1.3x its null
+# twin, a constraint solver at most 6x (issue 5 asked 1.2x of every model).
+TARGET = Target(1.3, "<= 1.3")
+SOLVER_TARGET = Target(6.0, "<= 6")
 MICRO = 1e6
 CAMSHAFT_SPEED = 50.0 * math.pi  # rad/s: 3000 engine rpm, as in the valve_train scene
 
@@ -234,8 +237,9 @@ def _measure_case(case, model_fmu, null_fmu, steps, repeats):
     null_row = Row(BENCHMARK, f"{case.label}: null", medians["null"]["loop"] / steps * MICRO,
                    "us", repeats, notes=f"per step; do_step returns at once; outputs held "
                                         f"their initial values; {span}")
+    target = SOLVER_TARGET if "constraint_solver" in case.label else TARGET
     return [model_row, null_row, ratio_row(f"{case.label}: model / null", model_row, null_row,
-                                           TARGET)]
+                                           target)]
 
 
 def measure(fmu_dir, steps, repeats, cases=CASES):
