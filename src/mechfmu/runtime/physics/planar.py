@@ -619,11 +619,11 @@ class BranchFollower:
             # One more correction with Phi_q at q: after chord steps it removes their error
             # (their linear rate times the last correction), after Newton's it is at the
             # level of rounding. The rates are solved with the same factors, so when the
-            # correction is not negligible (> 1e-13, scaled) Phi_q is factored again at the
+            # correction is not negligible (> 1e-14, scaled) Phi_q is factored again at the
             # corrected position.
             corrected, final, qdot = lu.correct_and_solve(factors, residual, q, rates)
             at, q = q, corrected
-            if final <= 1e-13:
+            if final <= 1e-14:
                 break
             residual, values = kernel.residual_jacobian(q, drive)
             size = max(map(abs, residual))
