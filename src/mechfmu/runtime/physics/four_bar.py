@@ -460,6 +460,13 @@ def motion(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
     t2 = require_finite("crank_angle", crank_angle, "rad")
     w2 = require_finite("crank_speed", crank_speed, "rad/s")
     al2 = require_finite("crank_acceleration", crank_acceleration, "rad/s^2")
+    return checked_motion(lengths, circuit, t2, w2, al2)
+
+
+def checked_motion(lengths, circuit, t2, w2, al2):
+    """``motion`` for lengths from check_four_bar (m), a circuit from CIRCUITS and finite
+    crank angle (rad), speed (rad/s) and acceleration (rad/s^2): what an FMU that validated
+    them once calls at every step."""
     t3, t4, toggle = _solve(lengths, t2, circuit)
     if toggle:
         raise SingularConfiguration(
