@@ -54,8 +54,11 @@ def four_bar(ground, crank, coupler, rocker):
               Revolute("rocker pin B", 1, (b, 0.0), 2, (c, 0.0)),
               Revolute("rocker pivot O4", 2, (0.0, 0.0), GROUND, (d, 0.0)),
               Driver("crank angle", ((0, PHI, 1.0),))]
+    # A linkage without change points or gaps (a Grashof crank-rocker, a double crank)
+    # refuses no drive change: no check at every step.
     return Mechanism("four-bar", ("crank", "coupler", "rocker"), joints,
-                     (a + b + c + d) / 4.0, diagnose, singularity, crossing)
+                     (a + b + c + d) / 4.0, diagnose, singularity,
+                     None if getattr(crossings, "never", False) else crossing)
 
 
 def four_bar_guess(ground, crank, crank_angle, coupler_angle, rocker_angle):
