@@ -446,6 +446,7 @@ class BranchFollower:
             self.kernel = None
         self.kernel_module = planar_kernel
         self.order = None
+        self.lu_kernel = None  # planar_kernel.LuKernel of self.order (a cache)
         self.column = None
         self.history = None  # (qdot, qddot, dt) of the solution before the last, and dt to it
         self.factored = None  # (LU kernel, factors) of Phi_q at factored_at, if known
@@ -527,7 +528,9 @@ class BranchFollower:
         columns' largest, else in partial pivoting's order here. None if singular."""
         kernel = self.kernel
         if self.order is not None:
-            lu = kernel.lu(self.order)
+            lu = self.lu_kernel
+            if lu is None or lu.order is not self.order:
+                lu = self.lu_kernel = kernel.lu(self.order)
             factors = lu.factor(values)
             if factors is not None:
                 return lu, factors
@@ -539,7 +542,7 @@ class BranchFollower:
         factors = lu.factor(values)
         if factors is None:
             return None
-        self.order = lu.order
+        self.order, self.lu_kernel = lu.order, lu
         return lu, factors
 
     def _fast_guess(self, dt):

@@ -425,7 +425,9 @@ def inverse_one_norm(lu, F, n, start=None, iterations=5):
         estimate = value
         magnitudes = list(map(abs, z))
         best = magnitudes.index(max(magnitudes))
-        if best == column or magnitudes[best] <= sum(a * b for a, b in zip(z, x)):
+        # z^T x: x is e_column, or (1/n, ..., 1/n) at a cold start
+        along = z[column] if column >= 0 else sum(z) / n
+        if best == column or magnitudes[best] <= along:
             break
         column = best
         x = [0.0] * n
