@@ -175,7 +175,7 @@ class MechSlave(Binding):
                     self._check_outputs(values_before)
                 self.time_reached = current_time + step_size
                 return True
-            except Exception as error:
+            except Exception as error:  # never raised into C++ (see the module docstring)
                 values.update(values_before)  # in place: the registered getters hold it
                 self.restore_internal_state(internal_before)
                 self.log(self._describe(error, current_time + step_size), Status.error)

@@ -711,4 +711,4 @@ class BranchFollower:
 
 # At the end: planar_kernel imports this module's joints. Not lazily, in BranchFollower: an
 # FMU's runtime must be imported whole while its extracted folder exists.
-from . import planar_kernel  # noqa: E402
+from . import planar_kernel
