@@ -20,7 +20,7 @@ class Deviation:
     def size(self):
         return abs(self.value - self.reference)
 
-    def __str__(self):
+    def __str__(self) -> str:
         return (f"{self.column} at t = {self.time!r} s: {self.value!r} vs reference "
                 f"{self.reference!r} (|difference| {self.size:.3e}, allowed {self.allowed:.3e})")
 
@@ -32,13 +32,13 @@ class Comparison:
     samples: int        # result samples inside the reference's time span
     worst: Deviation    # largest deviation relative to its allowance (None if no samples)
 
-    def __str__(self):
+    def __str__(self) -> str:
         verdict = "match" if self.ok else "MISMATCH"
         worst = f"; worst: {self.worst}" if self.worst else ""
         return f"{verdict}: {len(self.columns)} column(s), {self.samples} sample(s){worst}"
 
 
-def compare(result_path, reference_path, rtol=1e-9, atol=1e-12):
+def compare(result_path, reference_path, rtol: float=1e-9, atol: float=1e-12):
     """Interpolate the reference onto the result's times and compare shared columns.
 
     A sample passes when |value - reference| <= atol + rtol * |reference|; NaN never passes.
@@ -88,7 +88,7 @@ def worst_deviations(result, reference_path):
     return rows
 
 
-def run_report(result, paths, reference=None, rtol=1e-9, atol=1e-12, label="reference"):
+def run_report(result, paths, reference=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference"):
     """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
     verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,

@@ -14,7 +14,7 @@ from pathlib import Path
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
 
-def _build(args):
+def _build(args) -> int:
     from .packaging.build import build_all
     for path in build_all(args.out, args.models or None, fmi_version=args.fmi_version,
                           embed_python=args.embed_python):
@@ -135,20 +135,20 @@ def _check(args):
     return 0 if comparison.ok else 1
 
 
-def _references(args):
+def _references(args) -> int:
     from .tools.scene_references import generate
     for path in generate(args.scenes, args.out):
         print(f"wrote {path}")
     return 0
 
 
-def _report(args):
+def _report(args) -> int:
     from .tools.report.seed_report import write_report
     print(f"wrote {write_report(args.out)}")
     return 0
 
 
-def _docs(args):
+def _docs(args) -> int:
     from .cosim.scene import find_file
     from .tools.docs import interface_tables, reference_plot
     try:
@@ -204,7 +204,7 @@ def _at_least_one(text):
     return value
 
 
-def _scene_options(verb, out="out", plot=True):
+def _scene_options(verb, out: str="out", plot: bool=True) -> None:
     """--out, --fmu-dir and --no-plot: the options of every verb that runs scenes."""
     verb.add_argument("--out", default=out, help=f"output folder (default: {out})")
     verb.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
@@ -212,7 +212,7 @@ def _scene_options(verb, out="out", plot=True):
         verb.add_argument("--no-plot", action="store_true", help="skip the PNG")
 
 
-def _example_verbs(verbs):
+def _example_verbs(verbs) -> None:
     example = verbs.add_parser("example", help="a worked example: shipped scenes checked "
                                "against their references, with what each check found "
                                "(sims/run_*.py run these)")
@@ -230,7 +230,7 @@ def _example_verbs(verbs):
     example.set_defaults(func=_example)
 
 
-def _measurement_verbs(verbs):
+def _measurement_verbs(verbs) -> None:
     """study, bench, fuzz, sweep: the long runs."""
     from .tools.bench import BENCHMARKS, FULL, QUICK
     study = verbs.add_parser("study", help="accuracy study: error against wall time (make "
@@ -398,7 +398,7 @@ def main(argv=None):
     return args.func(args)
 
 
-def script_main(script, *verb, **paths):
+def script_main(script, *verb, **paths) -> None:
     """Entry point of a script in sims/: ``mechfmu VERB`` with each option in ``paths``
     (``out="out"`` -> ``--out <repository>/out``) inside the repository that holds the
     script, so the script writes to the same place from any directory, followed by the

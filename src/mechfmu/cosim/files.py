@@ -156,7 +156,7 @@ def save_figure(path, figure, **options):
     return atomic_write(path, buffer.getvalue())
 
 
-def move_aside(paths, marker="previous"):
+def move_aside(paths, marker: str="previous"):
     """Rename each existing file '<stem>.<ext>' in ``paths`` to '<stem>.<marker>.<ext>'
     (replacing an older one of that name); returns the new paths."""
     moved = []

@@ -11,6 +11,8 @@ master asks ``requested`` between steps and stops cleanly there.
 
 import signal
 import threading
+from types import TracebackType
+from typing import Optional, Type
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -36,7 +38,7 @@ class InterruptGuard:
     (SIG_IGN, as under nohup) stays ignored.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.signum = None
         self.taken = False
         self._previous = {}
@@ -48,12 +50,12 @@ class InterruptGuard:
                     self._previous[signum] = signal.signal(signum, self._note)
         return self
 
-    def _note(self, signum, frame):
+    def _note(self, signum, frame) -> None:
         if self.signum is None:
             self.signum = signum
 
     @property
-    def requested(self):
+    def requested(self) -> bool:
         """Whether a signal arrived and the work should stop at the next safe point."""
         return self.signum is not None
 
@@ -62,7 +64,7 @@ class InterruptGuard:
         self.taken = True
         return self.signum
 
-    def __exit__(self, kind, value, traceback):
+    def __exit__(self, kind: Optional[Type[BaseException]], value: Optional[BaseException], traceback: Optional[TracebackType]) -> bool:
         for signum, previous in self._previous.items():
             signal.signal(signum, signal.SIG_DFL if previous is None else previous)
         self._previous.clear()

@@ -39,7 +39,7 @@ _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "S
 class SimulationError(RuntimeError):
     """A component failed during the run; ``result`` holds the rows computed before."""
 
-    def __init__(self, component, time, message, result):
+    def __init__(self, component, time, message, result) -> None:
         self.component, self.time, self.result = component, time, result
         self.paths, self.moved_aside, self.output_error = {}, [], None  # set by run_scene
         super().__init__(f"component {component!r} failed at t = {time!r} s: {message}")
@@ -49,7 +49,7 @@ class SimulationInterrupted(SimulationError):
     """SIGINT or SIGTERM (``signum``) stopped the run between two steps at ``time``;
     ``result`` holds the rows computed before."""
 
-    def __init__(self, signum, time, result):
+    def __init__(self, signum, time, result) -> None:
         super().__init__(None, time, "", result)
         self.signum = signum
         RuntimeError.__init__(self, f"interrupted by {signal_name(signum)} at t = {time!r} s "
@@ -105,7 +105,7 @@ def _parsed_description(path, mtime_ns, size):
     return checked_description(path)
 
 
-def _route(environment, instance, status, category, message):
+def _route(environment, instance, status, category, message) -> None:
     """The one logger every LogBook installs: hands the message to the book it belongs to."""
     book = LogBook._books.get(environment)
     if book is not None:
@@ -128,7 +128,7 @@ class LogBook:
     _next_key = 1
     _books = weakref.WeakValueDictionary()  # componentEnvironment value -> LogBook
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.messages = []
         self.key = LogBook._next_key
         LogBook._next_key += 1
@@ -144,7 +144,7 @@ class LogBook:
         except Exception:
             pass
 
-    def record(self, instance, status, category, message):
+    def record(self, instance, status, category, message) -> None:
         def text(raw):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
         self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
@@ -169,7 +169,7 @@ class Instances:
     ``created`` and ``reused`` count the instances made and the resets that saved one.
     """
 
-    def __init__(self, keep=False):
+    def __init__(self, keep: bool=False) -> None:
         self.keep = keep
         self.logbook = LogBook()  # instances log through the book they were created with
         self._folders = {}        # (FMU path, mtime, size) -> extracted folder
@@ -199,7 +199,7 @@ class Instances:
         self.created += 1
         return slave
 
-    def release(self, component):
+    def release(self, component) -> None:
         """Take back ``component``'s instance: reset and keep it, or free it."""
         slave = component.slave
         try:
@@ -216,7 +216,7 @@ class Instances:
                 return
         slave.freeInstance()
 
-    def close(self):
+    def close(self) -> None:
         """Free every kept instance and delete the extracted FMUs."""
         for slaves in self._idle.values():
             for slave in slaves:
@@ -230,7 +230,7 @@ class Instances:
 class _Component:
     """One FMU instance in a running scene, with its variables by name."""
 
-    def __init__(self, spec, path, description):
+    def __init__(self, spec, path, description) -> None:
         self.spec, self.name, self.path, self.description = spec, spec.name, path, description
         self.variables = {v.name: v for v in description.modelVariables}
         self.slave = None
@@ -256,7 +256,7 @@ class _Component:
         put, reference = accessor(self.slave, variable.type, "set"), [variable.valueReference]
         return lambda value: put(reference, [value])
 
-    def set(self, variable, value):
+    def set(self, variable, value) -> None:
         self.setter(variable)(value)
 
 
@@ -348,7 +348,7 @@ def _find_cycle(names, targets):
 class Simulation:
     """A scene bound to its FMUs, checked and ready to run."""
 
-    def __init__(self, scene, fmu_dir=None):
+    def __init__(self, scene, fmu_dir=None) -> None:
         self.scene = scene
         fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
         self.components = {}
@@ -453,7 +453,7 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls=False, instances=None, stop=None):
+    def run(self, time_fmi_calls: bool=False, instances=None, stop=None):
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -558,12 +558,12 @@ class Simulation:
                               target.setter(target.variables[connection.input])))
         return feeds
 
-    def _feed(self, name, skip=()):
+    def _feed(self, name, skip=()) -> None:
         """Set the connected inputs of ``name`` from its sources' current outputs."""
         for get, put in self._feeds(name, skip):
             put(get())
 
-    def _set_from_source(self, connection):
+    def _set_from_source(self, connection) -> None:
         source, target = self.components[connection.source], self.components[connection.target]
         target.set(target.variables[connection.input],
                    source.getter(source.variables[connection.output])())
@@ -578,7 +578,7 @@ _CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (f
 class _InstantiationFailed(Exception):
     """fmi2Instantiate of ``component`` returned NULL."""
 
-    def __init__(self, component):
+    def __init__(self, component) -> None:
         super().__init__(component)
         self.component = component
 
@@ -587,7 +587,7 @@ class _Stopped(Exception):
     """The run's InterruptGuard received a signal; the loop stopped before the step at
     ``time``."""
 
-    def __init__(self, time):
+    def __init__(self, time) -> None:
         super().__init__(time)
         self.time = time
 
@@ -604,7 +604,7 @@ _NEVER = _NoStop()
 class _CallFailed(Exception):
     """An FMI call of the stepping loop returned a status worse than fmi2Warning."""
 
-    def __init__(self, component, time, function, status):
+    def __init__(self, component, time, function, status) -> None:
         super().__init__(component, time, function, status)
         self.component, self.time, self.function, self.status = component, time, function, status
 
@@ -616,7 +616,7 @@ class CallTimer:
     benchmarks, so both sides are timed at the same layer.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.total = 0.0
 
     def wrap(self, function):
@@ -639,7 +639,7 @@ class _Call:
 
     __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name")
 
-    def __init__(self, component, verb, fmi_type, references, buffer, timer):
+    def __init__(self, component, verb, fmi_type, references, buffer, timer) -> None:
         name = f"fmi2{verb}{fmi_type}"
         function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
         self.function = timer.wrap(function) if timer else function
@@ -659,7 +659,7 @@ class _Outputs:
     the buffer's bytes appended as they are.
     """
 
-    def __init__(self, component, fmi_type, groups, recorded, timer):
+    def __init__(self, component, fmi_type, groups, recorded, timer) -> None:
         variables = [variable for _, variables in groups for variable in variables]
         self.offsets, start = {}, 0
         for key, group in groups:
@@ -693,7 +693,7 @@ class _StepPlan:
     inputs are set from the buffers of the previous point before any component steps.
     """
 
-    def __init__(self, simulation, timer):
+    def __init__(self, simulation, timer) -> None:
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
         members = {}  # (target, source, type) -> ([source outputs], [target inputs])
@@ -731,14 +731,14 @@ class _StepPlan:
         if status > _WARNING:
             raise _CallFailed(call.component, time, call.name, status)
 
-    def start(self, result, time):
+    def start(self, result, time) -> None:
         """Read every needed output after initialisation and record the first row."""
         for _, _, _, _, reads in self.steps:
             for read in reads:
                 self._call(read, time)
         self._record(result, time)
 
-    def _record(self, result, time):
+    def _record(self, result, time) -> None:
         for recorder in self.recorders:
             recorder.rows.frombytes(recorder.raw)
         result.times.append(time)
@@ -769,7 +769,7 @@ class _StepPlan:
             self._record(result, times[index])
 
     @staticmethod
-    def collect(recorders, result):
+    def collect(recorders, result) -> None:
         """Copy the recorded rows into result.columns (also after a failed run)."""
         if not recorders:
             return

@@ -14,7 +14,7 @@ def csv_writer(times, columns):
     round-trip form."""
     names = list(columns)
 
-    def write(handle):
+    def write(handle) -> None:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(["time", *names])
         for i, time in enumerate(times):
@@ -94,7 +94,7 @@ def result_stem(result):
     return result.scene.name + (".partial" if result.partial else "")
 
 
-def write_result(result, out_dir, plot=True):
+def write_result(result, out_dir, plot: bool=True):
     """Write <scene>.csv and .json as a pair (both or neither), then .png; ``.partial`` in
     the names for a failed or interrupted run. Every file lands inside ``out_dir``
     (OutputError otherwise). Returns {kind: path}."""

@@ -9,7 +9,7 @@ from .results import move_aside_complete, write_result
 from .scene import Scene, load_scene
 
 
-def run_scene(scene, out_dir, fmu_dir=None, plot=True, guard=None):
+def run_scene(scene, out_dir, fmu_dir=None, plot: bool=True, guard=None):
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
     The scene and the output folder (created if missing, OutputError if it cannot be

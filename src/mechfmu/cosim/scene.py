@@ -49,7 +49,7 @@ class Connection:
     target: str
     input: str
 
-    def __str__(self):
+    def __str__(self) -> str:
         return f"{self.source}.{self.output} -> {self.target}.{self.input}"
 
 
@@ -211,7 +211,7 @@ def find_file(text, folders=(SCENE_DIR,)):
     return next((candidate for candidate in candidates if candidate.is_file()), candidates[0])
 
 
-def read_toml(path, error=SceneError, what="scene file"):
+def read_toml(path, error=SceneError, what: str="scene file"):
     """The parsed TOML file at ``path``; a missing or malformed file raises ``error`` naming
     the file and the problem."""
     try:

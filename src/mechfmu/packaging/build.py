@@ -53,7 +53,7 @@ FMI3_BINDING = ('"""FMI 3.0: this copy of the runtime binds to pythonfmu3 (writt
                 'build)."""\n\nfrom .fmi3 import Fmi3Binding as Binding  # noqa: F401\n')
 
 
-def pythonfmu_library_name(name):
+def pythonfmu_library_name(name) -> str:
     """File name of pythonfmu's own library in binaries/linux64/ when the loader is installed."""
     return f"{name}{PYTHONFMU_SUFFIX}"
 
@@ -138,7 +138,7 @@ def _entry_module(fmu_name, fmi_version):
             else f"mechfmu_entry{fmi_version}_{fmu_name}")
 
 
-def _stage_runtime(target, fmi_version):
+def _stage_runtime(target, fmi_version) -> None:
     """Copy the FMU runtime (mechfmu.runtime) into the package folder ``target``, bound to
     pythonfmu (FMI 2.0) or pythonfmu3 (FMI 3.0)."""
     shutil.copytree(RUNTIME_ROOT, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
@@ -146,7 +146,7 @@ def _stage_runtime(target, fmi_version):
         (target / "fmi" / "binding.py").write_text(FMI3_BINDING)
 
 
-def null_name(name):
+def null_name(name) -> str:
     """FMU name of the null variant of model ``name`` (see build_model)."""
     return f"{name}Null"
 
@@ -191,7 +191,7 @@ def _builder(fmi_version):
                          "canHandleVariableCommunicationStepSize": True}
 
 
-def build_model(name, out_dir, staging, null=False, loader=None, fmi_version=2, embed=None):
+def build_model(name, out_dir, staging, null: bool=False, loader=None, fmi_version=2, embed=None):
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
     null=True builds ``out_dir``/``name``Null.fmu instead: the same variables, parameters and
@@ -271,7 +271,7 @@ def _rewrite_fmu(fmu, name, loader, fmi_version, extra):
     return patched_fmu.getvalue()
 
 
-def build_all(out_dir, names=None, null=False, fmi_version=2, embed_python=False):
+def build_all(out_dir, names=None, null: bool=False, fmi_version=2, embed_python: bool=False):
     """Build the named models (default: all of MODELS); return the FMU paths.
 
     null=True builds their null variants (``<name>Null.fmu``, see build_model).

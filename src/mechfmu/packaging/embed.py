@@ -75,7 +75,7 @@ sys.stdout.write(repr(found))
 '''
 
 
-def _strip(source, target):
+def _strip(source, target) -> None:
     """Copy a shared library, without its debug symbols when ``strip`` is there."""
     strip = shutil.which("strip")
     if strip is not None:
@@ -124,7 +124,7 @@ class EmbeddedPython:
                    Path(sysconfig.get_config_var("DESTSHARED")), executable)
 
     @property
-    def zip_name(self):
+    def zip_name(self) -> str:
         """lib/python3x.zip: the name on the interpreter's default path."""
         return f"python{self.version.replace('.', '')}.zip"
 

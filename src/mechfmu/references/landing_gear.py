@@ -73,7 +73,7 @@ def piston_from_gear(theta, omega, alpha, d, h):
     return x, xdot, xddot
 
 
-def stroke(t, start_extension, end_extension, stroke_time, profile, start_time=0.0):
+def stroke(t, start_extension, end_extension, stroke_time, profile, start_time: float=0.0):
     """Piston extension, speed and acceleration of a stroke at times ``t`` (arrays).
 
     tau = (t - start_time) / stroke_time. Before the stroke x holds start_extension, after it

@@ -95,7 +95,7 @@ class System:
     base), or r(t) as above.
     """
 
-    def __init__(self, spring, mass, damping, tyre, load, road):
+    def __init__(self, spring, mass, damping, tyre, load, road) -> None:
         self.L, self.k, self.d = spring
         self.m, self.c, self.tyre = mass, damping, tyre
         self.load, self.road = load, road
@@ -166,7 +166,7 @@ class System:
         }
 
 
-def simulate(system, times, u0, du0, breakpoints=(), method="DOP853", max_step=np.inf):
+def simulate(system, times, u0, du0, breakpoints=(), method: str="DOP853", max_step=np.inf):
     """Integrate ``system`` over ``times`` (sorted samples, the first the start time).
 
     Returns (columns at the samples, snap-through times). Integration restarts at each

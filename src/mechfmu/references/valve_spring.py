@@ -69,7 +69,7 @@ class RockerDrive:
     """L(t), L'(t), L''(t) of the rocker's valve end, and the times where they lose
     smoothness. ``shaft``: CamshaftDrive parameters; ``train``: ValveTrain parameters."""
 
-    def __init__(self, shaft, train):
+    def __init__(self, shaft, train) -> None:
         self.shaft = shaft
         self.train = train
         self.geometry = {key: train[key] for key in valve_train.GEOMETRY_FIELDS}
@@ -165,7 +165,7 @@ class Valve:
     """The equations for ValveSpring parameters ``p`` (a mapping); ``drive`` arguments are
     functions t -> (L, L', L'')."""
 
-    def __init__(self, p):
+    def __init__(self, p) -> None:
         self.m, self.k, self.f0 = p["valve_mass"], p["spring_stiffness"], p["spring_preload"]
         self.kc, self.cc = p["contact_stiffness"], p["contact_damping"]
         self.ks, self.cs = p["seat_stiffness"], p["seat_damping"]

@@ -59,11 +59,11 @@ class _StartValueFilter(logging.Filter):
     """Drops the builder's "Input ... is not connected" for inputs given a start value: the
     scene fixes them, they need no link."""
 
-    def __init__(self, container):
+    def __init__(self, container) -> None:
         super().__init__()
         self.fixed = {f"Input '{port}' is not connected" for port in container.start_values}
 
-    def filter(self, record):
+    def filter(self, record) -> bool:
         return record.getMessage() not in self.fixed
 
 

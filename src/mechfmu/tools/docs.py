@@ -27,7 +27,7 @@ def _range(variable):
     return f"[{low}, {high}]"
 
 
-def _start(variable):
+def _start(variable) -> str:
     if variable.causality == "output":
         return ""
     if variable.kind is float:

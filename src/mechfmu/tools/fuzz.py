@@ -172,7 +172,7 @@ class Finding(Exception):
 class Fuzzed:
     """One instantiated FMU under fmpy, driven sequence after sequence."""
 
-    def __init__(self, path, instance="fuzzed"):
+    def __init__(self, path, instance: str="fuzzed") -> None:
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
 
@@ -191,7 +191,7 @@ class Fuzzed:
         self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         self.fresh = True
 
-    def set(self, values):
+    def set(self, values) -> None:
         for name, value in values.items():
             variable = self.variables[name]
             setter = getattr(self.slave, f"set{variable.type}")
@@ -203,7 +203,7 @@ class Fuzzed:
     def errors_logged(self):
         return sum(1 for m in self.logbook.messages if m["status"] in ("error", "fatal"))
 
-    def start(self, plan):
+    def start(self, plan) -> None:
         if not self.fresh:
             self.slave.reset()
         self.fresh = False
@@ -286,7 +286,7 @@ class Fuzzed:
             raise Finding(f"rolled back to step {first} and repeated: outputs differ "
                           f"{diff[:3]}")
 
-    def close(self):
+    def close(self) -> None:
         self.slave.terminate()
         self.slave.freeInstance()
 

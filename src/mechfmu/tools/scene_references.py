@@ -92,7 +92,7 @@ def gear_dynamics_scene(scene):
             if scene.record is None or f"{name}.{key}" in scene.record}
 
 
-def _shaft_columns(scene, model="CrankDrive", prefix="crank", ratio=1.0):
+def _shaft_columns(scene, model: str="CrankDrive", prefix: str="crank", ratio: float=1.0):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
     name, shaft = _component(scene, model)
     columns = drives.rotation(sample_times(scene), shaft["initial_angle"],

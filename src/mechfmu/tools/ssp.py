@@ -67,7 +67,7 @@ for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)
 
 
-def _tag(prefix, name):
+def _tag(prefix, name) -> str:
     return f"{{{NS[prefix]}}}{name}"
 
 
@@ -98,7 +98,7 @@ def format_value(fmi_type, value, where):
 class _Part:
     """One scene component as the SSD describes it."""
 
-    def __init__(self, spec, description):
+    def __init__(self, spec, description) -> None:
         self.spec, self.description = spec, description
         self.variables = {v.name: v for v in description.modelVariables}
         self.connectors = set()  # variable names
@@ -259,7 +259,7 @@ def export_ssp(scene, out, fmu_dir=None):
     return atomic_write(out, buffer.getvalue())
 
 
-def summary(ssp):
+def summary(ssp) -> str:
     """One line on an SSP: components, connections, FMUs, parameter values."""
     with zipfile.ZipFile(ssp) as package:
         root = ET.fromstring(package.read(SSD_NAME))
@@ -306,7 +306,7 @@ def experiment(ssp):
             [item.get("variable") for item in scene.findall(_tag("mechfmu", "Record"))])
 
 
-def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
+def simulate_ssp_fmpy(ssp, initialise_from_sources: bool=False):
     """Run an exported SSP (.ssp file) in fmpy's ``fmpy.ssp.simulation.simulate_ssp``.
 
     Returns fmpy's structured array: ``time`` (the END of each step, see below), then one
@@ -353,7 +353,7 @@ def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
                 for name in ("set_value", "set_parameters", "do_step")}
     started = set()
 
-    def set_value(component, name, value):
+    def set_value(component, name, value) -> None:
         variable = component.variables[name]
         reference = [variable.valueReference]
         if variable.type == "String":
@@ -363,7 +363,7 @@ def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
         else:
             original["set_value"](component, name, value)
 
-    def set_parameters(component, parameter_set):
+    def set_parameters(component, parameter_set) -> None:
         for binding in component.parameterBindings:
             for values in binding.parameterValues:
                 for parameter in values.parameters:
@@ -377,7 +377,7 @@ def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
                     set_value(component, connection.endConnector,
                               simulation.get_value(source, connection.startConnector))
 
-    def do_step(component, time, step_size):
+    def do_step(component, time, step_size) -> None:
         system = component.parent
         if id(system) not in started:
             started.add(id(system))

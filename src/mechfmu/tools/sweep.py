@@ -66,7 +66,7 @@ SCENE_OVERRIDES = {"stop_time", "step"}  # scene keys a sweep may replace
 
 # --- --vary ----------------------------------------------------------------------------------
 
-def split_dotted(name, option, text, what="parameter"):
+def split_dotted(name, option, text, what: str="parameter"):
     """'component.variable' -> (component, variable), or SweepError naming the option."""
     component, dot, variable = name.strip().partition(".")
     if not dot or not component or not variable:
@@ -83,7 +83,7 @@ class Vary:
     count: int = None  # None: only a range (sampling)
 
     @property
-    def name(self):
+    def name(self) -> str:
         return f"{self.component}.{self.variable}"
 
 
@@ -122,7 +122,7 @@ class Link:
     source: str        # the varied parameter's component.parameter
 
     @property
-    def name(self):
+    def name(self) -> str:
         return f"{self.component}.{self.variable}"
 
 
@@ -170,7 +170,7 @@ def lhs_unit(samples, dimensions, seed):
     return unit
 
 
-def sample_points(varies, samples, seed, method="lhs"):
+def sample_points(varies, samples, seed, method: str="lhs"):
     """``samples`` points over the ranges: Latin hypercube ('lhs') or uniform ('random')."""
     if samples < 1:
         raise SweepError("--samples must be at least 1")
@@ -346,7 +346,7 @@ def check_sweep(scene, varies, metrics, fmu_dir, links=()):
 
 # --- the worker --------------------------------------------------------------------------------
 
-def _worker_init():
+def _worker_init() -> None:
     """Per local worker process: ignore Ctrl-C (the parent handles it)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
@@ -387,7 +387,7 @@ def shipped_scene(scene, fmu_files):
     return dataclasses.replace(scene, components=components)
 
 
-def worker_name():
+def worker_name() -> str:
     """'host:pid' of this worker process (the sweep.csv's worker column)."""
     return f"{socket.gethostname()}:{os.getpid()}"
 
@@ -433,7 +433,7 @@ class LocalPool:
     executor: every point not finished is lost with BrokenProcessPool. ``restart`` replaces
     the executor; run_sweep resubmits the lost points (see _run_points)."""
 
-    def __init__(self, jobs):
+    def __init__(self, jobs) -> None:
         self.workers, self.where = jobs, f"local, {jobs} process(es)"
         self.executor = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
 
@@ -452,7 +452,7 @@ class LocalPool:
         """Whether a point failed because its worker process died (not because of itself)."""
         return isinstance(error, BrokenProcessPool)
 
-    def restart(self):
+    def restart(self) -> None:
         """A new executor in place of a broken one."""
         self.executor.shutdown(wait=False, cancel_futures=True)
         self.executor = ProcessPoolExecutor(max_workers=self.workers, initializer=_worker_init)
@@ -462,7 +462,7 @@ class LocalPool:
         dies too, the point is the cause, not a neighbour."""
         return LocalPool(1)
 
-    def close(self, interrupted):
+    def close(self, interrupted) -> None:
         self.executor.shutdown(wait=not interrupted, cancel_futures=interrupted)
 
 
@@ -473,7 +473,7 @@ class DaskCluster:
     dies (up to its distributed.scheduler.allowed-failures, then KilledWorker: the point's
     error)."""
 
-    def __init__(self, address, timeout=10.0):
+    def __init__(self, address, timeout: float=10.0) -> None:
         try:
             from distributed import Client
         except ImportError:  # an optional dependency: the extra mechfmu[cluster]
@@ -515,16 +515,16 @@ class DaskCluster:
             time.sleep(0.02)
 
     @staticmethod
-    def lost(error):
+    def lost(error) -> bool:
         return False  # the scheduler has retried it already
 
-    def restart(self):
+    def restart(self) -> None:
         pass
 
     def alone(self):
         return self
 
-    def close(self, interrupted):
+    def close(self, interrupted) -> None:
         self.client.close()
 
 
@@ -559,7 +559,7 @@ def _handshake_problem(address, timeout):
 
     from distributed.comm import connect
 
-    async def handshake():
+    async def handshake() -> None:
         comm = await connect(address, timeout=timeout)
         await comm.close()
     try:
@@ -596,11 +596,11 @@ class Progress:
     """One line on stderr: done/total, rate, time left; ``already``: points done before
     (a resumed sweep), not counted in the rate."""
 
-    def __init__(self, total, stream=None, already=0):
+    def __init__(self, total, stream=None, already=0) -> None:
         self.total, self.started, self.already = total, time.perf_counter(), already
         self.stream = stream or sys.stderr
 
-    def update(self, done, failed):
+    def update(self, done, failed) -> None:
         elapsed = time.perf_counter() - self.started
         rate = (done - self.already) / elapsed if elapsed > 0 else 0.0
         left = (self.total - done) / rate if rate > 0 else math.inf
@@ -621,7 +621,7 @@ RESUME_KEYS = ("scene_file", "overrides", "varies", "links", "method", "seed", "
 class SweepInterrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM (``signum``) stopped the sweep; the rows done are kept."""
 
-    def __init__(self, signum):
+    def __init__(self, signum) -> None:
         super().__init__(signum)
         self.signum = signum
 
@@ -740,8 +740,8 @@ def _csv_text(header, lines):
 
 
 def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None, seed=None,
-              method="lhs", fmu_dir="fmus", plot=False, on_point=None, progress=True,
-              scheduler=None, links=(), overrides=None, name=None, resume=False,
+              method: str="lhs", fmu_dir: str="fmus", plot: bool=False, on_point=None, progress: bool=True,
+              scheduler=None, links=(), overrides=None, name=None, resume: bool=False,
               retries=DEFAULT_RETRIES, guard=None):
     """Run the sweep; returns the summary dict written to sweep.json.
 
@@ -823,7 +823,7 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
     handle = open(csv_path, "a", newline="", encoding="utf-8")
     writer = csv.writer(handle, lineterminator="\n")
 
-    def record(task, outcome):
+    def record(task, outcome) -> None:
         values, error, wall, worker = outcome
         row = {"index": task.index, **dict(zip(names, task.point)), **values,
                "error": error, "wall_time_s": wall, "worker": worker}
@@ -912,7 +912,7 @@ SWEEP_KEYS = {"description", "scene", "vary", "link", "metrics", "samples", "see
               "stop_time", "step"}
 
 
-def is_sweep_file(data):
+def is_sweep_file(data) -> bool:
     """A sweep file names its scene; a scene file has components."""
     return "scene" in data and "components" not in data
 
@@ -985,7 +985,7 @@ def settings(args):
 
 # --- command line (mechfmu sweep; its options are declared in mechfmu/cli.py) ------------
 
-def failure_line(summary, csv_path, shown=20):
+def failure_line(summary, csv_path, shown=20) -> str:
     """'N of M point(s) failed (index ...); index I: <its error>' for a sweep with failures."""
     indices = summary["failed_indices"]
     listed = ", ".join(str(i) for i in indices[:shown])

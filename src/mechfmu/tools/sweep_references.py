@@ -49,7 +49,7 @@ FLOAT_GRID = 20001
 
 # --- validation -----------------------------------------------------------------------------
 
-def _non_negative(name, value, unit=""):
+def _non_negative(name, value, unit: str=""):
     return require_between(name, value, 0.0, math.inf, unit)
 
 
@@ -65,8 +65,8 @@ def _spring(spring_free_length, spring_stiffness, spring_base_offset):
 
 # --- suspension: static and sudden snap-through -----------------------------------------------
 
-def static_snap_through_mass(spring_free_length=0.5, spring_stiffness=1e4,
-                             spring_base_offset=0.2, gravity=STANDARD_GRAVITY):
+def static_snap_through_mass(spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                             spring_base_offset: float=0.2, gravity=STANDARD_GRAVITY):
     """Sprung mass (kg) whose weight equals the static limit load F* of the near branch.
 
     A quasi-static load m g snaps through for every m above F*/g (the near equilibrium
@@ -98,8 +98,8 @@ def _saddle(W, L, k, d):
                   xtol=1e-15, rtol=4.0 * np.finfo(float).eps)
 
 
-def sudden_snap_through_load_undamped(spring_free_length=0.5, spring_stiffness=1e4,
-                                      spring_base_offset=0.2):
+def sudden_snap_through_load_undamped(spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                                      spring_base_offset: float=0.2):
     """Smallest suddenly applied constant load W (N) that snaps the undamped spring pair
     through, starting at rest unstressed: the energy closed form.
 
@@ -120,8 +120,8 @@ def sudden_snap_through_load_undamped(spring_free_length=0.5, spring_stiffness=1
     return float(statics.spring_force(u2, L, k, d))
 
 
-def sudden_load_snaps(mass, damping_coefficient, spring_free_length=0.5, spring_stiffness=1e4,
-                      spring_base_offset=0.2, gravity=STANDARD_GRAVITY):
+def sudden_load_snaps(mass, damping_coefficient, spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                      spring_base_offset: float=0.2, gravity=STANDARD_GRAVITY):
     """True if the load W = m g, applied at t = 0 to the mass m at rest (u = 0, u' = 0) and
     held, snaps the suspension through as the Suspension FMU's dynamics mode defines it:
     the deflection rises through the start of the far stable region, 2h - u*.
@@ -175,8 +175,8 @@ def sudden_load_snaps(mass, damping_coefficient, spring_free_length=0.5, spring_
                        f"{SUSPENSION_MAX_TIME} s ({solution.message})")
 
 
-def sudden_snap_through_mass(damping_coefficient, spring_free_length=0.5, spring_stiffness=1e4,
-                             spring_base_offset=0.2, gravity=STANDARD_GRAVITY, tolerance=1e-6):
+def sudden_snap_through_mass(damping_coefficient, spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                             spring_base_offset: float=0.2, gravity=STANDARD_GRAVITY, tolerance: float=1e-6):
     """Threshold sprung mass (kg) for a suddenly applied weight m g (Suspension FMU with the
     dynamics effect, damping c in N s/m): m above it snaps through, below it does not.
 
@@ -223,7 +223,7 @@ def gear_scene_values(scene_file=GEAR_SCENE, **overrides):
     return values, float(scene.stop_time)
 
 
-def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tolerance=1e-12,
+def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method: str="LSODA", tolerance: float=1e-12,
                     stop_time=None, **overrides):
     """Retraction time (s) of the gear_retraction_dynamic scene at ``supply_pressure`` (Pa):
     the first time the piston rises through stroke_max, as the FMU's retraction_time output
@@ -268,7 +268,7 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     raise RuntimeError("more than 10000 stroke crossings")
 
 
-def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb=False, **overrides):
+def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb: bool=False, **overrides):
     """Lowest supply pressure (Pa) at which the stalled actuator holds the gear at every angle
     from its start to stroke_max (static moment balance, numpy closed forms).
 
@@ -326,7 +326,7 @@ def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb=False, **
     return float(max(values[i], -refined.fun))
 
 
-def lowest_retracting_pressure(low, high, scene_file=GEAR_SCENE, relative_width=1e-4,
+def lowest_retracting_pressure(low, high, scene_file=GEAR_SCENE, relative_width: float=1e-4,
                                **overrides):
     """Lowest supply pressure (Pa) in [low, high] whose scene run retracts by the stop time,
     by bisection on retraction_time being finite (one gear run per halving, ~0.5 s each)."""
@@ -351,7 +351,7 @@ _CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle"
                "return_angle")
 
 
-def valve_float_point(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **cam):
+def valve_float_point(spring_preload, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam):
     """(camshaft speed in rad/s, camshaft angle in rad) where the valve first floats at
     constant camshaft speed; (inf, nan) if the valve never decelerates.
 
@@ -424,7 +424,7 @@ def valve_float_point(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **ca
     return math.sqrt(best[0]), best[1]
 
 
-def valve_float_speed(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **cam):
+def valve_float_speed(spring_preload, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam):
     """Constant camshaft speed (rad/s) at which the ValveTrain FMU's valve (forward drive,
     valve_spring effect) starts to float: see valve_float_point. math.inf if it never does."""
     return valve_float_point(spring_preload, valve_mass, spring_stiffness, **cam)[0]

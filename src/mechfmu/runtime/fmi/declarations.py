@@ -62,7 +62,7 @@ class Variable:
                  "description", "depends", "values", "nominal")
 
     def __init__(self, name, kind, causality, start, description, unit=None,
-                 min=None, max=None, depends=(), values=None, nominal=None):
+                 min=None, max=None, depends=(), values=None, nominal=None) -> None:
         if unit is not None and unit not in UNITS:
             raise ValueError(f"unit {unit!r} of {name} is not in UNITS")
         self.name, self.kind, self.causality, self.start = name, kind, causality, start
@@ -102,7 +102,7 @@ INTEGRATORS = ("euler", "rk4", "dopri5", "radau")
 MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 
 
-def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e-3):
+def integrator_variables(default: str="dopri5", rtol: float=1e-8, atol: float=1e-10, max_substep: float=1e-3):
     """The parameters and counters every integrating model declares, by the same names.
 
     A model that declares them is an IntegratingSlave, which keeps its integrator in
@@ -145,7 +145,7 @@ def bound_text(variable, bound):
     return repr(float(bound)) if variable.kind is float else str(bound)
 
 
-def describe(element, variable):
+def describe(element, variable) -> None:
     """Write ``variable``'s unit, min, max and nominal onto its typed element of a model description
     (FMI 2.0: the <Real> inside <ScalarVariable>; FMI 3.0: the <Float64> itself), and its
     start value exactly (pythonfmu and pythonfmu3 write 16 significant digits)."""

@@ -19,14 +19,14 @@ _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 class Fmi2Binding(Fmi2Slave):
     """pythonfmu's Fmi2Slave, fed from MechSlave's declarations."""
 
-    def register_declared(self, variable):
+    def register_declared(self, variable) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
         self.register_variable(registered(
             variable, _FMI_TYPES, Fmi2Causality, Fmi2Variability, Fmi2Initial,
             getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
-    def finish_registration(self):
+    def finish_registration(self) -> None:
         """Nothing beyond the declared variables in FMI 2.0."""
 
     # Outputs read in initialisation mode are computed from what the host has set so far.

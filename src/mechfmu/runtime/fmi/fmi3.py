@@ -23,14 +23,14 @@ _MODEL_ATTRIBUTES = ("description", "author", "license")
 class Fmi3Binding(Fmi3Slave):
     """pythonfmu3's Fmi3Slave, fed from MechSlave's declarations."""
 
-    def register_declared(self, variable):
+    def register_declared(self, variable) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
         self.register_variable(registered(
             variable, _FMI_TYPES, Fmi3Causality, Fmi3Variability, Fmi3Initial,
             getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
-    def finish_registration(self):
+    def finish_registration(self) -> None:
         """The independent variable: the instance's time, the end of its last step (s)."""
         self.register_variable(Float64("time", causality=Fmi3Causality.independent,
                                        variability=Fmi3Variability.continuous,

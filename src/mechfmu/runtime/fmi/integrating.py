@@ -29,7 +29,7 @@ from .slave import MechSlave
 class IntegratingSlave(MechSlave):
     """MechSlave whose outputs follow from a state integrated over each communication step."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.state = None        # the integrated state at the last communication point
         self.held_inputs = None  # the inputs read at that point (read_inputs)
@@ -56,7 +56,7 @@ class IntegratingSlave(MechSlave):
         internal_state does not restore."""
         raise NotImplementedError
 
-    def commit(self, time, happened):
+    def commit(self, time, happened) -> None:
         """Apply what ``advance`` found (counters, log messages) once the step succeeded."""
 
     def publish(self, time):
@@ -71,18 +71,18 @@ class IntegratingSlave(MechSlave):
         """JSON-serialisable model state beyond the integrated one (override if any)."""
         return {}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved) -> None:
         """Inverse of extra_state."""
 
     # --- MechSlave contract -----------------------------------------------------------------
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         self.integrator = None
         if self.set_up():
             v = self.values
             self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
                                               v["max_substep"])
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time) -> None:
         if self.integrator is None:
             self.update_without_state(time, 0.0)
             return
@@ -90,7 +90,7 @@ class IntegratingSlave(MechSlave):
         self.state = list(self.initial_state(time))
         self._publish_with_counters(time)
 
-    def update(self, time, step_size):
+    def update(self, time, step_size) -> None:
         if self.integrator is None:
             self.update_without_state(time, step_size)
             return
@@ -101,7 +101,7 @@ class IntegratingSlave(MechSlave):
         self.commit(time, happened)
         self._publish_with_counters(time)
 
-    def _publish_with_counters(self, time):
+    def _publish_with_counters(self, time) -> None:
         self.publish(time)
         stats = self.integrator.stats
         self.values["rhs_evaluations"], self.values["substeps"] = (stats.rhs_evaluations,
@@ -114,7 +114,7 @@ class IntegratingSlave(MechSlave):
                          integrator=self.integrator.snapshot())
         return saved
 
-    def restore_internal_state(self, saved):
+    def restore_internal_state(self, saved) -> None:
         self.restore_extra_state(saved)
         if self.integrator is not None and "integrator" in saved:
             self.state = list(saved["state"])

@@ -38,7 +38,7 @@ class MechSlave(Binding):
     author = "mechfmu"
     license = "MIT"
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.values = {v.name: v.start for v in self.VARIABLES}
         self.declared = {v.name: v for v in self.VARIABLES}
@@ -58,7 +58,7 @@ class MechSlave(Binding):
         self.finish_registration()
 
     # --- values, as the binding reads and writes them ---------------------------------
-    def _set(self, name, value):
+    def _set(self, name, value) -> None:
         variable = self.declared[name]
         if variable.causality == "output":
             return  # outputs are never set by a host; pythonfmu's state restore calls this
@@ -71,22 +71,22 @@ class MechSlave(Binding):
         self.stale = True
 
     # --- model contract -------------------------------------------------------------
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         """Validate parameters (raise MechanismError); called once at initialisation."""
 
     def update(self, time, step_size):
         """Compute outputs at ``time`` from the current inputs (raise MechanismError)."""
         raise NotImplementedError
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time) -> None:
         """Outputs at initialisation; models with internal state may override."""
         self.update(time, 0.0)
 
     # --- FMI calls (never raise) ----------------------------------------------------
-    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None) -> None:
         self.start_time = self.time_reached = float(start_time)
 
-    def enter_initialization_mode(self):
+    def enter_initialization_mode(self) -> None:
         self.initializing, self.stale = True, True
 
     def _initial_outputs(self):
@@ -109,13 +109,13 @@ class MechSlave(Binding):
                     self.values[variable.name] = variable.start
             return self._describe(error, self.start_time)
 
-    def refresh_initial_outputs(self):
+    def refresh_initial_outputs(self) -> None:
         """Before the binding reads outputs: in initialisation mode, compute them from the
         parameters and inputs set so far (once per change)."""
         if self.initializing and self.stale:
             self._initial_outputs()
 
-    def exit_initialization_mode(self):
+    def exit_initialization_mode(self) -> None:
         self.initializing = False
         # With the inputs the host has set by now; an error is reported at every doStep.
         self.pending_error = self._initial_outputs()
@@ -135,7 +135,7 @@ class MechSlave(Binding):
                                               for name in self.real_inputs)
                 + "; the parameters or inputs are probably beyond the model's numerical range")
 
-    def do_step(self, current_time, step_size):
+    def do_step(self, current_time, step_size) -> bool:
         """One communication step: all of it, or nothing.
 
         A discarded step leaves the instance exactly as it was before the call (every
@@ -179,7 +179,7 @@ class MechSlave(Binding):
             self.log(self._describe(error, current_time + step_size), Status.error)
             return False
 
-    def _describe(self, error, time):
+    def _describe(self, error, time) -> str:
         if isinstance(error, MechanismError):
             return f"{self.instance_name} at t = {time!r} s: {error}"
         return f"{self.instance_name} at t = {time!r} s: internal error {error!r}"
@@ -189,7 +189,7 @@ class MechSlave(Binding):
         """JSON-serialisable internal state beyond the variables (override if any)."""
         return {}
 
-    def restore_internal_state(self, state):
+    def restore_internal_state(self, state) -> None:
         """Inverse of internal_state."""
 
     def _get_fmu_state(self):
@@ -200,7 +200,7 @@ class MechSlave(Binding):
                 "time_reached": self.time_reached,
                 "pending_error": self.pending_error}
 
-    def _set_fmu_state(self, state):
+    def _set_fmu_state(self, state) -> None:
         self.values.update(state["values"])  # in place: the registered getters hold this dict
         if state["internal"] is not None:
             self.restore_internal_state(state["internal"])

@@ -60,12 +60,12 @@ class HydraulicActuator(IntegratingSlave):
                depends=("valve_command",)),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.actuator = None
 
     # IntegratingSlave: the state is the cap and rod pressures (Pa).
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         self.actuator = hydraulics.make_actuator(
             v["supply_pressure"], v["return_pressure"], v["bore"], v["rod_diameter"],
@@ -89,7 +89,7 @@ class HydraulicActuator(IntegratingSlave):
                                                   self.actuator))
         return self.integrator.advance(rhs, start, self.state, time).y, None
 
-    def publish(self, time):
+    def publish(self, time) -> None:
         v = self.values
         p1, p2 = self.state
         v["cap_pressure"], v["rod_pressure"] = p1, p2

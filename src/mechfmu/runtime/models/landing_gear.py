@@ -131,14 +131,14 @@ class LandingGear(IntegratingSlave):
         output("stop_contacts", 0, "End-stop contacts started so far"),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.ignored_inputs = ()   # inputs of the other driver last warned about
         self.model = None          # gear_dynamics.Dynamics or InverseDynamics
 
     # --- set-up (IntegratingSlave: the dynamics drive integrates [theta, omega, work(, p1,
     # p2)]; the motion drive computes closed forms) ----------------------------------------
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         d, h = gear.check_geometry(v["attachment_distance"], v["pivot_height"])
         body = gd.make_body(v["bar_length"], v["bar_mass"], v["wheel_mass"])
@@ -158,7 +158,7 @@ class LandingGear(IntegratingSlave):
     def initial_state(self, time):
         return self.model.initial_state()
 
-    def _note_other_driver(self, time):
+    def _note_other_driver(self, time) -> None:
         """Warn when an input of the driver that ``drive`` did not choose is set.
 
         ``drive`` chooses the driver and takes precedence: the piston motion (motion) or the
@@ -193,11 +193,11 @@ class LandingGear(IntegratingSlave):
     def extra_state(self):
         return {"ignored_inputs": list(self.ignored_inputs)}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved) -> None:
         self.ignored_inputs = tuple(saved["ignored_inputs"])
 
     # --- stepping -----------------------------------------------------------------------
-    def update(self, time, step_size):
+    def update(self, time, step_size) -> None:
         self._note_other_driver(time)
         super().update(time, step_size)
 
@@ -206,7 +206,7 @@ class LandingGear(IntegratingSlave):
         piston_force, valve_command and airspeed are held over the step."""
         return self.model.advance(self.integrator, start, self.state, time, self.values)
 
-    def commit(self, time, crossings):
+    def commit(self, time, crossings) -> None:
         """Retraction and extension times, stop contacts and a log line per stroke limit
         reached: (event name, t s, piston length m) from Dynamics.advance."""
         v = self.values
@@ -220,10 +220,10 @@ class LandingGear(IntegratingSlave):
             self.log(f"{self.instance_name} at t = {when!r} s: piston reached {name} "
                      f"({length!r} m)", Status.ok)
 
-    def publish(self, time):
+    def publish(self, time) -> None:
         self.model.publish(self.values, time, self.state)
 
-    def update_without_state(self, time, step_size):
+    def update_without_state(self, time, step_size) -> None:
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
         v = self.values
         d, h = v["attachment_distance"], v["pivot_height"]

@@ -45,7 +45,7 @@ class LinkageSlave(MechSlave):
 
     DRIVE_INPUTS = ()  # (value, rate, acceleration) input names of the mechanism's driver
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.follower = None
         self.model = None       # planar.Mechanism: the solver's, and the closed form's crossings
@@ -56,7 +56,7 @@ class LinkageSlave(MechSlave):
         return tuple(self.values[name] for name in self.DRIVE_INPUTS)
 
     # --- model hooks --------------------------------------------------------------------
-    def check_geometry(self):
+    def check_geometry(self) -> None:
         """Validate the model's own parameters (raise MechanismError)."""
 
     def drive(self, time):
@@ -79,7 +79,7 @@ class LinkageSlave(MechSlave):
         """Output values from a planar.Solution (dict)."""
         raise NotImplementedError
 
-    def after_update(self, time):
+    def after_update(self, time) -> None:
         """Hook for effects computed from the kinematic outputs (contact forces, ...)."""
 
     # --- MechSlave contract -------------------------------------------------------------
@@ -103,7 +103,7 @@ class LinkageSlave(MechSlave):
     def _drive_now(self, time):
         return [tuple(map(float, d)) for d in self.drive(time)]
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time) -> None:
         if self.follower is None:
             self._write(self.closed_form(time), 0, 0.0)
             if self.model.has_crossings:
@@ -130,7 +130,7 @@ class LinkageSlave(MechSlave):
                         solution.residual)
         self.after_update(time)
 
-    def _write(self, values, iterations, residual):
+    def _write(self, values, iterations, residual) -> None:
         # Validate everything before writing anything: a failed step keeps the last outputs.
         self.values.update(values)
         self.values["newton_iterations"] = iterations
@@ -142,7 +142,7 @@ class LinkageSlave(MechSlave):
                 "last_drive": None if self.last_drive is None
                 else [list(d) for d in self.last_drive]}
 
-    def restore_internal_state(self, state):
+    def restore_internal_state(self, state) -> None:
         if self.follower is not None and state.get("follower") is not None:
             self.follower.restore(state["follower"])
         if state.get("last_drive") is not None:

@@ -14,12 +14,12 @@ class _ShaftDrive(MechSlave):
     PREFIX = ""
     RATIO = 1.0
 
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         v = self.values
         profiles.check_rotation(v["initial_angle"], v["initial_speed"], v["speed"],
                                 v["ramp_time"])
 
-    def update(self, time, step_size):
+    def update(self, time, step_size) -> None:
         v = self.values
         sample = profiles.rotation(time, v["initial_angle"], self.RATIO * v["initial_speed"],
                                    self.RATIO * v["speed"], v["ramp_time"], v["start_time"])

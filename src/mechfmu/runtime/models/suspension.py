@@ -108,7 +108,7 @@ class Suspension(IntegratingSlave):
                "no road input", unit="J", depends=_INPUTS),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.model = None          # dynamics: the Model, right-hand side, inputs, events
         self.inputs = None
@@ -124,7 +124,7 @@ class Suspension(IntegratingSlave):
                                    v["spring_base_offset"])
 
     # --- set-up (IntegratingSlave: the dynamics effect integrates (y, y'[, z, z'])) ----------
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         spring = self._spring()
         limit = physics.limit_point(spring)
@@ -147,7 +147,7 @@ class Suspension(IntegratingSlave):
                        for side in (dyn.NEAR, dyn.FAR)}
         return True
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time) -> None:
         if not self.values["dynamics"]:
             self.values["branch"] = physics.NEAR  # continuation starts from the unloaded state
         super().outputs_at_start(time)
@@ -166,7 +166,7 @@ class Suspension(IntegratingSlave):
     def extra_state(self):
         return {"side": self.side, "blowup": self.blowup}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved) -> None:
         self.side, self.blowup = saved["side"], saved["blowup"]
 
     # --- stepping ----------------------------------------------------------------------------
@@ -176,7 +176,7 @@ class Suspension(IntegratingSlave):
                 require_finite("road_height", v["road_height"], "m"),
                 require_finite("road_rate", v["road_rate"], "m/s"))
 
-    def update_without_state(self, time, step_size):
+    def update_without_state(self, time, step_size) -> None:
         """Static: the equilibrium under the load, continued along its branch."""
         v = self.values
         state, snapped = physics.follow_load(
@@ -237,7 +237,7 @@ class Suspension(IntegratingSlave):
                 f"stability limit; reduce max_substep or use radau")
         return y, (snaps, side[0])
 
-    def commit(self, time, happened):
+    def commit(self, time, happened) -> None:
         snaps, self.side = happened
         v = self.values
         for t_event, u, old in snaps:
@@ -251,7 +251,7 @@ class Suspension(IntegratingSlave):
         if self.inputs.mode == "hold":  # the value held from ``time`` on
             self.inputs.set_constant(time, *self.held_inputs)
 
-    def publish(self, time):
+    def publish(self, time) -> None:
         v = self.values
         spring = self.model.spring
         m = dyn.motion(self.model, self.inputs, self.rhs, time, self.state)

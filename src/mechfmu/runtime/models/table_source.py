@@ -10,14 +10,14 @@ class TableSource(MechSlave):
     Subclasses validate their own shape parameters in ``check_shape``.
     """
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.table = None
 
     def check_shape(self):
         raise NotImplementedError
 
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         self.check_shape()
         if self.values["shape"] == "table":
             self.table = profiles.read_table(self.values["table_file"])
@@ -25,5 +25,5 @@ class TableSource(MechSlave):
     def internal_state(self):
         return {"table": self.table}
 
-    def restore_internal_state(self, state):
+    def restore_internal_state(self, state) -> None:
         self.table = state["table"]

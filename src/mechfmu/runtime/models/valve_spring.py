@@ -105,7 +105,7 @@ class ValveSpring(IntegratingSlave):
                "elastic energy when both dampings are 0)", unit="J"),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.parameters = None   # vs.Parameters
         self.drive = None        # vs.StepDrive read by rhs and events
@@ -120,7 +120,7 @@ class ValveSpring(IntegratingSlave):
         self.last_float = None   # s: when the valve last left the rocker (float), for messages
 
     # --- set-up (IntegratingSlave: the state is (x, v, W), the inputs (L, L', L'')) ----------
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         self.parameters = vs.make_parameters(
             v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
@@ -148,7 +148,7 @@ class ValveSpring(IntegratingSlave):
                 "created": self.created, "peak_energy": self.peak_energy,
                 "last_float": self.last_float}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved) -> None:
         if saved["phase"] is not None:
             self.phase = vs.Phase(*saved["phase"])
             self.engaged = vs.Engaged(*saved["engaged"])
@@ -195,7 +195,7 @@ class ValveSpring(IntegratingSlave):
         created, peak = self._check_energy(start, self.state, time, y)
         return y, (found, phase[0], self.modes.engaged, created, peak)
 
-    def commit(self, time, happened):
+    def commit(self, time, happened) -> None:
         found, self.phase, self.engaged, self.created, self.peak_energy = happened
         v = self.values
         for happening in found:
@@ -238,7 +238,7 @@ class ValveSpring(IntegratingSlave):
                 f"stability limit; reduce max_substep or use radau")
         return created, peak
 
-    def publish(self, time):
+    def publish(self, time) -> None:
         """Outputs at ``time`` from the state and the inputs given for that time."""
         v, p = self.values, self.parameters
         lift, velocity, work = self.state
@@ -253,25 +253,25 @@ class ValveSpring(IntegratingSlave):
         v["contact_work"] = work
 
 
-def _drive_text(happening):
+def _drive_text(happening) -> str:
     L, rate, acceleration = happening.drive
     return (f"rocker lift {L:.6g} m, velocity {rate:.6g} m/s, acceleration "
             f"{acceleration:.6g} m/s^2")
 
 
-def _float_message(happening):
+def _float_message(happening) -> str:
     return (f"valve float at t = {happening.time!r} s: the valve left the rocker at valve "
             f"lift {happening.lift:.6g} m, valve velocity {happening.velocity:.6g} m/s; "
             f"{_drive_text(happening)} (the spring cannot keep the valve on the rocker)")
 
 
-def _rebound_message(happening):
+def _rebound_message(happening) -> str:
     return (f"valve bounce at t = {happening.time!r} s: rebounding from its seat the valve "
             f"left the closing rocker at valve lift {happening.lift:.6g} m, valve velocity "
             f"{happening.velocity:.6g} m/s; {_drive_text(happening)}")
 
 
-def _bounce_message(happening):
+def _bounce_message(happening) -> str:
     return (f"valve bounce at t = {happening.time!r} s: the valve hit its seat at "
             f"{happening.velocity:.6g} m/s without the rocker; {_drive_text(happening)}")
 

@@ -97,7 +97,7 @@ class ValveTrain(LinkageSlave):
                unit="rad/s"),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
         self.geometry = GEOMETRY
         self.profile = CAM

@@ -85,10 +85,10 @@ class Stats:
 
     __slots__ = ("rhs_evaluations", "substeps", "rejected", "jacobians")
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """Set every counter to zero."""
         self.rhs_evaluations = 0
         self.substeps = 0
@@ -98,7 +98,7 @@ class Stats:
     def as_dict(self):
         return {name: getattr(self, name) for name in self.__slots__}
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "Stats(" + ", ".join(f"{k}={v}" for k, v in self.as_dict().items()) + ")"
 
 
@@ -116,7 +116,7 @@ class Event:
 
     __slots__ = ("name", "function", "direction", "terminal")
 
-    def __init__(self, name, function, direction=0, terminal=True):
+    def __init__(self, name, function, direction=0, terminal: bool=True) -> None:
         if not callable(function):
             raise MechanismError(f"event {name!r}: function {function!r} is not callable; "
                                  "pass a function g(t, y) -> float")
@@ -128,7 +128,7 @@ class Event:
         self.direction = int(direction)
         self.terminal = bool(terminal)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"Event({self.name!r}, {self.function!r}, direction={self.direction}, "
                 f"terminal={self.terminal})")
 
@@ -176,11 +176,11 @@ def _scaled_rms(err, y_old, y_new, rtol, atol):
     return value if math.isfinite(value) else math.inf
 
 
-def _fmt(x):
+def _fmt(x) -> str:
     return f"{x:.6g}"
 
 
-def _fmt_step(x):
+def _fmt_step(x) -> str:
     return f"{x:.3g}"
 
 
@@ -205,7 +205,7 @@ class Integrator:
 
     method = None
 
-    def __init__(self, rtol=1e-8, atol=1e-10, max_substep=math.inf):
+    def __init__(self, rtol: float=1e-8, atol: float=1e-10, max_substep=math.inf) -> None:
         self.rtol = _check_tolerance("rtol", rtol)
         self.atol = _check_tolerance("atol", atol)
         if isinstance(max_substep, bool) or not isinstance(max_substep, (int, float)) \
@@ -220,7 +220,7 @@ class Integrator:
         self.deadline = None  # time.monotonic() value past which a call stops
         self.restart()
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"{type(self).__name__}(rtol={self.rtol!r}, atol={self.atol!r}, "
                 f"max_substep={self.max_substep!r})")
 
@@ -229,10 +229,10 @@ class Integrator:
         copied, for an FMU state; ``restore`` puts it back exactly."""
         return {name: _copied(value) for name, value in self.__dict__.items()}
 
-    def restore(self, snapshot):
+    def restore(self, snapshot) -> None:
         self.__dict__.update({name: _copied(value) for name, value in snapshot.items()})
 
-    def restart(self):
+    def restart(self) -> None:
         """Forget the step size (and Jacobian) carried over between advance() calls."""
 
     def start_clock(self, seconds):
@@ -493,7 +493,7 @@ class Integrator:
         return b, y_b
 
     # --- subclass interface ----------------------------------------------------------------
-    def _begin_call(self):
+    def _begin_call(self) -> None:
         pass
 
     def _substep(self, f, t, y, t_limit):
@@ -651,11 +651,11 @@ class DormandPrince45(Integrator):
     _too_many_advice = ("the problem is probably stiff (an explicit method needs tiny steps "
                         "to stay stable), use radau")
 
-    def restart(self):
+    def restart(self) -> None:
         self._h = None
         self._k1 = None
 
-    def _begin_call(self):
+    def _begin_call(self) -> None:
         self._k1 = None
 
     def _substep(self, f, t, y, t_limit):
@@ -758,7 +758,7 @@ class RadauIIA5(Integrator):
     _too_many_advice = ("the solution varies too fast for the tolerances; check the model "
                         "for discontinuities or loosen rtol/atol")
 
-    def restart(self):
+    def restart(self) -> None:
         self._h = None
         self._h_old = None
         self._error_old = None
@@ -769,7 +769,7 @@ class RadauIIA5(Integrator):
         self._lu = None  # (h, J_version, LU_real, LU_complex)
         self._begin_call()
 
-    def _begin_call(self):
+    def _begin_call(self) -> None:
         self._f0 = None
         self._previous = None  # (h, Z) of the last accepted step, for the Newton guess
         self._J_current = False
@@ -1006,7 +1006,7 @@ def _predict_factor(h, h_old, error, error_old):
 _CLASSES = {"euler": Euler, "rk4": RK4, "dopri5": DormandPrince45, "radau": RadauIIA5}
 
 
-def make_integrator(method, rtol=1e-8, atol=1e-10, max_substep=math.inf):
+def make_integrator(method, rtol: float=1e-8, atol: float=1e-10, max_substep=math.inf):
     """A new integrator: method in METHODS; rtol, atol >= 0; max_substep in (0, inf] s.
 
     rtol and atol steer the adaptive methods (dopri5, radau); max_substep bounds every

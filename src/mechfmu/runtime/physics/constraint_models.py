@@ -29,7 +29,7 @@ def wrap_angle(angle):
 def four_bar(ground, crank, coupler, rocker):
     a, b, c, d = crank, coupler, rocker, ground
 
-    def diagnose(q):
+    def diagnose(q) -> str:
         t2, t3, t4 = _angle(q, 0), _angle(q, 1), _angle(q, 2)
         return (f"crank angle {wrap_angle(t2):.9g} rad, coupler angle {wrap_angle(t3):.9g} "
                 f"rad, rocker angle {wrap_angle(t4):.9g} rad")
@@ -69,12 +69,12 @@ def four_bar_guess(ground, crank, crank_angle, coupler_angle, rocker_angle):
 def slider_crank(crank, coupler, offset):
     a, b = crank, coupler
 
-    def diagnose(q):
+    def diagnose(q) -> str:
         t2, t3 = _angle(q, 0), _angle(q, 1)
         return (f"crank angle {wrap_angle(t2):.9g} rad, coupler angle {wrap_angle(t3):.9g} "
                 f"rad, slider position {q[6]:.9g} m")
 
-    def singularity(q):
+    def singularity(q) -> str:
         # With the crank driven, the only rank loss: the rod perpendicular to the slider axis.
         return "limit position: coupler perpendicular to the slider axis"
 
@@ -101,17 +101,17 @@ def slider_crank_guess(crank, offset, crank_angle, coupler_angle, slider_positio
 TAPPET, ROCKER, VALVE = 0, 1, 2
 
 
-def valve_train(geometry, inverse=False):
+def valve_train(geometry, inverse: bool=False):
     """Driver: the tappet foot height y_P (forward) or the valve foot height y_Q (inverse)."""
     g = geometry
     lt, lv = g.tappet_arm, g.valve_arm
 
-    def diagnose(q):
+    def diagnose(q) -> str:
         phi1, phi2, phi3 = _angle(q, TAPPET), _angle(q, ROCKER), _angle(q, VALVE)
         return (f"tappet height {q[1]:.9g} m, pushrod angle {phi1:.9g} rad, rocker angle "
                 f"{phi2:.9g} rad, valve height {q[7]:.9g} m, valve link angle {phi3:.9g} rad")
 
-    def singularity(q):
+    def singularity(q) -> str:
         phi1, phi2, phi3 = _angle(q, TAPPET), _angle(q, ROCKER), _angle(q, VALVE)
         # The links point along (-sin phi, cos phi), the rocker along (cos phi2, sin phi2):
         # each pair is collinear where the sine of the angle between them, cos(phi - phi2),
@@ -135,7 +135,7 @@ def valve_train(geometry, inverse=False):
                      g.pushrod_length, diagnose, singularity)
 
 
-def valve_train_guess(geometry, rocker_angle=0.0):
+def valve_train_guess(geometry, rocker_angle: float=0.0):
     """Coordinates with the rocker at ``rocker_angle`` and both links hanging from it."""
     g = geometry
     a, b = g.rocker_pivot_x, g.rocker_pivot_y

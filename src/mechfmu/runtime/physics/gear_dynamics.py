@@ -151,13 +151,13 @@ def moment_terms(values, body, geometry):
 class InverseDynamics:
     """Motion drive: the piston force that produces the prescribed motion."""
 
-    def __init__(self, values, body, geometry):
+    def __init__(self, values, body, geometry) -> None:
         self.body, self.geometry = body, geometry
         self.inertia = inertia(body) if values["inertia"] else 0.0
         self.terms = moment_terms(values, body, geometry)
         self.gravity = values["gravity_acceleration"] if values["gravity"] else None
 
-    def publish(self, v, motion):
+    def publish(self, v, motion) -> None:
         """Required piston force (N) and energies (J) into the values ``v`` for ``motion``
         (angle rad, rate rad/s, acceleration rad/s^2); v["piston_moment_arm"] is set."""
         angle, omega, alpha = motion
@@ -177,7 +177,7 @@ class Dynamics:
     pressures (Pa) with the hydraulics effect.
     """
 
-    def __init__(self, values, body, geometry):
+    def __init__(self, values, body, geometry) -> None:
         self.body, self.geometry = body, geometry
         self.inertia = inertia(body)
         self.terms = moment_terms(values, body, geometry)
@@ -255,7 +255,7 @@ class Dynamics:
                                    t, y, t_end, self.events, record)
         return y, crossings
 
-    def publish(self, v, time, y):
+    def publish(self, v, time, y) -> None:
         """The drive's outputs at state y into the values ``v``."""
         length, rate, arm = self.piston_kinematics(y)
         rates, alpha, force = self.derivatives(y, v)

@@ -58,7 +58,7 @@ class _Frames:
 
     __slots__ = ("q", "qdot")
 
-    def __init__(self, q, qdot=None):
+    def __init__(self, q, qdot=None) -> None:
         self.q, self.qdot = q, qdot
 
     def origin(self, body):
@@ -99,7 +99,7 @@ class Revolute:
     equations = 2
     kinds = ("length", "length")
 
-    def __init__(self, name, body_i, point_i, body_j, point_j):
+    def __init__(self, name, body_i, point_i, body_j, point_j) -> None:
         self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
         self.body_j, self.point_j = body_j, tuple(point_j)
 
@@ -107,7 +107,7 @@ class Revolute:
         p, r = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
         return [p[0] - r[0], p[1] - r[1]]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f, rows) -> None:
         for body, local, sign in ((self.body_i, self.point_i, 1.0),
                                   (self.body_j, self.point_j, -1.0)):
             if body is GROUND:
@@ -137,7 +137,7 @@ class PointOnLine:
     equations = 1
     kinds = ("length",)
 
-    def __init__(self, name, body_i, point_i, body_j, point_j, direction_j):
+    def __init__(self, name, body_i, point_i, body_j, point_j, direction_j) -> None:
         norm = math.hypot(*direction_j)
         if not norm > 0.0:
             raise ValueError(f"{name}: direction must be non-zero")
@@ -154,7 +154,7 @@ class PointOnLine:
         n, d = self._parts(f)
         return [_dot(n, d)]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f, rows) -> None:
         n, d = self._parts(f)
         row = rows[0]
         if self.body_i is not GROUND:
@@ -189,13 +189,13 @@ class RelativeAngle:
     equations = 1
     kinds = ("angle",)
 
-    def __init__(self, name, body_i, body_j, angle=0.0):
+    def __init__(self, name, body_i, body_j, angle: float=0.0) -> None:
         self.name, self.body_i, self.body_j, self.angle = name, body_i, body_j, float(angle)
 
     def residual(self, f, drive):
         return [f.angle(self.body_i) - f.angle(self.body_j) - self.angle]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f, rows) -> None:
         if self.body_i is not GROUND:
             rows[0][3 * self.body_i + 2] += 1.0
         if self.body_j is not GROUND:
@@ -208,7 +208,7 @@ class RelativeAngle:
         return [0.0]
 
 
-def translational(name, body_i, point_i, body_j, point_j, direction_j, angle=0.0):
+def translational(name, body_i, point_i, body_j, point_j, direction_j, angle: float=0.0):
     """A prismatic joint: point-on-line plus a locked relative angle (2 equations)."""
     return (PointOnLine(name + " (line)", body_i, point_i, body_j, point_j, direction_j),
             RelativeAngle(name + " (angle)", body_i, body_j, angle))
@@ -223,7 +223,7 @@ class Driver:
 
     equations = 1
 
-    def __init__(self, name, terms, index=0, offset=0.0, kind="angle"):
+    def __init__(self, name, terms, index=0, offset: float=0.0, kind: str="angle") -> None:
         self.name, self.terms, self.index = name, tuple(terms), index
         self.offset, self.kinds = float(offset), (kind,)
 
@@ -233,7 +233,7 @@ class Driver:
             total += weight * f.q[3 * body + coordinate]
         return [total - drive[self.index][0]]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f, rows) -> None:
         for body, coordinate, weight in self.terms:
             rows[0][3 * body + coordinate] += weight
 
@@ -265,7 +265,7 @@ class Mechanism:
     """
 
     def __init__(self, name, bodies, joints, length_scale, diagnose=None, singularity=None,
-                 crossing=None):
+                 crossing=None) -> None:
         self.name, self.bodies = name, tuple(bodies)
         self.joints = tuple(j for joint in joints
                             for j in (joint if isinstance(joint, tuple) else (joint,)))
@@ -285,7 +285,7 @@ class Mechanism:
         self.crossing = crossing or (lambda start, end: None)
         self.has_crossings = crossing is not None  # whether a drive change can be refused
 
-    def singular_position(self, q):
+    def singular_position(self, q) -> str:
         """'<nearest singular condition> at <configuration>' for error messages."""
         return f"{self.singularity(q)} at {self.diagnose(q)}"
 
@@ -431,7 +431,7 @@ class BranchFollower:
 
     def __init__(self, mechanism, tolerance=DEFAULT_TOLERANCE,
                  max_iterations=DEFAULT_MAX_ITERATIONS,
-                 singularity_threshold=DEFAULT_SINGULARITY_THRESHOLD):
+                 singularity_threshold=DEFAULT_SINGULARITY_THRESHOLD) -> None:
         self.mechanism = mechanism
         self.tolerance, self.max_iterations = tolerance, max_iterations
         self.singularity_threshold = singularity_threshold
@@ -445,7 +445,7 @@ class BranchFollower:
                 "drive": None if self.drive is None else [list(d) for d in self.drive],
                 "sign": self.sign}
 
-    def restore(self, state):
+    def restore(self, state) -> None:
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
         self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
         self.sign = state["sign"]
@@ -494,7 +494,7 @@ class BranchFollower:
         self.solution, self.drive = solution, drive
         return solution
 
-    def _end_is_singular(self, drive):
+    def _end_is_singular(self, drive) -> bool:
         try:
             _, sign = self._solve(self.solution.q, drive)
             return False

@@ -33,7 +33,7 @@ def _phase(time, start_time, duration):
     return tau
 
 
-def check_stroke(start_extension, end_extension, stroke_time, profile, start_time=0.0):
+def check_stroke(start_extension, end_extension, stroke_time, profile, start_time: float=0.0):
     """Validate stroke parameters; stroke_time must lie in (0, 4] s."""
     require_finite("start_extension", start_extension, "m")
     require_finite("end_extension", end_extension, "m")
@@ -46,7 +46,7 @@ def check_stroke(start_extension, end_extension, stroke_time, profile, start_tim
         raise MechanismError(f"profile = {profile!r} is not one of {', '.join(STROKE_PROFILES)}")
 
 
-def stroke(time, start_extension, end_extension, stroke_time, profile, start_time=0.0):
+def stroke(time, start_extension, end_extension, stroke_time, profile, start_time: float=0.0):
     """Piston extension (m), speed (m/s) and acceleration (m/s^2) at ``time`` (s).
 
     constant_speed: x moves linearly from start to end over stroke_time, then holds
@@ -162,7 +162,7 @@ def check_rotation(initial_angle, initial_speed, final_speed, ramp_time):
         raise RangeError("ramp_time", ramp, "[0, inf)", "s")
 
 
-def rotation(time, initial_angle, initial_speed, final_speed, ramp_time, start_time=0.0):
+def rotation(time, initial_angle, initial_speed, final_speed, ramp_time, start_time: float=0.0):
     """Shaft angle (rad), speed (rad/s) and angular acceleration (rad/s^2) at ``time`` (s).
 
     The speed ramps linearly from initial_speed to final_speed over ramp_time from

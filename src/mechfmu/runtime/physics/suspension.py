@@ -102,7 +102,7 @@ def _branch_interval(branch, spring):
     return 2.0 * rest_height(spring) - u_star, math.inf
 
 
-def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
+def solve_on_branch(load, branch, spring, guess=None, tolerance: float=1e-13):
     """Equilibrium deflection (m) on one stable branch for a load W (N).
 
     F is strictly increasing on a stable branch, so a bracket plus safeguarded Newton
@@ -203,7 +203,7 @@ def equilibrium(deflection, spring, branch):
                        secant_stiffness(deflection, spring), tangent, tangent > 0.0, branch)
 
 
-def follow_load(load, branch, spring, guess=None, continue_past_limit=True):
+def follow_load(load, branch, spring, guess=None, continue_past_limit: bool=True):
     """Continuation step: equilibrium for ``load`` starting from ``branch``.
 
     Stays on the current stable branch while it has an equilibrium; when the load passes

@@ -70,7 +70,7 @@ Motion = namedtuple(
               "tyre_force kinetic_energy potential_energy")
 
 
-def make_model(spring, mass, damping=0.0, tyre_stiffness=DEFAULT_TYRE_STIFFNESS,
+def make_model(spring, mass, damping: float=0.0, tyre_stiffness=DEFAULT_TYRE_STIFFNESS,
                unsprung_mass=DEFAULT_UNSPRUNG_MASS, effects=Effects(False, False, False)):
     """Validated Model; only the parameters of enabled effects are checked."""
     mass = require_positive("mass", mass, "kg")
@@ -123,19 +123,19 @@ class StepInputs:
 
     __slots__ = ("mode", "t0", "load0", "load_slope", "road")
 
-    def __init__(self, mode="interpolate"):
+    def __init__(self, mode: str="interpolate") -> None:
         if mode not in INPUT_MODES:
             raise MechanismError(f"input_interpolation = {mode!r} is not one of "
                                  f"{', '.join(INPUT_MODES)}")
         self.mode = mode
         self.set_constant(0.0, 0.0, 0.0, 0.0)
 
-    def set_constant(self, t, load, road_height, road_rate):
+    def set_constant(self, t, load, road_height, road_rate) -> None:
         """Inputs frozen at their values at ``t`` (initialisation, outputs at an instant)."""
         self.t0, self.load0, self.load_slope = t, load, 0.0
         self.road = (road_height, road_rate, 0.0, 0.0)
 
-    def set_step(self, t0, t1, start, end):
+    def set_step(self, t0, t1, start, end) -> None:
         """Inputs over [t0, t1] from (load, road_height, road_rate) at t0 and at t1."""
         load0, r0, rate0 = start
         load1, r1, rate1 = end

@@ -270,19 +270,19 @@ class StepDrive:
 
     __slots__ = ("mode", "t0", "coefficients")
 
-    def __init__(self, mode="interpolate"):
+    def __init__(self, mode: str="interpolate") -> None:
         if mode not in INPUT_MODES:
             raise MechanismError(f"input_interpolation = {mode!r} is not one of "
                                  f"{', '.join(INPUT_MODES)}")
         self.mode = mode
         self.set_constant(0.0, (0.0, 0.0, 0.0))
 
-    def set_constant(self, t, start):
+    def set_constant(self, t, start) -> None:
         """The motion from (L, L', L'') at t with constant acceleration."""
         lift, rate, acceleration = start
         self.t0, self.coefficients = t, (lift, rate, 0.5 * acceleration)
 
-    def set_step(self, t0, t1, start, end):
+    def set_step(self, t0, t1, start, end) -> None:
         """The motion over [t0, t1] from (L, L', L'') at t0 and at t1."""
         if self.mode == "hold" or not t1 > t0:
             self.set_constant(t0, start)
@@ -356,7 +356,7 @@ class Modes:
 
     __slots__ = ("engaged",)
 
-    def __init__(self, engaged=None):
+    def __init__(self, engaged=None) -> None:
         self.engaged = engaged
 
 
@@ -400,7 +400,7 @@ def initial_state(p, rocker_lift, rocker_velocity):
 
 # --- what happened inside a step -----------------------------------------------------------
 
-def contact_phase(p, rocker_lift, lift, landed=False):
+def contact_phase(p, rocker_lift, lift, landed: bool=False):
     """Phase(touching: d > 0, open: x > 0, landed) at a state; ``landed``: the valve has
     come down on its seat since the rocker last sat on its base circle (L <= lash)."""
     return Phase(penetration(p, rocker_lift, lift) > 0.0, lift > 0.0,

@@ -497,7 +497,7 @@ def inverse(g, valve_lift, valve_velocity, valve_acceleration):
                             lift, velocity, acceleration)
 
 
-def rocker_ratio(g, tappet_lift=0.0):
+def rocker_ratio(g, tappet_lift: float=0.0):
     """Instantaneous ratio d(valve lift) / d(tappet lift) at ``tappet_lift`` (m)."""
     return forward(g, tappet_lift, 1.0, 0.0).valve_velocity
 
@@ -543,7 +543,7 @@ def _golden_minimum(function, low, high):
 
 
 def float_speed(g, profile, valve_mass, spring_stiffness, spring_preload, samples=720,
-                valve_law=False):
+                valve_law: bool=False):
     """Lowest constant camshaft speed (rad/s) at which the valve floats, and where.
 
     At constant speed w the valve acceleration is L'' w^2 (L'' = d2(valve lift)/dtheta2 in

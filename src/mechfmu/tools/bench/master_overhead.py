@@ -47,7 +47,7 @@ class FmiCallTimer:
     FUNCTIONS = ("fmi2DoStep", "fmi2SetReal", "fmi2GetReal", "fmi2SetInteger",
                  "fmi2GetInteger", "fmi2SetBoolean", "fmi2GetBoolean")
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.timer = CallTimer()
 
     @property
@@ -66,7 +66,7 @@ class FmiCallTimer:
 class FmpyGearAlone:
     """LandingGear.fmu alone under fmpy.simulate_fmu, fed the gear scene's piston motion."""
 
-    def __init__(self, fmu_path, scene):
+    def __init__(self, fmu_path, scene) -> None:
         self.scene = scene
         self.description = read_model_description(str(fmu_path))
         self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
@@ -98,7 +98,7 @@ class FmpyGearAlone:
                                f"{scene.steps + 1} ({scene.steps} steps)")
         return result
 
-    def close(self):
+    def close(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
@@ -187,7 +187,7 @@ def measure(scene_dir, fmu_dir, lengths_s, repeats):
                       fmpy_rows.overhead, TARGET)]
 
 
-def profile(scene_dir, fmu_dir, stop_time, top=15, stream=None):
+def profile(scene_dir, fmu_dir, stop_time, top=15, stream=None) -> None:
     """Print cProfile's ``top`` functions by own time for one run of each master."""
     scene = with_stop_time(load_named_scene(scene_dir, KINEMATIC_SCENE), stop_time)
     simulation = Simulation(scene, fmu_dir)

@@ -34,7 +34,7 @@ MICRO = 1e6
 CAMSHAFT_SPEED = 50.0 * math.pi  # rad/s: 3000 engine rpm, as in the valve_train scene
 
 
-def shaft_turning(prefix, speed, initial_angle=0.0):
+def shaft_turning(prefix, speed, initial_angle: float=0.0):
     """Inputs ``<prefix>_angle`` (rad), ``_speed`` (rad/s), ``_acceleration`` (rad/s^2) of a
     shaft turning at constant ``speed`` from ``initial_angle``, as functions of time (s)."""
     def inputs(times):
@@ -54,7 +54,7 @@ def piston_stroke(times):
             "piston_acceleration": acceleration}
 
 
-def load_ramp(times, peak_n=2500.0, duration_s=4.0):
+def load_ramp(times, peak_n: float=2500.0, duration_s: float=4.0):
     """Suspension load from 0 to 2500 N over 4 s: below the 3090.6 N limit load, no
     snap-through."""
     return {"load": peak_n * np.clip(times / duration_s, 0.0, 1.0)}
@@ -110,7 +110,7 @@ class LoopRun:
 class PreparedLoop:
     """A case's calls, prepared once: value references, per-step input arrays, times."""
 
-    def __init__(self, case, description, steps):
+    def __init__(self, case, description, steps) -> None:
         self.case, self.description = case, description
         self.step = case.duration_s / steps
         self.times = [index * self.step for index in range(steps)]  # start of each step
@@ -162,7 +162,7 @@ class PreparedLoop:
 class ExtractedFmu:
     """An FMU extracted once, instantiated afresh for every loop."""
 
-    def __init__(self, path):
+    def __init__(self, path) -> None:
         self.path = Path(path)
         self.description = read_model_description(str(path))
         self.folder = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
@@ -187,7 +187,7 @@ class ExtractedFmu:
             instance.terminate()
             instance.freeInstance()
 
-    def close(self):
+    def close(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 

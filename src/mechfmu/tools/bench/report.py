@@ -54,7 +54,7 @@ class Row:
                 self.notes)
 
 
-def ratio_row(case, numerator, denominator, target=None, notes=""):
+def ratio_row(case, numerator, denominator, target=None, notes: str=""):
     """The row ``numerator.value / denominator.value``; its notes name the two parts."""
     if numerator.unit != denominator.unit:
         raise ValueError(f"ratio of {numerator.case!r} ({numerator.unit}) to "
@@ -72,7 +72,7 @@ def ratio_parts(row):
 
 
 def write_csv(path, rows):
-    def write(handle):
+    def write(handle) -> None:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(CSV_COLUMNS)
         writer.writerows(row.csv_fields() for row in rows)
@@ -115,7 +115,7 @@ def machine():
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
 
 
-def machine_line(info):
+def machine_line(info) -> str:
     return (f"Machine: {info['cpu']}, {info['logical_cores']} logical cores, {info['os']}; "
             f"Python {info['python']}, numpy {info['numpy']}, fmpy {info['fmpy']}, "
             f"pythonfmu {info['pythonfmu']}; {info['date']}.")

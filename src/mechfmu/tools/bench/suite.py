@@ -40,7 +40,7 @@ def run_benchmarks(args, settings, names=BENCHMARKS):
     return [row for name in names for row in measures[name]()]
 
 
-def command(args):
+def command(args) -> int:
     """``mechfmu bench`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     missing = missing_fmus(args.fmu_dir)

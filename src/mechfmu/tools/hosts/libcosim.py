@@ -60,7 +60,7 @@ class LibcosimError(RuntimeError):
     step; ``times``, ``values``: the samples recorded up to there (possibly empty).
     """
 
-    def __init__(self, message, time=None, times=None, values=None):
+    def __init__(self, message, time=None, times=None, values=None) -> None:
         super().__init__(message)
         self.time = time
         self.times = np.array([]) if times is None else times
@@ -128,8 +128,8 @@ def _checked(name, kind, value):
     raise TypeError(f"{name} is {kind.capitalize()}, got {type(value).__name__} {value!r}")
 
 
-def run_libcosim(fmu_path, parameters=None, inputs=None, step=0.01, stop_time=1.0,
-                 outputs=None, instance="fmu", log_level="WARNING"):
+def run_libcosim(fmu_path, parameters=None, inputs=None, step: float=0.01, stop_time: float=1.0,
+                 outputs=None, instance: str="fmu", log_level: str="WARNING"):
     """Run the FMU at ``fmu_path`` alone under libcosim from t = 0 to ``stop_time``.
 
     parameters: {name: value} set as initial values (Real, Integer, Boolean or String).

@@ -53,7 +53,7 @@ def _f(value, decimals):
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
 
-def _below(value, bound, unit):
+def _below(value, bound, unit) -> str:
     """'within <bound> <unit>' if value is below bound, else the value itself.
 
     Keeps rounding-level noise (which varies between platforms) out of the report.

@@ -30,8 +30,8 @@ QUICK_VARY = {
 }
 
 
-def run_shipped(sweep_dir, out_dir, fmu_dir="fmus", jobs=None, quick=False, scheduler=None,
-                names=SHIPPED, progress=True):
+def run_shipped(sweep_dir, out_dir, fmu_dir: str="fmus", jobs=None, quick: bool=False, scheduler=None,
+                names=SHIPPED, progress: bool=True):
     """Run the shipped sweeps into out_dir/<name>/; returns {name: summary}."""
     summaries = {}
     for name in names:

@@ -30,7 +30,7 @@ from . import design, measure, report
 
 
 def _write_rows(path, rows):
-    def write(handle):
+    def write(handle) -> None:
         writer = csv.DictWriter(handle, fieldnames=measure.COLUMNS, lineterminator="\n")
         writer.writeheader()
         for row in rows:
@@ -68,7 +68,7 @@ def pareto_markdown(rows, units):
                         for s in design.SCENES if s.name in units) + "\n"
 
 
-def _progress(done, total, point):
+def _progress(done, total, point) -> None:
     if done == total or done % 25 == 0:
         print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
 

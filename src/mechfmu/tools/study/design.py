@@ -69,7 +69,7 @@ class Point:
     step: float           # s, communication step
     coupling: str         # gauss_seidel or jacobi
 
-    def label(self):
+    def label(self) -> str:
         knob = (f"tol {self.tolerance:g}" if self.integrator in ADAPTIVE
                 else f"h {self.max_substep:g} s")
         return f"{self.integrator} {knob}, step {self.step:g} s, {self.coupling}"
@@ -83,7 +83,7 @@ def integrator_settings(study_scene, step):
     return settings
 
 
-def points(study_scene, couplings, quick=False):
+def points(study_scene, couplings, quick: bool=False):
     """Every point of the sweep for ``study_scene``; ``quick`` keeps a small, cheap corner
     of it (the two coarsest steps, six settings).
 

@@ -116,7 +116,7 @@ def run_point(point, scene, study_scene, reference_data, fmu_dir, repeats):
 _WORKER = {}  # per worker process: the scenes and references, sent once at start
 
 
-def _start_worker(payload):
+def _start_worker(payload) -> None:
     _WORKER.update(payload)
 
 
