@@ -30,7 +30,7 @@ class Comparison:
     ok: bool
     columns: list       # compared column names
     samples: int        # result samples inside the reference's time span
-    worst: Deviation    # largest deviation relative to its allowance (None if no samples)
+    worst: Deviation | None  # largest deviation relative to its allowance (None if no samples)
 
     def __str__(self) -> str:
         verdict = "match" if self.ok else "MISMATCH"

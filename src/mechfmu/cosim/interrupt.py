@@ -12,7 +12,7 @@ master asks ``requested`` between steps and stops cleanly there.
 import signal
 import threading
 from types import TracebackType
-from typing import Optional, Type
+from typing import Any, Optional, Type
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -41,7 +41,7 @@ class InterruptGuard:
     def __init__(self) -> None:
         self.signum = None
         self.taken = False
-        self._previous = {}
+        self._previous: dict[int, Any] = {}
 
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():

@@ -19,6 +19,7 @@ import weakref
 from ctypes import byref
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from fmpy import extract
 from fmpy.fmi1 import FMICallException
@@ -41,7 +42,9 @@ class SimulationError(RuntimeError):
 
     def __init__(self, component, time, message, result) -> None:
         self.component, self.time, self.result = component, time, result
-        self.paths, self.moved_aside, self.output_error = {}, [], None  # set by run_scene
+        self.paths: dict[str, Path] = {}  # set by run_scene
+        self.moved_aside: list[Path] = []
+        self.output_error: Exception | None = None
         super().__init__(f"component {component!r} failed at t = {time!r} s: {message}")
 
 
@@ -126,10 +129,10 @@ class LogBook:
     """
 
     _next_key = 1
-    _books = weakref.WeakValueDictionary()  # componentEnvironment value -> LogBook
+    _books: weakref.WeakValueDictionary[int, Any] = weakref.WeakValueDictionary()  # componentEnvironment value -> LogBook
 
     def __init__(self) -> None:
-        self.messages = []
+        self.messages: list[Any] = []
         self.key = LogBook._next_key
         LogBook._next_key += 1
         LogBook._books[self.key] = self
@@ -172,8 +175,8 @@ class Instances:
     def __init__(self, keep: bool=False) -> None:
         self.keep = keep
         self.logbook = LogBook()  # instances log through the book they were created with
-        self._folders = {}        # (FMU path, mtime, size) -> extracted folder
-        self._idle = {}           # (folder, instance name) -> [FMU2Slave ready to set up]
+        self._folders: dict[tuple, Path] = {}  # (FMU path, mtime, size) -> extracted folder
+        self._idle: dict[tuple, list] = {}  # (folder, instance name) -> [FMU2Slave ready to set up]
         self.created = self.reused = 0
 
     def acquire(self, component):
@@ -233,7 +236,7 @@ class _Component:
     def __init__(self, spec, path, description) -> None:
         self.spec, self.name, self.path, self.description = spec, spec.name, path, description
         self.variables = {v.name: v for v in description.modelVariables}
-        self.slave = None
+        self.slave: Any = None  # fmpy's FMU2Slave, from InstancePool.acquire
 
     def variable(self, name, where, causality=None):
         variable = self.variables.get(name)
@@ -285,7 +288,7 @@ def order_components(names, connections, feedthrough=None):
     """
     feedthrough = feedthrough or (lambda connection: True)
     hard = [c for c in connections if feedthrough(c)]
-    targets = {name: set() for name in names}
+    targets: dict[str, set[str]] = {name: set() for name in names}
     for connection in hard:
         targets[connection.source].add(connection.target)
     cycle = _find_cycle(names, targets)
@@ -373,7 +376,7 @@ class Simulation:
 
     def _check(self):
         where = str(self.scene.path)
-        fed = {}
+        fed: dict[tuple[str, str], str] = {}
         for connection in self.scene.connections:
             for name in (connection.source, connection.target):
                 if name not in self.components:
@@ -626,8 +629,8 @@ class CallTimer:
             self.total += _clock() - begin
             return status
         # A ctypes caller may read these from the function it looked up (fmpy's _call does).
-        timed.restype, timed.argtypes = function.restype, function.argtypes
-        timed.argnames = getattr(function, "argnames", None)
+        for name in ("restype", "argtypes", "argnames"):
+            setattr(timed, name, getattr(function, name, None))
         return timed
 
 
@@ -696,17 +699,17 @@ class _StepPlan:
     def __init__(self, simulation, timer) -> None:
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
-        members = {}  # (target, source, type) -> ([source outputs], [target inputs])
+        members: dict[tuple, tuple[list, list]] = {}  # (target, source, type) -> ([source outputs], [target inputs])
         for connection in simulation.connections:
             output = components[connection.source].variables[connection.output]
             outputs, inputs = members.setdefault(
                 (connection.target, connection.source, output.type), ([], []))
             outputs.append(output)
             inputs.append(components[connection.target].variables[connection.input])
-        groups = {}  # (source, type) -> [(member key, [source outputs])]
+        groups: dict[tuple, list] = {}  # (source, type) -> [(member key, [source outputs])]
         for key, (outputs, _) in members.items():
             groups.setdefault(key[1:], []).append((key, outputs))
-        recorded = {}
+        recorded: dict[tuple, list] = {}
         for full_name, component, variable in simulation.recorded:
             recorded.setdefault((component.name, variable.type), []).append((full_name, variable))
         self.outputs = {key: _Outputs(components[key[0]], key[1], groups.get(key, []),

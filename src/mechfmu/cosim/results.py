@@ -42,7 +42,7 @@ def read_csv(path):
 
 def versions():
     """Versions of the packages a result depends on."""
-    found = {"python": platform.python_version()}
+    found: dict[str, str | None] = {"python": platform.python_version()}
     for package in ("mechfmu", "fmpy", "pythonfmu", "numpy", "matplotlib"):
         try:
             found[package] = metadata.version(package)

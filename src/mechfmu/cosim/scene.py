@@ -27,14 +27,15 @@ into one of them, from any working directory.
 """
 
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .files import plain_file_name
 
-try:
+if sys.version_info >= (3, 11):
     import tomllib
-except ModuleNotFoundError:  # Python 3.10
+else:  # Python 3.10
     import tomli as tomllib
 
 
@@ -70,10 +71,10 @@ class Scene:
     step: float
     components: dict
     connections: list
-    record: list = None
+    record: list | None = None
     start_time: float = 0.0
     description: str = ""
-    reference: Path = None
+    reference: Path | None = None
     coupling: str = "gauss_seidel"
 
     @property

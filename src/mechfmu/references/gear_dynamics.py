@@ -9,9 +9,11 @@ output at the scene's sample times.
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from typing import Any
 
 from ..runtime.physics import gear_dynamics as gd
 from ..runtime.physics import landing_gear as gear
+from .events import ivp_event
 
 TOLERANCE = 1e-12
 
@@ -40,8 +42,7 @@ def stroke_crossings(dynamics):
     def crossing(limit):
         def event(t, y):
             return dynamics.piston_length(y) - limit
-        event.terminal = True
-        return event
+        return ivp_event(event, terminal=True)
     low, high = dynamics.stroke
     return [crossing(high), crossing(low)]
 
@@ -72,7 +73,7 @@ def simulate(values, times):
                          dense_output=True)
         pieces.append((t, t_next, step.sol))
         t, y = t_next, step.y[:, -1]
-    columns = {}
+    columns: dict[str, Any] = {}
     for time in times:
         for start, end, sol in reversed(pieces):
             if start <= time <= end:

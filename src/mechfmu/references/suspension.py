@@ -115,7 +115,7 @@ def equilibria(W, L, k, d):
             continue  # a root of the squared-in equation 2 k L v / s = -(W + 2 k v)
         found.append(_polish(h - v, W, L, k, d))
     found.sort()
-    unique = []
+    unique: list[float] = []
     for u in found:
         if not unique or u - unique[-1] > 1e-14 * scale:
             unique.append(u)

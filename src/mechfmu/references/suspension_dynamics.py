@@ -26,6 +26,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from . import suspension as statics
+from .events import ivp_event
 
 GRAVITY = 9.81
 NEAR, FAR, BETWEEN = 0, 1, 2
@@ -184,9 +185,9 @@ def simulate(system, times, u0, du0, breakpoints=(), method: str="DOP853", max_s
         return x[0] - system.base(t, x)[0]
 
     up = lambda t, x: deflection(t, x) - far_start  # noqa: E731
-    up.direction = 1.0
+    ivp_event(up, direction=1.0)
     down = lambda t, x: deflection(t, x) - near_end  # noqa: E731
-    down.direction = -1.0
+    ivp_event(down, direction=-1.0)
     edges = [t0] + sorted(b for b in breakpoints if t0 < b < t1) + [t1]
     state = system.initial(u0, du0, t0)
     states = np.empty((state.size, times.size))

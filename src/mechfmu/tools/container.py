@@ -99,16 +99,16 @@ def export_scene_fmu(scene_file, out, fmu_dir=None, sequential=None):
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="mechfmu_container_") as folder:
-        folder = Path(folder)
+        work = Path(folder)
         files = {}
         for name in simulation.order:
             # not "<name>.fmu": the container names the buffer of each link "<FMU>.<output>",
             # which would clash with the output "<name>.<output>" exposed under our name
             model = simulation.components[name].description.modelName
             files[name] = f"{name}.{model}.fmu"
-            shutil.copyfile(simulation.components[name].path, folder / files[name])
+            shutil.copyfile(simulation.components[name].path, work / files[name])
         identifier = "".join(c if c.isalnum() else "_" for c in scene.name) or "scene"
-        container = FMUContainer(identifier, folder, fmi_version=2)
+        container = FMUContainer(identifier, work, fmi_version=2)
         container.start_time, container.stop_time = scene.start_time, scene.stop_time
         for name in simulation.order:
             container.get_fmu(files[name])
@@ -131,7 +131,7 @@ def export_scene_fmu(scene_file, out, fmu_dir=None, sequential=None):
             for variable in simulation.components[name].variables.values():
                 if variable.causality == "output" and (name, variable.name) not in used:
                     container.drop_port(files[name], variable.name)  # neither linked nor recorded
-        built = folder / f"{identifier}.fmu"
+        built = work / f"{identifier}.fmu"
         with _quiet_builder(container):
             container.make_fmu(built.name, step_size=scene.step, sequential=sequential)
         shutil.move(str(built), out)

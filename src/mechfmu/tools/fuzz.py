@@ -29,6 +29,7 @@ import random
 import subprocess
 import sys
 import time
+from typing import Any
 from pathlib import Path
 
 MAX_STEPS = 12
@@ -296,7 +297,7 @@ def child(path, model_name, sequences, seed, progress, only=None):
     fuzzed = Fuzzed(path)
     variables = declarations(model_name, fuzzed.description)
     indices = [only] if only is not None else range(sequences)
-    totals = {"sequences": 0, "steps_ok": 0, "steps_discarded": 0, "findings": []}
+    totals: dict[str, Any] = {"sequences": 0, "steps_ok": 0, "steps_discarded": 0, "findings": []}
     started = time.perf_counter()
     with open(progress, "a", buffering=1) as log:
         for index in indices:

@@ -41,6 +41,7 @@ import math
 import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Any
 
 from fmpy import read_model_description
 
@@ -101,8 +102,8 @@ class _Part:
     def __init__(self, spec, description) -> None:
         self.spec, self.description = spec, description
         self.variables = {v.name: v for v in description.modelVariables}
-        self.connectors = set()  # variable names
-        self.resource = None     # resources/<Model>.fmu
+        self.connectors: set[str] = set()  # variable names
+        self.resource: str | None = None  # resources/<Model>.fmu
 
 
 def _refuse_unexpressible(scene):
@@ -122,7 +123,8 @@ def describe(scene, fmu_dir=None):
     simulation = Simulation(scene, fmu_dir)  # the master's checks, with its messages
     _refuse_unexpressible(scene)
     fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
-    parts, resources = {}, {}
+    parts: dict[str, Any] = {}
+    resources: dict[str, Path] = {}
     for name, spec in scene.components.items():
         path = resolve_fmu(spec, scene, fmu_dir).resolve()
         if name in simulation.components:
@@ -156,7 +158,7 @@ def describe(scene, fmu_dir=None):
                   description=" ".join(scene.description.split()) or None)
     elements = _sub(system, "ssd", "Elements")
     order = simulation.order + [name for name in scene.components if name not in simulation.order]
-    units = {}
+    units: dict[str, Any] = {}
     for name in order:
         part = parts[name]
         element = _sub(elements, "ssd", "Component", name=name, type=FMU_TYPE,
@@ -301,8 +303,8 @@ def experiment(ssp):
     if default is None or scene is None:
         raise ValueError(f"{ssp}: not an SSP exported by mechfmu (no DefaultExperiment or "
                          f"no {MECHFMU_ANNOTATION} annotation)")
-    return (float(default.get("startTime")), float(default.get("stopTime")),
-            float(scene.get("step")),
+    return (float(default.attrib["startTime"]), float(default.attrib["stopTime"]),
+            float(scene.attrib["step"]),
             [item.get("variable") for item in scene.findall(_tag("mechfmu", "Record"))])
 
 

@@ -49,8 +49,10 @@ from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from scipy.stats import qmc
 
 from ..cosim.files import atomic_write, inside, save_figure
 from ..cosim.results import read_csv, write_json
@@ -80,7 +82,7 @@ class Vary:
     variable: str
     start: float
     stop: float
-    count: int = None  # None: only a range (sampling)
+    count: int | None = None  # None: only a range (sampling)
 
     @property
     def name(self) -> str:
@@ -163,11 +165,7 @@ def grid_points(varies):
 def lhs_unit(samples, dimensions, seed):
     """Latin hypercube in [0, 1)^d: in each dimension exactly one sample per stratum
     [k/N, (k+1)/N), placed uniformly inside it; reproducible with ``seed``."""
-    rng = np.random.default_rng(seed)
-    unit = np.empty((samples, dimensions))
-    for d in range(dimensions):
-        unit[:, d] = (rng.permutation(samples) + rng.random(samples)) / samples
-    return unit
+    return qmc.LatinHypercube(d=dimensions, seed=seed).random(samples)
 
 
 def sample_points(varies, samples, seed, method: str="lhs"):
@@ -196,7 +194,7 @@ class Metric:
     text: str          # as given: the CSV column's name
     kind: str
     variable: str      # component.variable
-    threshold: float = None
+    threshold: float | None = None
 
 
 def parse_metric(text):
@@ -663,7 +661,8 @@ def _run_points(runner, tasks, arguments, retries, guard, record, summary):
     points that only shared a pool with it are never blamed. Every 0.25 s at most the
     guard is asked; a signal raises _Stopped.
     """
-    waiting, last_chance = list(tasks), []
+    waiting = list(tasks)
+    last_chance: list = []
     while waiting or last_chance:
         if waiting:
             pool, batch, waiting = runner, waiting, []
@@ -725,7 +724,8 @@ def _resumed_rows(csv_path, json_path, summary, header):
         what = ", ".join(differ) or "CSV columns"
         raise SweepError(f"cannot resume the sweep in {csv_path.parent}: its {what} differ "
                          f"from this one's; run it without --resume, or into another --out")
-    kept, error_column = {}, header.index("error")
+    kept: dict[Any, Any] = {}
+    error_column = header.index("error")
     for line in lines[1:]:
         if len(line) == len(header) and not line[error_column] and line[0].isdigit() \
                 and int(line[0]) < summary["points"]:

@@ -29,6 +29,7 @@ from ..references import gear_dynamics as gear_reference
 from ..references import suspension as statics
 from ..references import suspension_dynamics as dynamics
 from ..references import valve_train as valve_reference
+from ..references.events import ivp_event
 from .scene_references import model_defaults, start_values
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
@@ -153,18 +154,18 @@ def sudden_load_snaps(mass, damping_coefficient, spring_free_length: float=0.5, 
 
     def snap(t, x):
         return x[0] - far_start
-    snap.terminal, snap.direction = True, 1.0
+    ivp_event(snap, terminal=True, direction=1.0)
 
     # Both "no snap" events count only before the saddle: max(., u - u2) stays positive past
     # it and is still continuous, so solve_ivp's root finding applies.
     def turn(t, x):
         return max(x[1], x[0] - u2)
-    turn.terminal, turn.direction = True, -1.0
+    ivp_event(turn, terminal=True, direction=-1.0)
 
     def below_saddle(t, x):
         energy = 0.5 * m * x[1] * x[1] + _spring_energy(x[0], L, k, d) - W * x[0]
         return max(energy - saddle_level, x[0] - u2)
-    below_saddle.terminal, below_saddle.direction = True, -1.0
+    ivp_event(below_saddle, terminal=True, direction=-1.0)
 
     solution = solve_ivp(system, (0.0, SUSPENSION_MAX_TIME), system.initial(0.0, 0.0, 0.0),
                          method="DOP853", rtol=SUSPENSION_TOLERANCE, atol=SUSPENSION_TOLERANCE,

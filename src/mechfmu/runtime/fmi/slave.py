@@ -34,7 +34,7 @@ def _same_time(a, b):
 class MechSlave(Binding):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 
-    VARIABLES = ()
+    VARIABLES: tuple[Variable, ...] = ()
     author = "mechfmu"
     license = "MIT"
 
@@ -47,7 +47,7 @@ class MechSlave(Binding):
         self.stale = True  # initialisation-mode outputs need computing (an input changed)
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
-        self.pending_error = None  # reported by the next doStep
+        self.pending_error: str | None = None  # reported by the next doStep
         self.integrator = None  # set by IntegratingSlave.check_parameters (fmi/integrating.py)
         self.real_inputs = tuple(v.name for v in self.VARIABLES
                                  if v.causality == "input" and v.kind is float)

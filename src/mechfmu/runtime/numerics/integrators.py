@@ -203,7 +203,7 @@ class Integrator:
     (restart() forgets it, e.g. after a discontinuity in the model).
     """
 
-    method = None
+    method: str | None = None
 
     def __init__(self, rtol: float=1e-8, atol: float=1e-10, max_substep=math.inf) -> None:
         self.rtol = _check_tolerance("rtol", rtol)
@@ -216,8 +216,8 @@ class Integrator:
         self.stats = Stats()
         self._budget = MAX_SUBSTEPS
         self._growth_limit = math.inf
-        self.time_limit = None  # s of wall-clock time, set by start_clock
-        self.deadline = None  # time.monotonic() value past which a call stops
+        self.time_limit: float | None = None  # s of wall-clock time, set by start_clock
+        self.deadline: float | None = None  # time.monotonic() value past which a call stops
         self.restart()
 
     def __repr__(self) -> str:
@@ -573,8 +573,10 @@ class FixedStepRungeKutta(Integrator):
     1e150 and its derivative or the state overflows to a non-finite value.
     """
 
-    A = B = C = ()
-    order = None
+    A: tuple[tuple[float, ...], ...] = ()
+    B: tuple[float, ...] = ()
+    C: tuple[float, ...] = ()
+    order: int | None = None
     _too_many_advice = "increase max_substep or shorten the communication step"
 
     def _substep(self, f, t, y, t_limit):
@@ -762,16 +764,16 @@ class RadauIIA5(Integrator):
         self._h = None
         self._h_old = None
         self._error_old = None
-        self._J = None
+        self._J: list[list[float]] | None = None
         self._J_version = 0
         self._J_current = False
         self._jac_due = False
-        self._lu = None  # (h, J_version, LU_real, LU_complex)
+        self._lu: tuple | None = None  # (h, J_version, LU_real, LU_complex)
         self._begin_call()
 
     def _begin_call(self) -> None:
         self._f0 = None
-        self._previous = None  # (h, Z) of the last accepted step, for the Newton guess
+        self._previous: tuple | None = None  # (h, Z) of the last accepted step, for the Newton guess
         self._J_current = False
 
     @property
@@ -808,6 +810,7 @@ class RadauIIA5(Integrator):
         if cached is not None and cached[0] == h and cached[1] == self._J_version:
             return cached[2], cached[3]
         J = self._J
+        assert J is not None  # _jacobian ran before the first factorisation
         n = len(J)
         real = [[(self.MU_REAL / h if i == j else 0.0) - J[i][j] for j in range(n)]
                 for i in range(n)]

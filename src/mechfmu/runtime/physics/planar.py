@@ -435,8 +435,8 @@ class BranchFollower:
         self.mechanism = mechanism
         self.tolerance, self.max_iterations = tolerance, max_iterations
         self.singularity_threshold = singularity_threshold
-        self.solution = None
-        self.drive = None
+        self.solution: Solution | None = None
+        self.drive: list[tuple[float, ...]] | None = None
         self.sign = 0
 
     def snapshot(self):
@@ -477,6 +477,7 @@ class BranchFollower:
         if refused:
             raise refused
         last = self.solution
+        assert last is not None  # follow() comes after assemble()
         guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         try:
             solution, sign = self._solve(guess, drive)
@@ -495,6 +496,7 @@ class BranchFollower:
         return solution
 
     def _end_is_singular(self, drive) -> bool:
+        assert self.solution is not None  # follow() comes after assemble()
         try:
             _, sign = self._solve(self.solution.q, drive)
             return False
@@ -506,7 +508,9 @@ class BranchFollower:
     def _continue(self, drive):
         """Split the drive change into 2, 4, ... pieces; each piece predicted along the
         branch tangent dq/ds (J dq/ds = d(drive)/ds on the driver rows)."""
-        start, last_error = self.drive, None
+        start = self.drive
+        assert start is not None and self.solution is not None  # after assemble()
+        last_error: SingularConfiguration | NoConvergence | None = None
         furthest = (0.0, self.solution)  # furthest fraction of the change reached, and where
         for halvings in range(1, MAX_CONTINUATION_HALVINGS + 1):
             pieces = 2 ** halvings
@@ -547,6 +551,7 @@ class BranchFollower:
                 f"{self.mechanism.singular_position(solution.q)} (condition number "
                 f"{solution.condition:.3g}, {reached:.4g} of the way from the last step), and "
                 f"Newton-Raphson finds no position beyond it") from last_error
+        assert last_error is not None  # every halving raised one
         raise last_error
 
     def _tangent_predictor(self, q, start, end, fraction):

@@ -111,7 +111,8 @@ def read_table(path):
 
     Times must be finite and strictly increasing; at least one row is needed.
     """
-    times, values = [], []
+    times: list[float] = []
+    values: list[float] = []
     header_seen = False
     try:
         with open(path, newline="", encoding="utf-8") as handle:

@@ -17,7 +17,7 @@ class Settings:
     repeats: int
     master_lengths_s: tuple  # (short, long) stop times of the gear scene
     model_steps: int
-    effects_stop_time_s: float = None  # None: the scenes as written (3 s)
+    effects_stop_time_s: float | None = None  # None: the scenes as written (3 s)
     sweep_scenes: int = 1000  # scenes of the sweep benchmark, run once on 1 and on 2 workers
 
 

@@ -39,7 +39,7 @@ class Row:
     value: float
     unit: str
     repeats: int
-    target: Target = None
+    target: Target | None = None
     notes: str = ""
 
     def meets_target(self):

@@ -15,7 +15,7 @@ def side_by_side_medians(measurements, repeats):
     """
     for run in measurements.values():
         run()  # warm-up: first loads of libraries and modules, caches, lazy imports
-    samples = {name: [] for name in measurements}
+    samples: dict[str, list[dict[str, float]]] = {name: [] for name in measurements}
     for _ in range(repeats):
         for name, run in measurements.items():
             samples[name].append(run())

@@ -14,6 +14,7 @@ import math
 import statistics
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_context
+from typing import Any
 
 import numpy as np
 
@@ -113,7 +114,7 @@ def run_point(point, scene, study_scene, reference_data, fmu_dir, repeats):
 
 # --- parallel execution -----------------------------------------------------------------
 
-_WORKER = {}  # per worker process: the scenes and references, sent once at start
+_WORKER: dict[str, Any] = {}  # per worker process: the scenes and references, sent once at start
 
 
 def _start_worker(payload) -> None:
