@@ -44,8 +44,6 @@ import sys
 import tempfile
 import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from datetime import datetime, timezone
 from pathlib import Path
@@ -57,6 +55,8 @@ from scipy.stats import qmc
 from ..cosim.files import atomic_write, inside, save_figure
 from ..cosim.results import read_csv, write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml
+from .parallel import LocalPool
+from .progress import Progress
 
 
 class SweepError(ValueError):
@@ -424,46 +424,6 @@ def resolve_fmus(scene, fmu_dir):
 
 # --- where the points run ----------------------------------------------------------------------
 
-class LocalPool:
-    """Worker processes on this machine (concurrent.futures), reading the FMUs in place.
-
-    A worker process that dies (killed, out of memory, a crash in an FMU) breaks the whole
-    executor: every point not finished is lost with BrokenProcessPool. ``restart`` replaces
-    the executor; run_sweep resubmits the lost points (see _run_points)."""
-
-    def __init__(self, jobs) -> None:
-        self.workers, self.where = jobs, f"local, {jobs} process(es)"
-        self.executor = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
-
-    def ship(self, paths):
-        return None
-
-    def submit(self, *arguments):
-        return self.executor.submit(run_point, *arguments)
-
-    def wait(self, futures, timeout):
-        """The futures among ``futures`` that are done, waiting up to ``timeout`` s for one."""
-        return wait(futures, timeout=timeout, return_when=FIRST_COMPLETED).done
-
-    @staticmethod
-    def lost(error):
-        """Whether a point failed because its worker process died (not because of itself)."""
-        return isinstance(error, BrokenProcessPool)
-
-    def restart(self) -> None:
-        """A new executor in place of a broken one."""
-        self.executor.shutdown(wait=False, cancel_futures=True)
-        self.executor = ProcessPoolExecutor(max_workers=self.workers, initializer=_worker_init)
-
-    def alone(self):
-        """A pool of one new worker process, for a point on its last attempt: if that worker
-        dies too, the point is the cause, not a neighbour."""
-        return LocalPool(1)
-
-    def close(self, interrupted) -> None:
-        self.executor.shutdown(wait=not interrupted, cancel_futures=interrupted)
-
-
 class DaskCluster:
     """An existing Dask cluster (``--scheduler tcp://HOST:PORT``). The FMUs are sent to the
     workers once (scattered) with their content hash, so the workers need mechfmu and a
@@ -588,25 +548,6 @@ def _format(value):
 
 def safe_name(text):
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
-
-
-class Progress:
-    """One line on stderr: done/total, rate, time left; ``already``: points done before
-    (a resumed sweep), not counted in the rate."""
-
-    def __init__(self, total, stream=None, already=0) -> None:
-        self.total, self.started, self.already = total, time.perf_counter(), already
-        self.stream = stream or sys.stderr
-
-    def update(self, done, failed) -> None:
-        elapsed = time.perf_counter() - self.started
-        rate = (done - self.already) / elapsed if elapsed > 0 else 0.0
-        left = (self.total - done) / rate if rate > 0 else math.inf
-        left_text = f"{left:.0f} s" if math.isfinite(left) else "?"
-        end = "\n" if done == self.total else ""
-        self.stream.write(f"\rsweep: {done}/{self.total} done ({failed} failed), "
-                          f"{rate:.2f} scenes/s, {left_text} left   {end}")
-        self.stream.flush()
 
 
 DEFAULT_RETRIES = 2  # extra attempts of a point whose worker process died; the last one alone
@@ -807,7 +748,7 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
         "scenes_per_s": None, "csv": str(csv_path), "command": sys.argv,
     }
     kept = _resumed_rows(csv_path, json_path, summary, header) if resume else []
-    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs)
+    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs, run_point, _worker_init)
     summary.update(jobs=runner.workers, where=runner.where, resumed=len(kept), done=len(kept))
     finished = {int(line[0]) for line in kept}
     tasks = []

@@ -278,6 +278,7 @@ def run_libcosim(fmu_path, parameters=None, inputs=None, step: float=0.01, stop_
                                         f"after step {k + 1}, expected {(k + 1) * step_ns} ns")
         return samples(count)
     finally:
-        # The execution owns the instance; destroy it first, then the objects it used.
-        del execution
-        del manipulator, observer, slave
+        # The execution owns the instance; destroy it first, then the objects it used (the
+        # names are rebound, not deleted: the closures above still refer to them).
+        execution = None
+        manipulator = observer = slave = None

@@ -26,6 +26,7 @@ from pathlib import Path
 from ...cosim.files import atomic_write
 from ...cosim.master import Simulation
 from ...cosim.results import versions
+from ..progress import Progress
 from . import design, measure, report
 
 
@@ -68,11 +69,6 @@ def pareto_markdown(rows, units):
                         for s in design.SCENES if s.name in units) + "\n"
 
 
-def _progress(done, total, point) -> None:
-    if done == total or done % 25 == 0:
-        print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
-
-
 def command(args):
     """``mechfmu study`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
@@ -93,8 +89,10 @@ def command(args):
         points += design.points(study_scene, design.couplings_of(scene), args.quick)
     print(f"running {len(points)} points on {args.workers} worker(s), "
           f"{args.repeats} repeat(s) each", flush=True)
+    meter = Progress(len(points), sys.stdout, label="study", unit="points")
     rows = measure.run_points(points, scenes, args.fmu_dir, args.repeats, args.workers,
-                              _progress)
+                              lambda done, total, point: meter.update(
+                                  done, note=f"{point.scene}: {point.label()}"))
     # Studying some scenes again keeps the rows of the others from the previous study.
     previous = out / "accuracy_cost.csv"
     kept = [row for row in read_rows(previous) if row["scene"] not in scenes] \

@@ -12,13 +12,12 @@ often (``max_error``, ``rms_error``), and at every point of the run (``max_error
 import dataclasses
 import math
 import statistics
-from concurrent.futures import ProcessPoolExecutor
-from multiprocessing import get_context
 from typing import Any
 
 import numpy as np
 
 from ...cosim.master import Simulation, SimulationError
+from ..parallel import LocalPool
 from ..scene_references import REFERENCES, sample_times
 from .design import configure, counters
 
@@ -144,11 +143,12 @@ def run_points(points, scenes, fmu_dir, repeats, workers, progress=None):
                 progress(done, len(ordered), point)
         return rows
     # spawn: a fresh interpreter per worker, with no FMU loaded before it starts
-    with ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
-                             initializer=_start_worker, initargs=(payload,)) as pool:
-        for done, (point, point_rows) in enumerate(
-                zip(ordered, pool.map(_run_in_worker, ordered)), 1):
+    pool = LocalPool(workers, _run_in_worker, _start_worker, (payload,), context="spawn")
+    try:
+        for done, (point, point_rows) in enumerate(zip(ordered, pool.map(ordered)), 1):
             rows.extend(point_rows)
             if progress:
                 progress(done, len(ordered), point)
+    finally:
+        pool.close()
     return rows
