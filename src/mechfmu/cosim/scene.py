@@ -39,6 +39,15 @@ else:  # Python 3.10
     import tomli as tomllib
 
 
+def refuse_unknown_keys(table, allowed, where, error=None):
+    """Raise ``error`` (default SceneError) naming the keys of the TOML ``table`` that are
+    not ``allowed``, at ``where`` (the file, and the table in it)."""
+    unknown = set(table) - set(allowed)
+    if unknown:
+        raise (error or SceneError)(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
+                                    f"allowed: {', '.join(sorted(allowed))}")
+
+
 class SceneError(ValueError):
     """A scene that cannot run as written; the message names the offending item."""
 
@@ -127,10 +136,7 @@ def parse_scene(data, path):
     """Build a Scene from parsed TOML ``data``; ``path`` locates relative files."""
     path = Path(path)
     where = str(path)
-    unknown = set(data) - _SCENE_KEYS
-    if unknown:
-        raise SceneError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
-                         f"allowed: {', '.join(sorted(_SCENE_KEYS))}")
+    refuse_unknown_keys(data, _SCENE_KEYS, where)
     start_time = _number(data, "start_time", where, 0.0)
     stop_time = _number(data, "stop_time", where)
     step = _number(data, "step", where)
@@ -151,10 +157,7 @@ def parse_scene(data, path):
         cwhere = f"{where}: component {name!r}"
         if not isinstance(spec, dict):
             raise SceneError(f"{cwhere} must be a table")
-        unknown = set(spec) - _COMPONENT_KEYS
-        if unknown:
-            raise SceneError(f"{cwhere}: unknown key(s) {', '.join(sorted(unknown))}; "
-                             f"allowed: {', '.join(sorted(_COMPONENT_KEYS))}")
+        refuse_unknown_keys(spec, _COMPONENT_KEYS, cwhere)
         if not isinstance(spec.get("fmu"), str):
             raise SceneError(f"{cwhere}: missing 'fmu' (a model name or an .fmu path)")
         parameters = dict(spec.get("parameters", {}))

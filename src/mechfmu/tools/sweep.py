@@ -54,7 +54,7 @@ from scipy.stats import qmc
 
 from ..cosim.files import atomic_write, inside, save_figure
 from ..cosim.results import read_csv, write_json
-from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml
+from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
 from .parallel import LocalPool
 from .progress import Progress
 
@@ -868,10 +868,7 @@ def load_sweep_file(path):
     """
     path = Path(path)
     data = read_toml(path, SweepError, "sweep file")
-    unknown = set(data) - SWEEP_KEYS
-    if unknown:
-        raise SweepError(f"{path}: unknown key(s) {', '.join(sorted(unknown))}; allowed: "
-                         f"{', '.join(sorted(SWEEP_KEYS))}")
+    refuse_unknown_keys(data, SWEEP_KEYS, path, SweepError)
     if not isinstance(data.get("scene"), str):
         raise SweepError(f"{path}: 'scene' must name a scene file")
     for key in ("vary", "link", "metrics"):

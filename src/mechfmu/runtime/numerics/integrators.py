@@ -622,7 +622,16 @@ class RK4(FixedStepRungeKutta):
     B = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
 
 
-class DormandPrince45(Integrator):
+class _Adaptive(Integrator):
+    """An integrator with error control: each new sub-step is the last one times a factor,
+    SAFETY * (the method's error estimate)^(-1/order) within [MIN_FACTOR, MAX_FACTOR]."""
+
+    SAFETY = 0.9
+    MIN_FACTOR = 0.2
+    MAX_FACTOR = 5.0
+
+
+class DormandPrince45(_Adaptive):
     """Dormand-Prince 5(4) [DP], [HNW] II.5 Table 5.2, propagating the 5th-order solution.
 
     FSAL: the 7th stage f(t + h, y1) is the first stage of the next step, so an accepted
@@ -647,9 +656,6 @@ class DormandPrince45(Integrator):
          (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656))
     B = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84)
     E = (-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40)
-    SAFETY = 0.9
-    MIN_FACTOR = 0.2
-    MAX_FACTOR = 5.0
     _too_many_advice = ("the problem is probably stiff (an explicit method needs tiny steps "
                         "to stay stable), use radau")
 
@@ -713,7 +719,7 @@ class DormandPrince45(Integrator):
 _S6 = 6 ** 0.5
 
 
-class RadauIIA5(Integrator):
+class RadauIIA5(_Adaptive):
     """Implicit Radau IIA, 3 stages, order 5, stiffly accurate and L-stable [HW] IV.5, IV.8.
 
     Each step solves the stage system Z_i = h sum_j a_ij f(t + c_j h, y + Z_j) by
@@ -754,8 +760,6 @@ class RadauIIA5(Integrator):
     TI = ((4.17871859155190428, 0.32768282076106237, 0.52337644549944951),
           (-4.17871859155190428, -0.32768282076106237, 0.47662355450055044),
           (0.50287263494578682, -2.57192694985560522, 0.59603920482822492))
-    SAFETY = 0.9
-    MIN_FACTOR = 0.2
     MAX_FACTOR = 10.0
     _too_many_advice = ("the solution varies too fast for the tolerances; check the model "
                         "for discontinuities or loosen rtol/atol")

@@ -72,13 +72,20 @@ def stroke(time, start_extension, end_extension, stroke_time, profile, start_tim
                   travel * 2.0 * math.pi * math.sin(angle) / stroke_time ** 2)
 
 
+def check_shape(shape, shapes, finite):
+    """Raise MechanismError unless ``shape`` is one of ``shapes`` and each (name, value,
+    unit) of ``finite`` is a finite number (checked in that order)."""
+    if shape not in shapes:
+        raise MechanismError(f"shape = {shape!r} is not one of {', '.join(shapes)}")
+    for name, value, unit in finite:
+        require_finite(name, value, unit)
+
+
 def check_load(shape, initial_value, final_value, start_time, duration):
     """Validate load-shape parameters."""
-    if shape not in LOAD_SHAPES:
-        raise MechanismError(f"shape = {shape!r} is not one of {', '.join(LOAD_SHAPES)}")
-    require_finite("initial_value", initial_value, "N")
-    require_finite("final_value", final_value, "N")
-    require_finite("start_time", start_time, "s")
+    check_shape(shape, LOAD_SHAPES, (("initial_value", initial_value, "N"),
+                                     ("final_value", final_value, "N"),
+                                     ("start_time", start_time, "s")))
     if shape == "ramp":
         require_positive("duration", duration, "s")
 

@@ -17,19 +17,16 @@ the wheel up, i.e. the suspension's downward displacements decrease.
 
 import math
 
-from ..errors import MechanismError, require_finite, require_positive
-from .profiles import TIME_SNAP, Sample, interpolate
+from ..errors import require_positive
+from .profiles import TIME_SNAP, Sample, check_shape, interpolate
 
 ROAD_SHAPES = ("step", "bump", "sine", "table")
 
 
 def check_road(shape, height, duration, start_time, amplitude, frequency):
     """Validate road parameters (only the ones the shape uses must be usable)."""
-    if shape not in ROAD_SHAPES:
-        raise MechanismError(f"shape = {shape!r} is not one of {', '.join(ROAD_SHAPES)}")
-    require_finite("start_time", start_time, "s")
-    require_finite("height", height, "m")
-    require_finite("amplitude", amplitude, "m")
+    check_shape(shape, ROAD_SHAPES, (("start_time", start_time, "s"), ("height", height, "m"),
+                                     ("amplitude", amplitude, "m")))
     if shape == "bump":
         require_positive("duration", duration, "s")
     if shape == "sine":

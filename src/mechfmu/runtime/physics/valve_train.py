@@ -448,16 +448,23 @@ def _slider_rates(link, t1, t2, omega, alpha, singular):
     return rate, (alpha * _dot(link, t1) + omega * omega * _dot(link, t2) + _dot(rel, rel)) / link[1]
 
 
+def _chain_rates(driving, driven, rate, acceleration, driving_singular, driven_singular):
+    """Through the rocker: its (omega, alpha) from the driving slider's ``rate`` and
+    ``acceleration`` (vectors ``driving``), then the driven slider's (rate, acceleration)
+    (vectors ``driven``); the messages name each singular position."""
+    omega, alpha = _rocker_rates(*driving, rate, acceleration, driving_singular)
+    driven_rate, driven_acceleration = _slider_rates(*driven, omega, alpha, driven_singular)
+    return omega, alpha, driven_rate, driven_acceleration
+
+
 def _motion_from_tappet(g, y3_closed, lift, velocity, acceleration):
     """forward without the input checks (float_speed calls it many times)."""
     y1 = g.cam_base_radius + lift
     phi = rocker_from_tappet(g, lift)
     y3 = valve_from_rocker(g, phi)
-    omega, alpha = _rocker_rates(
-        *_tappet_vectors(g, phi, y1), velocity, acceleration,
-        f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined")
-    y3_rate, y3_accel = _slider_rates(
-        *_valve_vectors(g, phi, y3), omega, alpha,
+    omega, alpha, y3_rate, y3_accel = _chain_rates(
+        _tappet_vectors(g, phi, y1), _valve_vectors(g, phi, y3), velocity, acceleration,
+        f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined",
         f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined")
     return ValveTrainMotion(lift, velocity, acceleration, phi, omega, alpha,
                             y3_closed - y3, -y3_rate, -y3_accel)
@@ -487,11 +494,9 @@ def inverse(g, valve_lift, valve_velocity, valve_acceleration):
     y3 = rest_position(g)[1] - lift
     phi = rocker_from_valve(g, y3)
     y1 = tappet_from_rocker(g, phi)
-    omega, alpha = _rocker_rates(
-        *_valve_vectors(g, phi, y3), -velocity, -acceleration,
-        f"valve_lift = {lift!r} m: valve link and valve arm in line, rates undefined")
-    y1_rate, y1_accel = _slider_rates(
-        *_tappet_vectors(g, phi, y1), omega, alpha,
+    omega, alpha, y1_rate, y1_accel = _chain_rates(
+        _valve_vectors(g, phi, y3), _tappet_vectors(g, phi, y1), -velocity, -acceleration,
+        f"valve_lift = {lift!r} m: valve link and valve arm in line, rates undefined",
         f"valve_lift = {lift!r} m: pushrod horizontal, tappet rates undefined")
     return ValveTrainMotion(y1 - g.cam_base_radius, y1_rate, y1_accel, phi, omega, alpha,
                             lift, velocity, acceleration)
