@@ -11,6 +11,7 @@ import math
 from collections import namedtuple
 
 from ..errors import MechanismError, RangeError, require_finite, require_positive
+from typing import Any
 
 Sample = namedtuple("Sample", "value rate rate2")
 
@@ -23,7 +24,7 @@ LOAD_SHAPES = ("constant", "ramp", "step", "table")
 TIME_SNAP = 1e-9
 
 
-def _phase(time, start_time, duration):
+def _phase(time: float, start_time: float, duration: float) -> float:
     """Normalised time tau in [0, 1] through a segment, snapped at both ends."""
     tau = (time - start_time) / duration
     if abs(tau) <= TIME_SNAP:
@@ -33,7 +34,7 @@ def _phase(time, start_time, duration):
     return tau
 
 
-def check_stroke(start_extension, end_extension, stroke_time, profile, start_time: float=0.0):
+def check_stroke(start_extension: float, end_extension: float, stroke_time: float, profile: str | None, start_time: float=0.0) -> None:
     """Validate stroke parameters; stroke_time must lie in (0, 4] s."""
     require_finite("start_extension", start_extension, "m")
     require_finite("end_extension", end_extension, "m")
@@ -46,7 +47,7 @@ def check_stroke(start_extension, end_extension, stroke_time, profile, start_tim
         raise MechanismError(f"profile = {profile!r} is not one of {', '.join(STROKE_PROFILES)}")
 
 
-def stroke(time, start_extension, end_extension, stroke_time, profile, start_time: float=0.0):
+def stroke(time: float, start_extension: float, end_extension: float, stroke_time: float, profile: str, start_time: float=0.0) -> "Sample":
     """Piston extension (m), speed (m/s) and acceleration (m/s^2) at ``time`` (s).
 
     constant_speed: x moves linearly from start to end over stroke_time, then holds
@@ -81,7 +82,7 @@ def check_shape(shape, shapes, finite):
         require_finite(name, value, unit)
 
 
-def check_load(shape, initial_value, final_value, start_time, duration):
+def check_load(shape: str, initial_value: float, final_value: float, start_time: float, duration: float) -> None:
     """Validate load-shape parameters."""
     check_shape(shape, LOAD_SHAPES, (("initial_value", initial_value, "N"),
                                      ("final_value", final_value, "N"),
@@ -90,7 +91,7 @@ def check_load(shape, initial_value, final_value, start_time, duration):
         require_positive("duration", duration, "s")
 
 
-def load(time, shape, initial_value, final_value, start_time, duration, table=None):
+def load(time: float, shape: str, initial_value: float, final_value: float, start_time: float, duration: float, table: tuple[list[float], list[float]] | None=None) -> "Sample":
     """Load value (N), rate (N/s) and second rate (N/s^2) at ``time`` (s).
 
     constant: initial_value. step: initial_value before start_time, final_value from it on.
@@ -113,7 +114,7 @@ def load(time, shape, initial_value, final_value, start_time, duration, table=No
     return interpolate(table, time)
 
 
-def read_table(path):
+def read_table(path: Any) -> tuple[list[float], list[float]]:
     """Read a two-column CSV (time in s, value; a header row is allowed) into sorted lists.
 
     Times must be finite and strictly increasing; at least one row is needed.
@@ -148,7 +149,7 @@ def read_table(path):
     return times, values
 
 
-def interpolate(table, time):
+def interpolate(table: tuple[list[float], list[float]], time: float) -> "Sample":
     """Piecewise-linear value and slope of ``table`` at ``time``, held outside its range."""
     times, values = table
     if time <= times[0]:

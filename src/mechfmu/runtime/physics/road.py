@@ -23,7 +23,7 @@ from .profiles import TIME_SNAP, Sample, check_shape, interpolate
 ROAD_SHAPES = ("step", "bump", "sine", "table")
 
 
-def check_road(shape, height, duration, start_time, amplitude, frequency):
+def check_road(shape: str, height: float, duration: float, start_time: float, amplitude: float, frequency: float):
     """Validate road parameters (only the ones the shape uses must be usable)."""
     check_shape(shape, ROAD_SHAPES, (("start_time", start_time, "s"), ("height", height, "m"),
                                      ("amplitude", amplitude, "m")))
@@ -33,7 +33,7 @@ def check_road(shape, height, duration, start_time, amplitude, frequency):
         require_positive("frequency", frequency, "Hz")
 
 
-def bump(time, height, duration, start_time: float=0.0):
+def bump(time: float, height: float, duration: float, start_time: float=0.0) -> Sample:
     """One-cosine bump: height (m), rate (m/s), second rate (m/s^2); 0 outside it."""
     tau = (time - start_time) / duration
     if abs(tau) <= TIME_SNAP or abs(tau - 1.0) <= TIME_SNAP or tau < 0.0 or tau > 1.0:
@@ -45,7 +45,7 @@ def bump(time, height, duration, start_time: float=0.0):
                   height * 2.0 * rate_scale * rate_scale * math.cos(angle))
 
 
-def sine(time, amplitude, frequency, start_time: float=0.0):
+def sine(time: float, amplitude: float, frequency: float, start_time: float=0.0) -> Sample:
     """amplitude sin(2 pi f (t - start_time)) from start_time on, 0 before."""
     if time < start_time - TIME_SNAP:
         return Sample(0.0, 0.0, 0.0)
@@ -55,13 +55,13 @@ def sine(time, amplitude, frequency, start_time: float=0.0):
                   -amplitude * omega * omega * math.sin(angle))
 
 
-def step(time, height, start_time: float=0.0):
+def step(time: float, height: float, start_time: float=0.0) -> Sample:
     """0 before start_time, ``height`` from it on (times within TIME_SNAP count as on it)."""
     return Sample(height if time >= start_time - TIME_SNAP else 0.0, 0.0, 0.0)
 
 
-def road(time, shape, height: float=0.0, duration: float=1.0, start_time: float=0.0, amplitude: float=0.0,
-         frequency: float=1.0, table=None):
+def road(time: float, shape: str, height: float=0.0, duration: float=1.0, start_time: float=0.0, amplitude: float=0.0,
+         frequency: float=1.0, table: tuple[list[float], list[float]] | None=None) -> Sample:
     """Road height (m), rate (m/s), second rate (m/s^2) at ``time`` for any shape."""
     if shape == "step":
         return step(time, height, start_time)
