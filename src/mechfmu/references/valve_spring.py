@@ -47,6 +47,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 from . import drives, valve_train
+from numpy import ndarray
+from collections.abc import Callable
 
 TOLERANCE = 1e-12
 TABLE_SPACING = 1e-5  # s, between the nodes of the tabulated drive
@@ -69,18 +71,18 @@ class RockerDrive:
     """L(t), L'(t), L''(t) of the rocker's valve end, and the times where they lose
     smoothness. ``shaft``: CamshaftDrive parameters; ``train``: ValveTrain parameters."""
 
-    def __init__(self, shaft, train) -> None:
+    def __init__(self, shaft: dict[str, float], train: dict[str, float]) -> None:
         self.shaft = shaft
         self.train = train
         self.geometry = {key: train[key] for key in valve_train.GEOMETRY_FIELDS}
         self.solve = valve_train.inverse if train["mode"] == "inverse" else valve_train.forward
 
-    def rotation(self, t):
+    def rotation(self, t: float | ndarray) -> dict[str, float | ndarray]:
         s = self.shaft
         return drives.rotation(t, s["initial_angle"], s["initial_speed"], s["speed"],
                                s["ramp_time"], s["start_time"], ratio=0.5)
 
-    def __call__(self, t):
+    def __call__(self, t: float | ndarray) -> tuple[ndarray, ndarray, ndarray] | tuple[float, float, float]:
         p = self.train
         shaft = self.rotation(t)
         w, alpha = shaft["speed"], shaft["acceleration"]
@@ -107,7 +109,7 @@ class RockerDrive:
                                     times[i - 1], times[i], xtol=1e-15, rtol=1e-15))
         return sorted(set(found))
 
-    def piece(self, a, b):
+    def piece(self, a: float, b: float) -> Callable:
         """Fast scalar L(t), L'(t), L''(t) on [a, b], a smooth piece of the drive: the
         quintic interpolation of exact values at nodes about TABLE_SPACING apart. The end
         nodes take the values just inside [a, b] (the piece's one-sided limits)."""
@@ -136,14 +138,14 @@ class RockerDrive:
         return drive
 
 
-def _horner(coefficients, u):
+def _horner(coefficients: tuple[float, float, float, float, float, float] | tuple[float, float, float, float] | tuple[float, float, float, float, float], u: float) -> float:
     total = 0.0
     for c in reversed(coefficients):
         total = total * u + c
     return total
 
 
-def _unit_quintic():
+def _unit_quintic() -> ndarray:
     """Inverse of the map from the coefficients of a quintic on [0, 1] to its values and
     first two derivatives at 0 and 1."""
     powers = np.arange(6)

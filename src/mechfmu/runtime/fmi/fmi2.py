@@ -12,6 +12,7 @@ from pythonfmu import (Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Varia
                        Real, String)
 
 from .declarations import describe, reading_initial_outputs, registered, unit_definitions
+from .declarations import Variable
 
 _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 
@@ -19,7 +20,7 @@ _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 class Fmi2Binding(Fmi2Slave):
     """pythonfmu's Fmi2Slave, fed from MechSlave's declarations."""
 
-    def register_declared(self, variable) -> None:
+    def register_declared(self, variable: Variable) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
         self.register_variable(registered(

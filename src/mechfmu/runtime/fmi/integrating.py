@@ -24,6 +24,7 @@ that integrate nothing, such as the gear's motion drive).
 
 from ..numerics.integrators import make_integrator
 from .slave import MechSlave
+from typing import Any
 
 
 class IntegratingSlave(MechSlave):
@@ -40,7 +41,7 @@ class IntegratingSlave(MechSlave):
         whether this configuration integrates (False: update_without_state steps it)."""
         raise NotImplementedError
 
-    def read_inputs(self):
+    def read_inputs(self) -> tuple[()]:
         """The inputs given for the current time, checked (raise MechanismError); a tuple
         that ``advance`` receives, with those of the step's start in self.held_inputs."""
         return ()
@@ -82,7 +83,7 @@ class IntegratingSlave(MechSlave):
             self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
                                               v["max_substep"])
 
-    def outputs_at_start(self, time) -> None:
+    def outputs_at_start(self, time: float) -> None:
         if self.integrator is None:
             self.update_without_state(time, 0.0)
             return
@@ -90,7 +91,7 @@ class IntegratingSlave(MechSlave):
         self.state = list(self.initial_state(time))
         self._publish_with_counters(time)
 
-    def update(self, time, step_size) -> None:
+    def update(self, time: float, step_size: float) -> None:
         if self.integrator is None:
             self.update_without_state(time, step_size)
             return
@@ -101,20 +102,20 @@ class IntegratingSlave(MechSlave):
         self.commit(time, happened)
         self._publish_with_counters(time)
 
-    def _publish_with_counters(self, time) -> None:
+    def _publish_with_counters(self, time: float) -> None:
         self.publish(time)
         stats = self.integrator.stats
         self.values["rhs_evaluations"], self.values["substeps"] = (stats.rhs_evaluations,
                                                                    stats.substeps)
 
-    def internal_state(self):
+    def internal_state(self) -> dict[str, Any]:
         saved = dict(self.extra_state())
         if self.integrator is not None and self.state is not None:
             saved.update(state=list(self.state), held_inputs=list(self.held_inputs),
                          integrator=self.integrator.snapshot())
         return saved
 
-    def restore_internal_state(self, saved) -> None:
+    def restore_internal_state(self, saved: dict[str, Any]) -> None:
         self.restore_extra_state(saved)
         if self.integrator is not None and "integrator" in saved:
             self.state = list(saved["state"])

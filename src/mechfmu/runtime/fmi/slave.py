@@ -24,9 +24,10 @@ from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX, INTEGRATORS, MAX_WALL_TIME, UNITS, Status, Variable, effect, input_,
     integrator_variables, output, parameter)
+from typing import Any
 
 
-def _same_time(a, b):
+def _same_time(a: float, b: float) -> bool:
     """Equal communication times up to the rounding of a host's own time keeping."""
     return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
 
@@ -83,13 +84,13 @@ class MechSlave(Binding):
         self.update(time, 0.0)
 
     # --- FMI calls (never raise) ----------------------------------------------------
-    def setup_experiment(self, start_time, stop_time=None, tolerance=None) -> None:
+    def setup_experiment(self, start_time: float, stop_time: None=None, tolerance: None=None) -> None:
         self.start_time = self.time_reached = float(start_time)
 
     def enter_initialization_mode(self) -> None:
         self.initializing, self.stale = True, True
 
-    def _initial_outputs(self):
+    def _initial_outputs(self) -> str | None:
         """Outputs from the current parameters and inputs (FMI 2.0 InitialUnknowns).
 
         Read in initialization mode (libcosim passes them on before any FMU leaves it) and
@@ -123,7 +124,7 @@ class MechSlave(Binding):
             self.log(self.pending_error, Status.error)
         self.initialized = True
 
-    def _check_outputs(self, values_before):
+    def _check_outputs(self, values_before: dict[str, float]) -> None:
         """Raise MechanismError if an output is NaN or infinite (a safety net: the physics
         should have refused the values that led there)."""
         values = self.values
@@ -135,7 +136,7 @@ class MechSlave(Binding):
                                               for name in self.real_inputs)
                 + "; the parameters or inputs are probably beyond the model's numerical range")
 
-    def do_step(self, current_time, step_size) -> bool:
+    def do_step(self, current_time: float, step_size: float) -> bool:
         """One communication step: all of it, or nothing.
 
         A discarded step leaves the instance exactly as it was before the call (every
@@ -179,7 +180,7 @@ class MechSlave(Binding):
             self.log(self._describe(error, current_time + step_size), Status.error)
             return False
 
-    def _describe(self, error, time) -> str:
+    def _describe(self, error: MechanismError, time: float) -> str:
         if isinstance(error, MechanismError):
             return f"{self.instance_name} at t = {time!r} s: {error}"
         return f"{self.instance_name} at t = {time!r} s: internal error {error!r}"
@@ -192,7 +193,7 @@ class MechSlave(Binding):
     def restore_internal_state(self, state) -> None:
         """Inverse of internal_state."""
 
-    def _get_fmu_state(self):
+    def _get_fmu_state(self) -> dict[str, Any]:
         # A failed initialisation leaves no internal state to save (nor to step from).
         internal = None if self.pending_error is not None else self.internal_state()
         return {"values": dict(self.values), "internal": internal,
@@ -200,7 +201,7 @@ class MechSlave(Binding):
                 "time_reached": self.time_reached,
                 "pending_error": self.pending_error}
 
-    def _set_fmu_state(self, state) -> None:
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
         self.values.update(state["values"])  # in place: the registered getters hold this dict
         if state["internal"] is not None:
             self.restore_internal_state(state["internal"])

@@ -14,11 +14,12 @@ the other branch.
 from ..fmi.slave import MechSlave, output, parameter
 from ..physics import planar
 from ..errors import RangeError, require_finite, require_positive
+from ..fmi.declarations import Variable
 
 SOLVERS = ("closed_form", "constraint_solver")
 
 
-def solver_variables(default):
+def solver_variables(default: str) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable]:
     """The parameters and counters of every model that offers both solvers."""
     return (
         parameter("solver", default, "closed_form: the mechanism's closed-form solution; "

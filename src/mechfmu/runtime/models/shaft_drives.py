@@ -2,6 +2,7 @@
 
 from ..fmi.slave import MechSlave, output, parameter
 from ..physics import profiles
+from ..fmi.declarations import Variable
 
 
 class _ShaftDrive(MechSlave):
@@ -27,7 +28,7 @@ class _ShaftDrive(MechSlave):
         v[prefix + "_angle"], v[prefix + "_speed"], v[prefix + "_acceleration"] = sample
 
 
-def _variables(prefix, shaft, speed_description):
+def _variables(prefix: str, shaft: str, speed_description: str) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable, Variable, Variable]:
     return (
         parameter("initial_angle", 0.0, f"{shaft} angle at start_time", unit="rad"),
         parameter("initial_speed", 0.0, speed_description + " before and at the start of the "
