@@ -138,7 +138,7 @@ class RockerDrive:
         return drive
 
 
-def _horner(coefficients: tuple[float, float, float, float, float, float] | tuple[float, float, float, float] | tuple[float, float, float, float, float], u: float) -> float:
+def _horner(coefficients: tuple[float, ...], u: float) -> float:
     total = 0.0
     for c in reversed(coefficients):
         total = total * u + c

@@ -50,6 +50,10 @@ UNITS = {
     "Hz": {"s": -1},
 }
 
+# A variable's value: Real, Integer, Boolean or String.
+Value = float | int | bool | str
+
+
 class Variable:
     """One FMU variable, declared once.
 
@@ -63,8 +67,8 @@ class Variable:
     __slots__ = ("name", "kind", "causality", "start", "unit", "min", "max",
                  "description", "depends", "values", "nominal")
 
-    def __init__(self, name: str, kind: Any, causality: str, start: float, description: str, unit: str | None=None,
-                 min: float | None=None, max: float | None=None, depends: tuple[str, Ellipsis]=(), values: tuple[str, str] | tuple[str, str, str, str] | None=None, nominal: float | None=None) -> None:
+    def __init__(self, name: str, kind: type, causality: str, start: Value, description: str, unit: str | None=None,
+                 min: float | None=None, max: float | None=None, depends: tuple[str, ...]=(), values: tuple[str, ...] | None=None, nominal: float | None=None) -> None:
         if unit is not None and unit not in UNITS:
             raise ValueError(f"unit {unit!r} of {name} is not in UNITS")
         self.name, self.kind, self.causality, self.start = name, kind, causality, start
@@ -72,19 +76,19 @@ class Variable:
         self.depends, self.values, self.nominal = tuple(depends), values, nominal
 
 
-def parameter(name: str, start: float, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, values: tuple[str, str] | tuple[str, str, str, str] | None=None) -> Variable:
+def parameter(name: str, start: Value, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, values: tuple[str, ...] | None=None) -> Variable:
     """A fixed parameter; its type follows the start value."""
     return Variable(name, type(start), "parameter", start, description, unit, min, max,
                     values=values)
 
 
-def input_(name: str, start: float, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, nominal: float | None=None) -> Variable:
+def input_(name: str, start: Value, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, nominal: float | None=None) -> Variable:
     """A continuous input with a start value (and a typical magnitude: nominal)."""
     return Variable(name, type(start), "input", start, description, unit, min, max,
                     nominal=nominal)
 
 
-def output(name: str, start: float, description: str, unit: str | None=None, depends: tuple[str, Ellipsis]=(), min: float | None=None, max: float | None=None) -> Variable:
+def output(name: str, start: Value, description: str, unit: str | None=None, depends: tuple[str, ...]=(), min: float | None=None, max: float | None=None) -> Variable:
     """An output computed from inputs and parameters (initial = calculated)."""
     return Variable(name, type(start), "output", start, description, unit, min, max, depends)
 
@@ -104,7 +108,7 @@ INTEGRATORS = ("euler", "rk4", "dopri5", "radau")
 MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 
 
-def integrator_variables(default: str="dopri5", rtol: float=1e-8, atol: float=1e-10, max_substep: float=1e-3) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable, Variable]:
+def integrator_variables(default: str="dopri5", rtol: float=1e-8, atol: float=1e-10, max_substep: float=1e-3) -> tuple[Variable, ...]:
     """The parameters and counters every integrating model declares, by the same names.
 
     A model that declares them is an IntegratingSlave, which keeps its integrator in

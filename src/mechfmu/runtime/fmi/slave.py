@@ -20,6 +20,7 @@ The base class
 import math
 
 from ..errors import MechanismError, require_finite
+from ..numerics.integrators import Integrator
 from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX, INTEGRATORS, MAX_WALL_TIME, UNITS, Status, Variable, effect, input_,
@@ -41,7 +42,7 @@ class MechSlave(Binding):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.values = {v.name: v.start for v in self.VARIABLES}
+        self.values: dict[str, Any] = {v.name: v.start for v in self.VARIABLES}  # by name
         self.declared = {v.name: v for v in self.VARIABLES}
         self.initialized = False
         self.initializing = False  # between fmi2EnterInitializationMode and fmi2Exit...
@@ -49,7 +50,7 @@ class MechSlave(Binding):
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
         self.pending_error: str | None = None  # reported by the next doStep
-        self.integrator = None  # set by IntegratingSlave.check_parameters (fmi/integrating.py)
+        self.integrator: Integrator | None = None  # set by IntegratingSlave.check_parameters (fmi/integrating.py)
         self.real_inputs = tuple(v.name for v in self.VARIABLES
                                  if v.causality == "input" and v.kind is float)
         self.real_outputs = tuple(v.name for v in self.VARIABLES

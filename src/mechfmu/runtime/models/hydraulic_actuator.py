@@ -62,7 +62,7 @@ class HydraulicActuator(IntegratingSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.actuator = None
+        self.actuator: hydraulics.Actuator | None = None
 
     # IntegratingSlave: the state is the cap and rod pressures (Pa).
     def set_up(self) -> bool:

@@ -48,9 +48,9 @@ class LinkageSlave(MechSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.follower = None
-        self.model = None       # planar.Mechanism: the solver's, and the closed form's crossings
-        self.last_drive = None  # the closed form's drive at its last communication point
+        self.follower: planar.BranchFollower | None = None
+        self.model: planar.Mechanism | None = None  # planar.Mechanism: the solver's, and the closed form's crossings
+        self.last_drive: list[tuple[float, ...]] | None = None  # the closed form's drive at its last communication point
 
     def driver_inputs(self):
         """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""

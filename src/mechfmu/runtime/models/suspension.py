@@ -8,6 +8,7 @@ from ..errors import IntegrationError, MechanismError, SnapThrough, require_fini
 from ..numerics.integrators import Event
 from ..numerics.stepping import advance_through_events
 from ..physics.suspension import Spring
+from collections.abc import Callable
 from typing import Any
 
 _INPUTS = ("load", "road_height", "road_rate")
@@ -112,13 +113,13 @@ class Suspension(IntegratingSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.model = None          # dynamics: the Model, right-hand side, inputs, events
-        self.inputs = None
-        self.rhs = None
-        self.deflection_of = None  # u(t, y)
-        self.events = None         # {side: (Event,)}
-        self.side = None           # last stable region visited: NEAR or FAR
-        self.blowup = None         # state max-norm beyond which the integration is unstable
+        self.model: dyn.Model | None = None  # dynamics: the Model, right-hand side, inputs, events
+        self.inputs: dyn.StepInputs | None = None
+        self.rhs: Callable | None = None
+        self.deflection_of: Callable | None = None  # u(t, y)
+        self.events: dict[Any, tuple[Event, ...]] | None = None  # {side: (Event,)}
+        self.side: int | None = None  # last stable region visited: NEAR or FAR
+        self.blowup: float | None = None  # state max-norm beyond which the integration is unstable
 
     def _spring(self) -> Spring:
         v = self.values

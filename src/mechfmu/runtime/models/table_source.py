@@ -12,7 +12,7 @@ class TableSource(MechSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.table = None
+        self.table: tuple[list[float], list[float]] | None = None
 
     def check_shape(self):
         raise NotImplementedError

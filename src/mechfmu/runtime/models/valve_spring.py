@@ -7,7 +7,9 @@ from ..physics import valve_spring as vs
 from ..errors import (IntegrationError, MechanismError, RangeError, require_finite,
                       require_positive)
 from ..numerics.stepping import advance_through_events
+from ..numerics.integrators import Event
 from ..physics.valve_spring import Engaged, Happening, Phase
+from collections.abc import Callable
 from typing import Any
 
 _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
@@ -109,17 +111,17 @@ class ValveSpring(IntegratingSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.parameters = None   # vs.Parameters
-        self.drive = None        # vs.StepDrive read by rhs and events
-        self.modes = None        # vs.Modes read by rhs: the contacts engaged while integrating
-        self.rhs = None
-        self.events = None       # {vs.Engaged: (Event, ...)}
-        self.phase = None        # vs.Phase at the last communication point
-        self.engaged = None      # vs.Engaged at the last communication point
+        self.parameters: vs.Parameters | None = None  # vs.Parameters
+        self.drive: vs.StepDrive | None = None  # vs.StepDrive read by rhs and events
+        self.modes: vs.Modes | None = None  # vs.Modes read by rhs: the contacts engaged while integrating
+        self.rhs: Callable | None = None
+        self.events: dict[Engaged, tuple[Event, ...]] | None = None  # {vs.Engaged: (Event, ...)}
+        self.phase: Phase | None = None  # vs.Phase at the last communication point
+        self.engaged: Engaged | None = None  # vs.Engaged at the last communication point
         self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
         self.peak_energy = 0.0   # J: largest energy in play so far
-        self.max_lift = None     # m: max_valve_lift, the travel limit
-        self.last_float = None   # s: when the valve last left the rocker (float), for messages
+        self.max_lift: float | None = None  # m: max_valve_lift, the travel limit
+        self.last_float: float | None = None  # s: when the valve last left the rocker (float), for messages
 
     # --- set-up (IntegratingSlave: the state is (x, v, W), the inputs (L, L', L'')) ----------
     def set_up(self) -> bool:

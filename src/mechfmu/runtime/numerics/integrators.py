@@ -529,7 +529,7 @@ def _check_tolerance(name: str, value: float) -> float:
 
 # --- explicit Runge-Kutta ------------------------------------------------------------------
 
-def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[float], A: tuple[tuple[()], tuple[float], tuple[float, float], tuple[float, float, float]] | tuple[tuple[()], tuple[float], tuple[float, float], tuple[float, float, float], tuple[float, float, float, float], tuple[float, float, float, float, float]] | tuple[tuple[()]], C: tuple[float, float, float, float] | tuple[float] | tuple[float, float, float, float, float, float], t_new: float) -> list[list[float]]:
+def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[float], A: tuple[tuple[()], tuple[float], tuple[float, float], tuple[float, float, float]] | tuple[tuple[()], tuple[float], tuple[float, float], tuple[float, float, float], tuple[float, float, float, float], tuple[float, float, float, float, float]] | tuple[tuple[()]], C: tuple[float, ...], t_new: float) -> list[list[float]]:
     """Stages K_1..K_s of an explicit Runge-Kutta method (K_1 = k1 given) [HNW] II.1."""
     K = [k1]
     n = len(y)
@@ -547,7 +547,7 @@ def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[f
     return K
 
 
-def _combine(y: list[float], h: float, weights: tuple[float, Ellipsis], K: list[list[float]]) -> list[float]:
+def _combine(y: list[float], h: float, weights: tuple[float, ...], K: list[list[float]]) -> list[float]:
     """y + h * sum_i weights_i K_i."""
     out = list(y)
     n = len(y)

@@ -77,7 +77,7 @@ class _Frames:
         c, s = math.cos(self.angle(body)), math.sin(self.angle(body))
         return (c * vector[0] - s * vector[1], s * vector[0] + c * vector[1])
 
-    def point(self, body: int | None, local: tuple[int, float] | tuple[float, int] | tuple[int, int]) -> tuple[float, float]:
+    def point(self, body: int | None, local: tuple[float, float]) -> tuple[float, float]:
         r, a = self.origin(body), self.rotate(body, local)
         return (r[0] + a[0], r[1] + a[1])
 
@@ -100,11 +100,11 @@ class Revolute:
     equations = 2
     kinds = ("length", "length")
 
-    def __init__(self, name: str, body_i: int, point_i: tuple[float, int] | tuple[int, int], body_j: int | None, point_j: tuple[int, float] | tuple[float, int] | tuple[int, int]) -> None:
+    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float]) -> None:
         self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
         self.body_j, self.point_j = body_j, tuple(point_j)
 
-    def residual(self, f: _Frames, drive: list[tuple[float, int, int] | tuple[float, float, float]]) -> list[float]:
+    def residual(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
         p, r = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
         return [p[0] - r[0], p[1] - r[1]]
 
@@ -138,7 +138,7 @@ class PointOnLine:
     equations = 1
     kinds = ("length",)
 
-    def __init__(self, name: str, body_i: int, point_i: tuple[float, int] | tuple[int, int], body_j: int | None, point_j: tuple[int, float] | tuple[int, int], direction_j: tuple[int, int]) -> None:
+    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[int, int]) -> None:
         norm = math.hypot(*direction_j)
         if not norm > 0.0:
             raise ValueError(f"{name}: direction must be non-zero")
@@ -151,7 +151,7 @@ class PointOnLine:
         p_i, p_j = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
         return n, (p_i[0] - p_j[0], p_i[1] - p_j[1])
 
-    def residual(self, f: _Frames, drive: list[tuple[float, int, int] | tuple[float, float, float]]) -> list[float]:
+    def residual(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
         n, d = self._parts(f)
         return [_dot(n, d)]
 
@@ -228,7 +228,7 @@ class Driver:
         self.name, self.terms, self.index = name, tuple(terms), index
         self.offset, self.kinds = float(offset), (kind,)
 
-    def residual(self, f: _Frames, drive: list[tuple[float, int, int] | tuple[float, float, float]]) -> list[float]:
+    def residual(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
         total = self.offset
         for body, coordinate, weight in self.terms:
             total += weight * f.q[3 * body + coordinate]
@@ -291,7 +291,7 @@ class Mechanism:
         return f"{self.singularity(q)} at {self.diagnose(q)}"
 
     # Scaled quantities: rows of lengths divided by L, angle columns multiplied by L.
-    def residual(self, q: list[float], drive: list[tuple[float, int, int] | tuple[float, float, float]]) -> list[float]:
+    def residual(self, q: list[float], drive: list[tuple[float, float, float]]) -> list[float]:
         f = _Frames(q)
         values = [v for j in self.joints for v in j.residual(f, drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
@@ -332,7 +332,7 @@ def _factor(mechanism: Mechanism, q: list[float]) -> tuple[list[list[float]], tu
         return matrix, None
 
 
-def solve_position(mechanism: Mechanism, guess: list[float], drive: list[tuple[float, int, int] | tuple[float, float, float]], tolerance: float=DEFAULT_TOLERANCE,
+def solve_position(mechanism: Mechanism, guess: list[float], drive: list[tuple[float, float, float]], tolerance: float=DEFAULT_TOLERANCE,
                    max_iterations: int=DEFAULT_MAX_ITERATIONS) -> tuple[list[float], int, float]:
     """Newton-Raphson on Phi(q) = 0 from ``guess``. Returns (q, iterations, residual).
 
