@@ -42,7 +42,7 @@ def design_geometry(retracted_length: float, extended_length: float) -> tuple[fl
     return d, h, theta_1
 
 
-def gear_from_piston(x: float | list[float] | ndarray, xdot: float | ndarray, xddot: float | ndarray, d: float, h: float) -> tuple[ndarray, ndarray, ndarray] | tuple[float, float, float]:
+def gear_from_piston(x: float | list[float] | ndarray, xdot: float | ndarray, xddot: float | ndarray, d: float, h: float) -> tuple:
     """Gear angle, angular velocity and angular acceleration for a piston motion.
 
     theta = arccos((h^2 + d^2 - x^2) / (2 d h)); differentiating the law of cosines once,

@@ -82,7 +82,7 @@ class RockerDrive:
         return drives.rotation(t, s["initial_angle"], s["initial_speed"], s["speed"],
                                s["ramp_time"], s["start_time"], ratio=0.5)
 
-    def __call__(self, t: float | ndarray) -> tuple[ndarray, ndarray, ndarray] | tuple[float, float, float]:
+    def __call__(self, t: float | ndarray) -> tuple:
         p = self.train
         shaft = self.rotation(t)
         w, alpha = shaft["speed"], shaft["acceleration"]

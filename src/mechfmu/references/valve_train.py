@@ -33,7 +33,7 @@ _POLYNOMIALS = {
 }
 
 
-def normalized(law: str, x: float | ndarray) -> tuple[ndarray, ndarray, ndarray] | tuple[float, float, float]:
+def normalized(law: str, x: float | ndarray) -> tuple:
     """(f, f', f'') of the normalized rise at x in [0, 1] (arrays)."""
     x = np.asarray(x, dtype=float)
     if law == "harmonic":
@@ -81,7 +81,7 @@ def _unpack(geometry: dict[str, float]) -> tuple[float, float, float, float, flo
     return tuple(float(geometry[key]) for key in GEOMETRY_FIELDS)
 
 
-def _circle_point(centre_x: float, centre_y: ndarray | float, radius: float, other_x: float, other_y: float, other_radius: float, sign: float) -> tuple[float, float] | tuple[ndarray, ndarray]:
+def _circle_point(centre_x: float, centre_y: ndarray | float, radius: float, other_x: float, other_y: float, other_radius: float, sign: float) -> tuple:
     """Intersection of circle (centre, radius) with circle (other, other_radius).
 
     sign = +1 takes the point to the left of the direction centre -> other, -1 to the right.
@@ -131,7 +131,7 @@ def closed_valve_position(geometry: dict[str, float]) -> float:
     return float(_y3_from_rocker(geometry, _rocker_from_y1(geometry, np.float64(r_b))))
 
 
-def _tappet_partials(geometry: dict[str, float], phi: ndarray | float, y1: ndarray | float) -> tuple[float, float, float, float, float] | tuple[ndarray, ndarray, ndarray, ndarray, float]:
+def _tappet_partials(geometry: dict[str, float], phi: ndarray | float, y1: ndarray | float) -> tuple:
     """Partials of F = a cos(phi) + (b - y1) sin(phi) - (a^2 + (b - y1)^2 + lt^2 - L1^2)/(2 lt)."""
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     w = b - y1
@@ -144,7 +144,7 @@ def _tappet_partials(geometry: dict[str, float], phi: ndarray | float, y1: ndarr
     return f_p, f_y, f_pp, f_py, f_yy
 
 
-def _valve_partials(geometry: dict[str, float], phi: ndarray | float, y3: ndarray | float) -> tuple[float, float, float, float, float] | tuple[ndarray, ndarray, ndarray, ndarray, float]:
+def _valve_partials(geometry: dict[str, float], phi: ndarray | float, y3: ndarray | float) -> tuple:
     """Partials of H = (c - a) cos(phi) + (y3 - b) sin(phi)
     - ((c - a)^2 + (y3 - b)^2 + lv^2 - L3^2) / (2 lv)."""
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
@@ -158,7 +158,7 @@ def _valve_partials(geometry: dict[str, float], phi: ndarray | float, y3: ndarra
     return h_p, h_y, h_pp, h_py, h_yy
 
 
-def _driven(partials: tuple[float, float, float, float, float] | tuple[ndarray, ndarray, ndarray, ndarray, float], rate: float | ndarray, accel: float | ndarray, driver_is_phi: bool) -> tuple[float, float] | tuple[ndarray, ndarray]:
+def _driven(partials: tuple, rate: float | ndarray, accel: float | ndarray, driver_is_phi: bool) -> tuple:
     """Rates of the driven variable of F(phi, y) = 0 from those of the driver.
 
     F_phi phi' + F_y y' = 0;  F_pp phi'^2 + 2 F_py phi' y' + F_yy y'^2 + F_phi phi'' + F_y y'' = 0.

@@ -167,7 +167,7 @@ def describe(element, variable) -> None:
         element.set("nominal", repr(float(variable.nominal)))
 
 
-def fmi_attributes(variable: Variable) -> tuple[str, str] | tuple[str, None]:
+def fmi_attributes(variable: Variable) -> tuple:
     """(variability, initial or None) of a declared variable, as the names both FMI versions
     use: parameters are fixed and exact; Real inputs and outputs continuous, others discrete;
     outputs calculated (computed at initialisation, so no start value in the description)."""

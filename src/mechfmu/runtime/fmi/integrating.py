@@ -32,8 +32,8 @@ class IntegratingSlave(MechSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.state: list[float] | None = None  # the integrated state at the last communication point
-        self.held_inputs: tuple | None = None  # the inputs read at that point (read_inputs)
+        self.state: Any = None  # the integrated state at the last communication point
+        self.held_inputs: Any = None  # the inputs read at that point (read_inputs)
 
     # --- model contract ---------------------------------------------------------------------
     def set_up(self):

@@ -1,5 +1,7 @@
 """HydraulicActuator.fmu: the gear's hydraulic actuator as a component of its own."""
 
+from typing import Any
+
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.slave import input_, integrator_variables, output, parameter
 from ..physics import hydraulics
@@ -62,7 +64,7 @@ class HydraulicActuator(IntegratingSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.actuator: hydraulics.Actuator | None = None
+        self.actuator: Any = None  # hydraulics.Actuator (set_up)
 
     # IntegratingSlave: the state is the cap and rod pressures (Pa).
     def set_up(self) -> bool:

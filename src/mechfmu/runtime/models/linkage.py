@@ -11,6 +11,8 @@ is refused by both solvers with the same message (planar.crossing_error), never 
 the other branch.
 """
 
+from typing import Any
+
 from ..fmi.slave import MechSlave, output, parameter
 from ..physics import planar
 from ..errors import RangeError, require_finite, require_positive
@@ -48,9 +50,9 @@ class LinkageSlave(MechSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.follower: planar.BranchFollower | None = None
-        self.model: planar.Mechanism | None = None  # planar.Mechanism: the solver's, and the closed form's crossings
-        self.last_drive: list[tuple[float, ...]] | None = None  # the closed form's drive at its last communication point
+        self.follower: Any = None  # planar.BranchFollower (set_up)
+        self.model: Any = None  # planar.Mechanism: the solver's, and the closed form's crossings
+        self.last_drive: Any = None  # the closed form's drive at its last communication point
 
     def driver_inputs(self):
         """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""

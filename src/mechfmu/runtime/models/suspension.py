@@ -113,13 +113,13 @@ class Suspension(IntegratingSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.model: dyn.Model | None = None  # dynamics: the Model, right-hand side, inputs, events
-        self.inputs: dyn.StepInputs | None = None
-        self.rhs: Callable | None = None
-        self.deflection_of: Callable | None = None  # u(t, y)
-        self.events: dict[Any, tuple[Event, ...]] | None = None  # {side: (Event,)}
-        self.side: int | None = None  # last stable region visited: NEAR or FAR
-        self.blowup: float | None = None  # state max-norm beyond which the integration is unstable
+        self.model: Any = None  # dynamics: the Model, right-hand side, inputs, events
+        self.inputs: Any = None  # dyn.StepInputs (set_up)
+        self.rhs: Any = None  # Callable (set_up)
+        self.deflection_of: Any = None  # u(t, y)
+        self.events: Any = None  # {side: (Event,)}
+        self.side: Any = None  # last stable region visited: NEAR or FAR
+        self.blowup: Any = None  # state max-norm beyond which the integration is unstable
 
     def _spring(self) -> Spring:
         v = self.values
@@ -199,7 +199,7 @@ class Suspension(IntegratingSlave):
         v["potential_energy"] = (dyn.spring_energy(state.deflection, self._spring())
                                  - v["load"] * state.deflection)
 
-    def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple[list[float], tuple[list[Any], int]] | tuple[list[float], tuple[list[tuple[float, float, int]], int]]:
+    def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
         """Integrate to ``time`` through the snap-throughs; return (state, (snap-throughs
         as (t, u, side left), the stable region reached))."""
         v = self.values
@@ -240,7 +240,7 @@ class Suspension(IntegratingSlave):
                 f"stability limit; reduce max_substep or use radau")
         return y, (snaps, side[0])
 
-    def commit(self, time: float, happened: tuple[list[tuple[float, float, int]], int] | tuple[list[Any], int]) -> None:
+    def commit(self, time: float, happened: tuple) -> None:
         snaps, self.side = happened
         v = self.values
         for t_event, u, old in snaps:

@@ -1,5 +1,7 @@
 """Base of the signal sources that can also play a piecewise-linear table from a CSV file."""
 
+from typing import Any
+
 from ..fmi.slave import MechSlave
 from ..physics import profiles
 
@@ -12,7 +14,7 @@ class TableSource(MechSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.table: tuple[list[float], list[float]] | None = None
+        self.table: Any = None  # tuple[list[float], list[float]] (set_up)
 
     def check_shape(self):
         raise NotImplementedError

@@ -111,17 +111,17 @@ class ValveSpring(IntegratingSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.parameters: vs.Parameters | None = None  # vs.Parameters
-        self.drive: vs.StepDrive | None = None  # vs.StepDrive read by rhs and events
-        self.modes: vs.Modes | None = None  # vs.Modes read by rhs: the contacts engaged while integrating
-        self.rhs: Callable | None = None
-        self.events: dict[Engaged, tuple[Event, ...]] | None = None  # {vs.Engaged: (Event, ...)}
-        self.phase: Phase | None = None  # vs.Phase at the last communication point
-        self.engaged: Engaged | None = None  # vs.Engaged at the last communication point
+        self.parameters: Any = None  # vs.Parameters
+        self.drive: Any = None  # vs.StepDrive read by rhs and events
+        self.modes: Any = None  # vs.Modes read by rhs: the contacts engaged while integrating
+        self.rhs: Any = None  # Callable (set_up)
+        self.events: Any = None  # {vs.Engaged: (Event, ...)}
+        self.phase: Any = None  # vs.Phase at the last communication point
+        self.engaged: Any = None  # vs.Engaged at the last communication point
         self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
         self.peak_energy = 0.0   # J: largest energy in play so far
-        self.max_lift: float | None = None  # m: max_valve_lift, the travel limit
-        self.last_float: float | None = None  # s: when the valve last left the rocker (float), for messages
+        self.max_lift: Any = None  # m: max_valve_lift, the travel limit
+        self.last_float: Any = None  # s: when the valve last left the rocker (float), for messages
 
     # --- set-up (IntegratingSlave: the state is (x, v, W), the inputs (L, L', L'')) ----------
     def set_up(self) -> bool:
@@ -164,7 +164,7 @@ class ValveSpring(IntegratingSlave):
         return tuple(require_finite(name, self.values[name], unit)
                      for name, unit in zip(_INPUTS, _UNITS))
 
-    def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple[list[float], tuple[list[Happening], Phase, Engaged, float, float]] | tuple[list[float], tuple[list[Any], Phase, Engaged, float, float]]:
+    def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
         """Integrate to ``time`` through the contact events; return (state, (the float,
         bounce and seat happenings, phase, engaged contacts, energy created, peak energy))."""
         p = self.parameters
@@ -199,7 +199,7 @@ class ValveSpring(IntegratingSlave):
         created, peak = self._check_energy(start, self.state, time, y)
         return y, (found, phase[0], self.modes.engaged, created, peak)
 
-    def commit(self, time: float, happened: tuple[list[Any], Phase, Engaged, float, float] | tuple[list[Happening], Phase, Engaged, float, float]) -> None:
+    def commit(self, time: float, happened: tuple) -> None:
         found, self.phase, self.engaged, self.created, self.peak_energy = happened
         v = self.values
         for happening in found:

@@ -248,7 +248,7 @@ class Integrator:
         self.deadline = time.monotonic() + seconds if math.isfinite(seconds) else None
 
     # --- the one public operation -----------------------------------------------------------
-    def advance(self, rhs: Callable, t: float, y: list[float], t_end: float, events: list[Event] | tuple[()] | tuple[Event]=()) -> "Advance":
+    def advance(self, rhs: Callable, t: float, y: list[float], t_end: float, events: tuple | list[Event]=()) -> "Advance":
         """Integrate y' = rhs(t, y) from t to t_end (> t); see the module docstring.
 
         Returns Advance(t_end, y(t_end), None), or Advance(t_event, y(t_event), event) at
@@ -529,7 +529,7 @@ def _check_tolerance(name: str, value: float) -> float:
 
 # --- explicit Runge-Kutta ------------------------------------------------------------------
 
-def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[float], A: tuple[tuple[()], tuple[float], tuple[float, float], tuple[float, float, float]] | tuple[tuple[()], tuple[float], tuple[float, float], tuple[float, float, float], tuple[float, float, float, float], tuple[float, float, float, float, float]] | tuple[tuple[()]], C: tuple[float, ...], t_new: float) -> list[list[float]]:
+def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[float], A: tuple, C: tuple[float, ...], t_new: float) -> list[list[float]]:
     """Stages K_1..K_s of an explicit Runge-Kutta method (K_1 = k1 given) [HNW] II.1."""
     K = [k1]
     n = len(y)
@@ -810,7 +810,7 @@ class RadauIIA5(_Adaptive):
         self._jac_due = False
         return J
 
-    def _factor(self, h: float) -> tuple[tuple[list[list[float]], list[int]], tuple[list[list[complex]], list[int]]] | tuple[tuple[list[list[float]], list[int]], tuple[list[list[complex | float]], list[int]]]:
+    def _factor(self, h: float) -> tuple:
         """LU factors of mu_real/h I - J and mu_complex/h I - J, cached per (h, J)."""
         cached = self._lu
         if cached is not None and cached[0] == h and cached[1] == self._J_version:
@@ -826,7 +826,7 @@ class RadauIIA5(_Adaptive):
         self._lu = (h, self._J_version, lu_real, lu_complex)
         return lu_real, lu_complex
 
-    def _newton(self, f: Callable, t: float, y: list[float], h: float, Z0: list[list[float]], lu_real: tuple[list[list[float]], list[int]], lu_complex: tuple[list[list[complex | float]], list[int]] | tuple[list[list[complex]], list[int]]) -> tuple[bool, int, list[list[float]], None] | tuple[bool, int, list[list[float]], float]:
+    def _newton(self, f: Callable, t: float, y: list[float], h: float, Z0: list[list[float]], lu_real: tuple[list[list[float]], list[int]], lu_complex: tuple) -> tuple:
         """Simplified Newton on the transformed stage system (SciPy solve_collocation_system).
 
         Returns (converged, iterations, Z, rate).
@@ -898,7 +898,7 @@ class RadauIIA5(_Adaptive):
             out.append(value)
         return out
 
-    def _solve_stages(self, f: Callable, t: float, y: list[float], f0: list[float], h: float, Z0: list[list[float]]) -> tuple[bool, int, list[list[float]], float, tuple[list[list[float]], list[int]]] | tuple[bool, int, list[list[float]], float, None] | tuple[bool, int, list[list[float]], None, tuple[list[list[float]], list[int]]]:
+    def _solve_stages(self, f: Callable, t: float, y: list[float], f0: list[float], h: float, Z0: list[list[float]]) -> tuple:
         """Newton with the current J; one retry with a fresh J. Returns (ok, iters, Z, rate)."""
         while True:
             lu_real = None

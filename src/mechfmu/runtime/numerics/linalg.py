@@ -6,6 +6,7 @@ explicit failure on a singular matrix, and a condition number that says how far 
 singular a matrix is (the constraint solver reports toggle and change points by it).
 """
 
+from typing import Any
 import math
 
 
@@ -13,7 +14,7 @@ class Singular(Exception):
     """Raised by lu_factor on an exactly singular or non-finite matrix."""
 
 
-def lu_factor(matrix: list[list[complex | float]]) -> tuple[list[list[float]], list[int]] | tuple[list[list[complex]], list[int]] | tuple[list[list[complex | float]], list[int]]:
+def lu_factor(matrix: list[list[Any]]) -> tuple[list[list[Any]], list[int]]:
     """LU factorisation with partial pivoting of a small dense square matrix.
 
     Works for real and complex entries (Python arithmetic). Returns (lu, pivots) with L
@@ -44,7 +45,7 @@ def lu_factor(matrix: list[list[complex | float]]) -> tuple[list[list[float]], l
     return lu, pivots
 
 
-def lu_solve(factored: tuple[list[list[float]], list[int]] | tuple[list[list[complex]], list[int]] | tuple[list[list[complex | float]], list[int]], b: list[complex | float]) -> list[complex | float]:
+def lu_solve(factored: tuple[list[list[Any]], list[int]], b: list[Any]) -> list[Any]:
     """Solve A x = b given lu_factor(A) (forward then back substitution)."""
     lu, pivots = factored
     n = len(lu)

@@ -140,7 +140,7 @@ def grashof_class(ground: float, crank: float, coupler: float, rocker: float) ->
     return (2, 1, 3, 4)[index]
 
 
-def _as_lengths(linkage: tuple[tuple[float, float, float, float]] | tuple[float, float, float, float], count: int) -> tuple[float, float, float, float]:
+def _as_lengths(linkage: tuple, count: int) -> tuple[float, float, float, float]:
     """Accept either ``count`` lengths or one sequence of them (e.g. COURSEWORK_FOUR_BAR)."""
     if len(linkage) == 1:
         linkage = tuple(linkage[0])

@@ -265,7 +265,7 @@ class Mechanism:
     range where the mechanism does not assemble), or None (see crossing_error).
     """
 
-    def __init__(self, name: str, bodies: tuple[str, str] | tuple[str, str, str], joints: list[Any], length_scale: float, diagnose: None=None, singularity: None=None,
+    def __init__(self, name: str, bodies: tuple, joints: list[Any], length_scale: float, diagnose: None=None, singularity: None=None,
                  crossing: None=None) -> None:
         self.name, self.bodies = name, tuple(bodies)
         self.joints = tuple(j for joint in joints

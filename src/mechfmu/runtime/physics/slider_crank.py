@@ -62,7 +62,7 @@ def check_slider_crank(crank: float, coupler: float, offset: float) -> "SliderCr
     return SliderCrank(a, b, e)
 
 
-def _as_lengths(values: tuple[float, float, float] | tuple[tuple[float, float, float]] | tuple[SliderCrank]) -> tuple[float, float, float]:
+def _as_lengths(values: tuple) -> tuple[float, float, float]:
     if len(values) == 1:
         values = tuple(values[0])
     if len(values) != 3:

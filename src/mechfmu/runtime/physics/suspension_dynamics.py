@@ -217,7 +217,7 @@ def build_deflection(model: "Model", inputs: StepInputs) -> Callable:
     return lambda t, y: y[0]
 
 
-def base_motion(model: "Model", inputs: StepInputs, t: float, y: list[float]) -> tuple[float, float, None] | tuple[float, float, float]:
+def base_motion(model: "Model", inputs: StepInputs, t: float, y: list[float]) -> tuple:
     """(z, z', z'') of the spring base for the state y at time t (z'' needs the rhs)."""
     if model.effects.tyre:
         return y[2], y[3], None

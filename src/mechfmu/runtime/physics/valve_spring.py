@@ -409,7 +409,7 @@ def contact_phase(p: "Parameters", rocker_lift: float, lift: float, landed: bool
                  landed and rocker_lift - p.lash > 0.0)
 
 
-def next_phase(p: "Parameters", before: "Phase", t: float, lift: float, velocity: float, drive: tuple[float, float, float]) -> tuple[Phase, list[Happening]] | tuple[Phase, list[Any]]:
+def next_phase(p: "Parameters", before: "Phase", t: float, lift: float, velocity: float, drive: tuple[float, float, float]) -> tuple:
     """(Phase at time t, [Happening]) for a state reached from the Phase ``before``.
 
     Happenings, each Happening(kind, t, x, v, (L, L', L'')):
