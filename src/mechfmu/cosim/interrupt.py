@@ -12,7 +12,7 @@ master asks ``requested`` between steps and stops cleanly there.
 import signal
 import threading
 from types import TracebackType
-from typing import Any, Optional, Type
+from typing import Any, Literal, Optional, Type
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -64,7 +64,7 @@ class InterruptGuard:
         self.taken = True
         return self.signum
 
-    def __exit__(self, kind: Optional[Type[BaseException]], value: Optional[BaseException], traceback: Optional[TracebackType]) -> bool:
+    def __exit__(self, kind: Optional[Type[BaseException]], value: Optional[BaseException], traceback: Optional[TracebackType]) -> Literal[False]:
         for signum, previous in self._previous.items():
             signal.signal(signum, signal.SIG_DFL if previous is None else previous)
         self._previous.clear()

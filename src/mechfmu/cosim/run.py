@@ -40,7 +40,8 @@ def run_scene(scene, out_dir, fmu_dir=None, plot: bool=True, guard=None):
             error.result.meta.update(
                 setup, error=str(error), failed_component=error.component,
                 failed_at=error.time, interrupted=interrupted,
-                signal=signal_name(error.signum) if interrupted else None,
+                signal=(signal_name(error.signum) if isinstance(error, SimulationInterrupted)
+                        else None),
                 moved_aside=[str(path) for path in error.moved_aside])
             try:
                 error.paths = write_result(error.result, out_dir, plot)

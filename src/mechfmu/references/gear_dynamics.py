@@ -52,7 +52,8 @@ def simulate(values, times):
     dynamics = dynamics_model(values)
     rhs = lambda t, y: dynamics.derivatives(list(y), values)[0]  # noqa: E731
     t, y = times[0], np.array(dynamics.initial_state(), dtype=float)
-    pieces, events = [], {"stroke_max": [], "stroke_min": []}
+    pieces: list = []
+    events: dict[str, list[float]] = {"stroke_max": [], "stroke_min": []}
     for _ in range(10_000):
         solution = solve_ivp(rhs, (t, times[-1]), y, method="Radau", rtol=TOLERANCE,
                              atol=TOLERANCE, dense_output=True,

@@ -27,6 +27,7 @@ Angles are wrapped to (-pi, pi]. Outside the assembly range every output is NaN;
 toggle or singular position the rates are inf or NaN. Nothing raises.
 """
 
+from typing import Any
 import numpy as np
 from numpy import ndarray
 
@@ -52,7 +53,7 @@ def _solve_stacked(matrix: ndarray, rhs: ndarray) -> ndarray:
     return np.where(good[..., None], solution, np.nan)
 
 
-def _broadcast(*values) -> tuple[ndarray, ndarray, ndarray]:
+def _broadcast(*values: Any) -> tuple[ndarray, ...]:
     return np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values))
 
 

@@ -18,6 +18,7 @@ v gives dF/du = 2 k (1 - L d^2 / s^3): it vanishes at s*^3 = L d^2, the limit po
 Lengths in m, stiffness in N/m, forces in N (any consistent units work).
 """
 
+from typing import Any
 import numpy as np
 from numpy import ndarray
 
@@ -38,7 +39,7 @@ def _length(u: float | ndarray, L: float, d: float) -> ndarray | float:
     return np.sqrt(d * d + v * v)
 
 
-def secant_stiffness(u: float | ndarray, L: float, k: float, d: float) -> ndarray | float:
+def secant_stiffness(u: float | ndarray, L: float, k: float, d: float) -> Any:
     """F(u)/u = 2 k (2h - u)(h - u) / (s (L + s)); exact at u = 0 (2 k h^2 / L^2)."""
     u = np.asarray(u, dtype=float)
     h = rest_height(L, d)
@@ -46,12 +47,12 @@ def secant_stiffness(u: float | ndarray, L: float, k: float, d: float) -> ndarra
     return 2.0 * k * (2.0 * h - u) * (h - u) / (s * (L + s))
 
 
-def spring_force(u: float | ndarray, L: float, k: float, d: float) -> float | ndarray:
+def spring_force(u: float | ndarray, L: float, k: float, d: float) -> Any:
     """Vertical spring force F(u) = u K_sec(u) (N)."""
     return np.asarray(u, dtype=float) * secant_stiffness(u, L, k, d)
 
 
-def tangent_stiffness(u: float | ndarray, L: float, k: float, d: float) -> float | ndarray:
+def tangent_stiffness(u: float | ndarray, L: float, k: float, d: float) -> Any:
     """dF/du = 2 k (1 - L d^2 / s^3)."""
     s = _length(u, L, d)
     return 2.0 * k * (1.0 - L * d * d / (s * s * s))
@@ -123,7 +124,7 @@ def equilibria(W: float, L: float, k: float, d: float) -> ndarray:
     return np.array(unique, dtype=float)
 
 
-def follow_load(W_array: list[float] | ndarray, L: float, k: float, d: float) -> dict[str, ndarray]:
+def follow_load(W_array: list[float] | ndarray, L: float, k: float, d: float) -> dict[str, Any]:
     """Quasi-static equilibrium path for a load history: a dict of column arrays.
 
     Starts on the near branch (u < u*). Stays on the current stable branch while it has an

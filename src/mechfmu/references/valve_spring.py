@@ -45,6 +45,7 @@ rebounding from its seat).
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
+from typing import Any
 
 from . import drives, valve_train
 from numpy import ndarray
@@ -71,13 +72,13 @@ class RockerDrive:
     """L(t), L'(t), L''(t) of the rocker's valve end, and the times where they lose
     smoothness. ``shaft``: CamshaftDrive parameters; ``train``: ValveTrain parameters."""
 
-    def __init__(self, shaft: dict[str, float], train: dict[str, float]) -> None:
+    def __init__(self, shaft: dict[str, float], train: dict[str, Any]) -> None:
         self.shaft = shaft
         self.train = train
         self.geometry = {key: train[key] for key in valve_train.GEOMETRY_FIELDS}
         self.solve = valve_train.inverse if train["mode"] == "inverse" else valve_train.forward
 
-    def rotation(self, t: float | ndarray) -> dict[str, float | ndarray]:
+    def rotation(self, t: float | ndarray) -> dict[str, Any]:
         s = self.shaft
         return drives.rotation(t, s["initial_angle"], s["initial_speed"], s["speed"],
                                s["ramp_time"], s["start_time"], ratio=0.5)

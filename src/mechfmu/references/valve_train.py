@@ -20,6 +20,7 @@ plain trigonometric form, angles reduced with np.mod.
 
 import numpy as np
 from numpy import ndarray
+from typing import Any
 
 CAM_LAWS = ("harmonic", "cycloidal", "polynomial_345", "polynomial_4567")
 MOTION_FIELDS = ("tappet_lift", "tappet_velocity", "tappet_acceleration", "rocker_angle",
@@ -77,7 +78,7 @@ GEOMETRY_FIELDS = ("cam_base_radius", "pushrod_length", "rocker_pivot_x", "rocke
                    "tappet_arm", "valve_arm", "valve_axis_x", "valve_link_length")
 
 
-def _unpack(geometry: dict[str, float]) -> tuple[float, float, float, float, float, float, float, float]:
+def _unpack(geometry: dict[str, float]) -> tuple[float, ...]:
     return tuple(float(geometry[key]) for key in GEOMETRY_FIELDS)
 
 
@@ -212,7 +213,7 @@ def inverse(geometry: dict[str, float], valve_lift: ndarray, valve_velocity: nda
 
 
 def revolution(geometry: dict[str, float], law: str, lift: float, rise_start: float, rise_angle: float, high_dwell_angle: float, return_angle: float,
-               angle: list[float], camshaft_speed: float) -> dict[str, ndarray]:
+               angle: list[float], camshaft_speed: float) -> dict[str, Any]:
     """Valve-train motion at constant camshaft speed (rad/s) over camshaft ``angle`` (rad).
 
     The tappet follows the cam: lift s, velocity s1 w, acceleration s2 w^2.

@@ -10,6 +10,7 @@ from pathlib import Path
 
 from ..cosim.results import read_csv, write_plot
 from ..cosim.scene import load_scene
+from ..runtime.fmi.slave import MechSlave
 from ..runtime.models import MODELS
 
 TYPES = {float: "Real", int: "Integer", bool: "Boolean", str: "String"}
@@ -35,7 +36,7 @@ def _start(variable) -> str:
     return f"`{str(variable.start).lower() if variable.kind is bool else variable.start}`"
 
 
-def model_class(name: str) -> type:
+def model_class(name: str) -> type[MechSlave]:
     """The slave class of the FMU ``name`` (a key of the model registry)."""
     try:
         module = MODELS[name]

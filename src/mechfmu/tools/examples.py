@@ -148,10 +148,13 @@ def suspension(args):
     return 0 if comparison.ok else 1
 
 
-def declared_tolerance(scene_name):
+def declared_tolerance(scene_name: str) -> tuple[float, float]:
     """(rtol, atol) that a shipped scene declares in its '# tolerance: ...' line."""
-    text = find_file(scene_name).read_text()
-    match = re.search(r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", text, re.M)
+    path = find_file(scene_name)
+    match = re.search(r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", path.read_text(),
+                      re.M)
+    if match is None:
+        raise ValueError(f"{path}: no '# tolerance: rtol=..., atol=...' line")
     return float(match.group(1)), float(match.group(2))
 
 
@@ -169,7 +172,8 @@ def suspension_dynamics(args):
             limit = statics.limit_point(statics.make_spring(0.5, 1e4, 0.2)).load
             load = max(result.columns["load.load"])
             snaps = [m["message"] for m in result.log if "snap-through" in m["message"]]
-            times = [float(re.search(r"at t = ([0-9.e+-]+) s", m).group(1)) for m in snaps]
+            found = [re.search(r"at t = ([0-9.e+-]+) s", m) for m in snaps]
+            times = [float(match.group(1)) for match in found if match]
             print(f"  load {load:.1f} N = {load / limit:.3f} of the static limit load "
                   f"{limit:.2f} N; snap-throughs at t = "
                   + ", ".join(f"{t:.6f} s" for t in times))

@@ -41,7 +41,7 @@ class IntegratingSlave(MechSlave):
         whether this configuration integrates (False: update_without_state steps it)."""
         raise NotImplementedError
 
-    def read_inputs(self) -> tuple[()]:
+    def read_inputs(self) -> tuple:
         """The inputs given for the current time, checked (raise MechanismError); a tuple
         that ``advance`` receives, with those of the step's start in self.held_inputs."""
         return ()
@@ -103,6 +103,7 @@ class IntegratingSlave(MechSlave):
         self._publish_with_counters(time)
 
     def _publish_with_counters(self, time: float) -> None:
+        assert self.integrator is not None  # only integrating configurations publish counters
         self.publish(time)
         stats = self.integrator.stats
         self.values["rhs_evaluations"], self.values["substeps"] = (stats.rhs_evaluations,

@@ -20,7 +20,6 @@ The base class
 import math
 
 from ..errors import MechanismError, require_finite
-from ..numerics.integrators import Integrator
 from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX, INTEGRATORS, MAX_WALL_TIME, UNITS, Status, Variable, effect, input_,
@@ -50,7 +49,7 @@ class MechSlave(Binding):
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
         self.pending_error: str | None = None  # reported by the next doStep
-        self.integrator: Integrator | None = None  # set by IntegratingSlave.check_parameters (fmi/integrating.py)
+        self.integrator: Any = None  # an Integrator, set by IntegratingSlave.check_parameters (fmi/integrating.py)
         self.real_inputs = tuple(v.name for v in self.VARIABLES
                                  if v.causality == "input" and v.kind is float)
         self.real_outputs = tuple(v.name for v in self.VARIABLES
@@ -181,7 +180,7 @@ class MechSlave(Binding):
             self.log(self._describe(error, current_time + step_size), Status.error)
             return False
 
-    def _describe(self, error: MechanismError, time: float) -> str:
+    def _describe(self, error: Exception, time: float) -> str:
         if isinstance(error, MechanismError):
             return f"{self.instance_name} at t = {time!r} s: {error}"
         return f"{self.instance_name} at t = {time!r} s: internal error {error!r}"

@@ -47,7 +47,7 @@ class FourBar(LinkageSlave):
             f"{c.code} {c.name}" for c in fb.GRASHOF_CLASSES)),
     )
 
-    def _lengths(self):
+    def _lengths(self) -> tuple[float, float, float, float]:
         v = self.values
         return (v["ground_length"], v["crank_length"], v["coupler_length"],
                 v["rocker_length"])

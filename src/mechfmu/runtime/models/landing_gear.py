@@ -134,7 +134,7 @@ class LandingGear(IntegratingSlave):
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
-        self.ignored_inputs = ()   # inputs of the other driver last warned about
+        self.ignored_inputs: tuple[str, ...] = ()  # inputs of the other driver last warned about
         self.model: Any = None  # gear_dynamics.Dynamics or InverseDynamics
 
     # --- set-up (IntegratingSlave: the dynamics drive integrates [theta, omega, work(, p1,

@@ -46,7 +46,7 @@ class LinkageSlave(MechSlave):
     """Subclasses implement check_geometry, drive, closed_form, mechanism, guess and
     from_solution; each returns or writes values keyed by output name."""
 
-    DRIVE_INPUTS = ()  # (value, rate, acceleration) input names of the mechanism's driver
+    DRIVE_INPUTS: tuple[str, ...] = ()  # (value, rate, acceleration) input names of the mechanism's driver
 
     def __init__(self, **kwargs) -> None:
         super().__init__(**kwargs)
@@ -54,9 +54,10 @@ class LinkageSlave(MechSlave):
         self.model: Any = None  # planar.Mechanism: the solver's, and the closed form's crossings
         self.last_drive: Any = None  # the closed form's drive at its last communication point
 
-    def driver_inputs(self):
+    def driver_inputs(self) -> tuple[float, float, float]:
         """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""
-        return tuple(self.values[name] for name in self.DRIVE_INPUTS)
+        angle, speed, acceleration = (self.values[name] for name in self.DRIVE_INPUTS)
+        return angle, speed, acceleration
 
     # --- model hooks --------------------------------------------------------------------
     def check_geometry(self) -> None:

@@ -44,7 +44,7 @@ class SliderCrank(LinkageSlave):
         output("coupler_angular_acceleration", 0.0, "alpha3", unit="rad/s2", depends=_CRANK),
     )
 
-    def _geometry(self):
+    def _geometry(self) -> tuple[float, float, float]:
         v = self.values
         return v["crank_length"], v["coupler_length"], v["offset"]
 

@@ -160,7 +160,7 @@ class ValveSpring(IntegratingSlave):
         self.last_float = saved["last_float"]
 
     # --- stepping ----------------------------------------------------------------------------
-    def read_inputs(self) -> tuple[float, float, float]:
+    def read_inputs(self) -> tuple[float, ...]:
         return tuple(require_finite(name, self.values[name], unit)
                      for name, unit in zip(_INPUTS, _UNITS))
 

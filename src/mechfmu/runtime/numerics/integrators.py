@@ -662,7 +662,7 @@ class DormandPrince45(_Adaptive):
                         "to stay stable), use radau")
 
     def restart(self) -> None:
-        self._h = None
+        self._h: float | None = None
         self._k1 = None
 
     def _begin_call(self) -> None:
@@ -767,9 +767,9 @@ class RadauIIA5(_Adaptive):
                         "for discontinuities or loosen rtol/atol")
 
     def restart(self) -> None:
-        self._h = None
-        self._h_old = None
-        self._error_old = None
+        self._h: float | None = None
+        self._h_old: float | None = None
+        self._error_old: float | None = None
         self._J: list[list[float]] | None = None
         self._J_version = 0
         self._J_current = False

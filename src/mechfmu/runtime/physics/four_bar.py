@@ -332,7 +332,7 @@ def _solve(lengths: "FourBar", crank_angle: float, circuit: int) -> tuple[float,
     high, low = b + c, abs(b - c)
     to_high, to_low, tolerance = _reach_margins(lengths, t2)
     if to_high < -tolerance or to_low < -tolerance:
-        lo, hi = crank_angle_range(d, a, b, c)
+        lo, hi = crank_angle_range(d, a, b, c) or (math.nan, math.nan)
         raise RangeError(
             "crank_angle", t2,
             f"cos(crank_angle) in [{lo!r}, {hi!r}], i.e. crank_angle (mod 2 pi) in "

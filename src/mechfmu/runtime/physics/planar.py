@@ -30,6 +30,7 @@ from collections import namedtuple
 
 from ..errors import MechanismError, SingularConfiguration
 from ..numerics.linalg import Singular, condition_number, determinant_sign, lu_factor, lu_solve
+from collections.abc import Callable, Sequence
 from typing import Any
 
 GROUND = None
@@ -59,7 +60,7 @@ class _Frames:
 
     __slots__ = ("q", "qdot")
 
-    def __init__(self, q: list[float], qdot: list[float] | None=None) -> None:
+    def __init__(self, q: list[float], qdot: Any = None) -> None:
         self.q, self.qdot = q, qdot
 
     def origin(self, body: int | None) -> tuple[float, float]:
@@ -77,7 +78,7 @@ class _Frames:
         c, s = math.cos(self.angle(body)), math.sin(self.angle(body))
         return (c * vector[0] - s * vector[1], s * vector[0] + c * vector[1])
 
-    def point(self, body: int | None, local: tuple[float, float]) -> tuple[float, float]:
+    def point(self, body: int | None, local: tuple[float, ...]) -> tuple[float, float]:
         r, a = self.origin(body), self.rotate(body, local)
         return (r[0] + a[0], r[1] + a[1])
 
@@ -104,7 +105,7 @@ class Revolute:
         self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
         self.body_j, self.point_j = body_j, tuple(point_j)
 
-    def residual(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         p, r = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
         return [p[0] - r[0], p[1] - r[1]]
 
@@ -119,10 +120,10 @@ class Revolute:
             rows[0][3 * body + 2] += sign * d[0]
             rows[1][3 * body + 2] += sign * d[1]
 
-    def velocity_rhs(self, drive: list[tuple[float, float, float]]) -> list[float]:
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0, 0.0]
 
-    def gamma(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         a_i, a_j = f.rotate(self.body_i, self.point_i), f.rotate(self.body_j, self.point_j)
         w_i, w_j = f.angular_velocity(self.body_i), f.angular_velocity(self.body_j)
         return [a_i[0] * w_i * w_i - a_j[0] * w_j * w_j, a_i[1] * w_i * w_i - a_j[1] * w_j * w_j]
@@ -138,7 +139,7 @@ class PointOnLine:
     equations = 1
     kinds = ("length",)
 
-    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[int, int]) -> None:
+    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[float, float]) -> None:
         norm = math.hypot(*direction_j)
         if not norm > 0.0:
             raise ValueError(f"{name}: direction must be non-zero")
@@ -151,7 +152,7 @@ class PointOnLine:
         p_i, p_j = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
         return n, (p_i[0] - p_j[0], p_i[1] - p_j[1])
 
-    def residual(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         n, d = self._parts(f)
         return [_dot(n, d)]
 
@@ -169,10 +170,10 @@ class PointOnLine:
             row[j + 1] -= n[1]
             row[j + 2] += _dot(_perp(n), d) - _dot(n, _perp(f.rotate(self.body_j, self.point_j)))
 
-    def velocity_rhs(self, drive: list[tuple[float, float, float]]) -> list[float]:
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0]
 
-    def gamma(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         n, d = self._parts(f)
         a_i, a_j = f.rotate(self.body_i, self.point_i), f.rotate(self.body_j, self.point_j)
         w_i, w_j = f.angular_velocity(self.body_i), f.angular_velocity(self.body_j)
@@ -190,10 +191,10 @@ class RelativeAngle:
     equations = 1
     kinds = ("angle",)
 
-    def __init__(self, name: str, body_i: int, body_j: None, angle: float=0.0) -> None:
+    def __init__(self, name: str, body_i: int, body_j: int | None, angle: float=0.0) -> None:
         self.name, self.body_i, self.body_j, self.angle = name, body_i, body_j, float(angle)
 
-    def residual(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [f.angle(self.body_i) - f.angle(self.body_j) - self.angle]
 
     def jacobian(self, f: _Frames, rows: list[list[float]]) -> None:
@@ -202,14 +203,14 @@ class RelativeAngle:
         if self.body_j is not GROUND:
             rows[0][3 * self.body_j + 2] -= 1.0
 
-    def velocity_rhs(self, drive: list[tuple[float, float, float]]) -> list[float]:
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0]
 
-    def gamma(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0]
 
 
-def translational(name: str, body_i: int, point_i: tuple[int, int], body_j: None, point_j: tuple[int, float], direction_j: tuple[int, int], angle: float=0.0) -> tuple[PointOnLine, RelativeAngle]:
+def translational(name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[float, float], angle: float=0.0) -> tuple[PointOnLine, RelativeAngle]:
     """A prismatic joint: point-on-line plus a locked relative angle (2 equations)."""
     return (PointOnLine(name + " (line)", body_i, point_i, body_j, point_j, direction_j),
             RelativeAngle(name + " (angle)", body_i, body_j, angle))
@@ -224,11 +225,11 @@ class Driver:
 
     equations = 1
 
-    def __init__(self, name: str, terms: tuple[tuple[int, int, float]], index: int=0, offset: float=0.0, kind: str="angle") -> None:
+    def __init__(self, name: str, terms: tuple[tuple[int, int, float], ...], index: int=0, offset: float=0.0, kind: str="angle") -> None:
         self.name, self.terms, self.index = name, tuple(terms), index
         self.offset, self.kinds = float(offset), (kind,)
 
-    def residual(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         total = self.offset
         for body, coordinate, weight in self.terms:
             total += weight * f.q[3 * body + coordinate]
@@ -238,10 +239,10 @@ class Driver:
         for body, coordinate, weight in self.terms:
             rows[0][3 * body + coordinate] += weight
 
-    def velocity_rhs(self, drive: list[tuple[float, float, float]]) -> list[float]:
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [drive[self.index][1]]
 
-    def gamma(self, f: _Frames, drive: list[tuple[float, float, float]]) -> list[float]:
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [drive[self.index][2]]
 
 
@@ -265,8 +266,8 @@ class Mechanism:
     range where the mechanism does not assemble), or None (see crossing_error).
     """
 
-    def __init__(self, name: str, bodies: tuple, joints: list[Any], length_scale: float, diagnose: None=None, singularity: None=None,
-                 crossing: None=None) -> None:
+    def __init__(self, name: str, bodies: tuple, joints: list[Any], length_scale: float, diagnose: Callable | None=None, singularity: Callable | None=None,
+                 crossing: Callable | None=None) -> None:
         self.name, self.bodies = name, tuple(bodies)
         self.joints = tuple(j for joint in joints
                             for j in (joint if isinstance(joint, tuple) else (joint,)))
@@ -291,7 +292,7 @@ class Mechanism:
         return f"{self.singularity(q)} at {self.diagnose(q)}"
 
     # Scaled quantities: rows of lengths divided by L, angle columns multiplied by L.
-    def residual(self, q: list[float], drive: list[tuple[float, float, float]]) -> list[float]:
+    def residual(self, q: list[float], drive: Sequence[tuple[float, ...]]) -> list[float]:
         f = _Frames(q)
         values = [v for j in self.joints for v in j.residual(f, drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
@@ -306,11 +307,11 @@ class Mechanism:
         return [[v * r * c for v, c in zip(row, self.column_scale)]
                 for row, r in zip(matrix, self.row_scale)]
 
-    def velocity_rhs(self, drive: list[tuple[float, float, float]]) -> list[float]:
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         values = [v for j in self.joints for v in j.velocity_rhs(drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
 
-    def gamma(self, q: list[float], qdot: list[float], drive: list[tuple[float, float, float]]) -> list[float]:
+    def gamma(self, q: list[float], qdot: list[float], drive: Sequence[tuple[float, ...]]) -> list[float]:
         f = _Frames(q, qdot)
         values = [v for j in self.joints for v in j.gamma(f, drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
@@ -324,7 +325,7 @@ def _max_abs(values: list[float]) -> float:
     return max(abs(v) for v in values)
 
 
-def _factor(mechanism: Mechanism, q: list[float]) -> tuple[list[list[float]], tuple[list[list[float]], list[int]]]:
+def _factor(mechanism: Mechanism, q: list[float]) -> tuple[list[list[float]], Any]:
     matrix = mechanism.jacobian(q)
     try:
         return matrix, lu_factor(matrix)
@@ -332,7 +333,7 @@ def _factor(mechanism: Mechanism, q: list[float]) -> tuple[list[list[float]], tu
         return matrix, None
 
 
-def solve_position(mechanism: Mechanism, guess: list[float], drive: list[tuple[float, float, float]], tolerance: float=DEFAULT_TOLERANCE,
+def solve_position(mechanism: Mechanism, guess: list[float], drive: Sequence[tuple[float, ...]], tolerance: float=DEFAULT_TOLERANCE,
                    max_iterations: int=DEFAULT_MAX_ITERATIONS) -> tuple[list[float], int, float]:
     """Newton-Raphson on Phi(q) = 0 from ``guess``. Returns (q, iterations, residual).
 
@@ -389,7 +390,7 @@ def solve_position(mechanism: Mechanism, guess: list[float], drive: list[tuple[f
         f"near {mechanism.diagnose(q)}")
 
 
-def analyse(mechanism: Mechanism, q: list[float], drive: list[tuple[float, float, float]], singularity_threshold: float=DEFAULT_SINGULARITY_THRESHOLD) -> tuple[list[float], list[float], float, int]:
+def analyse(mechanism: Mechanism, q: list[float], drive: Sequence[tuple[float, ...]], singularity_threshold: float=DEFAULT_SINGULARITY_THRESHOLD) -> tuple[list[float], list[float], float, int]:
     """Velocities and accelerations at a solved position q; returns (qdot, qddot, condition,
     determinant sign). Raises SingularConfiguration when the scaled Jacobian's condition
     number exceeds ``singularity_threshold``."""
@@ -406,7 +407,7 @@ def analyse(mechanism: Mechanism, q: list[float], drive: list[tuple[float, float
     return qdot, qddot, condition, determinant_sign(factored)
 
 
-def crossing_error(mechanism: Mechanism, start: list[tuple[float, float, float]], end: list[tuple[float, float, float]]) -> None:
+def crossing_error(mechanism: Mechanism, start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]]) -> "SingularConfiguration | None":
     """SingularConfiguration for a drive change from ``start`` to ``end`` (lists of (value,
     rate, acceleration)) that passes a singular position the mechanism cannot be followed
     through (``mechanism.crossing``), or None. One message for the solver and for a
@@ -451,20 +452,20 @@ class BranchFollower:
         self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
         self.sign = state["sign"]
 
-    def _solve(self, guess: list[float], drive: list[tuple[float, float, float]]) -> tuple[Solution, int]:
+    def _solve(self, guess: list[float], drive: Sequence[tuple[float, ...]]) -> tuple[Solution, int]:
         q, iterations, residual = solve_position(self.mechanism, guess, drive, self.tolerance,
                                                  self.max_iterations)
         qdot, qddot, condition, sign = analyse(self.mechanism, q, drive,
                                                self.singularity_threshold)
         return Solution(q, qdot, qddot, iterations, residual, condition), sign
 
-    def assemble(self, guess: list[float], drive: list[tuple[float, float, float]]) -> "Solution":
+    def assemble(self, guess: list[float], drive: Sequence[tuple[float, ...]]) -> "Solution":
         drive = [tuple(map(float, d)) for d in drive]
         self.solution, self.sign = self._solve(guess, drive)
         self.drive = drive
         return self.solution
 
-    def follow(self, drive: list[tuple[float, float, float]], dt: float) -> "Solution":
+    def follow(self, drive: Sequence[tuple[float, ...]], dt: float) -> "Solution":
         """Solve at the new drive values; ``dt`` (s) is the time since the last solution.
 
         A drive change that reaches or passes a point where two assembly branches cross (a
@@ -474,11 +475,11 @@ class BranchFollower:
         where the mechanism does not assemble (crossing_error).
         """
         drive = [tuple(map(float, d)) for d in drive]
+        last = self.solution
+        assert last is not None and self.drive is not None  # follow() comes after assemble()
         refused = crossing_error(self.mechanism, self.drive, drive)
         if refused:
             raise refused
-        last = self.solution
-        assert last is not None  # follow() comes after assemble()
         guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         try:
             solution, sign = self._solve(guess, drive)
@@ -506,7 +507,7 @@ class BranchFollower:
         except NoConvergence:
             return False
 
-    def _continue(self, drive: list[tuple[float, float, float]]) -> "Solution":
+    def _continue(self, drive: Sequence[tuple[float, ...]]) -> "Solution":
         """Split the drive change into 2, 4, ... pieces; each piece predicted along the
         branch tangent dq/ds (J dq/ds = d(drive)/ds on the driver rows)."""
         start = self.drive
@@ -555,7 +556,7 @@ class BranchFollower:
         assert last_error is not None  # every halving raised one
         raise last_error
 
-    def _tangent_predictor(self, q: list[float], start: list[tuple[float, float, float]], end: list[tuple[float, float, float]], fraction: float) -> list[float]:
+    def _tangent_predictor(self, q: list[float], start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]], fraction: float) -> list[float]:
         mechanism = self.mechanism
         _, factored = _factor(mechanism, q)
         if factored is None:

@@ -111,6 +111,7 @@ def load(time: float, shape: str, initial_value: float, final_value: float, star
         change = final_value - initial_value
         value = final_value if tau == 1.0 else initial_value + change * tau
         return Sample(value, change / duration, 0.0)
+    assert table is not None  # shape 'table' is read with its table (check_load)
     return interpolate(table, time)
 
 

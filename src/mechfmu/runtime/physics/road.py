@@ -69,4 +69,5 @@ def road(time: float, shape: str, height: float=0.0, duration: float=1.0, start_
         return bump(time, height, duration, start_time)
     if shape == "sine":
         return sine(time, amplitude, frequency, start_time)
+    assert table is not None  # shape 'table' is read with its table (check_road)
     return interpolate(table, time)

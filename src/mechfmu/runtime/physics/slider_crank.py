@@ -100,7 +100,7 @@ def _solve(geometry: "SliderCrank", crank_angle: float, circuit: int) -> tuple[f
     tolerance = SINGULAR_ULPS * sys.float_info.epsilon * (a + b + abs(e))
     margin = b - abs(rise)
     if margin < -tolerance:
-        low, high = crank_angle_range(a, b, e)
+        low, high = crank_angle_range(a, b, e) or (math.nan, math.nan)
         raise RangeError(
             "crank_angle", t2,
             f"sin(crank_angle) in [{low!r}, {high!r}], i.e. crank_angle (mod 2 pi) in "

@@ -135,7 +135,7 @@ class StepInputs:
     def set_constant(self, t: float, load: float, road_height: float, road_rate: float) -> None:
         """Inputs frozen at their values at ``t`` (initialisation, outputs at an instant)."""
         self.t0, self.load0, self.load_slope = t, load, 0.0
-        self.road = (road_height, road_rate, 0.0, 0.0)
+        self.road: tuple[float, ...] = (road_height, road_rate, 0.0, 0.0)
 
     def set_step(self, t0: float, t1: float, start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
         """Inputs over [t0, t1] from (load, road_height, road_rate) at t0 and at t1."""

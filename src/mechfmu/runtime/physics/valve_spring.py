@@ -282,7 +282,8 @@ class StepDrive:
     def set_constant(self, t: float, start: tuple[float, float, float]) -> None:
         """The motion from (L, L', L'') at t with constant acceleration."""
         lift, rate, acceleration = start
-        self.t0, self.coefficients = t, (lift, rate, 0.5 * acceleration)
+        self.t0 = t
+        self.coefficients: tuple[float, ...] = (lift, rate, 0.5 * acceleration)
 
     def set_step(self, t0: float, t1: float, start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
         """The motion over [t0, t1] from (L, L', L'') at t0 and at t1."""
@@ -358,8 +359,8 @@ class Modes:
 
     __slots__ = ("engaged",)
 
-    def __init__(self, engaged: None=None) -> None:
-        self.engaged = engaged
+    def __init__(self, engaged: "Engaged | None" = None) -> None:
+        self.engaged: Any = engaged  # an Engaged once the integration starts
 
 
 def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
@@ -372,7 +373,7 @@ def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
     return rhs
 
 
-def build_events(p: "Parameters", drive: StepDrive, max_lift: float | None=None) -> dict[Engaged, tuple[Event, Event, Event, Event]]:
+def build_events(p: "Parameters", drive: StepDrive, max_lift: float | None=None) -> dict[Engaged, tuple[Event, ...]]:
     """{Engaged: events to watch in that mode}: each contact's switch function crossing
     towards the other mode (falling while engaged, rising while idle) ends the segment, and
     d falling through 0 (the valve leaving the rocker) is located for the float report;

@@ -50,6 +50,7 @@ linear in the unknown rate, solved directly in forward and inverse.
 import math
 import sys
 from collections import namedtuple
+from typing import Any
 
 from . import cam_laws
 from ..errors import (RangeError, SingularConfiguration, require_between, require_finite,
@@ -450,7 +451,8 @@ def _slider_rates(link: tuple[float, float], t1: tuple[float, float], t2: tuple[
     return rate, (alpha * _dot(link, t1) + omega * omega * _dot(link, t2) + _dot(rel, rel)) / link[1]
 
 
-def _chain_rates(driving, driven, rate, acceleration, driving_singular, driven_singular):
+def _chain_rates(driving: tuple[Any, Any, Any], driven: tuple[Any, Any, Any], rate: float, acceleration: float,
+                 driving_singular: str, driven_singular: str) -> tuple[float, float, float, float]:
     """Through the rocker: its (omega, alpha) from the driving slider's ``rate`` and
     ``acceleration`` (vectors ``driving``), then the driven slider's (rate, acceleration)
     (vectors ``driven``); the messages name each singular position."""

@@ -8,6 +8,7 @@ the coursework's own stated results, which appear only in columns or sentences l
 """
 
 import numpy as np
+from typing import Any
 
 from mechfmu.cosim.files import atomic_write
 from mechfmu.runtime.physics.landing_gear import COURSEWORK_STROKE_TIME
@@ -31,7 +32,7 @@ FINE_SAMPLES = 300_001  # grid over [0, T] for maxima (0.01 ms spacing)
 SAYS_GEAR = {"d": 0.64361, "d_2": -1.89361, "h": 1.4060, "theta_1": 1.0953,
              "theta_1_deg": 62.76, "h2+d2": 2.3911, "2dh": 1.8098, "4dh": 3.6196,
              "dh": 0.9049}
-SAYS_SUSPENSION = {"h": 0.4583, "u": (0.1375, 0.3804), "kef": (1.5059e4, 5.4410e3)}
+SAYS_SUSPENSION: dict[str, Any] = {"h": 0.4583, "u": (0.1375, 0.3804), "kef": (1.5059e4, 5.4410e3)}
 
 # Coursework inputs, suspension (seed 003).
 L = COURSEWORK_FREE_LENGTH

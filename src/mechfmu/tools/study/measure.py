@@ -68,11 +68,14 @@ def errors(times, columns, reference_times, reference_columns, common_step):
     return measured
 
 
-def run_point(point, scene, study_scene, reference_data, fmu_dir, repeats):
+def run_point(point, scene, study_scene, reference_data: tuple[Any, Any], fmu_dir, repeats):
     """The rows of one point: its errors per output, cost and work counters."""
     configured = configure(scene, study_scene, point)
     simulation = Simulation(configured, fmu_dir)  # checked and its FMUs described once
-    loop_times, wall_times, result, failure = [], [], None, ""
+    loop_times: list[float] = []
+    wall_times: list[float] = []
+    result: Any = None  # the last run's Result (repeats >= 1)
+    failure = ""
     for _ in range(repeats):
         try:
             result = simulation.run()
