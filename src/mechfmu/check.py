@@ -1,11 +1,18 @@
 """Compare results with references: CSV against CSV within explicit tolerances, and the
 report of a scene run against its reference."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 from dataclasses import dataclass
 
 import numpy as np
 
 from .cosim.results import read_csv
+from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .cosim.master import Result
 
 
 @dataclass
@@ -38,7 +45,7 @@ class Comparison:
         return f"{verdict}: {len(self.columns)} column(s), {self.samples} sample(s){worst}"
 
 
-def compare(result_path, reference_path, rtol: float=1e-9, atol: float=1e-12):
+def compare(result_path: Path, reference_path: Path, rtol: float=1e-9, atol: float=1e-12) -> Comparison:
     """Interpolate the reference onto the result's times and compare shared columns.
 
     A sample passes when |value - reference| <= atol + rtol * |reference|; NaN never passes.
@@ -88,7 +95,7 @@ def worst_deviations(result, reference_path):
     return rows
 
 
-def run_report(result, paths, reference=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference"):
+def run_report(result: Result, paths: dict[str, Path], reference: None=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference") -> tuple[list[str], None]:
     """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
     verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,

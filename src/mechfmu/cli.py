@@ -6,12 +6,21 @@ function of the package (imported when the verb runs, so ``mechfmu run`` never l
 study's or the benchmarks' code). The scripts in sims/ call ``script_main`` with their verb.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import argparse
 import os
 import sys
 from pathlib import Path
 
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .cosim.files import OutputError
+    from .cosim.interrupt import InterruptGuard
+    from .cosim.master import SimulationError
+    from .cosim.scene import SceneError
 
 
 def _build(args) -> int:
@@ -22,7 +31,7 @@ def _build(args) -> int:
     return 0
 
 
-def _scene_failure(error, guard=None):
+def _scene_failure(error: SimulationError | SceneError | OutputError, guard: InterruptGuard | None=None) -> int:
     """Exit status and message for a scene that could not run: 2 for a scene or output error,
     1 for a failed simulation (whose partial results and any older result moved aside are
     named), 130/143 when SIGINT/SIGTERM stopped it (``guard``: the command's InterruptGuard)."""
@@ -45,14 +54,14 @@ def _scene_failure(error, guard=None):
     return exit_code(error.signum) if interrupted else 1
 
 
-def _run(args):
+def _run(args: argparse.Namespace) -> int:
     # Ctrl-C and SIGTERM are noted from here on and taken between steps (cosim.interrupt).
     from .cosim.interrupt import InterruptGuard
     with InterruptGuard() as guard:
         return _run_guarded(args, guard)
 
 
-def _run_guarded(args, guard):
+def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
     from .check import run_report
     from .cosim.files import OutputError
     from .cosim.interrupt import exit_code, signal_name
@@ -97,7 +106,7 @@ def _example(args):
         return _scene_failure(error)
 
 
-def _export_ssp(args):
+def _export_ssp(args: argparse.Namespace) -> int:
     from .cosim.scene import SceneError, find_file
     from .tools.ssp import export_ssp, summary
     try:
@@ -165,7 +174,7 @@ def _docs(args) -> int:
     return 0
 
 
-def _study(args):
+def _study(args: argparse.Namespace):
     from .tools.study import command
     return command(args)
 
@@ -192,19 +201,19 @@ def _fuzz(args):
     return command(args)
 
 
-def _sweep(args):
+def _sweep(args: argparse.Namespace) -> int:
     from .tools.sweep import command
     return command(args)
 
 
-def _at_least_one(text):
+def _at_least_one(text: str) -> int:
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
 
 
-def _scene_options(verb, out: str="out", plot: bool=True) -> None:
+def _scene_options(verb: argparse.ArgumentParser, out: str="out", plot: bool=True) -> None:
     """--out, --fmu-dir and --no-plot: the options of every verb that runs scenes."""
     verb.add_argument("--out", default=out, help=f"output folder (default: {out})")
     verb.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
@@ -212,7 +221,7 @@ def _scene_options(verb, out: str="out", plot: bool=True) -> None:
         verb.add_argument("--no-plot", action="store_true", help="skip the PNG")
 
 
-def _example_verbs(verbs) -> None:
+def _example_verbs(verbs: argparse._SubParsersAction) -> None:
     example = verbs.add_parser("example", help="a worked example: shipped scenes checked "
                                "against their references, with what each check found "
                                "(sims/run_*.py run these)")
@@ -230,7 +239,7 @@ def _example_verbs(verbs) -> None:
     example.set_defaults(func=_example)
 
 
-def _measurement_verbs(verbs) -> None:
+def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     """study, bench, fuzz, sweep: the long runs."""
     from .tools.bench import BENCHMARKS, FULL, QUICK
     study = verbs.add_parser("study", help="accuracy study: error against wall time (make "
@@ -318,7 +327,7 @@ def _measurement_verbs(verbs) -> None:
     sweep.set_defaults(func=_sweep)
 
 
-def parser():
+def parser() -> argparse.ArgumentParser:
     main = argparse.ArgumentParser(prog="mechfmu", description=__doc__.split("\n\n")[0])
     verbs = main.add_subparsers(dest="verb", required=True)
 
@@ -393,7 +402,7 @@ def parser():
     return main
 
 
-def main(argv=None):
+def main(argv: list[str] | None=None) -> int:
     args = parser().parse_args(argv)
     return args.func(args)
 

@@ -12,7 +12,7 @@ master asks ``requested`` between steps and stops cleanly there.
 import signal
 import threading
 from types import TracebackType
-from typing import Any, Literal, Optional, Type
+from typing import Any, Literal
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -22,7 +22,7 @@ def exit_code(signum):
     return 128 + int(signum)
 
 
-def signal_name(signum):
+def signal_name(signum: signal.Signals) -> str:
     """'SIGINT', 'SIGTERM', ..."""
     return signal.Signals(signum).name
 
@@ -43,7 +43,7 @@ class InterruptGuard:
         self.taken = False
         self._previous: dict[int, Any] = {}
 
-    def __enter__(self):
+    def __enter__(self) -> "InterruptGuard":
         if threading.current_thread() is threading.main_thread():
             for signum in SIGNALS:
                 if signal.getsignal(signum) is not signal.SIG_IGN:
@@ -64,7 +64,7 @@ class InterruptGuard:
         self.taken = True
         return self.signum
 
-    def __exit__(self, kind: Optional[Type[BaseException]], value: Optional[BaseException], traceback: Optional[TracebackType]) -> Literal[False]:
+    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None, traceback: TracebackType | None) -> Literal[False]:
         for signum, previous in self._previous.items():
             signal.signal(signum, signal.SIG_DFL if previous is None else previous)
         self._previous.clear()

@@ -9,6 +9,9 @@ communication point and frees every instance, also on error. A step an FMU refus
 component, the time and the FMU's own log message, and carries the rows computed so far.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import ctypes
 import functools
 import shutil
@@ -20,6 +23,7 @@ from ctypes import byref
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from collections.abc import Callable
 
 from fmpy import extract
 from fmpy.fmi1 import FMICallException
@@ -32,6 +36,11 @@ from .fmu_file import FmuError, checked_description
 from .interrupt import signal_name
 from .scene import SceneError, split_name
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.model_description import ModelDescription, ModelVariable
+    from .interrupt import InterruptGuard
+    from .scene import ComponentSpec, Connection, Scene
+
 EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.runtime.fmi.slave)
 STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
@@ -40,7 +49,7 @@ _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "S
 class SimulationError(RuntimeError):
     """A component failed during the run; ``result`` holds the rows computed before."""
 
-    def __init__(self, component, time, message, result) -> None:
+    def __init__(self, component: str, time: float, message: str, result: "Result") -> None:
         self.component, self.time, self.result = component, time, result
         self.paths: dict[str, Path] = {}  # set by run_scene
         self.moved_aside: list[Path] = []
@@ -72,12 +81,12 @@ class Result:
     partial: bool = False
 
 
-def default_fmu_dir():
+def default_fmu_dir() -> Path:
     """``./fmus`` of the current folder (the repository root in the README's commands)."""
     return Path.cwd() / "fmus"
 
 
-def resolve_fmu(spec, scene, fmu_dir):
+def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
     """Path of a component's FMU: a model name in ``fmu_dir`` or a path to an .fmu."""
     if spec.fmu.endswith(".fmu"):
         candidate = Path(spec.fmu)
@@ -91,24 +100,24 @@ def resolve_fmu(spec, scene, fmu_dir):
     return candidate
 
 
-def file_version(path):
+def file_version(path: Path) -> tuple[str, int, int]:
     """(path, modification time in ns, size): a rebuilt FMU is a new version."""
     stat = Path(path).stat()
     return str(path), stat.st_mtime_ns, stat.st_size
 
 
-def model_description(path):
+def model_description(path: Path) -> ModelDescription:
     """fmpy's ModelDescription of the FMU at ``path``, checked (fmu_file: FmuError names the
     file and what is wrong with it) and parsed once per file version."""
     return _parsed_description(*file_version(path))
 
 
 @functools.lru_cache(maxsize=128)
-def _parsed_description(path, mtime_ns, size):
+def _parsed_description(path: str, mtime_ns: int, size: int) -> ModelDescription:
     return checked_description(path)
 
 
-def _route(environment, instance, status, category, message) -> None:
+def _route(environment: int, instance: bytes, status: int, category: bytes, message: bytes) -> None:
     """The one logger every LogBook installs: hands the message to the book it belongs to."""
     book = LogBook._books.get(environment)
     if book is not None:
@@ -147,13 +156,13 @@ class LogBook:
         except Exception:
             pass
 
-    def record(self, instance, status, category, message) -> None:
+    def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
         def text(raw):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
         self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
                               "category": text(category), "message": text(message)})
 
-    def last_problem(self, instance):
+    def last_problem(self, instance: str) -> str:
         for entry in reversed(self.messages):
             if entry["instance"] == instance and entry["status"] in ("error", "fatal", "discard"):
                 return entry["message"]
@@ -179,7 +188,7 @@ class Instances:
         self._idle: dict[tuple, list] = {}  # (folder, instance name) -> [FMU2Slave ready to set up]
         self.created = self.reused = 0
 
-    def acquire(self, component):
+    def acquire(self, component: "_Component") -> FMU2Slave:
         """An instantiated FMU2Slave for ``component``, named after it."""
         version = file_version(component.path)
         folder = self._folders.get(version)
@@ -202,7 +211,7 @@ class Instances:
         self.created += 1
         return slave
 
-    def release(self, component) -> None:
+    def release(self, component: "_Component") -> None:
         """Take back ``component``'s instance: reset and keep it, or free it."""
         slave = component.slave
         try:
@@ -233,12 +242,12 @@ class Instances:
 class _Component:
     """One FMU instance in a running scene, with its variables by name."""
 
-    def __init__(self, spec, path, description) -> None:
+    def __init__(self, spec: ComponentSpec, path: Path, description: ModelDescription) -> None:
         self.spec, self.name, self.path, self.description = spec, spec.name, path, description
         self.variables = {v.name: v for v in description.modelVariables}
         self.slave: Any = None  # fmpy's FMU2Slave, from InstancePool.acquire
 
-    def variable(self, name, where, causality=None):
+    def variable(self, name: str, where: str, causality: tuple[str] | None=None) -> ModelVariable:
         variable = self.variables.get(name)
         if variable is None:
             names = ", ".join(sorted(self.variables))
@@ -249,33 +258,33 @@ class _Component:
                              f"expected {' or '.join(causality)}")
         return variable
 
-    def getter(self, variable):
+    def getter(self, variable: ModelVariable) -> Callable:
         """A function returning the variable's current value (bound once, called per step)."""
         get, reference = accessor(self.slave, variable.type, "get"), [variable.valueReference]
         return lambda: get(reference)[0]
 
-    def setter(self, variable):
+    def setter(self, variable: ModelVariable) -> Callable:
         """A function setting the variable (bound once, called per step)."""
         put, reference = accessor(self.slave, variable.type, "set"), [variable.valueReference]
         return lambda value: put(reference, [value])
 
-    def set(self, variable, value) -> None:
+    def set(self, variable: ModelVariable, value: float) -> None:
         self.setter(variable)(value)
 
 
-def accessor(slave, fmi_type, verb):
+def accessor(slave: FMU2Slave, fmi_type: str, verb: str) -> Callable:
     """fmpy's get/set method of an FMU2Slave for an FMI type ('Real', 'Integer', ...)."""
     return getattr(slave, f"{verb}{fmi_type}")
 
 
-def _check_value(component, variable, value, where):
+def _check_value(component: str, variable: ModelVariable, value: float, where: str) -> None:
     expected = _PYTHON_TYPES[variable.type]
     if not isinstance(value, expected) or (variable.type != "Boolean" and isinstance(value, bool)):
         raise SceneError(f"{where}: {component}.{variable.name} is {variable.type}, got "
                          f"{type(value).__name__} {value!r}")
 
 
-def order_components(names, connections, feedthrough=None):
+def order_components(names: list[str], connections: list[Any], feedthrough: Callable | None=None) -> tuple[list[str], list[Any]] | tuple[list[str], list[Connection]]:
     """Components in stepping order, and the connections that must lag one step.
 
     ``feedthrough(connection)`` tells whether the connection's source output depends
@@ -306,7 +315,7 @@ def order_components(names, connections, feedthrough=None):
     return _topological(names, targets), lagged
 
 
-def _topological(names, targets):
+def _topological(names: list[str], targets: dict[str, set[str] | set[Any]]) -> list[str]:
     indegree = {name: 0 for name in names}
     for name in names:
         for target in targets[name]:
@@ -323,7 +332,7 @@ def _topological(names, targets):
     return ordered
 
 
-def _find_cycle(names, targets):
+def _find_cycle(names: list[str], targets: dict[str, set[str] | set[Any]]) -> list[str] | None:
     """A list of components forming a cycle, or None (iterative depth-first search)."""
     state = {name: 0 for name in names}  # 0 new, 1 on the current path, 2 done
     for root in names:
@@ -351,7 +360,7 @@ def _find_cycle(names, targets):
 class Simulation:
     """A scene bound to its FMUs, checked and ready to run."""
 
-    def __init__(self, scene, fmu_dir=None) -> None:
+    def __init__(self, scene: Scene, fmu_dir: str | Path | None=None) -> None:
         self.scene = scene
         fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
         self.components = {}
@@ -366,7 +375,7 @@ class Simulation:
         self.order, self.lagged = order_components(list(self.components), self.connections,
                                                    self._feedthrough)
 
-    def _feedthrough(self, connection):
+    def _feedthrough(self, connection: Connection) -> bool:
         """Whether the connection's source output depends directly on one of its inputs."""
         description = self.components[connection.source].description
         for unknown in description.outputs:
@@ -374,7 +383,7 @@ class Simulation:
                 return bool(unknown.dependencies) or unknown.dependencies is None
         return True
 
-    def _check(self):
+    def _check(self) -> None:
         where = str(self.scene.path)
         fed: dict[tuple[str, str], str] = {}
         for connection in self.scene.connections:
@@ -438,7 +447,7 @@ class Simulation:
             self.recorded.append((full_name, self.components[component_name], variable))
         self.pruned = self._prune()
 
-    def _prune(self):
+    def _prune(self) -> dict[Any, Any]:
         """Drop components that feed none of the recorded outputs; return {name: why}."""
         needed = {component.name for _, component, _ in self.recorded}
         frontier = list(needed)
@@ -456,7 +465,7 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls: bool=False, instances=None, stop=None):
+    def run(self, time_fmi_calls: bool=False, instances: Instances | None=None, stop: InterruptGuard | None=None) -> Result:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -550,7 +559,7 @@ class Simulation:
                 instances.close()
         return result
 
-    def _feeds(self, name, skip=()):
+    def _feeds(self, name: str, skip: list[Any]=()) -> list[Any]:
         """(get from source, set on ``name``) pairs for the connected inputs of ``name``."""
         feeds = []
         for connection in self.connections:
@@ -561,12 +570,12 @@ class Simulation:
                               target.setter(target.variables[connection.input])))
         return feeds
 
-    def _feed(self, name, skip=()) -> None:
+    def _feed(self, name: str, skip: list[Any]=()) -> None:
         """Set the connected inputs of ``name`` from its sources' current outputs."""
         for get, put in self._feeds(name, skip):
             put(get())
 
-    def _set_from_source(self, connection) -> None:
+    def _set_from_source(self, connection: Connection) -> None:
         source, target = self.components[connection.source], self.components[connection.target]
         target.set(target.variables[connection.input],
                    source.getter(source.variables[connection.output])())
@@ -607,7 +616,7 @@ _NEVER = _NoStop()
 class _CallFailed(Exception):
     """An FMI call of the stepping loop returned a status worse than fmi2Warning."""
 
-    def __init__(self, component, time, function, status) -> None:
+    def __init__(self, component: str, time: float, function: str, status: int) -> None:
         super().__init__(component, time, function, status)
         self.component, self.time, self.function, self.status = component, time, function, status
 
@@ -662,7 +671,7 @@ class _Outputs:
     the buffer's bytes appended as they are.
     """
 
-    def __init__(self, component, fmi_type, groups, recorded, timer) -> None:
+    def __init__(self, component: _Component, fmi_type: str, groups: list[Any], recorded: list[Any], timer: None) -> None:
         variables = [variable for _, variables in groups for variable in variables]
         self.offsets, start = {}, 0
         for key, group in groups:
@@ -696,7 +705,7 @@ class _StepPlan:
     inputs are set from the buffers of the previous point before any component steps.
     """
 
-    def __init__(self, simulation, timer) -> None:
+    def __init__(self, simulation: Simulation, timer: None) -> None:
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
         members: dict[tuple, tuple[list, list]] = {}  # (target, source, type) -> ([source outputs], [target inputs])
@@ -729,24 +738,24 @@ class _StepPlan:
                                slave.component, sets, reads))
 
     @staticmethod
-    def _call(call, time):
+    def _call(call: _Call, time: float) -> None:
         status = call.function(call.instance, call.references, call.count, call.buffer)
         if status > _WARNING:
             raise _CallFailed(call.component, time, call.name, status)
 
-    def start(self, result, time) -> None:
+    def start(self, result: Result, time: float) -> None:
         """Read every needed output after initialisation and record the first row."""
         for _, _, _, _, reads in self.steps:
             for read in reads:
                 self._call(read, time)
         self._record(result, time)
 
-    def _record(self, result, time) -> None:
+    def _record(self, result: Result, time: float) -> None:
         for recorder in self.recorders:
             recorder.rows.frombytes(recorder.raw)
         result.times.append(time)
 
-    def run(self, result, scene, stop=_NEVER):
+    def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop=_NEVER) -> None:
         """Step from start_time to stop_time, recording after every communication step;
         before each step, stop with _Stopped if ``stop`` has been requested."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
@@ -772,7 +781,7 @@ class _StepPlan:
             self._record(result, times[index])
 
     @staticmethod
-    def collect(recorders, result) -> None:
+    def collect(recorders: list[_Outputs], result: Result) -> None:
         """Copy the recorded rows into result.columns (also after a failed run)."""
         if not recorders:
             return
@@ -788,7 +797,7 @@ class _StepPlan:
 _WARNING = 1  # fmi2Warning: the worst status a step may return and still count as done
 
 
-def parameter_values(simulation):
+def parameter_values(simulation: Simulation) -> dict[str, dict[str, str | dict[str, float]] | dict[str, str | dict[str, float] | list[str]]]:
     """Every parameter of every component as applied: scene values over FMU defaults."""
     values = {}
     for component in simulation.components.values():

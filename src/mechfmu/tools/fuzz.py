@@ -23,6 +23,9 @@ Checked after every call (``Finding`` when violated):
 Each sequence is reproducible from (seed, FMU name, index): ``--only INDEX`` re-runs one.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import json
 import math
 import random
@@ -31,6 +34,9 @@ import sys
 import time
 from typing import Any
 from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ..runtime.fmi.declarations import Variable
 
 MAX_STEPS = 12
 CHILD_TIME_LIMIT = 900.0  # s for one FMU's child process: past it, a hang
@@ -41,7 +47,7 @@ _NON_FINITE = (math.nan, math.inf, -math.inf)
 
 # --- what to vary, from the model's own declarations ------------------------------------------
 
-def declarations(model_name, description=None):
+def declarations(model_name: str, description: None=None) -> dict[str, Variable]:
     """What to vary, by variable name: the model's Variable declarations
     (mechfmu.runtime.fmi.slave.Variable) for one of our models, else the same fields read from
     ``description`` (an fmpy ModelDescription): any FMU can be fuzzed."""

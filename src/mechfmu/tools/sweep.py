@@ -27,6 +27,9 @@ SimulationError) gets its message in ``error`` and empty metrics; the sweep goes
 command exits 1 at the end, naming the failed points.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import atexit
 import copy
 import csv
@@ -48,6 +51,7 @@ from contextlib import nullcontext
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 from scipy.stats import qmc
@@ -57,6 +61,15 @@ from ..cosim.results import read_csv, write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
 from .parallel import LocalPool
 from .progress import Progress
+from argparse import Namespace
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from distributed.client import Future
+    from fmpy.model_description import ModelDescription
+    from ..cosim.interrupt import InterruptGuard
+    from ..cosim.master import Instances
+    from ..cosim.scene import Scene
+    from numpy import ndarray
 
 
 class SweepError(ValueError):
@@ -68,7 +81,7 @@ SCENE_OVERRIDES = {"stop_time", "step"}  # scene keys a sweep may replace
 
 # --- --vary ----------------------------------------------------------------------------------
 
-def split_dotted(name, option, text, what: str="parameter"):
+def split_dotted(name: str, option: str, text: str, what: str="parameter") -> tuple[str, str]:
     """'component.variable' -> (component, variable), or SweepError naming the option."""
     component, dot, variable = name.strip().partition(".")
     if not dot or not component or not variable:
@@ -89,7 +102,7 @@ class Vary:
         return f"{self.component}.{self.variable}"
 
 
-def parse_vary(text):
+def parse_vary(text: str) -> Vary:
     """'comp.param=START:STOP:COUNT' (or 'comp.param=START:STOP' for sampling) -> Vary."""
     if not isinstance(text, str) or text.count("=") != 1:
         raise SweepError(f"--vary {text!r}: expected component.parameter=START:STOP:COUNT")
@@ -128,7 +141,7 @@ class Link:
         return f"{self.component}.{self.variable}"
 
 
-def parse_link(text):
+def parse_link(text: str) -> Link:
     """'comp.param=FACTOR*comp.varied' or 'comp.param=comp.varied' -> Link."""
     if not isinstance(text, str) or text.count("=") != 1:
         raise SweepError(f"--link {text!r}: expected component.parameter=FACTOR*"
@@ -151,7 +164,7 @@ def parse_link(text):
 
 # --- points ------------------------------------------------------------------------------------
 
-def grid_points(varies):
+def grid_points(varies: list[Vary]) -> ndarray:
     """The full grid: every combination of each parameter's linspace, last varying fastest."""
     for vary in varies:
         if vary.count is None:
@@ -162,13 +175,13 @@ def grid_points(varies):
     return np.stack([m.ravel() for m in mesh], axis=1)
 
 
-def lhs_unit(samples, dimensions, seed):
+def lhs_unit(samples: int, dimensions: int, seed: int) -> ndarray:
     """Latin hypercube in [0, 1)^d: in each dimension exactly one sample per stratum
     [k/N, (k+1)/N), placed uniformly inside it; reproducible with ``seed``."""
     return qmc.LatinHypercube(d=dimensions, seed=seed).random(samples)
 
 
-def sample_points(varies, samples, seed, method: str="lhs"):
+def sample_points(varies: list[Vary], samples: int, seed: int, method: str="lhs") -> ndarray:
     """``samples`` points over the ranges: Latin hypercube ('lhs') or uniform ('random')."""
     if samples < 1:
         raise SweepError("--samples must be at least 1")
@@ -197,7 +210,7 @@ class Metric:
     threshold: float | None = None
 
 
-def parse_metric(text):
+def parse_metric(text: str) -> Metric:
     """'kind:comp.var' or 'first_time_above:comp.var:THRESHOLD' -> Metric."""
     if not isinstance(text, str):
         raise SweepError(f"--metrics {text!r}: expected KIND:component.variable")
@@ -221,13 +234,13 @@ def parse_metric(text):
     return Metric(text, kind, variable, threshold)
 
 
-def first_time(times, mask):
+def first_time(times: ndarray, mask: ndarray) -> float:
     """Time of the first True in ``mask``, or nan."""
     hits = np.flatnonzero(mask)
     return float(times[hits[0]]) if hits.size else math.nan
 
 
-def evaluate_metric(metric, times, values, reference=None):
+def evaluate_metric(metric: Metric, times: list[Any], values: list[Any], reference: tuple[list[float], list[float]] | None=None) -> float:
     """The metric's value for one signal; ``reference`` = (times, values) for max_abs_error."""
     times, values = np.asarray(times, float), np.asarray(values, float)
     if values.size == 0:
@@ -255,7 +268,7 @@ def evaluate_metric(metric, times, values, reference=None):
 
 # --- scenes ------------------------------------------------------------------------------------
 
-def point_values(varies, links, kinds, values):
+def point_values(varies: list[Vary], links: tuple[()] | list[Link], kinds: dict[str, tuple[str, str]], values: list[float] | ndarray) -> dict[str, float]:
     """{component.variable: value} of one point: the varied values and the linked ones,
     as the FMI type wants them (Integer rounded)."""
     named = dict(zip((v.name for v in varies), (float(v) for v in values)))
@@ -264,7 +277,7 @@ def point_values(varies, links, kinds, values):
             for name, value in named.items()}
 
 
-def point_scene(scene, kinds, assigned):
+def point_scene(scene: Scene, kinds: dict[str, tuple[str, str]], assigned: dict[str, float | bool]) -> Scene:
     """A copy of ``scene`` with each parameter or constant input in ``assigned``
     ({component.variable: value}) set to its value."""
     components = {name: copy.deepcopy(spec) for name, spec in scene.components.items()}
@@ -275,7 +288,7 @@ def point_scene(scene, kinds, assigned):
     return dataclasses.replace(scene, components=components)
 
 
-def _sweepable(scene, descriptions, option, component, variable):
+def _sweepable(scene: Scene, descriptions: dict[str, ModelDescription], option: str, component: str, variable: str) -> tuple[str, str]:
     """('parameter' | 'input', FMI type) of a variable a sweep may set, or SweepError."""
     name = f"{component}.{variable}"
     if component not in scene.components:
@@ -298,7 +311,7 @@ def _sweepable(scene, descriptions, option, component, variable):
                      f"given as constants under [components.{component}.inputs] can be swept")
 
 
-def check_sweep(scene, varies, metrics, fmu_dir, links=()):
+def check_sweep(scene: Scene, varies: list[Vary], metrics: list[Metric], fmu_dir: str | Path, links: tuple[()] | list[Link]=()) -> tuple:
     """Check the sweep against the scene's FMUs before anything runs.
 
     Returns ({varied or linked name: ('parameter' | 'input', FMI type)},
@@ -352,7 +365,7 @@ def _worker_init() -> None:
 _THREAD = threading.local()  # a worker thread's Instances pool: it must outlive the tasks
 
 
-def worker_instances():
+def worker_instances() -> Instances:
     """This worker thread's Instances pool: each FMU extracted once, each instance reset
     (fmi2Reset) between points instead of re-created. Freed when the process exits."""
     pool = getattr(_THREAD, "instances", None)
@@ -365,7 +378,7 @@ def worker_instances():
     return pool
 
 
-def fmu_cache_dir():
+def fmu_cache_dir() -> Path:
     """Where a worker keeps the FMUs shipped to it (one folder per content hash)."""
     user = getattr(os, "getuid", lambda: "user")()
     return Path(tempfile.gettempdir()) / f"mechfmu_fmus_{user}"
@@ -390,7 +403,7 @@ def worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def run_point(index, scene, metrics, references, fmu_files=None):
+def run_point(index: int, scene: Scene, metrics: list[Metric], references: dict[Any, Any], fmu_files: None=None) -> tuple[int, dict[str, float], None, float, str]:
     """Run one point; returns (index, {metric text: value}, error message or None, wall s,
     worker name).
 
@@ -412,7 +425,7 @@ def run_point(index, scene, metrics, references, fmu_files=None):
     return index, values, error, time.perf_counter() - started, worker_name()
 
 
-def resolve_fmus(scene, fmu_dir):
+def resolve_fmus(scene: Scene, fmu_dir: str | Path) -> Scene:
     """``scene`` with every component's FMU as an absolute path (workers may run elsewhere
     than the current folder)."""
     from ..cosim.master import resolve_fmu
@@ -431,7 +444,7 @@ class DaskCluster:
     dies (up to its distributed.scheduler.allowed-failures, then KilledWorker: the point's
     error)."""
 
-    def __init__(self, address, timeout: float=10.0) -> None:
+    def __init__(self, address: str, timeout: float=10.0) -> None:
         try:
             from distributed import Client
         except ImportError:  # an optional dependency: the extra mechfmu[cluster]
@@ -451,7 +464,7 @@ class DaskCluster:
         self.workers = sum(threads.values())
         self.where = f"Dask {address}, {len(threads)} worker(s), {self.workers} thread(s)"
 
-    def ship(self, paths):
+    def ship(self, paths: list[str]) -> Future:
         files = {}
         for path in paths:
             data = Path(path).read_bytes()
@@ -459,11 +472,11 @@ class DaskCluster:
         # one object, one copy per worker; tasks then name it instead of carrying the bytes
         return self.client.scatter([files], broadcast=True)[0]
 
-    def submit(self, *arguments):
+    def submit(self, *arguments) -> Future:
         return self.client.submit(run_point, *arguments, pure=False)
 
     @staticmethod
-    def wait(futures, timeout):
+    def wait(futures: list[Future], timeout: float) -> list[Any]:
         """The futures among ``futures`` that are done, polling up to ``timeout`` s."""
         deadline = time.monotonic() + timeout
         while True:
@@ -482,11 +495,11 @@ class DaskCluster:
     def alone(self):
         return self
 
-    def close(self, interrupted) -> None:
+    def close(self, interrupted: bool) -> None:
         self.client.close()
 
 
-def probe_scheduler(address, timeout):
+def probe_scheduler(address: str, timeout: float) -> None:
     """Check that a Dask scheduler answers at ``address`` (tcp://HOST:PORT) within
     ``timeout`` s: a TCP connection, then Dask's handshake (each side sends a small framed
     message first). distributed itself would wait for ever for a handshake from a server
@@ -534,11 +547,11 @@ def _handshake_problem(address, timeout):
 
 # --- the runner --------------------------------------------------------------------------------
 
-def _now():
+def _now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
 
 
-def _format(value):
+def _format(value: float | None) -> str:
     if value is None:
         return ""
     if isinstance(value, float):
@@ -546,7 +559,7 @@ def _format(value):
     return str(value)
 
 
-def safe_name(text):
+def safe_name(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
 
 
@@ -560,7 +573,7 @@ RESUME_KEYS = ("scene_file", "overrides", "varies", "links", "method", "seed", "
 class SweepInterrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM (``signum``) stopped the sweep; the rows done are kept."""
 
-    def __init__(self, signum) -> None:
+    def __init__(self, signum: signal.Signals) -> None:
         super().__init__(signum)
         self.signum = signum
 
@@ -569,14 +582,14 @@ class _Stopped(Exception):
     """The sweep's InterruptGuard received a signal."""
 
 
-def at_least(option, value, minimum):
+def at_least(option: str, value: int, minimum: int) -> int:
     """``value`` if it is a whole number >= ``minimum``, else SweepError naming the option."""
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
         raise SweepError(f"{option} = {value!r} must be at least {minimum} (a whole number)")
     return value
 
 
-def fmu_digests(scene):
+def fmu_digests(scene: Scene) -> dict[str, str]:
     """{component: SHA-256 of its FMU file} (resolved paths): what a resumed sweep checks."""
     return {name: hashlib.sha256(Path(spec.fmu).read_bytes()).hexdigest()
             for name, spec in scene.components.items()}
@@ -592,7 +605,7 @@ class _Task:
     attempts: int = 0
 
 
-def _run_points(runner, tasks, arguments, retries, guard, record, summary):
+def _run_points(runner: DaskCluster | LocalPool, tasks: list[_Task], arguments: tuple, retries: int, guard: InterruptGuard, record: Callable, summary: dict[str, Any]) -> None:
     """Run every task on ``runner``, calling ``record(task, (values, error, wall, worker))``
     as each finishes.
 
@@ -674,16 +687,16 @@ def _resumed_rows(csv_path, json_path, summary, header):
     return list(kept.values())
 
 
-def _csv_text(header, lines):
+def _csv_text(header: list[str], lines: list[Any]) -> str:
     handle = io.StringIO()
     csv.writer(handle, lineterminator="\n").writerows([header, *lines])
     return handle.getvalue()
 
 
-def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None, seed=None,
-              method: str="lhs", fmu_dir: str="fmus", plot: bool=False, on_point=None, progress: bool=True,
-              scheduler=None, links=(), overrides=None, name=None, resume: bool=False,
-              retries=DEFAULT_RETRIES, guard=None):
+def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_dir: Path | str | None=None, jobs: int | None=None, samples: int | None=None, seed: int | None=None,
+              method: str="lhs", fmu_dir: str="fmus", plot: bool=False, on_point: Callable | None=None, progress: bool=True,
+              scheduler: str | None=None, links: tuple[()] | list[Link]=(), overrides: dict[str, str] | dict[str, float] | None=None, name: str | None=None, resume: bool=False,
+              retries: int=DEFAULT_RETRIES, guard: InterruptGuard | None=None) -> dict[str, Any]:
     """Run the sweep; returns the summary dict written to sweep.json.
 
     The points run on ``jobs`` local worker processes, or on the Dask cluster whose
@@ -807,7 +820,7 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
     return summary
 
 
-def write_plots(out_dir, rows, names, metrics):
+def write_plots(out_dir: Path, rows: list[dict[str, float | None]], names: list[str], metrics: list[Metric]) -> list[Path]:
     """One PNG per (metric, varied parameter): the metric of every successful point."""
     import matplotlib
     matplotlib.use("Agg")
@@ -832,7 +845,7 @@ def write_plots(out_dir, rows, names, metrics):
     return paths
 
 
-def read_sweep_csv(path):
+def read_sweep_csv(path: Path | str) -> list[dict[str, float | None]]:
     """Rows of a sweep.csv as dicts (numbers as floats, empty cells as None)."""
     with open(path, newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))
@@ -853,12 +866,12 @@ SWEEP_KEYS = {"description", "scene", "vary", "link", "metrics", "samples", "see
               "stop_time", "step"}
 
 
-def is_sweep_file(data) -> bool:
+def is_sweep_file(data: dict[str, float | list[str] | dict[str, dict[str, str | dict[str, float]]]]) -> bool:
     """A sweep file names its scene; a scene file has components."""
     return "scene" in data and "components" not in data
 
 
-def load_sweep_file(path):
+def load_sweep_file(path: Path) -> dict[str, Any]:
     """A sweep file (TOML) -> run_sweep's settings: {'scene_path', 'varies', 'links',
     'metrics', 'samples', 'seed', 'method', 'overrides', 'name', 'description'}.
 
@@ -890,12 +903,12 @@ def load_sweep_file(path):
         raise SweepError(f"{path}: {error}") from None
 
 
-def locate(text):
+def locate(text: str) -> Path:
     """A sweep or scene file: a path, or the name of a shipped sweep, else of a shipped scene."""
     return find_file(text, (SWEEP_DIR, SCENE_DIR))
 
 
-def settings(args):
+def settings(args: Namespace) -> dict[str, Any]:
     """run_sweep's settings from the command line, over those of a sweep file if given."""
     path = locate(args.scene)
     try:
@@ -923,7 +936,7 @@ def settings(args):
 
 # --- command line (mechfmu sweep; its options are declared in mechfmu/cli.py) ------------
 
-def failure_line(summary, csv_path, shown=20) -> str:
+def failure_line(summary: dict[str, Any], csv_path: str, shown: int=20) -> str:
     """'N of M point(s) failed (index ...); index I: <its error>' for a sweep with failures."""
     indices = summary["failed_indices"]
     listed = ", ".join(str(i) for i in indices[:shown])
@@ -934,7 +947,7 @@ def failure_line(summary, csv_path, shown=20) -> str:
             f"index {indices[0]}: {first['error']}")
 
 
-def command(args):
+def command(args: Namespace) -> int:
     """``mechfmu sweep``: run the sweep the parsed command line ``args`` describes; the exit
     status (0 all points done, 1 any point failed, 2 on a sweep, scene or output error,
     130/143 when SIGINT/SIGTERM stopped it)."""

@@ -8,7 +8,6 @@ from ..errors import IntegrationError, MechanismError, SnapThrough, require_fini
 from ..numerics.integrators import Event
 from ..numerics.stepping import advance_through_events
 from ..physics.suspension import Spring
-from collections.abc import Callable
 from typing import Any
 
 _INPUTS = ("load", "road_height", "road_rate")

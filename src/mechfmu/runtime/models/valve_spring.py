@@ -7,9 +7,7 @@ from ..physics import valve_spring as vs
 from ..errors import (IntegrationError, MechanismError, RangeError, require_finite,
                       require_positive)
 from ..numerics.stepping import advance_through_events
-from ..numerics.integrators import Event
-from ..physics.valve_spring import Engaged, Happening, Phase
-from collections.abc import Callable
+from ..physics.valve_spring import Happening
 from typing import Any
 
 _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")

@@ -14,6 +14,9 @@ study.json          the sweep's definition, the machine and the study's own wall
 accuracy_cost.csv, and the plots and tables are written for every scene it holds.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import csv
 import json
 import math
@@ -28,6 +31,11 @@ from ...cosim.master import Simulation
 from ...cosim.results import versions
 from ..progress import Progress
 from . import design, measure, report
+from argparse import Namespace
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .design import StudyScene
+
 
 
 def _write_rows(path, rows):
@@ -40,7 +48,7 @@ def _write_rows(path, rows):
     return atomic_write(path, write)
 
 
-def read_rows(path):
+def read_rows(path: Path) -> list[dict[str, float]]:
     """The rows of an accuracy_cost.csv, numbers as numbers."""
     numbers = {"tolerance", "max_substep", "step", "max_error", "rms_error", "relative_error",
                "max_error_all", "reference_peak", "loop_time_s", "wall_time_s", "ms_per_simulated_s"}
@@ -55,21 +63,21 @@ def read_rows(path):
     return rows
 
 
-def headline_unit(scene_dir, fmu_dir, study_scene):
+def headline_unit(scene_dir: Path, fmu_dir: Path, study_scene: StudyScene) -> str:
     """The unit of the scene's headline output, from its FMU's model description."""
     simulation = Simulation(design.load(scene_dir, study_scene), fmu_dir)
     units = {name: variable.unit or "1" for name, _, variable in simulation.recorded}
     return units[study_scene.headline]
 
 
-def pareto_markdown(rows, units):
+def pareto_markdown(rows: list[dict[str, float]], units: dict[str, str]) -> str:
     """pareto.md: for each studied scene in ``units`` (scene name -> its headline output's
     unit), in the design's order, a heading and its cheapest-setting table."""
     return "\n\n".join(f"#### {s.name}\n\n" + report.front_table(rows, s, units[s.name])
                         for s in design.SCENES if s.name in units) + "\n"
 
 
-def command(args):
+def command(args: Namespace):
     """``mechfmu study`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     names = args.scenes or [s.name for s in design.SCENES]

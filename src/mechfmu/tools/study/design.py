@@ -9,11 +9,18 @@ several FMUs. Every communication step is a whole multiple of the scene's finest
 runs share the reference's sample times.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import copy
 import dataclasses
 from dataclasses import dataclass
 
 from ...cosim.scene import find_file, load_scene
+from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ...cosim.scene import Scene
 
 ADAPTIVE = ("dopri5", "radau")
 FIXED = ("euler", "rk4")
@@ -75,7 +82,7 @@ class Point:
         return f"{self.integrator} {knob}, step {self.step:g} s, {self.coupling}"
 
 
-def integrator_settings(study_scene, step):
+def integrator_settings(study_scene: StudyScene, step: float) -> list[tuple[str, float, float]]:
     """(integrator, tolerance, max_substep) tried at communication step ``step``."""
     settings = [(method, tolerance, step) for method in ADAPTIVE for tolerance in TOLERANCES]
     fixed = sorted({min(substep, step) for substep in study_scene.substeps}, reverse=True)
@@ -83,7 +90,7 @@ def integrator_settings(study_scene, step):
     return settings
 
 
-def points(study_scene, couplings, quick: bool=False):
+def points(study_scene: StudyScene, couplings: tuple, quick: bool=False) -> list[Point]:
     """Every point of the sweep for ``study_scene``; ``quick`` keeps a small, cheap corner
     of it (the two coarsest steps, six settings).
 
@@ -107,7 +114,7 @@ def points(study_scene, couplings, quick: bool=False):
     return chosen
 
 
-def couplings_of(scene):
+def couplings_of(scene: Scene) -> tuple:
     """Both couplings for a scene with connections; Gauss-Seidel alone otherwise."""
     return ("gauss_seidel", "jacobi") if scene.connections else ("gauss_seidel",)
 
@@ -130,7 +137,7 @@ def configure(scene, study_scene, point):
                                coupling=point.coupling, record=record)
 
 
-def load(scene_dir, study_scene):
+def load(scene_dir: Path | str, study_scene: StudyScene) -> Scene:
     """The shipped scene, checked against the study's assumptions."""
     scene = load_scene(find_file(study_scene.name, (scene_dir,)))
     span = scene.stop_time - scene.start_time

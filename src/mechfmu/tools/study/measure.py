@@ -9,6 +9,9 @@ shares (the coarsest step's), so a coarse step is not flattered by being looked 
 often (``max_error``, ``rms_error``), and at every point of the run (``max_error_all``).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import dataclasses
 import math
 import statistics
@@ -21,6 +24,10 @@ from ..parallel import LocalPool
 from ..scene_references import REFERENCES, sample_times
 from .design import configure, counters
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ...cosim.scene import Scene
+    from .design import StudyScene
+
 SLOW_RUN = 1.0  # s: a run this long is timed once (its spread is small against its length)
 
 # One row of accuracy_cost.csv per (point, recorded output).
@@ -30,7 +37,7 @@ COLUMNS = ("scene", "integrator", "tolerance", "max_substep", "step", "coupling"
            "substeps", "rhs_evaluations", "status")
 
 
-def reference(scene, study_scene):
+def reference(scene: Scene, study_scene: StudyScene):
     """(times, {column: values}) of the scene's reference on the finest step's grid."""
     fine = dataclasses.replace(scene, step=study_scene.steps[0])
     columns = REFERENCES[scene.name](fine)
