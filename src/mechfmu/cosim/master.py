@@ -284,7 +284,7 @@ def _check_value(component: str, variable: ModelVariable, value: float, where: s
                          f"{type(value).__name__} {value!r}")
 
 
-def order_components(names: list[str], connections: list[Any], feedthrough: Callable | None=None) -> tuple[list[str], list[Any]] | tuple[list[str], list[Connection]]:
+def order_components(names: list[str], connections: list[Any], feedthrough: Callable | None=None) -> tuple:
     """Components in stepping order, and the connections that must lag one step.
 
     ``feedthrough(connection)`` tells whether the connection's source output depends

@@ -6,6 +6,9 @@ its columns like the scene's result ('component.variable'), so ``mechfmu check``
 compare the two directly.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import importlib
 from pathlib import Path
 
@@ -17,20 +20,24 @@ from ..runtime.models import MODELS
 from ..references import (drives, gear_dynamics, landing_gear, linkages, suspension,
                suspension_dynamics, valve_spring, valve_train)
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ..cosim.scene import Scene
+    from numpy import ndarray
 
-def start_values(model, causality=None):
+
+def start_values(model: str, causality: str | None=None) -> dict[str, float]:
     """Start values declared by a model (its FMU's), of every variable or of one causality."""
     cls = getattr(importlib.import_module(MODELS[model]), model)
     return {v.name: v.start for v in cls.VARIABLES
             if causality is None or v.causality == causality}
 
 
-def model_defaults(model):
+def model_defaults(model: str) -> dict[str, float]:
     """Parameter defaults declared by a model (its FMU start values)."""
     return start_values(model, "parameter")
 
 
-def _component(scene, model):
+def _component(scene: Scene, model: str):
     """(name, parameters over defaults) of the scene's component using ``model``."""
     for name, spec in scene.components.items():
         if Path(spec.fmu).stem == model:
@@ -38,7 +45,7 @@ def _component(scene, model):
     raise ValueError(f"scene {scene.name} has no {model} component")
 
 
-def sample_times(scene):
+def sample_times(scene: Scene) -> ndarray:
     return np.array([scene.time(i) for i in range(scene.steps + 1)])
 
 
@@ -81,7 +88,7 @@ def suspension_dynamics_scene(scene):
                                              parameters, road_name, road, scene.record)
 
 
-def gear_dynamics_scene(scene):
+def gear_dynamics_scene(scene: Scene):
     """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
     name, _ = _component(scene, "LandingGear")
     spec = scene.components[name]

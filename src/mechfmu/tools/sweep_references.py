@@ -50,11 +50,11 @@ FLOAT_GRID = 20001
 
 # --- validation -----------------------------------------------------------------------------
 
-def _non_negative(name, value, unit: str=""):
+def _non_negative(name: str, value: float, unit: str="") -> float:
     return require_between(name, value, 0.0, math.inf, unit)
 
 
-def _spring(spring_free_length, spring_stiffness, spring_base_offset):
+def _spring(spring_free_length: float, spring_stiffness: float, spring_base_offset: float) -> tuple[float, float, float]:
     L = require_positive("spring_free_length", spring_free_length, "m")
     k = require_positive("spring_stiffness", spring_stiffness, "N/m")
     d = require_positive("spring_base_offset", spring_base_offset, "m")
@@ -67,7 +67,7 @@ def _spring(spring_free_length, spring_stiffness, spring_base_offset):
 # --- suspension: static and sudden snap-through -----------------------------------------------
 
 def static_snap_through_mass(spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                             spring_base_offset: float=0.2, gravity=STANDARD_GRAVITY):
+                             spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY) -> float:
     """Sprung mass (kg) whose weight equals the static limit load F* of the near branch.
 
     A quasi-static load m g snaps through for every m above F*/g (the near equilibrium
@@ -79,7 +79,7 @@ def static_snap_through_mass(spring_free_length: float=0.5, spring_stiffness: fl
     return statics.limit_point(L, k, d)[1] / g
 
 
-def _spring_energy(u, L, k, d):
+def _spring_energy(u: float, L: float, k: float, d: float) -> float:
     """Strain energy (J) of both springs at deflection u: 2 * k (s - L)^2 / 2, with
     s - L = -u (2h - u) / (L + s) so small deflections keep their relative accuracy."""
     h = float(statics.rest_height(L, d))
@@ -88,7 +88,7 @@ def _spring_energy(u, L, k, d):
     return k * stretch * stretch
 
 
-def _saddle(W, L, k, d):
+def _saddle(W: float, L: float, k: float, d: float) -> float:
     """Unstable equilibrium u2 in (u*, h) of F(u) = W for 0 < W <= F* (F falls from F* to 0
     there, so the root is bracketed and unique)."""
     u_star, F_star = statics.limit_point(L, k, d)
@@ -100,7 +100,7 @@ def _saddle(W, L, k, d):
 
 
 def sudden_snap_through_load_undamped(spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                                      spring_base_offset: float=0.2):
+                                      spring_base_offset: float=0.2) -> float:
     """Smallest suddenly applied constant load W (N) that snaps the undamped spring pair
     through, starting at rest unstressed: the energy closed form.
 
@@ -121,8 +121,8 @@ def sudden_snap_through_load_undamped(spring_free_length: float=0.5, spring_stif
     return float(statics.spring_force(u2, L, k, d))
 
 
-def sudden_load_snaps(mass, damping_coefficient, spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                      spring_base_offset: float=0.2, gravity=STANDARD_GRAVITY):
+def sudden_load_snaps(mass: float, damping_coefficient: float, spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                      spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY) -> bool:
     """True if the load W = m g, applied at t = 0 to the mass m at rest (u = 0, u' = 0) and
     held, snaps the suspension through as the Suspension FMU's dynamics mode defines it:
     the deflection rises through the start of the far stable region, 2h - u*.
@@ -176,8 +176,8 @@ def sudden_load_snaps(mass, damping_coefficient, spring_free_length: float=0.5, 
                        f"{SUSPENSION_MAX_TIME} s ({solution.message})")
 
 
-def sudden_snap_through_mass(damping_coefficient, spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                             spring_base_offset: float=0.2, gravity=STANDARD_GRAVITY, tolerance: float=1e-6):
+def sudden_snap_through_mass(damping_coefficient: float, spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                             spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY, tolerance: float=1e-6) -> float:
     """Threshold sprung mass (kg) for a suddenly applied weight m g (Suspension FMU with the
     dynamics effect, damping c in N s/m): m above it snaps through, below it does not.
 
@@ -205,7 +205,7 @@ def sudden_snap_through_mass(damping_coefficient, spring_free_length: float=0.5,
 
 # --- landing gear: retraction time against supply pressure --------------------------------------
 
-def gear_scene_values(scene_file=GEAR_SCENE, **overrides):
+def gear_scene_values(scene_file: Path=GEAR_SCENE, **overrides) -> tuple[dict[str, float], float]:
     """(LandingGear values, stop time in s) of a dynamic gear scene: the FMU's defaults, the
     scene's parameters, effects and inputs (as generate.gear_dynamics_scene applies them),
     then ``overrides`` (any gear parameter or input, e.g. supply_pressure, airspeed)."""
@@ -224,8 +224,8 @@ def gear_scene_values(scene_file=GEAR_SCENE, **overrides):
     return values, float(scene.stop_time)
 
 
-def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method: str="LSODA", tolerance: float=1e-12,
-                    stop_time=None, **overrides):
+def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method: str="LSODA", tolerance: float=1e-12,
+                    stop_time: float | None=None, **overrides) -> float:
     """Retraction time (s) of the gear_retraction_dynamic scene at ``supply_pressure`` (Pa):
     the first time the piston rises through stroke_max, as the FMU's retraction_time output
     reports it; math.nan if that does not happen by the scene's stop time.
@@ -269,7 +269,7 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method: str="LSODA",
     raise RuntimeError("more than 10000 stroke crossings")
 
 
-def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb: bool=False, **overrides):
+def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bool=False, **overrides) -> float:
     """Lowest supply pressure (Pa) at which the stalled actuator holds the gear at every angle
     from its start to stroke_max (static moment balance, numpy closed forms).
 
@@ -352,7 +352,7 @@ _CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle"
                "return_angle")
 
 
-def valve_float_point(spring_preload, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam):
+def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam) -> tuple[float, float]:
     """(camshaft speed in rad/s, camshaft angle in rad) where the valve first floats at
     constant camshaft speed; (inf, nan) if the valve never decelerates.
 
@@ -425,7 +425,7 @@ def valve_float_point(spring_preload, valve_mass: float=0.1, spring_stiffness: f
     return math.sqrt(best[0]), best[1]
 
 
-def valve_float_speed(spring_preload, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam):
+def valve_float_speed(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam) -> float:
     """Constant camshaft speed (rad/s) at which the ValveTrain FMU's valve (forward drive,
     valve_spring effect) starts to float: see valve_float_point. math.inf if it never does."""
     return valve_float_point(spring_preload, valve_mass, spring_stiffness, **cam)[0]

@@ -10,6 +10,9 @@ and instantiation cancel. The time inside FMI calls comes from separate timed ru
 timers cost time of their own); overhead = per-step wall time - per-step FMI time.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import contextlib
 import cProfile
 import io
@@ -19,6 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 from typing import NamedTuple
+from collections.abc import Callable
 
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
@@ -27,6 +31,10 @@ from ...cosim.master import CallTimer, Simulation
 from .gear import GEAR_OUTPUTS, KINEMATIC_SCENE, load_named_scene, piston_table, with_stop_time
 from .report import Row, Target, ratio_row
 from .timing import per_step, seconds_of, set_up, side_by_side_medians
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.simulation import SimulationResult
+    from ...cosim.scene import Scene
 
 BENCHMARK = "master overhead"
 TARGET = Target(0.5, "<= 0.5")  # the issue: ours at most half of fmpy's
@@ -51,10 +59,10 @@ class FmiCallTimer:
         self.timer = CallTimer()
 
     @property
-    def seconds(self):
+    def seconds(self) -> float:
         return self.timer.total
 
-    def attach(self, instance):
+    def attach(self, instance: FMU2Slave) -> None:
         functions = getattr(instance, "_functions", None)
         if not isinstance(functions, dict):
             raise RuntimeError("this fmpy keeps no FMU2Slave._functions table (fmpy 0.3.2x "
@@ -66,14 +74,14 @@ class FmiCallTimer:
 class FmpyGearAlone:
     """LandingGear.fmu alone under fmpy.simulate_fmu, fed the gear scene's piston motion."""
 
-    def __init__(self, fmu_path, scene) -> None:
+    def __init__(self, fmu_path: Path, scene: Scene) -> None:
         self.scene = scene
         self.description = read_model_description(str(fmu_path))
         self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
         self.table = piston_table(scene)
         self.start_values = dict(scene.components["gear"].inputs)  # the unconnected inputs
 
-    def run(self, timer=None):
+    def run(self, timer: FmiCallTimer | None=None) -> SimulationResult:
         """One run: instantiate, simulate_fmu, free. Attaches ``timer`` if given."""
         scene = self.scene
         instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
@@ -102,7 +110,7 @@ class FmpyGearAlone:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
-def _ours(simulation, timed):
+def _ours(simulation: Simulation, timed: bool) -> dict[str, float]:
     if not timed:
         return {"wall": seconds_of(simulation.run)}
     started = time.perf_counter()
@@ -111,7 +119,7 @@ def _ours(simulation, timed):
     return {"wall": wall, "fmi": result.meta["fmi_call_time_s"]}
 
 
-def _fmpy(alone, timed):
+def _fmpy(alone: FmpyGearAlone, timed: bool) -> dict[str, float]:
     if not timed:
         return {"wall": seconds_of(alone.run)}
     timer = FmiCallTimer()
@@ -119,7 +127,7 @@ def _fmpy(alone, timed):
     return {"wall": wall, "fmi": timer.seconds}
 
 
-def _runs(ours, alone):
+def _runs(ours: list[Simulation], alone: list[FmpyGearAlone]) -> dict[tuple[str, str, bool], Callable]:
     """The measured runs: each master at each length, untimed and with FMI-call timers."""
     measurements = {}
     for timed in (False, True):
@@ -138,7 +146,7 @@ class MasterRows(NamedTuple):
     overhead: Row
 
 
-def _master_rows(master, medians, steps, description, repeats):
+def _master_rows(master: str, medians: dict[tuple[str, str, bool], dict[str, float]], steps: list[int], description: str, repeats: int) -> MasterRows:
     """Wall, set-up, FMI and overhead rows of one master from the medians of its runs."""
     def median(length, key, timed):
         return medians[(master, length, timed)][key]
@@ -159,7 +167,7 @@ def _master_rows(master, medians, steps, description, repeats):
             notes="wall per step (untimed runs) - FMI calls per step (timed runs)"))
 
 
-def measure(scene_dir, fmu_dir, lengths_s, repeats):
+def measure(scene_dir: str, fmu_dir: str, lengths_s: tuple[float, float], repeats: int) -> list[Row]:
     """Rows of benchmark 1; ``lengths_s`` = (short, long) stop times in s."""
     scene = load_named_scene(scene_dir, KINEMATIC_SCENE)
     scenes = [with_stop_time(scene, stop) for stop in lengths_s]

@@ -8,6 +8,9 @@ fmi2SetReal of all its Real inputs (values that advance with time), fmi2DoStep,
 fmi2GetReal of all its Real outputs.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import contextlib
 import math
 import shutil
@@ -27,6 +30,11 @@ from ...runtime.physics import landing_gear as gear
 from ...references import landing_gear
 from .report import Row, Target, ratio_row
 from .timing import side_by_side_medians
+from collections.abc import Callable, Iterator
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.model_description import ModelDescription
+    from numpy import ndarray
 
 BENCHMARK = "model cost"
 TARGET = Target(1.2, "<= 1.2")  # the issue: a model at most 1.2x its null twin
@@ -34,7 +42,7 @@ MICRO = 1e6
 CAMSHAFT_SPEED = 50.0 * math.pi  # rad/s: 3000 engine rpm, as in the valve_train scene
 
 
-def shaft_turning(prefix, speed, initial_angle: float=0.0):
+def shaft_turning(prefix: str, speed: float, initial_angle: float=0.0) -> Callable:
     """Inputs ``<prefix>_angle`` (rad), ``_speed`` (rad/s), ``_acceleration`` (rad/s^2) of a
     shaft turning at constant ``speed`` from ``initial_angle``, as functions of time (s)."""
     def inputs(times):
@@ -44,7 +52,7 @@ def shaft_turning(prefix, speed, initial_angle: float=0.0):
     return inputs
 
 
-def piston_stroke(times):
+def piston_stroke(times: ndarray) -> dict[str, ndarray]:
     """The coursework's stroke, 0.381 m to 0.6096 m at constant speed in 3 s (inside the
     gear's assembly range at every time)."""
     extension, speed, acceleration = landing_gear.stroke(
@@ -54,7 +62,7 @@ def piston_stroke(times):
             "piston_acceleration": acceleration}
 
 
-def load_ramp(times, peak_n: float=2500.0, duration_s: float=4.0):
+def load_ramp(times: ndarray, peak_n: float=2500.0, duration_s: float=4.0) -> dict[str, ndarray]:
     """Suspension load from 0 to 2500 N over 4 s: below the 3090.6 N limit load, no
     snap-through."""
     return {"load": peak_n * np.clip(times / duration_s, 0.0, 1.0)}
@@ -110,7 +118,7 @@ class LoopRun:
 class PreparedLoop:
     """A case's calls, prepared once: value references, per-step input arrays, times."""
 
-    def __init__(self, case, description, steps) -> None:
+    def __init__(self, case: ModelCase, description: ModelDescription, steps: int) -> None:
         self.case, self.description = case, description
         self.step = case.duration_s / steps
         self.times = [index * self.step for index in range(steps)]  # start of each step
@@ -131,7 +139,7 @@ class PreparedLoop:
         self.output_refs = (c_uint * len(outputs))(*(v.valueReference for v in outputs))
         self.output_names = [v.name for v in outputs]
 
-    def run(self, instance):
+    def run(self, instance: FMU2Slave) -> LoopRun:
         """Step ``instance`` through the prepared loop; a LoopRun."""
         set_real, do_step, get_real = (getattr(instance.dll, name) for name in
                                        ("fmi2SetReal", "fmi2DoStep", "fmi2GetReal"))
@@ -162,13 +170,13 @@ class PreparedLoop:
 class ExtractedFmu:
     """An FMU extracted once, instantiated afresh for every loop."""
 
-    def __init__(self, path) -> None:
+    def __init__(self, path: Path) -> None:
         self.path = Path(path)
         self.description = read_model_description(str(path))
         self.folder = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
 
     @contextlib.contextmanager
-    def initialised(self, parameters):
+    def initialised(self, parameters: dict[str, str]) -> Iterator[FMU2Slave]:
         """A fresh instance with ``parameters`` applied, out of initialisation mode."""
         instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
                              modelIdentifier=self.description.coSimulation.modelIdentifier,
@@ -191,7 +199,7 @@ class ExtractedFmu:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
-def run_case(case, fmu_path, steps):
+def run_case(case: ModelCase, fmu_path: Path, steps: int) -> LoopRun:
     """One fresh instance of ``fmu_path`` configured as ``case``, stepped ``steps`` times."""
     fmu = ExtractedFmu(fmu_path)
     try:
@@ -201,14 +209,14 @@ def run_case(case, fmu_path, steps):
         fmu.close()
 
 
-def build_null_models(models, folder):
+def build_null_models(models: list[str], folder: Path) -> dict[str, Path]:
     """Build the null twins of ``models`` into ``folder``; {model: path of its null FMU}."""
     # The build reports its binary patch on stdout; keep stdout for the results table.
     with contextlib.redirect_stdout(sys.stderr):
         return dict(zip(models, build_all(folder, models, null=True)))
 
 
-def check_null_held(case, null_run, model_run):
+def check_null_held(case: ModelCase, null_run: LoopRun, model_run: LoopRun) -> None:
     """The null twin's outputs must not move while the model's do (its do_step does nothing)."""
     if null_run.final_outputs != null_run.initial_outputs:
         raise RuntimeError(f"{case.label}: the null FMU's outputs changed during the loop")
@@ -216,7 +224,7 @@ def check_null_held(case, null_run, model_run):
         raise RuntimeError(f"{case.label}: the model's outputs did not change during the loop")
 
 
-def _measure_case(case, model_fmu, null_fmu, steps, repeats):
+def _measure_case(case: ModelCase, model_fmu: ExtractedFmu, null_fmu: ExtractedFmu, steps: int, repeats: int) -> list[Row]:
     loops = {fmu: PreparedLoop(case, fmu.description, steps) for fmu in (model_fmu, null_fmu)}
     last = {}
 
@@ -238,7 +246,7 @@ def _measure_case(case, model_fmu, null_fmu, steps, repeats):
                                            TARGET)]
 
 
-def measure(fmu_dir, steps, repeats, cases=CASES):
+def measure(fmu_dir: str, steps: int, repeats: int, cases: tuple[ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase]=CASES) -> list[Row]:
     """Rows of benchmark 2: per case the model's and the null twin's time per step (us)."""
     models = list(dict.fromkeys(case.model for case in cases))
     with tempfile.TemporaryDirectory(prefix="mechfmu_bench_null_") as temp:

@@ -2,9 +2,10 @@
 
 import statistics
 import time
+from collections.abc import Callable
 
 
-def side_by_side_medians(measurements, repeats):
+def side_by_side_medians(measurements: dict[tuple[str, str, bool], Callable] | dict[str, Callable], repeats: int) -> dict[str, dict[str, float]] | dict[tuple[str, str, bool], dict[str, float]]:
     """Median of every measurement over ``repeats`` rounds, after one warm-up round.
 
     ``measurements`` maps a name to a function that runs once and returns a dict of named
@@ -23,17 +24,17 @@ def side_by_side_medians(measurements, repeats):
             for name, runs in samples.items()}
 
 
-def per_step(short_run_s, long_run_s, short_steps, long_steps):
+def per_step(short_run_s: float, long_run_s: float, short_steps: int, long_steps: int) -> float:
     """Cost of one step in s: the slope between two run lengths, so the set-up cancels."""
     return (long_run_s - short_run_s) / (long_steps - short_steps)
 
 
-def set_up(short_run_s, per_step_s, short_steps):
+def set_up(short_run_s: float, per_step_s: float, short_steps: int) -> float:
     """Set-up cost in s (extraction, instantiation, ...): the intercept of the same line."""
     return short_run_s - per_step_s * short_steps
 
 
-def seconds_of(function, *args, **kwargs):
+def seconds_of(function: Callable, *args, **kwargs) -> float:
     """Wall time in s of one call of ``function``."""
     started = time.perf_counter()
     function(*args, **kwargs)

@@ -44,11 +44,20 @@ What libcosim does differently from our master and from fmpy, and how this modul
   level is process-wide, and ``run_libcosim`` sets WARNING unless told otherwise.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import math
 import os
 from numbers import Integral, Real
 
 import numpy as np
+from pathlib import Path
+from collections.abc import Callable
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from libcosimpy.CosimEnums import CosimVariableType
+    from numpy import ndarray
 
 NANOSECONDS_PER_SECOND = 1_000_000_000
 
@@ -60,14 +69,14 @@ class LibcosimError(RuntimeError):
     step; ``times``, ``values``: the samples recorded up to there (possibly empty).
     """
 
-    def __init__(self, message, time=None, times=None, values=None) -> None:
+    def __init__(self, message: str, time: float | None=None, times: ndarray | None=None, values: dict[str, ndarray] | None=None) -> None:
         super().__init__(message)
         self.time = time
         self.times = np.array([]) if times is None else times
         self.values = {} if values is None else values
 
 
-def step_nanoseconds(step):
+def step_nanoseconds(step: float) -> int:
     """Communication step in integer nanoseconds; ValueError unless a whole, positive number."""
     step = float(step)
     if not (math.isfinite(step) and step > 0.0):
@@ -79,7 +88,7 @@ def step_nanoseconds(step):
     return step_ns
 
 
-def step_count(step, stop_time):
+def step_count(step: float, stop_time: float) -> int:
     """Number of steps of ``step`` from 0 to ``stop_time``; ValueError unless whole."""
     step_ns = step_nanoseconds(step)
     stop = float(stop_time)
@@ -92,7 +101,7 @@ def step_count(step, stop_time):
     return count
 
 
-def communication_points(step, stop_time):
+def communication_points(step: float, stop_time: float) -> list[float]:
     """[t_0, ..., t_n] in seconds exactly as libcosim passes them to an FMU.
 
     t_k = k * step_ns / 1e9 (a correctly rounded division of the integer time point); the
@@ -114,7 +123,7 @@ def _libcosimpy():
             CosimObserver, CosimLocalSlave)
 
 
-def _checked(name, kind, value):
+def _checked(name: str, kind: CosimVariableType, value: float) -> float:
     """``value`` converted for a variable of libcosim type ``kind`` (a CosimVariableType)."""
     kind = kind.name
     if kind == "REAL" and isinstance(value, Real) and not isinstance(value, bool):
@@ -128,8 +137,8 @@ def _checked(name, kind, value):
     raise TypeError(f"{name} is {kind.capitalize()}, got {type(value).__name__} {value!r}")
 
 
-def run_libcosim(fmu_path, parameters=None, inputs=None, step: float=0.01, stop_time: float=1.0,
-                 outputs=None, instance: str="fmu", log_level: str="WARNING"):
+def run_libcosim(fmu_path: Path, parameters: dict[str, str | bool | float] | None=None, inputs: dict[str, Callable | float] | None=None, step: float=0.01, stop_time: float=1.0,
+                 outputs: list[str] | None=None, instance: str="fmu", log_level: str="WARNING") -> tuple[ndarray, dict[str, ndarray]]:
     """Run the FMU at ``fmu_path`` alone under libcosim from t = 0 to ``stop_time``.
 
     parameters: {name: value} set as initial values (Real, Integer, Boolean or String).
