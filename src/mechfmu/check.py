@@ -3,6 +3,7 @@ report of a scene run against its reference."""
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 from dataclasses import dataclass
 
@@ -24,7 +25,7 @@ class Deviation:
     allowed: float
 
     @property
-    def size(self):
+    def size(self) -> Any:
         return abs(self.value - self.reference)
 
     def __str__(self) -> str:
@@ -76,7 +77,7 @@ def compare(result_path: Path, reference_path: Path, rtol: float=1e-9, atol: flo
     return Comparison(worst_score <= 1.0, shared, int(span.sum()), worst)
 
 
-def worst_deviations(result, reference_path):
+def worst_deviations(result: Any, reference_path: Any) -> Any:
     """Per recorded column that the reference CSV shares: (column, worst |difference|,
     unit, time of it in s, that difference as a fraction of the column's peak |reference|).
     The reference is interpolated onto the result's times; ``result`` is a cosim Result."""

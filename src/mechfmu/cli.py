@@ -8,6 +8,7 @@ study's or the benchmarks' code). The scripts in sims/ call ``script_main`` with
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import argparse
 import os
@@ -23,7 +24,7 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .cosim.scene import SceneError
 
 
-def _build(args) -> int:
+def _build(args: Any) -> int:
     from .packaging.build import build_all
     for path in build_all(args.out, args.models or None, fmi_version=args.fmi_version,
                           embed_python=args.embed_python):
@@ -96,7 +97,7 @@ EXAMPLES = {
 }
 
 
-def _example(args):
+def _example(args: Any):
     from .cosim.master import SimulationError
     from .cosim.scene import SceneError
     from .tools import examples
@@ -117,7 +118,7 @@ def _export_ssp(args: argparse.Namespace) -> int:
     return 0
 
 
-def _export_fmu(args):
+def _export_fmu(args: Any):
     from .cosim.scene import SceneError, find_file
     from .tools.container import export_scene_fmu
     schedule = {"scene": None, "sequential": True, "parallel": False}[args.schedule]
@@ -133,7 +134,7 @@ def _export_fmu(args):
     return 0
 
 
-def _check(args):
+def _check(args: Any):
     from .check import compare
     try:
         comparison = compare(args.result, args.reference, args.rtol, args.atol)
@@ -144,20 +145,20 @@ def _check(args):
     return 0 if comparison.ok else 1
 
 
-def _references(args) -> int:
+def _references(args: Any) -> int:
     from .tools.scene_references import generate
     for path in generate(args.scenes, args.out):
         print(f"wrote {path}")
     return 0
 
 
-def _report(args) -> int:
+def _report(args: Any) -> int:
     from .tools.report.seed_report import write_report
     print(f"wrote {write_report(args.out)}")
     return 0
 
 
-def _docs(args) -> int:
+def _docs(args: Any) -> int:
     from .cosim.scene import find_file
     from .tools.docs import interface_tables, reference_plot
     try:
@@ -179,12 +180,12 @@ def _study(args: argparse.Namespace):
     return command(args)
 
 
-def _bench(args):
+def _bench(args: Any):
     from .tools.bench.suite import command
     return command(args)
 
 
-def _fuzz(args):
+def _fuzz(args: Any):
     from .runtime.models import MODELS
     from .tools.fuzz import command
     unknown = [name for name in args.models if name not in MODELS]
@@ -407,7 +408,7 @@ def main(argv: list[str] | None=None) -> int:
     return args.func(args)
 
 
-def script_main(script, *verb, **paths) -> None:
+def script_main(script: Any, *verb: Any, **paths: Any) -> None:
     """Entry point of a script in sims/: ``mechfmu VERB`` with each option in ``paths``
     (``out="out"`` -> ``--out <repository>/out``) inside the repository that holds the
     script, so the script writes to the same place from any directory, followed by the

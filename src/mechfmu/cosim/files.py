@@ -157,7 +157,7 @@ def atomic_write(path: str | Path, content: bytes | str) -> Path:
     return atomic_write_all({path: content})[0]
 
 
-def save_figure(path: Path, figure: Figure, **options) -> Path:
+def save_figure(path: Path, figure: Figure, **options: Any) -> Path:
     """Write a matplotlib figure (PNG unless ``format`` says otherwise) atomically."""
     buffer = io.BytesIO()
     figure.savefig(buffer, format=options.pop("format", "png"), **options)

@@ -11,6 +11,7 @@ lies inside the file). Every failure is an FmuError naming the file and the caus
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import platform
 import struct
@@ -33,7 +34,7 @@ class FmuError(SceneError):
 
 def checked_description(path: str) -> ModelDescription:
     """fmpy's ModelDescription of the FMU at ``path`` after the checks of this module."""
-    def refuse(cause):
+    def refuse(cause: Any):
         raise FmuError(f"{path} is not a valid FMU: {cause}")
 
     try:

@@ -17,7 +17,7 @@ from typing import Any, Literal
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
-def exit_code(signum):
+def exit_code(signum: Any) -> Any:
     """The shell's code for a command ended by ``signum``: 128 + number (130, 143)."""
     return 128 + int(signum)
 
@@ -50,7 +50,7 @@ class InterruptGuard:
                     self._previous[signum] = signal.signal(signum, self._note)
         return self
 
-    def _note(self, signum, frame) -> None:
+    def _note(self, signum: Any, frame: Any) -> None:
         if self.signum is None:
             self.signum = signum
 
@@ -59,7 +59,7 @@ class InterruptGuard:
         """Whether a signal arrived and the work should stop at the next safe point."""
         return self.signum is not None
 
-    def take(self):
+    def take(self) -> Any:
         """Acknowledge the signal (it has been acted on); returns its number."""
         self.taken = True
         return self.signum

@@ -61,7 +61,7 @@ class SimulationInterrupted(SimulationError):
     """SIGINT or SIGTERM (``signum``) stopped the run between two steps at ``time``;
     ``result`` holds the rows computed before."""
 
-    def __init__(self, signum, time, result) -> None:
+    def __init__(self, signum: Any, time: float, result: Any) -> None:
         super().__init__(None, time, "", result)
         self.signum = signum
         RuntimeError.__init__(self, f"interrupted by {signal_name(signum)} at t = {time!r} s "
@@ -157,7 +157,7 @@ class LogBook:
             pass
 
     def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
-        def text(raw):
+        def text(raw: Any):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
         self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
                               "category": text(category), "message": text(message)})
@@ -590,7 +590,7 @@ _CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (f
 class _InstantiationFailed(Exception):
     """fmi2Instantiate of ``component`` returned NULL."""
 
-    def __init__(self, component) -> None:
+    def __init__(self, component: Any) -> None:
         super().__init__(component)
         self.component = component
 
@@ -599,7 +599,7 @@ class _Stopped(Exception):
     """The run's InterruptGuard received a signal; the loop stopped before the step at
     ``time``."""
 
-    def __init__(self, time) -> None:
+    def __init__(self, time: float) -> None:
         super().__init__(time)
         self.time = time
 
@@ -631,8 +631,8 @@ class CallTimer:
     def __init__(self) -> None:
         self.total = 0.0
 
-    def wrap(self, function):
-        def timed(*arguments, _function=function, _clock=clock.perf_counter):
+    def wrap(self, function: Any) -> Any:
+        def timed(*arguments: Any, _function=function, _clock=clock.perf_counter):
             begin = _clock()
             status = _function(*arguments)
             self.total += _clock() - begin
@@ -651,7 +651,7 @@ class _Call:
 
     __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name")
 
-    def __init__(self, component, verb, fmi_type, references, buffer, timer) -> None:
+    def __init__(self, component: Any, verb: str, fmi_type: Any, references: Any, buffer: Any, timer: Any) -> None:
         name = f"fmi2{verb}{fmi_type}"
         function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
         self.function = timer.wrap(function) if timer else function
@@ -688,7 +688,7 @@ class _Outputs:
         self.rows = array(code)  # row-major: one row per communication point
         self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
 
-    def view(self, key, size):
+    def view(self, key: Any, size: Any):
         """The part of the buffer that holds connection group ``key`` (shared memory)."""
         ctype = self.call.buffer._type_
         return (ctype * size).from_buffer(self.call.buffer,

@@ -23,7 +23,7 @@ def csv_writer(times: list[float], columns: dict[str, list[float]]) -> Callable:
     round-trip form."""
     names = list(columns)
 
-    def write(handle) -> None:
+    def write(handle: Any) -> None:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(["time", *names])
         for i, time in enumerate(times):
@@ -31,7 +31,7 @@ def csv_writer(times: list[float], columns: dict[str, list[float]]) -> Callable:
     return write
 
 
-def write_csv(path, times, columns):
+def write_csv(path: Any, times: Any, columns: Any) -> Any:
     """Write the CSV of csv_writer atomically; returns its path."""
     return atomic_write(path, csv_writer(times, columns))
 
@@ -70,7 +70,7 @@ def write_json(path: Path, data: dict[str, Any]) -> Path:
     return atomic_write(path, json_text(data))
 
 
-def write_plot(path, times, columns, units, title):
+def write_plot(path: Any, times: Any, columns: Any, units: Any, title: Any) -> Any:
     """One panel per signal against time, y axes labelled with their units."""
     import matplotlib
     matplotlib.use("Agg")

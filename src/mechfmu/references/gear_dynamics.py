@@ -18,7 +18,7 @@ from .events import ivp_event
 TOLERANCE = 1e-12
 
 
-def gear_values(defaults, parameters, effects, inputs):
+def gear_values(defaults: Any, parameters: Any, effects: Any, inputs: Any) -> Any:
     """The FMU's variable values as a scene sets them: defaults, parameters, effects, inputs."""
     values = dict(defaults)
     values.update(parameters)
@@ -27,7 +27,7 @@ def gear_values(defaults, parameters, effects, inputs):
     return values
 
 
-def dynamics_model(values):
+def dynamics_model(values: Any) -> Any:
     """The FMU's own right-hand side (runtime.physics.gear_dynamics.Dynamics) for the gear
     ``values``."""
     body = gd.make_body(values["bar_length"], values["bar_mass"], values["wheel_mass"])
@@ -36,18 +36,18 @@ def dynamics_model(values):
     return gd.Dynamics(values, body, geometry)
 
 
-def stroke_crossings(dynamics):
+def stroke_crossings(dynamics: Any) -> Any:
     """Terminal solve_ivp events: the piston length through stroke_max, through stroke_min
     (the integration restarts at each, as the FMU's does at the kink)."""
-    def crossing(limit):
-        def event(t, y):
+    def crossing(limit: Any):
+        def event(t: float, y: Any):
             return dynamics.piston_length(y) - limit
         return ivp_event(event, terminal=True)
     low, high = dynamics.stroke
     return [crossing(high), crossing(low)]
 
 
-def simulate(values, times):
+def simulate(values: Any, times: Any) -> Any:
     """Columns of the dynamics drive at ``times`` (s), and the stroke event times."""
     dynamics = dynamics_model(values)
     rhs = lambda t, y: dynamics.derivatives(list(y), values)[0]  # noqa: E731

@@ -8,6 +8,7 @@ compare the two directly.
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import importlib
 from pathlib import Path
@@ -49,7 +50,7 @@ def sample_times(scene: Scene) -> ndarray:
     return np.array([scene.time(i) for i in range(scene.steps + 1)])
 
 
-def gear_retraction(scene):
+def gear_retraction(scene: Any) -> Any:
     """Piston stroke and gear motion columns for a PistonActuator -> LandingGear scene."""
     actuator, stroke = _component(scene, "PistonActuator")
     gear, geometry = _component(scene, "LandingGear")
@@ -62,7 +63,7 @@ def gear_retraction(scene):
     return {f"{owner.get(key, gear)}.{key}": values for key, values in columns.items()}
 
 
-def suspension_load_ramp(scene):
+def suspension_load_ramp(scene: Any) -> Any:
     """Load and equilibrium columns for a LoadProfile(ramp) -> Suspension scene."""
     source, ramp = _component(scene, "LoadProfile")
     name, spring = _component(scene, "Suspension")
@@ -76,7 +77,7 @@ def suspension_load_ramp(scene):
     return {f"{source}.load": loads, **{f"{name}.{key}": v for key, v in columns.items()}}
 
 
-def suspension_dynamics_scene(scene):
+def suspension_dynamics_scene(scene: Any) -> Any:
     """LoadProfile [-> RoadProfile] -> Suspension with the dynamics effect: solve_ivp columns."""
     source, load = _component(scene, "LoadProfile")
     name, parameters = _component(scene, "Suspension")
@@ -88,7 +89,7 @@ def suspension_dynamics_scene(scene):
                                              parameters, road_name, road, scene.record)
 
 
-def gear_dynamics_scene(scene: Scene):
+def gear_dynamics_scene(scene: Scene) -> Any:
     """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
     name, _ = _component(scene, "LandingGear")
     spec = scene.components[name]
@@ -99,7 +100,7 @@ def gear_dynamics_scene(scene: Scene):
             if scene.record is None or f"{name}.{key}" in scene.record}
 
 
-def _shaft_columns(scene, model: str="CrankDrive", prefix: str="crank", ratio: float=1.0):
+def _shaft_columns(scene: Any, model: str="CrankDrive", prefix: str="crank", ratio: float=1.0):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
     name, shaft = _component(scene, model)
     columns = drives.rotation(sample_times(scene), shaft["initial_angle"],
@@ -108,12 +109,12 @@ def _shaft_columns(scene, model: str="CrankDrive", prefix: str="crank", ratio: f
     return name, {f"{prefix}_{key}": value for key, value in columns.items()}
 
 
-def _recorded(scene, columns):
+def _recorded(scene: Any, columns: Any):
     return {key: value for key, value in columns.items()
             if scene.record is None or key in scene.record}
 
 
-def four_bar_scene(scene):
+def four_bar_scene(scene: Any) -> Any:
     """CrankDrive -> FourBar: the crank motion and the closed-form linkage motion."""
     crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "FourBar")
@@ -125,7 +126,7 @@ def four_bar_scene(scene):
     return _recorded(scene, columns)
 
 
-def slider_crank_scene(scene):
+def slider_crank_scene(scene: Any) -> Any:
     """CrankDrive -> SliderCrank: the crank motion and the closed-form slider motion."""
     crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "SliderCrank")
@@ -137,7 +138,7 @@ def slider_crank_scene(scene):
     return _recorded(scene, columns)
 
 
-def valve_train_scene(scene):
+def valve_train_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain: the cam law composed with the closed-form rocker geometry
     (forward or inverse), and the valve spring's contact force where the effect is on."""
     cam_name, cam = _shaft_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
@@ -159,7 +160,7 @@ def valve_train_scene(scene):
     return _recorded(scene, columns)
 
 
-def valve_spring_scene(scene):
+def valve_spring_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain -> ValveSpring: the kinematic columns as valve_train_scene,
     the valve's dynamics on that drive by scipy (references/valve_spring.py)."""
     _, shaft = _component(scene, "CamshaftDrive")
@@ -196,7 +197,7 @@ INTEGRATED = {"gear_retraction_dynamic", "gear_extension_gravity", "suspension_r
               "suspension_sudden_load", "valve_train_dynamic", "valve_float_dynamic"}
 
 
-def generate(scene_dir, out_dir):
+def generate(scene_dir: Any, out_dir: Any) -> Any:
     """Write one reference CSV per entry of REFERENCES; return their paths."""
     paths = []
     for scene_name, build in REFERENCES.items():

@@ -81,7 +81,7 @@ def _tag(prefix: str, name: str) -> str:
     return f"{{{NS[prefix]}}}{name}"
 
 
-def _sub(parent: Element, prefix: str, tag: str, **attributes) -> Element:
+def _sub(parent: Element, prefix: str, tag: str, **attributes: Any) -> Element:
     return ET.SubElement(parent, _tag(prefix, tag),
                          {key: value for key, value in attributes.items() if value is not None})
 
@@ -364,7 +364,7 @@ def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray
                 for name in ("set_value", "set_parameters", "do_step")}
     started = set()
 
-    def set_value(component, name, value) -> None:
+    def set_value(component: Any, name: str, value: Any) -> None:
         variable = component.variables[name]
         reference = [variable.valueReference]
         if variable.type == "String":
@@ -374,7 +374,7 @@ def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray
         else:
             original["set_value"](component, name, value)
 
-    def set_parameters(component, parameter_set) -> None:
+    def set_parameters(component: Any, parameter_set: Any) -> None:
         for binding in component.parameterBindings:
             for values in binding.parameterValues:
                 for parameter in values.parameters:
@@ -388,7 +388,7 @@ def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray
                     set_value(component, connection.endConnector,
                               simulation.get_value(source, connection.startConnector))
 
-    def do_step(component, time, step_size) -> None:
+    def do_step(component: Any, time: float, step_size: float) -> None:
         system = component.parent
         if id(system) not in started:
             started.add(id(system))

@@ -384,7 +384,7 @@ def fmu_cache_dir() -> Path:
     return Path(tempfile.gettempdir()) / f"mechfmu_fmus_{user}"
 
 
-def shipped_scene(scene, fmu_files):
+def shipped_scene(scene: Any, fmu_files: Any) -> Any:
     """``scene`` with each component's FMU replaced by this worker's copy of the shipped
     file: ``fmu_files`` maps the client's path to (file name, sha256, bytes). Each file is
     written once per worker machine, atomically, under fmu_cache_dir()/<sha256>/."""
@@ -472,7 +472,7 @@ class DaskCluster:
         # one object, one copy per worker; tasks then name it instead of carrying the bytes
         return self.client.scatter([files], broadcast=True)[0]
 
-    def submit(self, *arguments) -> Future:
+    def submit(self, *arguments: Any) -> Future:
         return self.client.submit(run_point, *arguments, pure=False)
 
     @staticmethod
@@ -486,13 +486,13 @@ class DaskCluster:
             time.sleep(0.02)
 
     @staticmethod
-    def lost(error) -> bool:
+    def lost(error: Any) -> bool:
         return False  # the scheduler has retried it already
 
     def restart(self) -> None:
         pass
 
-    def alone(self):
+    def alone(self) -> Any:
         return self
 
     def close(self, interrupted: bool) -> None:
@@ -523,7 +523,7 @@ def probe_scheduler(address: str, timeout: float) -> None:
         raise SweepError(f"--scheduler {address}: {problem}")
 
 
-def _handshake_problem(address, timeout):
+def _handshake_problem(address: Any, timeout: float):
     """None if a Dask comm at ``address`` completes its handshake within ``timeout`` s, else
     what went wrong (one line)."""
     import asyncio
@@ -659,7 +659,7 @@ def _run_points(runner: DaskCluster | LocalPool, tasks: list[_Task], arguments: 
             (last_chance if task.attempts == retries else waiting).append(task)
 
 
-def _resumed_rows(csv_path, json_path, summary, header):
+def _resumed_rows(csv_path: Any, json_path: Any, summary: Any, header: Any):
     """The raw rows of a stopped sweep's sweep.csv to keep (one per point, those without an
     error), after checking that its sweep.json defines the same sweep (RESUME_KEYS) and its
     header is ``header``; SweepError otherwise."""
@@ -777,7 +777,7 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
     handle = open(csv_path, "a", newline="", encoding="utf-8")
     writer = csv.writer(handle, lineterminator="\n")
 
-    def record(task, outcome) -> None:
+    def record(task: Any, outcome: Any) -> None:
         values, error, wall, worker = outcome
         row = {"index": task.index, **dict(zip(names, task.point)), **values,
                "error": error, "wall_time_s": wall, "worker": worker}

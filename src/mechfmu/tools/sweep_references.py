@@ -16,6 +16,7 @@ without the FMUs' standard-library physics for the quantity checked:
 Units SI: m, kg, s, rad, N, Pa. Bad input raises ValueError naming the value.
 """
 
+from typing import Any
 import math
 from pathlib import Path
 
@@ -114,7 +115,7 @@ def sudden_snap_through_load_undamped(spring_free_length: float=0.5, spring_stif
     u_star, _ = statics.limit_point(L, k, d)
     h = float(statics.rest_height(L, d))
 
-    def surplus(u):
+    def surplus(u: Any):
         return float(statics.spring_force(u, L, k, d)) * u - _spring_energy(u, L, k, d)
 
     u2 = brentq(surplus, u_star, h, xtol=1e-15, rtol=4.0 * np.finfo(float).eps)
@@ -152,17 +153,17 @@ def sudden_load_snaps(mass: float, damping_coefficient: float, spring_free_lengt
 
     system = dynamics.System((L, k, d), m, c, None, lambda t: W, None)
 
-    def snap(t, x):
+    def snap(t: float, x: Any):
         return x[0] - far_start
     ivp_event(snap, terminal=True, direction=1.0)
 
     # Both "no snap" events count only before the saddle: max(., u - u2) stays positive past
     # it and is still continuous, so solve_ivp's root finding applies.
-    def turn(t, x):
+    def turn(t: float, x: Any):
         return max(x[1], x[0] - u2)
     ivp_event(turn, terminal=True, direction=-1.0)
 
-    def below_saddle(t, x):
+    def below_saddle(t: float, x: Any):
         energy = 0.5 * m * x[1] * x[1] + _spring_energy(x[0], L, k, d) - W * x[0]
         return max(energy - saddle_level, x[0] - u2)
     ivp_event(below_saddle, terminal=True, direction=-1.0)
@@ -205,7 +206,7 @@ def sudden_snap_through_mass(damping_coefficient: float, spring_free_length: flo
 
 # --- landing gear: retraction time against supply pressure --------------------------------------
 
-def gear_scene_values(scene_file: Path=GEAR_SCENE, **overrides) -> tuple[dict[str, float], float]:
+def gear_scene_values(scene_file: Path=GEAR_SCENE, **overrides: Any) -> tuple[dict[str, float], float]:
     """(LandingGear values, stop time in s) of a dynamic gear scene: the FMU's defaults, the
     scene's parameters, effects and inputs (as generate.gear_dynamics_scene applies them),
     then ``overrides`` (any gear parameter or input, e.g. supply_pressure, airspeed)."""
@@ -225,7 +226,7 @@ def gear_scene_values(scene_file: Path=GEAR_SCENE, **overrides) -> tuple[dict[st
 
 
 def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method: str="LSODA", tolerance: float=1e-12,
-                    stop_time: float | None=None, **overrides) -> float:
+                    stop_time: float | None=None, **overrides: Any) -> float:
     """Retraction time (s) of the gear_retraction_dynamic scene at ``supply_pressure`` (Pa):
     the first time the piston rises through stroke_max, as the FMU's retraction_time output
     reports it; math.nan if that does not happen by the scene's stop time.
@@ -248,7 +249,7 @@ def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method:
     from ..references.gear_dynamics import dynamics_model, stroke_crossings
     model = dynamics_model(values)
 
-    def rhs(t, y):
+    def rhs(t: float, y: Any):
         return model.derivatives(list(y), values)[0]
 
     t, y = 0.0, np.array(model.initial_state(), dtype=float)
@@ -269,7 +270,7 @@ def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method:
     raise RuntimeError("more than 10000 stroke crossings")
 
 
-def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bool=False, **overrides) -> float:
+def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bool=False, **overrides: Any) -> float:
     """Lowest supply pressure (Pa) at which the stalled actuator holds the gear at every angle
     from its start to stroke_max (static moment balance, numpy closed forms).
 
@@ -309,7 +310,7 @@ def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bo
     weight = lever * v["gravity_acceleration"] if v["gravity"] else 0.0
     friction = v["coulomb_friction"] if (include_coulomb and v["pivot_friction"]) else 0.0
 
-    def required(theta):
+    def required(theta: Any):
         theta = np.asarray(theta, dtype=float)
         psi = theta - v["down_angle"] + v["airframe_pitch"]
         x = np.sqrt(d * d + h * h - 2.0 * d * h * np.cos(theta))
@@ -327,8 +328,8 @@ def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bo
     return float(max(values[i], -refined.fun))
 
 
-def lowest_retracting_pressure(low, high, scene_file=GEAR_SCENE, relative_width: float=1e-4,
-                               **overrides):
+def lowest_retracting_pressure(low: Any, high: Any, scene_file: Any=GEAR_SCENE, relative_width: float=1e-4,
+                               **overrides: Any) -> Any:
     """Lowest supply pressure (Pa) in [low, high] whose scene run retracts by the stop time,
     by bisection on retraction_time being finite (one gear run per halving, ~0.5 s each)."""
     low = require_positive("low", low, "Pa")
@@ -352,7 +353,7 @@ _CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle"
                "return_angle")
 
 
-def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam) -> tuple[float, float]:
+def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam: Any) -> tuple[float, float]:
     """(camshaft speed in rad/s, camshaft angle in rad) where the valve first floats at
     constant camshaft speed; (inf, nan) if the valve never decelerates.
 
@@ -387,7 +388,7 @@ def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiff
     geometry = {key: require_finite(key, p[key], "m") for key in valve_reference.GEOMETRY_FIELDS}
     segments = (("rise", rise, 0.0), ("return", ret, rise + dwell))
 
-    def ratio(segment, x):
+    def ratio(segment: Any, x: Any):
         """w^2 (rad^2/s^2) at which the contact force vanishes at phase x; inf where L'' >= 0."""
         f, f1, f2 = valve_reference.normalized(law, x)
         if segment == "rise":
@@ -425,7 +426,7 @@ def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiff
     return math.sqrt(best[0]), best[1]
 
 
-def valve_float_speed(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam) -> float:
+def valve_float_speed(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam: Any) -> float:
     """Constant camshaft speed (rad/s) at which the ValveTrain FMU's valve (forward drive,
     valve_spring effect) starts to float: see valve_float_point. math.inf if it never does."""
     return valve_float_point(spring_preload, valve_mass, spring_stiffness, **cam)[0]

@@ -133,7 +133,7 @@ def integrator_variables(default: str="dopri5", rtol: float=1e-8, atol: float=1e
     )
 
 
-def unit_definitions(units):
+def unit_definitions(units: Any) -> Any:
     """The UnitDefinitions element of the unit names ``units`` (None skipped; None when no
     unit is left); its form is the same in FMI 2.0 and FMI 3.0."""
     used = sorted({unit for unit in units if unit is not None})
@@ -146,12 +146,12 @@ def unit_definitions(units):
     return units
 
 
-def bound_text(variable, bound):
+def bound_text(variable: Any, bound: Any) -> Any:
     """A min or max attribute value of ``variable`` in the model description."""
     return repr(float(bound)) if variable.kind is float else str(bound)
 
 
-def describe(element, variable) -> None:
+def describe(element: Any, variable: Any) -> None:
     """Write ``variable``'s unit, min, max and nominal onto its typed element of a model description
     (FMI 2.0: the <Real> inside <ScalarVariable>; FMI 3.0: the <Float64> itself), and its
     start value exactly (pythonfmu and pythonfmu3 write 16 significant digits)."""
@@ -195,7 +195,7 @@ def registered(variable: Variable, types: dict[Any, Any], causalities: Any, vari
 def reading_initial_outputs(read: Callable) -> Callable:
     """A binding's get method: ``read`` (the package's own) after refreshing the outputs in
     initialisation mode (MechSlave.refresh_initial_outputs)."""
-    def get(self, vrs):
+    def get(self: Any, vrs: Any):
         self.refresh_initial_outputs()
         return read(self, vrs)
     get.__name__ = read.__name__

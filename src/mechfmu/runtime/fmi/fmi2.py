@@ -6,6 +6,7 @@ InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared`
 ``VARIABLES``, ``_set`` and ``refresh_initial_outputs``.
 """
 
+from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import (Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer,
@@ -35,7 +36,7 @@ class Fmi2Binding(Fmi2Slave):
     get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
     get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
 
-    def to_xml(self, model_options=dict()):
+    def to_xml(self, model_options: Any=dict()) -> Any:
         root = super().to_xml(model_options)
         for element in root.iter("ScalarVariable"):
             variable = self.declared.get(element.get("name"))

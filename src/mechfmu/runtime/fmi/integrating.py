@@ -30,13 +30,13 @@ from typing import Any
 class IntegratingSlave(MechSlave):
     """MechSlave whose outputs follow from a state integrated over each communication step."""
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.state: Any = None  # the integrated state at the last communication point
         self.held_inputs: Any = None  # the inputs read at that point (read_inputs)
 
     # --- model contract ---------------------------------------------------------------------
-    def set_up(self):
+    def set_up(self) -> Any:
         """Validate the parameters and build the equations (raise MechanismError); return
         whether this configuration integrates (False: update_without_state steps it)."""
         raise NotImplementedError
@@ -46,33 +46,33 @@ class IntegratingSlave(MechSlave):
         that ``advance`` receives, with those of the step's start in self.held_inputs."""
         return ()
 
-    def initial_state(self, time):
+    def initial_state(self, time: float) -> Any:
         """The state at the start ``time`` (s); may set the model's own start values."""
         raise NotImplementedError
 
-    def advance(self, start, time, inputs):
+    def advance(self, start: float, time: float, inputs: Any) -> Any:
         """Integrate from ``start`` (s; state self.state, inputs self.held_inputs) to
         ``time`` (s) with ``inputs`` at its end; return (state at ``time``, what happened,
         for ``commit``). Raise MechanismError to discard the step; change nothing that
         internal_state does not restore."""
         raise NotImplementedError
 
-    def commit(self, time, happened) -> None:
+    def commit(self, time: float, happened: Any) -> None:
         """Apply what ``advance`` found (counters, log messages) once the step succeeded."""
 
-    def publish(self, time):
+    def publish(self, time: float) -> Any:
         """Write the outputs at ``time`` from self.state and self.held_inputs."""
         raise NotImplementedError
 
-    def update_without_state(self, time, step_size):
+    def update_without_state(self, time: float, step_size: float) -> Any:
         """Outputs at ``time`` for a configuration that integrates nothing."""
         raise NotImplementedError
 
-    def extra_state(self):
+    def extra_state(self) -> Any:
         """JSON-serialisable model state beyond the integrated one (override if any)."""
         return {}
 
-    def restore_extra_state(self, saved) -> None:
+    def restore_extra_state(self, saved: Any) -> None:
         """Inverse of extra_state."""
 
     # --- MechSlave contract -----------------------------------------------------------------

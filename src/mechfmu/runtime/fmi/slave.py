@@ -39,7 +39,7 @@ class MechSlave(Binding):
     author = "mechfmu"
     license = "MIT"
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.values: dict[str, Any] = {v.name: v.start for v in self.VARIABLES}  # by name
         self.declared = {v.name: v for v in self.VARIABLES}
@@ -59,7 +59,7 @@ class MechSlave(Binding):
         self.finish_registration()
 
     # --- values, as the binding reads and writes them ---------------------------------
-    def _set(self, name, value) -> None:
+    def _set(self, name: str, value: Any) -> None:
         variable = self.declared[name]
         if variable.causality == "output":
             return  # outputs are never set by a host; pythonfmu's state restore calls this
@@ -75,11 +75,11 @@ class MechSlave(Binding):
     def check_parameters(self) -> None:
         """Validate parameters (raise MechanismError); called once at initialisation."""
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> Any:
         """Compute outputs at ``time`` from the current inputs (raise MechanismError)."""
         raise NotImplementedError
 
-    def outputs_at_start(self, time) -> None:
+    def outputs_at_start(self, time: float) -> None:
         """Outputs at initialisation; models with internal state may override."""
         self.update(time, 0.0)
 
@@ -186,11 +186,11 @@ class MechSlave(Binding):
         return f"{self.instance_name} at t = {time!r} s: internal error {error!r}"
 
     # --- FMU state: every value plus the model's internal state ------------------------
-    def internal_state(self):
+    def internal_state(self) -> Any:
         """JSON-serialisable internal state beyond the variables (override if any)."""
         return {}
 
-    def restore_internal_state(self, state) -> None:
+    def restore_internal_state(self, state: Any) -> None:
         """Inverse of internal_state."""
 
     def _get_fmu_state(self) -> dict[str, Any]:

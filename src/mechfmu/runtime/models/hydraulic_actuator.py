@@ -62,7 +62,7 @@ class HydraulicActuator(IntegratingSlave):
                depends=("valve_command",)),
     )
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.actuator: Any = None  # hydraulics.Actuator (set_up)
 
@@ -76,22 +76,22 @@ class HydraulicActuator(IntegratingSlave):
         require_finite("initial_pressure", v["initial_pressure"], "Pa")
         return True
 
-    def initial_state(self, time):
+    def initial_state(self, time: float) -> Any:
         pressure = self.values["initial_pressure"]
         return [pressure, pressure]
 
-    def advance(self, start, time, inputs):
+    def advance(self, start: float, time: float, inputs: Any) -> Any:
         v = self.values
         command = require_finite("valve_command", v["valve_command"])
         length = require_finite("piston_extension", v["piston_extension"], "m")
         speed = require_finite("piston_speed", v["piston_speed"], "m/s")
 
-        def rhs(t, y):
+        def rhs(t: float, y: Any):
             return list(hydraulics.pressure_rates(command, y[0], y[1], length, speed,
                                                   self.actuator))
         return self.integrator.advance(rhs, start, self.state, time).y, None
 
-    def publish(self, time) -> None:
+    def publish(self, time: float) -> None:
         v = self.values
         p1, p2 = self.state
         v["cap_pressure"], v["rod_pressure"] = p1, p2

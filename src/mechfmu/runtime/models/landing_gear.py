@@ -132,7 +132,7 @@ class LandingGear(IntegratingSlave):
         output("stop_contacts", 0, "End-stop contacts started so far"),
     )
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.ignored_inputs: tuple[str, ...] = ()  # inputs of the other driver last warned about
         self.model: Any = None  # gear_dynamics.Dynamics or InverseDynamics
@@ -194,7 +194,7 @@ class LandingGear(IntegratingSlave):
     def extra_state(self) -> dict[str, list[Any]]:
         return {"ignored_inputs": list(self.ignored_inputs)}
 
-    def restore_extra_state(self, saved) -> None:
+    def restore_extra_state(self, saved: Any) -> None:
         self.ignored_inputs = tuple(saved["ignored_inputs"])
 
     # --- stepping -----------------------------------------------------------------------
@@ -224,7 +224,7 @@ class LandingGear(IntegratingSlave):
     def publish(self, time: float) -> None:
         self.model.publish(self.values, time, self.state)
 
-    def update_without_state(self, time, step_size) -> None:
+    def update_without_state(self, time: float, step_size: float) -> None:
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
         v = self.values
         d, h = v["attachment_distance"], v["pivot_height"]

@@ -27,7 +27,7 @@ class LoadProfile(TableSource):
         profiles.check_load(v["shape"], v["initial_value"], v["final_value"], v["start_time"],
                             v["duration"])
 
-    def update(self, time, step_size) -> None:
+    def update(self, time: float, step_size: float) -> None:
         v = self.values
         sample = profiles.load(time, v["shape"], v["initial_value"], v["final_value"],
                                v["start_time"], v["duration"], self.table)

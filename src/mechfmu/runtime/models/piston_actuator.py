@@ -35,7 +35,7 @@ class PistonActuator(MechSlave):
     def check_parameters(self) -> None:
         profiles.check_stroke(*self._stroke_parameters())
 
-    def update(self, time, step_size) -> None:
+    def update(self, time: float, step_size: float) -> None:
         sample = profiles.stroke(time, *self._stroke_parameters())
         v = self.values
         v["piston_extension"], v["piston_speed"], v["piston_acceleration"] = sample

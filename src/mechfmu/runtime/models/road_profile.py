@@ -31,7 +31,7 @@ class RoadProfile(TableSource):
         road.check_road(v["shape"], v["height"], v["duration"], v["start_time"],
                         v["amplitude"], v["frequency"])
 
-    def update(self, time, step_size) -> None:
+    def update(self, time: float, step_size: float) -> None:
         v = self.values
         sample = road.road(time, v["shape"], v["height"], v["duration"], v["start_time"],
                            v["amplitude"], v["frequency"], self.table)

@@ -20,7 +20,7 @@ class _ShaftDrive(MechSlave):
         profiles.check_rotation(v["initial_angle"], v["initial_speed"], v["speed"],
                                 v["ramp_time"])
 
-    def update(self, time, step_size) -> None:
+    def update(self, time: float, step_size: float) -> None:
         v = self.values
         sample = profiles.rotation(time, v["initial_angle"], self.RATIO * v["initial_speed"],
                                    self.RATIO * v["speed"], v["ramp_time"], v["start_time"])

@@ -110,7 +110,7 @@ class Suspension(IntegratingSlave):
                "no road input", unit="J", depends=_INPUTS),
     )
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.model: Any = None  # dynamics: the Model, right-hand side, inputs, events
         self.inputs: Any = None  # dyn.StepInputs (set_up)
@@ -206,7 +206,7 @@ class Suspension(IntegratingSlave):
         snaps = []
         side = [self.side]
 
-        def snap(event, t, y):
+        def snap(event: Any, t: float, y: Any):
             u = self.deflection_of(t, y)
             if v["stop_on_snap_through"]:
                 raise SnapThrough(f"dynamic snap-through at t = {t!r} s: deflection "

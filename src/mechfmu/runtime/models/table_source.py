@@ -12,11 +12,11 @@ class TableSource(MechSlave):
     Subclasses validate their own shape parameters in ``check_shape``.
     """
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.table: Any = None  # tuple[list[float], list[float]] (set_up)
 
-    def check_shape(self):
+    def check_shape(self) -> Any:
         raise NotImplementedError
 
     def check_parameters(self) -> None:
@@ -24,8 +24,8 @@ class TableSource(MechSlave):
         if self.values["shape"] == "table":
             self.table = profiles.read_table(self.values["table_file"])
 
-    def internal_state(self):
+    def internal_state(self) -> Any:
         return {"table": self.table}
 
-    def restore_internal_state(self, state) -> None:
+    def restore_internal_state(self, state: Any) -> None:
         self.table = state["table"]

@@ -107,7 +107,7 @@ class ValveSpring(IntegratingSlave):
                "elastic energy when both dampings are 0)", unit="J"),
     )
 
-    def __init__(self, **kwargs) -> None:
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.parameters: Any = None  # vs.Parameters
         self.drive: Any = None  # vs.StepDrive read by rhs and events
@@ -170,14 +170,14 @@ class ValveSpring(IntegratingSlave):
         found = []
         phase = [self.phase]
 
-        def judge(t, y):
+        def judge(t: float, y: Any):
             phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], vs.drive_at(self.drive, t))
             found.extend(new)
             for happening in new:
                 if happening.kind == vs.FLOAT and self.values["stop_on_float"]:
                     raise MechanismError(_float_message(happening))
 
-        def on_event(event, t, y):
+        def on_event(event: Any, t: float, y: Any):
             if event.name == vs.TRAVEL_LIMIT:
                 floated = [h.time for h in found if h.kind == vs.FLOAT]
                 self._refuse_travel(t, y, vs.drive_at(self.drive, t),

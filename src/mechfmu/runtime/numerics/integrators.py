@@ -97,7 +97,7 @@ class Stats:
         self.rejected = 0
         self.jacobians = 0
 
-    def as_dict(self):
+    def as_dict(self) -> Any:
         return {name: getattr(self, name) for name in self.__slots__}
 
     def __repr__(self) -> str:
@@ -329,7 +329,7 @@ class Integrator:
         stats = self.stats
         name = self.method
 
-        def f(t, y):
+        def f(t: float, y: Any):
             stats.rhs_evaluations += 1
             out = rhs(t, y)
             try:
@@ -364,7 +364,7 @@ class Integrator:
                 f"bound of {self.time_limit:g} s (max_wall_time) for one communication step; "
                 "shorten the communication step, loosen rtol and atol, or raise max_wall_time")
 
-    def _too_many(self, t, t_end):
+    def _too_many(self, t: float, t_end: float):
         where = f" (t_end = {_fmt(t_end)} s)" if t_end is not None else ""
         return IntegrationError(f"{self.method}: more than {MAX_SUBSTEPS} sub-steps in one "
                                 f"advance call, stopped at t = {_fmt(t)} s{where}: "
@@ -498,10 +498,10 @@ class Integrator:
     def _begin_call(self) -> None:
         pass
 
-    def _substep(self, f, t, y, t_limit):
+    def _substep(self, f: Any, t: float, y: Any, t_limit: Any):
         raise NotImplementedError
 
-    def _trial(self, f, t0, y0, tau, start):
+    def _trial(self, f: Any, t0: float, y0: Any, tau: Any, start: float):
         raise NotImplementedError
 
 

@@ -150,7 +150,7 @@ def _as_lengths(linkage: tuple, count: int) -> tuple[float, float, float, float]
     return linkage
 
 
-def crank_angle_range(*linkage) -> tuple[float, float] | None:
+def crank_angle_range(*linkage: Any) -> tuple[float, float] | None:
     """Interval (low, high) of cos(crank_angle) in which the linkage assembles, or None.
 
     Call as crank_angle_range(ground, crank, coupler, rocker) or crank_angle_range(linkage)
@@ -219,7 +219,7 @@ def change_point_angles(ground: float, crank: float, coupler: float, rocker: flo
 BRANCHES_CROSS = "there two assembly branches cross and the motion may continue on either"
 
 
-def singular_crossing(ground, crank, coupler, rocker, start_angle, end_angle):
+def singular_crossing(ground: Any, crank: Any, coupler: Any, rocker: Any, start_angle: Any, end_angle: Any) -> Any:
     """The first singular position the crank passes on its way from ``start_angle`` to
     ``end_angle`` (rad, not wrapped: the drive turns through every angle in between), as
     (position, consequence) texts, or None.
@@ -267,7 +267,7 @@ def singular_crossing(ground, crank, coupler, rocker, start_angle, end_angle):
     return min(passed)[1:]
 
 
-def _assembles(lengths, crank_angle):
+def _assembles(lengths: Any, crank_angle: Any):
     """Whether the linkage assembles at ``crank_angle`` (rad), with _solve's tolerance."""
     to_high, to_low, tolerance = _reach_margins(lengths, crank_angle)
     return to_high >= -tolerance and to_low >= -tolerance

@@ -77,14 +77,14 @@ def bar_from_vertical(angle: float, geometry: "Geometry") -> float:
     return angle - geometry.down_angle + geometry.airframe_pitch
 
 
-def moment_arm(angle, geometry):
+def moment_arm(angle: Any, geometry: Any) -> Any:
     """Piston moment arm d h sin(theta) / x (m) at a gear angle."""
     x = kinematics.piston_motion(angle, 0.0, 0.0, geometry.attachment_distance,
                                  geometry.pivot_height).extension
     return geometry.attachment_distance * geometry.pivot_height * math.sin(angle) / x
 
 
-def gravity_moment(angle, body, geometry, gravity=STANDARD_GRAVITY):
+def gravity_moment(angle: Any, body: Any, geometry: Any, gravity: float=STANDARD_GRAVITY) -> Any:
     """Moment of gravity about B (N m), positive towards retraction."""
     return -gravity_lever(body) * gravity * math.sin(bar_from_vertical(angle, geometry))
 
@@ -94,13 +94,13 @@ def gravity_potential(angle: float, body: "Body", geometry: "Geometry", gravity:
     return gravity_lever(body) * gravity * (1.0 - math.cos(bar_from_vertical(angle, geometry)))
 
 
-def drag_moment(angle, airspeed, body, geometry, drag):
+def drag_moment(angle: Any, airspeed: Any, body: Any, geometry: Any, drag: Any) -> Any:
     """Moment about B (N m) of the aerodynamic drag on the wheel at airspeed V (m/s)."""
     force = 0.5 * drag.air_density * drag.drag_area * airspeed * abs(airspeed)
     return -force * body.bar_length * math.cos(bar_from_vertical(angle, geometry))
 
 
-def friction_moment(angular_velocity, friction):
+def friction_moment(angular_velocity: Any, friction: Any) -> Any:
     """Pivot friction moment (N m): viscous plus Coulomb smoothed by tanh."""
     return -(friction.viscous * angular_velocity
              + friction.coulomb * math.tanh(angular_velocity / friction.smoothing_speed))
@@ -115,7 +115,7 @@ def damping_ratio(restitution: float) -> float:
     return -log_e / math.sqrt(math.pi * math.pi + log_e * log_e)
 
 
-def stop_force(length, speed, effective_mass, stops):
+def stop_force(length: Any, speed: float, effective_mass: Any, stops: Any) -> Any:
     """Contact force along the piston (N) from the stroke-limit stops; 0 inside the stroke."""
     if stops.min_length < length < stops.max_length:
         return 0.0
@@ -153,13 +153,13 @@ def moment_terms(values: dict[str, float], body: "Body", geometry: "Geometry") -
 class InverseDynamics:
     """Motion drive: the piston force that produces the prescribed motion."""
 
-    def __init__(self, values, body, geometry) -> None:
+    def __init__(self, values: Any, body: Any, geometry: Any) -> None:
         self.body, self.geometry = body, geometry
         self.inertia = inertia(body) if values["inertia"] else 0.0
         self.terms = moment_terms(values, body, geometry)
         self.gravity = values["gravity_acceleration"] if values["gravity"] else None
 
-    def publish(self, v, motion) -> None:
+    def publish(self, v: Any, motion: Any) -> None:
         """Required piston force (N) and energies (J) into the values ``v`` for ``motion``
         (angle rad, rate rad/s, acceleration rad/s^2); v["piston_moment_arm"] is set."""
         angle, omega, alpha = motion
@@ -250,7 +250,7 @@ class Dynamics:
             require_finite(name, v[name])
         crossings = []
 
-        def record(event, time, state):
+        def record(event: Any, time: float, state: Any):
             crossings.append((event.name, time, self.piston_length(state)))
             return state
         y = advance_through_events(integrator, lambda time, state: self.derivatives(state, v)[0],

@@ -13,6 +13,7 @@ The piston force along the piston (positive extending) is p1 A1 - p2 A2.
 Pressures in Pa, flows in m^3/s, lengths in m, forces in N.
 """
 
+from typing import Any
 import math
 from collections import namedtuple
 
@@ -79,7 +80,7 @@ def valve_flows(command: float, cap_pressure: float, rod_pressure: float, actuat
     return Flows(limited(into_cap, a.max_flow), limited(out_of_rod, a.max_flow))
 
 
-def pressure_rates(command, cap_pressure, rod_pressure, length, speed, actuator):
+def pressure_rates(command: Any, cap_pressure: Any, rod_pressure: Any, length: Any, speed: float, actuator: Any) -> Any:
     """(dp1/dt, dp2/dt) in Pa/s at piston length (m) and speed (m/s)."""
     a = actuator
     flows = valve_flows(command, cap_pressure, rod_pressure, a)

@@ -441,13 +441,13 @@ class BranchFollower:
         self.drive: list[tuple[float, ...]] | None = None
         self.sign = 0
 
-    def snapshot(self):
+    def snapshot(self) -> Any:
         return {"solution": None if self.solution is None else
                 [list(v) if isinstance(v, list) else v for v in self.solution],
                 "drive": None if self.drive is None else [list(d) for d in self.drive],
                 "sign": self.sign}
 
-    def restore(self, state) -> None:
+    def restore(self, state: Any) -> None:
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
         self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
         self.sign = state["sign"]
@@ -497,7 +497,7 @@ class BranchFollower:
         self.solution, self.drive = solution, drive
         return solution
 
-    def _end_is_singular(self, drive) -> bool:
+    def _end_is_singular(self, drive: Any) -> bool:
         assert self.solution is not None  # follow() comes after assemble()
         try:
             _, sign = self._solve(self.solution.q, drive)

@@ -73,7 +73,7 @@ def stroke(time: float, start_extension: float, end_extension: float, stroke_tim
                   travel * 2.0 * math.pi * math.sin(angle) / stroke_time ** 2)
 
 
-def check_shape(shape, shapes, finite):
+def check_shape(shape: Any, shapes: Any, finite: Any) -> Any:
     """Raise MechanismError unless ``shape`` is one of ``shapes`` and each (name, value,
     unit) of ``finite`` is a finite number (checked in that order)."""
     if shape not in shapes:
@@ -162,7 +162,7 @@ def interpolate(table: tuple[list[float], list[float]], time: float) -> "Sample"
     return Sample(values[i] + slope * (time - times[i]), slope, 0.0)
 
 
-def check_rotation(initial_angle, initial_speed, final_speed, ramp_time):
+def check_rotation(initial_angle: Any, initial_speed: Any, final_speed: Any, ramp_time: Any) -> Any:
     """Validate a shaft rotation: finite angle and speeds (rad, rad/s), ramp_time >= 0 s."""
     require_finite("initial_angle", initial_angle, "rad")
     require_finite("initial_speed", initial_speed, "rad/s")
@@ -172,7 +172,7 @@ def check_rotation(initial_angle, initial_speed, final_speed, ramp_time):
         raise RangeError("ramp_time", ramp, "[0, inf)", "s")
 
 
-def rotation(time, initial_angle, initial_speed, final_speed, ramp_time, start_time: float=0.0):
+def rotation(time: float, initial_angle: Any, initial_speed: Any, final_speed: Any, ramp_time: Any, start_time: float=0.0) -> Any:
     """Shaft angle (rad), speed (rad/s) and angular acceleration (rad/s^2) at ``time`` (s).
 
     The speed ramps linearly from initial_speed to final_speed over ramp_time from

@@ -15,6 +15,7 @@ Heights are what the tyre (or, without a tyre, the spring base) rests on, so a b
 the wheel up, i.e. the suspension's downward displacements decrease.
 """
 
+from typing import Any
 import math
 
 from ..errors import require_positive
@@ -23,7 +24,7 @@ from .profiles import TIME_SNAP, Sample, check_shape, interpolate
 ROAD_SHAPES = ("step", "bump", "sine", "table")
 
 
-def check_road(shape: str, height: float, duration: float, start_time: float, amplitude: float, frequency: float):
+def check_road(shape: str, height: float, duration: float, start_time: float, amplitude: float, frequency: float) -> Any:
     """Validate road parameters (only the ones the shape uses must be usable)."""
     check_shape(shape, ROAD_SHAPES, (("start_time", start_time, "s"), ("height", height, "m"),
                                      ("amplitude", amplitude, "m")))

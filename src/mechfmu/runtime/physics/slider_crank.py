@@ -21,6 +21,7 @@ perpendicular to the slider axis: there the rates are infinite (SingularConfigur
 All lengths in m, angles in rad, time in s.
 """
 
+from typing import Any
 import math
 import sys
 from collections import namedtuple
@@ -71,7 +72,7 @@ def _as_lengths(values: tuple) -> tuple[float, float, float]:
     return values
 
 
-def crank_angle_range(*slider_crank) -> tuple[float, float] | None:
+def crank_angle_range(*slider_crank: Any) -> tuple[float, float] | None:
     """Interval (low, high) of sin(crank_angle) in which the slider-crank assembles, or None.
 
     Call as crank_angle_range(crank, coupler, offset) or crank_angle_range(slider_crank).

@@ -44,6 +44,7 @@ effects; a disabled effect's function is never called.
 Units: m, s, kg, N, J.
 """
 
+from typing import Any
 from collections import namedtuple
 
 from . import suspension as statics
@@ -156,14 +157,14 @@ def load_at(inputs: StepInputs, t: float) -> float:
     return inputs.load0 + inputs.load_slope * (t - inputs.t0)
 
 
-def road_at(inputs, t):
+def road_at(inputs: Any, t: float) -> Any:
     """Road height (m), rate (m/s), second rate (m/s^2) at time t inside the current step."""
     return polynomial_motion(inputs.road, t - inputs.t0)
 
 
 # --- the system built from the enabled effects --------------------------------------------
 
-def state_size(model):
+def state_size(model: Any) -> Any:
     return 4 if model.effects.tyre else 2
 
 
@@ -174,10 +175,10 @@ def build_rhs(model: "Model", inputs: StepInputs) -> Callable:
     if effects.damping:
         damp, c = damping_force, model.damping
 
-        def suspension(u, v):
+        def suspension(u: Any, v: Any):
             return force(u, spring) + damp(c, v)
     else:
-        def suspension(u, v):
+        def suspension(u: Any, v: Any):
             return force(u, spring)
 
     if effects.tyre:
@@ -186,23 +187,23 @@ def build_rhs(model: "Model", inputs: StepInputs) -> Callable:
         if effects.road_input:
             road = road_at
 
-            def rhs(t, y):
+            def rhs(t: float, y: Any):
                 f = suspension(y[0] - y[2], y[1] - y[3])
                 return [y[1], (load(inputs, t) - f) / m,
                         y[3], (f + weight - tyre(kt, y[2], road(inputs, t)[0])) / mu]
         else:
-            def rhs(t, y):
+            def rhs(t: float, y: Any):
                 f = suspension(y[0] - y[2], y[1] - y[3])
                 return [y[1], (load(inputs, t) - f) / m,
                         y[3], (f + weight - tyre(kt, y[2], 0.0)) / mu]
     elif effects.road_input:
         road = road_at
 
-        def rhs(t, y):
+        def rhs(t: float, y: Any):
             r, rate, _ = road(inputs, t)
             return [y[1], (load(inputs, t) - suspension(y[0] + r, y[1] + rate)) / m]
     else:
-        def rhs(t, y):
+        def rhs(t: float, y: Any):
             return [y[1], (load(inputs, t) - suspension(y[0], y[1])) / m]
     return rhs
 

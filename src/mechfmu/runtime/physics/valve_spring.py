@@ -366,7 +366,7 @@ class Modes:
 def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
     """y' = rhs(t, y) for y = (x, v, W): the valve's motion and the contact work, with the
     contacts engaged as ``modes`` says (smooth between switches)."""
-    def rhs(t, y):
+    def rhs(t: float, y: Any):
         L, rate, _ = drive_at(drive, t)
         f = engaged_forces(p, L, rate, y[0], y[1], modes.engaged)
         return [y[1], f.acceleration, f.contact * rate]
@@ -378,14 +378,14 @@ def build_events(p: "Parameters", drive: StepDrive, max_lift: float | None=None)
     towards the other mode (falling while engaged, rising while idle) ends the segment, and
     d falling through 0 (the valve leaving the rocker) is located for the float report;
     with ``max_lift`` (m), the valve lift rising through it (TRAVEL_LIMIT) as well."""
-    def contact(t, y):
+    def contact(t: float, y: Any):
         L, rate, _ = drive_at(drive, t)
         return contact_switch(p, penetration(p, L, y[0]), rate - y[1])
 
-    def seat(t, y):
+    def seat(t: float, y: Any):
         return seat_switch(p, y[0], y[1])
 
-    def separation(t, y):
+    def separation(t: float, y: Any):
         return penetration(p, drive_at(drive, t)[0], y[0])
 
     always = [Event("separation", separation, -1)]

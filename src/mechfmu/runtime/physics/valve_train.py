@@ -579,7 +579,7 @@ def float_speed(g: "ValveGeometry", profile: CamProfile, valve_mass: float, spri
         raise RangeError("samples", samples, "[8, inf)", "", "an integer")
     y3_closed = rest_position(g)[1]
 
-    def ratio(segment, x):
+    def ratio(segment: Any, x: Any):
         """w^2 at which the contact force vanishes at phase x, inf where L'' >= 0."""
         s, s1, s2, _ = cam_laws.segment_lift(profile, segment, x)
         if valve_law:

@@ -12,6 +12,7 @@ timers cost time of their own); overhead = per-step wall time - per-step FMI tim
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import contextlib
 import cProfile
@@ -148,7 +149,7 @@ class MasterRows(NamedTuple):
 
 def _master_rows(master: str, medians: dict[tuple[str, str, bool], dict[str, float]], steps: list[int], description: str, repeats: int) -> MasterRows:
     """Wall, set-up, FMI and overhead rows of one master from the medians of its runs."""
-    def median(length, key, timed):
+    def median(length: Any, key: Any, timed: Any):
         return medians[(master, length, timed)][key]
 
     span = f"slope between {steps[0]} and {steps[1]} steps"
@@ -195,7 +196,7 @@ def measure(scene_dir: str, fmu_dir: str, lengths_s: tuple[float, float], repeat
                       fmpy_rows.overhead, TARGET)]
 
 
-def profile(scene_dir, fmu_dir, stop_time, top=15, stream=None) -> None:
+def profile(scene_dir: Any, fmu_dir: Any, stop_time: float, top: Any=15, stream: Any=None) -> None:
     """Print cProfile's ``top`` functions by own time for one run of each master."""
     scene = with_stop_time(load_named_scene(scene_dir, KINEMATIC_SCENE), stop_time)
     simulation = Simulation(scene, fmu_dir)

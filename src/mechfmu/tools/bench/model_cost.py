@@ -10,6 +10,7 @@ fmi2GetReal of all its Real outputs.
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import contextlib
 import math
@@ -45,7 +46,7 @@ CAMSHAFT_SPEED = 50.0 * math.pi  # rad/s: 3000 engine rpm, as in the valve_train
 def shaft_turning(prefix: str, speed: float, initial_angle: float=0.0) -> Callable:
     """Inputs ``<prefix>_angle`` (rad), ``_speed`` (rad/s), ``_acceleration`` (rad/s^2) of a
     shaft turning at constant ``speed`` from ``initial_angle``, as functions of time (s)."""
-    def inputs(times):
+    def inputs(times: Any):
         return {f"{prefix}_angle": initial_angle + speed * times,
                 f"{prefix}_speed": np.full_like(times, speed),
                 f"{prefix}_acceleration": np.zeros_like(times)}
@@ -228,7 +229,7 @@ def _measure_case(case: ModelCase, model_fmu: ExtractedFmu, null_fmu: ExtractedF
     loops = {fmu: PreparedLoop(case, fmu.description, steps) for fmu in (model_fmu, null_fmu)}
     last = {}
 
-    def timed(fmu):
+    def timed(fmu: Any):
         with fmu.initialised(case.parameters) as instance:
             last[fmu] = loops[fmu].run(instance)
         return {"loop": last[fmu].seconds}

@@ -1,5 +1,6 @@
 """Benchmark rows and their files: bench.csv, bench.md and machine.json (each atomic)."""
 
+from typing import Any
 import csv
 import datetime
 import json
@@ -72,7 +73,7 @@ def ratio_parts(row: Row) -> tuple[str, str]:
 
 
 def write_csv(path: Path, rows: list[Row]) -> Path:
-    def write(handle) -> None:
+    def write(handle: Any) -> None:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(CSV_COLUMNS)
         writer.writerows(row.csv_fields() for row in rows)

@@ -1,5 +1,6 @@
 """Timing primitives: medians of side-by-side rounds after a warm-up, per-step slopes."""
 
+from typing import Any
 import statistics
 import time
 from collections.abc import Callable
@@ -34,7 +35,7 @@ def set_up(short_run_s: float, per_step_s: float, short_steps: int) -> float:
     return short_run_s - per_step_s * short_steps
 
 
-def seconds_of(function: Callable, *args, **kwargs) -> float:
+def seconds_of(function: Callable, *args: Any, **kwargs: Any) -> float:
     """Wall time in s of one call of ``function``."""
     started = time.perf_counter()
     function(*args, **kwargs)

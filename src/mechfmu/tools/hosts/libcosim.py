@@ -46,6 +46,7 @@ What libcosim does differently from our master and from fmpy, and how this modul
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import math
 import os
@@ -174,7 +175,7 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, str | bool | float] | Non
         raise LibcosimError(f"libcosim cannot load {fmu_path}: {last_error()}")
     variables = {v.name.decode(): v for v in execution.slave_variables(index)}
 
-    def variable(name, causalities, role):
+    def variable(name: str, causalities: Any, role: Any):
         if name not in variables:
             raise ValueError(f"{fmu_path} has no variable {name!r}; its {role}s: "
                              + ", ".join(n for n, v in variables.items()
@@ -188,7 +189,7 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, str | bool | float] | Non
     setters = {"REAL": "real_initial_value", "INTEGER": "integer_initial_value",
                "BOOLEAN": "boolean_initial_value", "STRING": "string_initial_value"}
 
-    def set_initial(name, causalities, role, value):
+    def set_initial(name: str, causalities: Any, role: Any, value: Any):
         found, kind = variable(name, causalities, role)
         value = _checked(name, kind, value)
         if not getattr(execution, setters[kind.name])(index, found.reference, value):
@@ -230,7 +231,7 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, str | bool | float] | Non
     overriders = {"REAL": "slave_real_values", "INTEGER": "slave_integer_values",
                   "BOOLEAN": "slave_boolean_values", "STRING": "slave_string_values"}
 
-    def samples(steps_done):
+    def samples(steps_done: Any):
         """(times, values) of steps 0 .. steps_done, checked against the ns grid."""
         values = {}
         times_ns = None
@@ -256,7 +257,7 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, str | bool | float] | Non
         times = np.array([t / NANOSECONDS_PER_SECOND for t in (times_ns or [])])
         return times, values
 
-    def failure(what, steps_done):
+    def failure(what: str, steps_done: Any):
         message = (f"libcosim: {what} failed at t = {steps_done * step_ns / 1e9!r} s: "
                    f"{last_error().strip()} (the FMU's own message is in libcosim's log)")
         try:

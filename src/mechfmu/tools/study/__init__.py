@@ -16,6 +16,7 @@ accuracy_cost.csv, and the plots and tables are written for every scene it holds
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import csv
 import json
@@ -38,8 +39,8 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
 
 
 
-def _write_rows(path, rows):
-    def write(handle) -> None:
+def _write_rows(path: Any, rows: Any):
+    def write(handle: Any) -> None:
         writer = csv.DictWriter(handle, fieldnames=measure.COLUMNS, lineterminator="\n")
         writer.writeheader()
         for row in rows:
@@ -77,7 +78,7 @@ def pareto_markdown(rows: list[dict[str, float]], units: dict[str, str]) -> str:
                         for s in design.SCENES if s.name in units) + "\n"
 
 
-def command(args: Namespace):
+def command(args: Namespace) -> Any:
     """``mechfmu study`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     names = args.scenes or [s.name for s in design.SCENES]

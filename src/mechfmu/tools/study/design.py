@@ -11,6 +11,7 @@ runs share the reference's sample times.
 
 from __future__ import annotations
 
+from typing import Any
 from typing import TYPE_CHECKING
 import copy
 import dataclasses
@@ -119,12 +120,12 @@ def couplings_of(scene: Scene) -> tuple:
     return ("gauss_seidel", "jacobi") if scene.connections else ("gauss_seidel",)
 
 
-def counters(study_scene):
+def counters(study_scene: Any) -> Any:
     """The integrating component's work counters (recorded in every run of the study)."""
     return (f"{study_scene.component}.rhs_evaluations", f"{study_scene.component}.substeps")
 
 
-def configure(scene, study_scene, point):
+def configure(scene: Any, study_scene: Any, point: Any) -> Any:
     """The shipped ``scene`` with the point's settings and the work counters recorded."""
     components = copy.deepcopy(scene.components)
     parameters = components[study_scene.component].parameters

@@ -37,7 +37,7 @@ COLUMNS = ("scene", "integrator", "tolerance", "max_substep", "step", "coupling"
            "substeps", "rhs_evaluations", "status")
 
 
-def reference(scene: Scene, study_scene: StudyScene):
+def reference(scene: Scene, study_scene: StudyScene) -> Any:
     """(times, {column: values}) of the scene's reference on the finest step's grid."""
     fine = dataclasses.replace(scene, step=study_scene.steps[0])
     columns = REFERENCES[scene.name](fine)
@@ -45,7 +45,7 @@ def reference(scene: Scene, study_scene: StudyScene):
                                 for name, values in columns.items()}
 
 
-def errors(times, columns, reference_times, reference_columns, common_step):
+def errors(times: Any, columns: Any, reference_times: Any, reference_columns: Any, common_step: Any) -> Any:
     """{output: (max |error|, RMS error, max |error| at all points, peak |reference|)}.
 
     The first two are taken at the run's points that fall on the ``common_step`` grid,
@@ -75,7 +75,7 @@ def errors(times, columns, reference_times, reference_columns, common_step):
     return measured
 
 
-def run_point(point, scene, study_scene, reference_data: tuple[Any, Any], fmu_dir, repeats):
+def run_point(point: Any, scene: Any, study_scene: Any, reference_data: tuple[Any, Any], fmu_dir: Any, repeats: int) -> Any:
     """The rows of one point: its errors per output, cost and work counters."""
     configured = configure(scene, study_scene, point)
     simulation = Simulation(configured, fmu_dir)  # checked and its FMUs described once
@@ -126,17 +126,17 @@ def run_point(point, scene, study_scene, reference_data: tuple[Any, Any], fmu_di
 _WORKER: dict[str, Any] = {}  # per worker process: the scenes and references, sent once at start
 
 
-def _start_worker(payload) -> None:
+def _start_worker(payload: Any) -> None:
     _WORKER.update(payload)
 
 
-def _run_in_worker(point):
+def _run_in_worker(point: Any):
     scene, study_scene, reference_data = _WORKER["scenes"][point.scene]
     return run_point(point, scene, study_scene, reference_data, _WORKER["fmu_dir"],
                      _WORKER["repeats"])
 
 
-def run_points(points, scenes, fmu_dir, repeats, workers, progress=None):
+def run_points(points: Any, scenes: Any, fmu_dir: Any, repeats: int, workers: int, progress: Any=None) -> Any:
     """Rows of every point, run on ``workers`` processes (1: in this process).
 
     ``scenes`` maps a scene name to (scene, study scene, reference). Points are started

@@ -76,7 +76,7 @@ def front_table(rows: list[dict[str, float]], study_scene: StudyScene, unit: str
     return "\n".join(lines)
 
 
-def plot_front(rows, study_scene, unit, path):
+def plot_front(rows: Any, study_scene: Any, unit: str, path: Any) -> Any:
     """Error against cost on log-log axes, every point, the Pareto front as a line."""
     chosen = [r for r in headline_rows(rows, study_scene) if r["max_error"] > 0]
     figure, axes = plt.subplots(figsize=(8, 5.5))
@@ -103,7 +103,7 @@ def plot_front(rows, study_scene, unit, path):
     return _save(path, figure)
 
 
-def plot_sources(rows, study_scene, unit, path):
+def plot_sources(rows: Any, study_scene: Any, unit: str, path: Any) -> Any:
     """Two panels: the coupling error alone and the integration error alone.
 
     Left: error against the communication step with each adaptive method at its tightest
@@ -144,7 +144,7 @@ def plot_sources(rows, study_scene, unit, path):
     return _save(path, figure)
 
 
-def _save(path, figure):
+def _save(path: Any, figure: Any):
     """Write the figure atomically and free it."""
     try:
         return save_figure(path, figure, dpi=110)
