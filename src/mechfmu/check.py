@@ -96,7 +96,7 @@ def worst_deviations(result: Any, reference_path: Any) -> Any:
     return rows
 
 
-def run_report(result: Result, paths: dict[str, Path], reference: None=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference") -> tuple[list[str], None]:
+def run_report(result: Result, paths: dict[str, Path], reference: Path | None=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference") -> tuple[list[str], Comparison | None]:
     """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
     verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,

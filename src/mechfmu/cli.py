@@ -52,7 +52,7 @@ def _scene_failure(error: SimulationError | SceneError | OutputError, guard: Int
         print(f"partial {kind}: {path}", file=sys.stderr)
     if getattr(error, "output_error", None) is not None:
         print(f"output error: {error.output_error}", file=sys.stderr)
-    return exit_code(error.signum) if interrupted else 1
+    return exit_code(error.signum) if isinstance(error, SimulationInterrupted) else 1
 
 
 def _run(args: argparse.Namespace) -> int:

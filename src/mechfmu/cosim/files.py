@@ -152,7 +152,7 @@ def atomic_write_all(contents: Any) -> list[Path]:
     return paths
 
 
-def atomic_write(path: str | Path, content: bytes | str) -> Path:
+def atomic_write(path: str | Path, content: bytes | str | Callable[[Any], None]) -> Path:
     """Write one file atomically (see atomic_write_all); returns its path."""
     return atomic_write_all({path: content})[0]
 

@@ -80,7 +80,7 @@ _MACHINES = {"x86_64": 62, "amd64": 62, "aarch64": 183, "arm64": 183, "i386": 3,
 _ET_DYN, _PT_LOAD = 3, 1
 
 
-def elf_problem(data: bytes) -> None:
+def elf_problem(data: bytes) -> str | None:
     """Why ``data`` is not a complete ELF shared library for this machine, or None.
 
     Reads the ELF header (class, byte order, type, machine), then checks that the program

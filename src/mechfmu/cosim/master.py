@@ -49,7 +49,7 @@ _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "S
 class SimulationError(RuntimeError):
     """A component failed during the run; ``result`` holds the rows computed before."""
 
-    def __init__(self, component: str, time: float, message: str, result: "Result") -> None:
+    def __init__(self, component: str | None, time: float, message: str, result: "Result") -> None:
         self.component, self.time, self.result = component, time, result
         self.paths: dict[str, Path] = {}  # set by run_scene
         self.moved_aside: list[Path] = []
@@ -72,7 +72,7 @@ class SimulationInterrupted(SimulationError):
 class Result:
     """Recorded signals of one run: ``columns`` maps 'component.variable' to values."""
 
-    scene: object
+    scene: Any
     times: list = field(default_factory=list)
     columns: dict = field(default_factory=dict)
     units: dict = field(default_factory=dict)
@@ -465,7 +465,7 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls: bool=False, instances: Instances | None=None, stop: InterruptGuard | None=None) -> Result:
+    def run(self, time_fmi_calls: bool=False, instances: Any=None, stop: Any=None) -> Result:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -559,7 +559,7 @@ class Simulation:
                 instances.close()
         return result
 
-    def _feeds(self, name: str, skip: list[Any]=()) -> list[Any]:
+    def _feeds(self, name: str, skip: Any=()) -> list[Any]:
         """(get from source, set on ``name``) pairs for the connected inputs of ``name``."""
         feeds = []
         for connection in self.connections:
@@ -570,7 +570,7 @@ class Simulation:
                               target.setter(target.variables[connection.input])))
         return feeds
 
-    def _feed(self, name: str, skip: list[Any]=()) -> None:
+    def _feed(self, name: str, skip: Any=()) -> None:
         """Set the connected inputs of ``name`` from its sources' current outputs."""
         for get, put in self._feeds(name, skip):
             put(get())
@@ -671,7 +671,7 @@ class _Outputs:
     the buffer's bytes appended as they are.
     """
 
-    def __init__(self, component: _Component, fmi_type: str, groups: list[Any], recorded: list[Any], timer: None) -> None:
+    def __init__(self, component: _Component, fmi_type: str, groups: list[Any], recorded: list[Any], timer: CallTimer | None) -> None:
         variables = [variable for _, variables in groups for variable in variables]
         self.offsets, start = {}, 0
         for key, group in groups:
@@ -705,7 +705,7 @@ class _StepPlan:
     inputs are set from the buffers of the previous point before any component steps.
     """
 
-    def __init__(self, simulation: Simulation, timer: None) -> None:
+    def __init__(self, simulation: Simulation, timer: CallTimer | None) -> None:
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
         members: dict[tuple, tuple[list, list]] = {}  # (target, source, type) -> ([source outputs], [target inputs])

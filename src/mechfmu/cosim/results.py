@@ -36,7 +36,7 @@ def write_csv(path: Any, times: Any, columns: Any) -> Any:
     return atomic_write(path, csv_writer(times, columns))
 
 
-def read_csv(path: Path) -> tuple[list[float], dict[str, list[float]]]:
+def read_csv(path: Path | str) -> tuple[Any, dict[str, Any]]:
     """(times, columns) of a CSV written by write_csv (or any 'time,...' CSV)."""
     with open(path, newline="", encoding="utf-8") as handle:
         rows = list(csv.reader(handle))
@@ -49,7 +49,7 @@ def read_csv(path: Path) -> tuple[list[float], dict[str, list[float]]]:
     return times, columns
 
 
-def versions() -> dict[str, str]:
+def versions() -> dict[str, str | None]:
     """Versions of the packages a result depends on."""
     found: dict[str, str | None] = {"python": platform.python_version()}
     for package in ("mechfmu", "fmpy", "pythonfmu", "numpy", "matplotlib"):

@@ -228,7 +228,7 @@ def read_toml(path: Path, error: type[Exception]=SceneError, what: str="scene fi
         raise error(f"{path}: malformed TOML: {problem}") from None
 
 
-def load_scene(path: Path, overrides: dict[str, float] | None=None) -> Scene:
+def load_scene(path: Path | str, overrides: dict[str, Any] | None=None) -> Scene:
     """Read and parse a scene TOML file; errors name the file and the problem.
     ``overrides``: top-level keys (stop_time, step, ...) replacing the file's."""
     path = Path(path)

@@ -33,7 +33,7 @@ def _sections(elf: bytes) -> Iterator[tuple[int, int, int, int, int, int, int, i
         yield struct.unpack_from("<IIQQQQIIQQ", elf, shoff + i * shentsize)
 
 
-def find_symbol_offset(elf: bytes, symbol: bytes) -> int:
+def find_symbol_offset(elf: bytes, symbol: bytes) -> int | None:
     """File offset of a dynamic symbol's code in an ELF64 little-endian image, or None."""
     if elf[:4] != b"\x7fELF" or elf[4] != 2 or elf[5] != 1:
         return None

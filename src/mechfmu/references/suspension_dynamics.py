@@ -54,7 +54,7 @@ def load_signal(shape: Any, initial_value: Any, final_value: Any, start_time: fl
 def road_signal(shape: Any, height: Any, duration: float, start_time: float, amplitude: Any, frequency: Any) -> Any:
     """(r(t) -> (r, r', r'') vectorised, breakpoints) for a RoadProfile step, bump or sine."""
     if shape == "bump":
-        def bump(t: float):
+        def bump(t: Any):
             t = np.asarray(t, dtype=float)
             phase = (t - start_time) / duration
             inside = (phase > 0.0) & (phase < 1.0)
@@ -65,7 +65,7 @@ def road_signal(shape: Any, height: Any, duration: float, start_time: float, amp
                     np.where(inside, 2.0 * height * w * w * np.cos(angle), 0.0))
         return bump, [start_time, start_time + duration]
     if shape == "sine":
-        def sine(t: float):
+        def sine(t: Any):
             t = np.asarray(t, dtype=float)
             on = t >= start_time
             w = 2.0 * np.pi * frequency
@@ -75,7 +75,7 @@ def road_signal(shape: Any, height: Any, duration: float, start_time: float, amp
                     np.where(on, -amplitude * w * w * np.sin(angle), 0.0))
         return sine, [start_time]
     if shape == "step":
-        def kerb(t: float):
+        def kerb(t: Any):
             t = np.asarray(t, dtype=float)
             zero = np.zeros_like(t)
             return np.where(t >= start_time, height, 0.0), zero, zero

@@ -40,7 +40,7 @@ def _checked(scene_name: Any, args: Any, rtol: float, atol: float, label: str):
     result, paths = _run(scene_name, args)
     lines, comparison = run_report(result, paths, result.scene.reference, rtol, atol, label)
     print("\n".join(lines))
-    return result, comparison.ok
+    return result, comparison is not None and comparison.ok
 
 
 # --- gear ----------------------------------------------------------------------------------

@@ -47,7 +47,7 @@ _NON_FINITE = (math.nan, math.inf, -math.inf)
 
 # --- what to vary, from the model's own declarations ------------------------------------------
 
-def declarations(model_name: str, description: None=None) -> dict[str, Variable]:
+def declarations(model_name: str, description: Any=None) -> dict[str, Variable]:
     """What to vary, by variable name: the model's Variable declarations
     (mechfmu.runtime.fmi.slave.Variable) for one of our models, else the same fields read from
     ``description`` (an fmpy ModelDescription): any FMU can be fuzzed."""

@@ -293,7 +293,7 @@ def extract_ssp(ssp: Path, directory: Path) -> Path:
 
 # --- running an exported SSP in fmpy.ssp (host side) ---------------------------------------
 
-def experiment(ssp: Path) -> tuple[float, float, float, list[str]]:
+def experiment(ssp: Path) -> tuple[float, float, float, list[str | None]]:
     """(start time, stop time, step, recorded 'component.variable' names) of an exported SSP.
 
     ``ssp``: the .ssp file or its extracted folder. The step and the recorded names come

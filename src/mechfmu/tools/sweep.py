@@ -170,18 +170,18 @@ def grid_points(varies: list[Vary]) -> ndarray:
         if vary.count is None:
             raise SweepError(f"--vary {vary.name}: a grid needs START:STOP:COUNT "
                              f"(or use --samples N)")
-    axes = [np.linspace(v.start, v.stop, v.count) for v in varies]
+    axes = [np.linspace(v.start, v.stop, int(v.count or 0)) for v in varies]
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh], axis=1)
 
 
-def lhs_unit(samples: int, dimensions: int, seed: int) -> ndarray:
+def lhs_unit(samples: int, dimensions: int, seed: int | None) -> ndarray:
     """Latin hypercube in [0, 1)^d: in each dimension exactly one sample per stratum
     [k/N, (k+1)/N), placed uniformly inside it; reproducible with ``seed``."""
     return qmc.LatinHypercube(d=dimensions, seed=seed).random(samples)
 
 
-def sample_points(varies: list[Vary], samples: int, seed: int, method: str="lhs") -> ndarray:
+def sample_points(varies: list[Vary], samples: int, seed: int | None, method: str="lhs") -> ndarray:
     """``samples`` points over the ranges: Latin hypercube ('lhs') or uniform ('random')."""
     if samples < 1:
         raise SweepError("--samples must be at least 1")
@@ -240,7 +240,7 @@ def first_time(times: ndarray, mask: ndarray) -> float:
     return float(times[hits[0]]) if hits.size else math.nan
 
 
-def evaluate_metric(metric: Metric, times: list[Any], values: list[Any], reference: tuple[list[float], list[float]] | None=None) -> float:
+def evaluate_metric(metric: Metric, times: Any, values: Any, reference: tuple[Any, Any] | None=None) -> float:
     """The metric's value for one signal; ``reference`` = (times, values) for max_abs_error."""
     times, values = np.asarray(times, float), np.asarray(values, float)
     if values.size == 0:
@@ -326,7 +326,7 @@ def check_sweep(scene: Scene, varies: list[Vary], metrics: list[Metric], fmu_dir
         for item in items:
             if item.name in kinds:
                 raise SweepError(f"{option} {item.name}: already varied or linked")
-            if option == "--link" and item.source not in {v.name for v in varies}:
+            if isinstance(item, Link) and item.source not in {v.name for v in varies}:
                 raise SweepError(f"--link {item.name}: its source {item.source} is not "
                                  f"varied; varied: {', '.join(v.name for v in varies)}")
             kinds[item.name] = _sweepable(scene, descriptions, option, item.component,
@@ -403,7 +403,7 @@ def worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def run_point(index: int, scene: Scene, metrics: list[Metric], references: dict[Any, Any], fmu_files: None=None) -> tuple[int, dict[str, float], None, float, str]:
+def run_point(index: int, scene: Scene, metrics: list[Metric], references: dict[Any, Any], fmu_files: dict | None=None) -> tuple[int, dict[str, float], str | None, float, str]:
     """Run one point; returns (index, {metric text: value}, error message or None, wall s,
     worker name).
 
@@ -605,7 +605,7 @@ class _Task:
     attempts: int = 0
 
 
-def _run_points(runner: DaskCluster | LocalPool, tasks: list[_Task], arguments: tuple, retries: int, guard: InterruptGuard, record: Callable, summary: dict[str, Any]) -> None:
+def _run_points(runner: Any, tasks: list[_Task], arguments: tuple, retries: int, guard: InterruptGuard, record: Callable, summary: dict[str, Any]) -> None:
     """Run every task on ``runner``, calling ``record(task, (values, error, wall, worker))``
     as each finishes.
 
@@ -745,7 +745,7 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
     csv_path, json_path = inside(out_dir, "sweep.csv"), inside(out_dir, "sweep.json")
     names = [v.name for v in varies] + [k.name for k in links]
     header = ["index", *names, *(m.text for m in metrics), "error", "wall_time_s", "worker"]
-    summary = {
+    summary: dict[str, Any] = {
         "name": name, "scene": scene.name, "scene_file": str(scene_path.resolve()),
         "overrides": dict(overrides or {}),
         "varies": [{"name": v.name, "kind": kinds[v.name][0], "type": kinds[v.name][1],
@@ -820,7 +820,7 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
     return summary
 
 
-def write_plots(out_dir: Path, rows: list[dict[str, float | None]], names: list[str], metrics: list[Metric]) -> list[Path]:
+def write_plots(out_dir: Path, rows: list[dict[str, Any]], names: list[str], metrics: list[Metric]) -> list[Path]:
     """One PNG per (metric, varied parameter): the metric of every successful point."""
     import matplotlib
     matplotlib.use("Agg")
@@ -845,7 +845,7 @@ def write_plots(out_dir: Path, rows: list[dict[str, float | None]], names: list[
     return paths
 
 
-def read_sweep_csv(path: Path | str) -> list[dict[str, float | None]]:
+def read_sweep_csv(path: Path | str) -> list[dict[str, Any]]:
     """Rows of a sweep.csv as dicts (numbers as floats, empty cells as None)."""
     with open(path, newline="", encoding="utf-8") as handle:
         rows = list(csv.DictReader(handle))

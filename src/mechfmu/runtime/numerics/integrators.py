@@ -352,7 +352,7 @@ class Integrator:
                                    f"{values!r} at t = {_fmt(t)} s for a finite state; check "
                                    "the model and its inputs at that time")
 
-    def _spend(self, t: float, t_end_hint: None=None) -> None:
+    def _spend(self, t: float, t_end_hint: float | None=None) -> None:
         """Count one attempted sub-step against the per-call budget."""
         self._budget -= 1
         if self._budget < 0:
@@ -364,7 +364,7 @@ class Integrator:
                 f"bound of {self.time_limit:g} s (max_wall_time) for one communication step; "
                 "shorten the communication step, loosen rtol and atol, or raise max_wall_time")
 
-    def _too_many(self, t: float, t_end: float):
+    def _too_many(self, t: float, t_end: float | None):
         where = f" (t_end = {_fmt(t_end)} s)" if t_end is not None else ""
         return IntegrationError(f"{self.method}: more than {MAX_SUBSTEPS} sub-steps in one "
                                 f"advance call, stopped at t = {_fmt(t)} s{where}: "
@@ -444,7 +444,7 @@ class Integrator:
             return None
         return Advance(best[0], best[1], best[2])
 
-    def _locate(self, f: Callable, event: Event, t0: float, y0: list[float], g0: float, b: float, y_b: list[float], g_b: float, start: list[float] | tuple[list[float], float, list[list[float]]]) -> tuple[float, list[float]]:
+    def _locate(self, f: Callable, event: Event, t0: float, y0: list[float], g0: float, b: float, y_b: list[float], g_b: float, start: Any) -> tuple[float, list[float]]:
         """Root of g in (t0, b] by the Illinois method [DJ] with bisection safeguard.
 
         Keeps the bracket [a, b]: g(a) has the old (nonzero) sign, g(b) the new sign or 0.
@@ -501,7 +501,7 @@ class Integrator:
     def _substep(self, f: Any, t: float, y: Any, t_limit: Any):
         raise NotImplementedError
 
-    def _trial(self, f: Any, t0: float, y0: Any, tau: Any, start: float):
+    def _trial(self, f: Any, t0: float, y0: Any, tau: Any, start: Any):
         raise NotImplementedError
 
 
@@ -987,7 +987,7 @@ class RadauIIA5(_Adaptive):
         self._previous = (h_try, Z)
         return t_new, y_new, (f0, h_try, Z)
 
-    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: tuple[list[float], float, list[list[float]]]) -> list[float]:
+    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: Any) -> list[float]:
         f0, h_step, Z_step = start
         h = tau - t0
         Z0 = self._guess((h_step, Z_step), [c * h / h_step for c in self.C], None)

@@ -43,7 +43,7 @@ def four_bar(ground: Any, crank: Any, coupler: Any, rocker: Any) -> Any:
         # linearly at a change point, at ratios that depend on the lengths).
         return singular_position_kind(d, a, b, c, _angle(q, 0))
 
-    def crossing(start: float, end: Any):
+    def crossing(start: Any, end: Any):
         # a change point reached or passed, or a range where the linkage does not assemble
         # jumped, between the two crank angles: the closed form asks the same
         return singular_crossing(d, a, b, c, start[0][0], end[0][0])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import Any, TYPE_CHECKING
 import dataclasses
 
 import numpy as np
@@ -31,7 +31,7 @@ def with_stop_time(scene: Scene, stop_time: float) -> Scene:
     return dataclasses.replace(scene, stop_time=float(stop_time))
 
 
-def retraction_arguments(scene: Scene) -> tuple[ndarray, float, float, float, float, float, str]:
+def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
     """Positional arguments of references.landing_gear.retraction for a gear scene:
     its sample times (s) and the actuator's and gear's parameters over the defaults (m, s)."""
     stroke = {**model_defaults("PistonActuator"), **scene.components["actuator"].parameters}

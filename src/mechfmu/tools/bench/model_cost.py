@@ -81,7 +81,7 @@ class ModelCase:
     model: str
     duration_s: float
     parameters: dict = field(default_factory=dict)
-    inputs: object = None
+    inputs: Any = None
 
 
 CASES = (
@@ -247,7 +247,7 @@ def _measure_case(case: ModelCase, model_fmu: ExtractedFmu, null_fmu: ExtractedF
                                            TARGET)]
 
 
-def measure(fmu_dir: str, steps: int, repeats: int, cases: tuple[ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase, ModelCase]=CASES) -> list[Row]:
+def measure(fmu_dir: str, steps: int, repeats: int, cases: tuple[ModelCase, ...]=CASES) -> list[Row]:
     """Rows of benchmark 2: per case the model's and the null twin's time per step (us)."""
     models = list(dict.fromkeys(case.model for case in cases))
     with tempfile.TemporaryDirectory(prefix="mechfmu_bench_null_") as temp:

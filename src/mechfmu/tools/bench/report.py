@@ -107,7 +107,7 @@ def cpu_model() -> str:
     return platform.processor() or "unknown"
 
 
-def machine() -> dict[str, str | int]:
+def machine() -> dict[str, Any]:
     """What the timings depend on: CPU, cores, OS, package versions, date (UTC)."""
     found = versions()
     return {"cpu": cpu_model(), "logical_cores": os.cpu_count(),
@@ -122,7 +122,7 @@ def machine_line(info: dict[str, str | int]) -> str:
             f"pythonfmu {info['pythonfmu']}; {info['date']}.")
 
 
-def write_outputs(out_dir: str, rows: list[Row], info: dict[str, str | int]) -> dict[str, Path]:
+def write_outputs(out_dir: str | Path, rows: list[Row], info: dict[str, Any]) -> dict[str, Path]:
     """Write bench.csv, bench.md and machine.json into ``out_dir``; return their paths."""
     out_dir = Path(out_dir)
     text = f"{markdown_table(rows)}\n\n{machine_line(info)}\n"

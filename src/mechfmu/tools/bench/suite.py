@@ -33,7 +33,7 @@ def missing_fmus(fmu_dir: str) -> list[Any]:
     return sorted(name for name in needed if not (Path(fmu_dir) / f"{name}.fmu").is_file())
 
 
-def run_benchmarks(args: Namespace, settings: Settings, names: tuple[str, str, str, str, str]=BENCHMARKS) -> list[Row]:
+def run_benchmarks(args: Namespace, settings: Settings, names: tuple[str, ...] | list[str]=BENCHMARKS) -> list[Row]:
     """Rows of the named benchmarks (default: all, in the order of the README)."""
     measures = {
         "master_overhead": lambda: master_overhead.measure(

@@ -6,7 +6,7 @@ import time
 from collections.abc import Callable
 
 
-def side_by_side_medians(measurements: dict[tuple[str, str, bool], Callable] | dict[str, Callable], repeats: int) -> dict[str, dict[str, float]] | dict[tuple[str, str, bool], dict[str, float]]:
+def side_by_side_medians(measurements: dict[Any, Callable], repeats: int) -> dict[Any, dict[str, float]]:
     """Median of every measurement over ``repeats`` rounds, after one warm-up round.
 
     ``measurements`` maps a name to a function that runs once and returns a dict of named

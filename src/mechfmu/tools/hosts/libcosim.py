@@ -138,7 +138,7 @@ def _checked(name: str, kind: CosimVariableType, value: float) -> float:
     raise TypeError(f"{name} is {kind.capitalize()}, got {type(value).__name__} {value!r}")
 
 
-def run_libcosim(fmu_path: Path, parameters: dict[str, str | bool | float] | None=None, inputs: dict[str, Callable | float] | None=None, step: float=0.01, stop_time: float=1.0,
+def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs: dict[str, Any] | None=None, step: float=0.01, stop_time: float=1.0,
                  outputs: list[str] | None=None, instance: str="fmu", log_level: str="WARNING") -> tuple[ndarray, dict[str, ndarray]]:
     """Run the FMU at ``fmu_path`` alone under libcosim from t = 0 to ``stop_time``.
 

@@ -70,7 +70,7 @@ def _table(header: Any, rows: Any):
     return "\n".join(lines)
 
 
-def _constant_speed(t: float, d: Any, h: Any):
+def _constant_speed(t: Any, d: Any, h: Any):
     """Gear motion under the coursework's constant piston speed drive, times t (s)."""
     return lg.retraction(t, d, h, RETRACTED_FT, EXTENDED_FT, COURSEWORK_STROKE_TIME,
                          "constant_speed")
@@ -88,7 +88,7 @@ def _law_omega_alpha(theta: Any, speed: float, d: Any, h: Any):
     return x, omega, alpha
 
 
-def _argmax_abs(values: Any, t: float):
+def _argmax_abs(values: Any, t: Any):
     i = int(np.argmax(np.abs(values)))
     return float(values[i]), float(t[i])
 

@@ -31,7 +31,7 @@ QUICK_VARY = {
 }
 
 
-def run_shipped(sweep_dir: Any, out_dir: Any, fmu_dir: str="fmus", jobs: int=None, quick: bool=False, scheduler: Any=None,
+def run_shipped(sweep_dir: Any, out_dir: Any, fmu_dir: str="fmus", jobs: int | None=None, quick: bool=False, scheduler: Any=None,
                 names: Any=SHIPPED, progress: bool=True) -> Any:
     """Run the shipped sweeps into out_dir/<name>/; returns {name: summary}."""
     summaries = {}

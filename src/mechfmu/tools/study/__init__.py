@@ -49,7 +49,7 @@ def _write_rows(path: Any, rows: Any):
     return atomic_write(path, write)
 
 
-def read_rows(path: Path) -> list[dict[str, float]]:
+def read_rows(path: Path) -> list[dict[str, Any]]:
     """The rows of an accuracy_cost.csv, numbers as numbers."""
     numbers = {"tolerance", "max_substep", "step", "max_error", "rms_error", "relative_error",
                "max_error_all", "reference_peak", "loop_time_s", "wall_time_s", "ms_per_simulated_s"}

@@ -38,13 +38,13 @@ def pareto_front(costs: list[Any], errors: list[Any]) -> list[Any]:
     return front
 
 
-def headline_rows(rows: list[dict[str, float]], study_scene: StudyScene) -> list[dict[str, float]]:
+def headline_rows(rows: list[dict[str, Any]], study_scene: StudyScene) -> list[dict[str, Any]]:
     """The rows of the scene's headline output, successful runs only."""
     return [r for r in rows if r["scene"] == study_scene.name
             and r["output"] == study_scene.headline and r["status"] == "ok"]
 
 
-def setting(row: dict[str, float]) -> str:
+def setting(row: dict[str, Any]) -> str:
     """How a row's point was set, in words for a table."""
     if row["integrator"] in ADAPTIVE:
         method = f"{row['integrator']}, rtol = atol = {row['tolerance']:g}"
@@ -53,13 +53,13 @@ def setting(row: dict[str, float]) -> str:
     return method
 
 
-def cheapest_for(rows: list[dict[str, float]], target: float) -> dict[str, float] | None:
+def cheapest_for(rows: list[dict[str, Any]], target: float) -> dict[str, Any] | None:
     """The cheapest row whose max error is at most ``target``, or None."""
     meeting = [r for r in rows if r["max_error"] <= target]
     return min(meeting, key=lambda r: r["ms_per_simulated_s"]) if meeting else None
 
 
-def front_table(rows: list[dict[str, float]], study_scene: StudyScene, unit: str) -> str:
+def front_table(rows: list[dict[str, Any]], study_scene: StudyScene, unit: str) -> str:
     """Markdown table: for each target error, the cheapest setting that meets it."""
     chosen = headline_rows(rows, study_scene)
     lines = [f"| max error on `{study_scene.headline}` | integrator | communication step | "
