@@ -54,7 +54,6 @@ from numbers import Integral, Real
 
 import numpy as np
 from pathlib import Path
-from collections.abc import Callable
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from libcosimpy.CosimEnums import CosimVariableType
