@@ -688,7 +688,7 @@ class _Outputs:
         self.rows = array(code)  # row-major: one row per communication point
         self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
 
-    def view(self, key: Any, size: Any):
+    def view(self, key: Any, size: Any) -> Any:
         """The part of the buffer that holds connection group ``key`` (shared memory)."""
         ctype = self.call.buffer._type_
         return (ctype * size).from_buffer(self.call.buffer,
