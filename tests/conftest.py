@@ -89,8 +89,13 @@ LAYERS = {
     "test_libcosim.py": "hosts",
 }
 # Whole files, then single tests (by name without parameters), that take more than a few
-# seconds each (measured with `pytest --durations=0`).
-SLOW_FILES = {"test_docs.py", "test_interrupts.py"}
+# seconds each or many seconds together (measured with `pytest --durations=0`).
+SLOW_FILES = {
+    "test_docs.py", "test_interrupts.py", "test_robustness.py", "test_scenes.py",
+    "test_sweep.py", "test_sweep_faults.py", "test_study.py", "test_bench.py",
+    "test_validation.py", "test_shipped_sweeps.py", "test_ssp.py", "test_sweep_references.py",
+    "test_valve_spring.py", "test_suspension_dynamics.py",
+}
 SLOW_TESTS: set[str] = set()
 
 
