@@ -28,7 +28,7 @@ test: lint fmus/.built
 
 # The quick layers while working (under a minute): unit tests and the FMU tests that are not slow.
 test-fast: fmus/.built
-	$(PY) -m pytest -q -m "unit or (fmu and not slow)"
+	$(PY) -m pytest -q -m "(unit or fmu) and not slow"
 
 # The gate: ruff (errors and annotations on every public function), ruff's formatting, mypy
 # (configured in pyproject.toml).

@@ -42,7 +42,7 @@ def embedded_dir(tmp_path_factory):
 
 
 # The test layers (markers registered in pyproject.toml; `make test-fast` runs
-# `-m "unit or (fmu and not slow)"`, `make test` runs them all):
+# `-m "(unit or fmu) and not slow"`, `make test` runs them all):
 #   unit  - Python functions only: physics, numerics, references, tables; no FMU is loaded;
 #   fmu   - the built FMUs (fmus/) through our master, fmpy or the command line;
 #   hosts - other hosts and formats: libcosim, the C host, FMI 3.0, embedded Python, containers
@@ -96,7 +96,11 @@ SLOW_FILES = {
     "test_validation.py", "test_shipped_sweeps.py", "test_ssp.py", "test_sweep_references.py",
     "test_valve_spring.py", "test_suspension_dynamics.py",
 }
-SLOW_TESTS: set[str] = set()
+SLOW_TESTS = {
+    "test_both_solvers_give_the_same_verdict_on_boundary_linkages",
+    "test_one_step_anywhere_in_the_crank_range_gets_the_same_verdict",
+    "test_external_hydraulics_agree_with_built_in_up_to_the_coupling_error",
+}
 
 
 def pytest_collection_modifyitems(config, items):
