@@ -25,7 +25,7 @@ class Deviation:
     allowed: float
 
     @property
-    def size(self) -> Any:
+    def size(self) -> float:
         return abs(self.value - self.reference)
 
     def __str__(self) -> str:

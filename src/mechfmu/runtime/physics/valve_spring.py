@@ -374,7 +374,7 @@ def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
     m, k, preload, lash = p.mass, p.spring_stiffness, p.spring_preload, p.lash
     kc, cc, ks, cs = p.contact_stiffness, p.contact_damping, p.seat_stiffness, p.seat_damping
 
-    def rhs(t, y):
+    def rhs(t: float, y: Any):
         tau = t - drive.t0
         L = rate = 0.0
         for a in reversed(drive.coefficients):  # polynomial_motion without p''
