@@ -65,6 +65,7 @@ LAYERS = {
     "test_suspension_dynamics.py": "unit",
     "test_valve_spring.py": "unit",
     "test_docs.py": "unit",
+    "test_work_precision.py": "unit",
     "test_bench.py": "fmu",
     "test_binary_patch.py": "fmu",
     "test_corrupt_fmus.py": "fmu",
@@ -94,7 +95,7 @@ SLOW_FILES = {
     "test_docs.py", "test_interrupts.py", "test_robustness.py", "test_scenes.py",
     "test_sweep.py", "test_sweep_faults.py", "test_study.py", "test_bench.py",
     "test_validation.py", "test_shipped_sweeps.py", "test_ssp.py", "test_sweep_references.py",
-    "test_valve_spring.py", "test_suspension_dynamics.py",
+    "test_valve_spring.py", "test_suspension_dynamics.py", "test_work_precision.py",
 }
 SLOW_TESTS = {
     "test_both_solvers_give_the_same_verdict_on_boundary_linkages",
