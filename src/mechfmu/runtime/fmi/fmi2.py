@@ -6,12 +6,14 @@ InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared`
 ``VARIABLES``, ``_set`` and ``refresh_initial_outputs``.
 """
 
+from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import (Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer,
                        Real, String)
 
 from .declarations import describe, reading_initial_outputs, registered, unit_definitions
+from .declarations import Variable
 
 _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 
@@ -19,7 +21,7 @@ _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 class Fmi2Binding(Fmi2Slave):
     """pythonfmu's Fmi2Slave, fed from MechSlave's declarations."""
 
-    def register_declared(self, variable):
+    def register_declared(self, variable: Variable) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
         self.register_variable(registered(
@@ -60,7 +62,7 @@ class Fmi2Binding(Fmi2Slave):
     get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
     get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
 
-    def to_xml(self, model_options=dict()):
+    def to_xml(self, model_options: Any=dict()) -> Any:
         root = super().to_xml(model_options)
         for element in root.iter("ScalarVariable"):
             variable = self.declared.get(element.get("name"))

@@ -10,6 +10,10 @@ and instantiation cancel. The time inside FMI calls comes from separate timed ru
 timers cost time of their own); overhead = per-step wall time - per-step FMI time.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import contextlib
 import cProfile
 import dataclasses
@@ -19,6 +23,7 @@ import shutil
 import tempfile
 from pathlib import Path
 from typing import NamedTuple
+from collections.abc import Callable
 
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
@@ -34,6 +39,10 @@ from .gear import (
 )
 from .report import Row, Target, ratio_row
 from .timing import per_step, seconds_of, set_up, side_by_side_medians
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.simulation import SimulationResult
+    from ...cosim.scene import Scene
 
 BENCHMARK = "master overhead"
 TARGET = Target(0.5, "<= 0.5")  # the issue: ours at most half of fmpy's
@@ -54,14 +63,14 @@ class FmiCallTimer:
     FUNCTIONS = ("fmi2DoStep", "fmi2SetReal", "fmi2GetReal", "fmi2SetInteger",
                  "fmi2GetInteger", "fmi2SetBoolean", "fmi2GetBoolean")
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.timer = CallTimer()
 
     @property
-    def seconds(self):
+    def seconds(self) -> float:
         return self.timer.total
 
-    def attach(self, instance):
+    def attach(self, instance: FMU2Slave) -> None:
         functions = getattr(instance, "_functions", None)
         if not isinstance(functions, dict):
             raise RuntimeError("this fmpy keeps no FMU2Slave._functions table (fmpy 0.3.2x "
@@ -84,7 +93,7 @@ class FmpyGearAlone:
         # the unconnected inputs (and the parameters) as start values
         self.start_values = {**spec.parameters, **spec.inputs}
 
-    def run(self, timer=None):
+    def run(self, timer: FmiCallTimer | None=None) -> SimulationResult:
         """One run: instantiate, simulate_fmu, free. Attaches ``timer`` if given."""
         scene = self.scene
         instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
@@ -109,11 +118,11 @@ class FmpyGearAlone:
                                f"{scene.steps + 1} ({scene.steps} steps)")
         return result
 
-    def close(self):
+    def close(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
-def _ours(simulation, timed):
+def _ours(simulation: Simulation, timed: bool) -> dict[str, float]:
     if not timed:
         return {"wall": seconds_of(simulation.run)}
     started = timing.now()
@@ -122,7 +131,7 @@ def _ours(simulation, timed):
     return {"wall": wall, "fmi": result.meta["fmi_call_time_s"]}
 
 
-def _fmpy(alone, timed):
+def _fmpy(alone: FmpyGearAlone, timed: bool) -> dict[str, float]:
     if not timed:
         return {"wall": seconds_of(alone.run)}
     timer = FmiCallTimer()
@@ -130,7 +139,7 @@ def _fmpy(alone, timed):
     return {"wall": wall, "fmi": timer.seconds}
 
 
-def _runs(ours, alone):
+def _runs(ours: list[Simulation], alone: list[FmpyGearAlone]) -> dict[tuple[str, str, bool], Callable]:
     """The measured runs: each master at each length, untimed and with FMI-call timers."""
     measurements = {}
     for timed in (False, True):
@@ -240,7 +249,7 @@ def measure(scene_dir, fmu_dir, lengths_s, repeats):
             *measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats)]
 
 
-def profile(scene_dir, fmu_dir, stop_time, top=15, stream=None):
+def profile(scene_dir: Any, fmu_dir: Any, stop_time: float, top: Any=15, stream: Any=None) -> None:
     """Print cProfile's ``top`` functions by own time for one run of each master."""
     scene = with_stop_time(load_named_scene(scene_dir, KINEMATIC_SCENE), stop_time)
     simulation = Simulation(scene, fmu_dir)
