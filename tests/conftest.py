@@ -53,6 +53,7 @@ def embedded_dir(tmp_path_factory):
 LAYERS = {
     "test_integrators.py": "unit",
     "test_planar.py": "unit",
+    "test_planar_kernel.py": "unit",
     "test_physics_cam_valve.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
