@@ -662,7 +662,7 @@ class _Call:
         self.buffer = buffer
         self.component, self.name = component.name, name
         self.raw = memoryview(buffer).cast("B")  # the buffer's bytes
-        self.sent = None  # a set's bytes when it was last made (None: never)
+        self.sent: bytes | None = None  # a set's bytes when it was last made (None: never)
 
 
 class _Outputs:
@@ -747,7 +747,7 @@ class _StepPlan:
             raise _CallFailed(call.component, time, call.name, status)
 
     @classmethod
-    def _set(cls, call, time):
+    def _set(cls, call: _Call, time: float) -> None:
         """A set of inputs, made only if their values changed since it was last made (an
         FMU keeps an input's value until it is set again)."""
         raw = call.raw
@@ -755,7 +755,7 @@ class _StepPlan:
             cls._call(call, time)
             call.sent = raw.tobytes()
 
-    def start(self, result, time):
+    def start(self, result: Result, time: float) -> None:
         """Read every needed output after initialisation and record the first row."""
         for _, _, _, _, reads in self.steps:
             for read in reads:

@@ -28,7 +28,7 @@ class Fmi2Binding(Fmi2Slave):
             variable, _FMI_TYPES, Fmi2Causality, Fmi2Variability, Fmi2Initial,
             getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
-    def finish_registration(self):
+    def finish_registration(self) -> None:
         """Tables for the per-step get and set of Reals: value reference -> name of every
         Real, and of every Real input (what a host sets between steps)."""
         reals = {vr: v.name for vr, v in self.vars.items() if isinstance(v, Real)}
@@ -36,7 +36,7 @@ class Fmi2Binding(Fmi2Slave):
         self._real_input_names = {vr: name for vr, name in reals.items()
                                   if self.declared[name].causality == "input"}
 
-    def get_real(self, vrs):
+    def get_real(self, vrs: list[int]) -> list[float]:
         """fmi2GetReal: one dict look-up per variable (pythonfmu's own calls a getter
         closure per variable and checks its type). In initialisation mode the outputs are
         computed first from what the host has set so far."""
@@ -48,7 +48,7 @@ class Fmi2Binding(Fmi2Slave):
         except KeyError:  # not a Real: pythonfmu's own answer (its TypeError)
             return Fmi2Slave.get_real(self, vrs)
 
-    def set_real(self, vrs, values):
+    def set_real(self, vrs: list[int], values: list[float]) -> None:
         """fmi2SetReal: Real inputs stored directly; anything else (parameters, outputs,
         not a Real) through pythonfmu's setter, i.e. MechSlave._set with its checks."""
         inputs, store = self._real_input_names, self.values

@@ -25,10 +25,11 @@ from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX, INTEGRATORS, MAX_WALL_TIME, UNITS, Status, Variable, effect, input_,
     integrator_variables, output, parameter)
+from collections.abc import Callable, Sequence
 from typing import Any
 
 
-def _tuple_getter(names):
+def _tuple_getter(names: Sequence[str]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
     """A function of a dict returning the tuple of its values under ``names``."""
     if len(names) == 1:
         name = names[0]
@@ -38,13 +39,13 @@ def _tuple_getter(names):
     return itemgetter(*names)
 
 
-def _all_finite(numbers):
+def _all_finite(numbers: Sequence[float]) -> bool:
     """Whether every number is finite. One sum in C: NaN or infinity in it makes the sum
     non-finite; a non-finite sum of finite numbers (an overflow) is looked at one by one."""
     return math.isfinite(sum(numbers)) or all(map(math.isfinite, numbers))
 
 
-def _same_time(a, b):
+def _same_time(a: float, b: float) -> bool:
     """Equal communication times up to the rounding of a host's own time keeping."""
     return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
 
@@ -183,7 +184,7 @@ class MechSlave(Binding):
                 return False
         return self._checked_step(current_time, step_size)
 
-    def _checked_step(self, current_time, step_size):
+    def _checked_step(self, current_time: float, step_size: float) -> bool:
         """do_step with every check spelled out: its errors, integrating models."""
         values_before = internal_before = None
         try:

@@ -61,7 +61,7 @@ class FourBar(LinkageSlave):
         self.values["grashof_class"] = fb.grashof_class(*self._lengths())
         self.lengths = fb.check_four_bar(*self._lengths())
 
-    def closed_form(self, time):
+    def closed_form(self, time: float) -> dict[str, float]:
         # lengths and circuit validated in check_geometry, the inputs finite (do_step)
         motion = fb.checked_motion(self.lengths, self.values["circuit"], *self.driver_inputs())
         return dict(zip(motion._fields, motion))

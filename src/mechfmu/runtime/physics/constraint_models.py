@@ -6,6 +6,7 @@ Each builder returns a planar.Mechanism whose constraints are assembled from the
 in the solver's error messages. Coordinates per body: (x, y, phi) in m, m, rad.
 """
 
+from collections.abc import Sequence
 from typing import Any
 import math
 
@@ -45,7 +46,8 @@ def four_bar(ground: Any, crank: Any, coupler: Any, rocker: Any) -> Any:
 
     crossings = singular_crossings(d, a, b, c)
 
-    def crossing(start, end):
+    def crossing(start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]]
+                 ) -> tuple[str, str] | None:
         # a change point reached or passed, or a range where the linkage does not assemble
         # jumped, between the two crank angles: the closed form asks the same
         return crossings(start[0][0], end[0][0])

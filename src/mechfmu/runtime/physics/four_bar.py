@@ -40,6 +40,7 @@ import sys
 from collections import namedtuple
 
 from ..errors import RangeError, SingularConfiguration, require_finite, require_positive
+from collections.abc import Callable
 from typing import Any
 
 INCH = 0.0254  # m, exact by definition
@@ -236,7 +237,8 @@ def singular_crossing(ground: Any, crank: Any, coupler: Any, rocker: Any, start_
     return singular_crossings(ground, crank, coupler, rocker)(start_angle, end_angle)
 
 
-def singular_crossings(ground, crank, coupler, rocker):
+def singular_crossings(ground: float, crank: float, coupler: float, rocker: float
+                       ) -> "Callable[[float, float], tuple[str, str] | None]":
     """singular_crossing for one linkage (lengths in m, validated here once): a function of
     (start_angle, end_angle) in rad, with what depends on the lengths alone worked out once
     (it runs at every communication step)."""
@@ -251,13 +253,14 @@ def singular_crossings(ground, crank, coupler, rocker):
                     (math.pi, math.pi - math.acos(cos_low), cos_low > -1.0))
                 if exists and centre not in points]
     if not points and not gaps:
-        def never(start_angle, end_angle):
+        def never(start_angle: float, end_angle: float) -> None:
             return None
-        never.never = True  # nothing to pass: callers may skip the check
+        # nothing to pass: callers may skip the check (a marker attribute mypy cannot see)
+        never.never = True  # type: ignore[attr-defined]
         return never
     turn = 2.0 * math.pi
 
-    def crossing(start_angle, end_angle):
+    def crossing(start_angle: float, end_angle: float) -> tuple[str, str] | None:
         rising = end_angle >= start_angle
         low, high = (start_angle, end_angle) if rising else (end_angle, start_angle)
         passed = []  # (distance from the start along the drive, position, consequence)
@@ -467,7 +470,8 @@ def motion(ground: float, crank: float, coupler: float, rocker: float, circuit: 
     return checked_motion(lengths, circuit, t2, w2, al2)
 
 
-def checked_motion(lengths, circuit, t2, w2, al2):
+def checked_motion(lengths: "FourBar", circuit: int, t2: float, w2: float, al2: float
+                   ) -> "FourBarMotion":
     """``motion`` for lengths from check_four_bar (m), a circuit from CIRCUITS and finite
     crank angle (rad), speed (rad/s) and acceleration (rad/s^2): what an FMU that validated
     them once calls at every step."""

@@ -442,19 +442,24 @@ class BranchFollower:
         self.sign = 0
         # The compiled kernels of the fast path (planar_kernel), None for joint types it
         # does not know; the LU row order in use and the condition estimate's start column.
+        self.kernel: planar_kernel.MechanismKernel | None
         try:
             self.kernel = planar_kernel.MechanismKernel(mechanism)
         except planar_kernel.Unsupported:
             self.kernel = None
         self.kernel_module = planar_kernel
-        self.order = None
-        self.lu_kernel = None  # planar_kernel.LuKernel of self.order (a cache)
-        self.column = None
-        self.history = None  # (qdot, qddot, dt) of the solution before the last, and dt to it
-        self.factored = None  # (LU kernel, factors) of Phi_q at factored_at, if known
-        self.factored_at = None  # where the fast path last factored Phi_q (None: solution.q)
+        self.order: tuple[int, ...] | None = None
+        # planar_kernel.LuKernel of self.order (a cache)
+        self.lu_kernel: planar_kernel.LuKernel | None = None
+        self.column: int | None = None
+        # (qdot, qddot, dt) of the solution before the last, and dt to it
+        self.history: tuple[Any, ...] | None = None
+        # (LU kernel, factors) of Phi_q at factored_at, if known
+        self.factored: tuple[planar_kernel.LuKernel, planar_kernel.Factors] | None = None
+        # where the fast path last factored Phi_q (None: solution.q)
+        self.factored_at: list[float] | None = None
 
-    def snapshot(self):
+    def snapshot(self) -> dict[str, Any]:
         """The branch state. Solutions and drives are never changed in place, so the
         snapshot shares them (JSON writes the tuples as arrays)."""
         return {"solution": self.solution, "drive": self.drive, "sign": self.sign,
@@ -495,13 +500,15 @@ class BranchFollower:
         where the mechanism does not assemble (crossing_error).
         """
         drive = [tuple(map(float, d)) for d in drive]
+        last = self.solution
+        assert last is not None and self.drive is not None  # follow() comes after assemble()
         if self.mechanism.has_crossings:
             refused = crossing_error(self.mechanism, self.drive, drive)
             if refused:
                 raise refused
-        last = self.solution
-        if self.kernel is not None:
-            solution = self._fast_solve(self._fast_guess(dt), drive)
+        kernel = self.kernel
+        if kernel is not None:
+            solution = self._fast_solve(kernel, last, self._fast_guess(kernel, last, dt), drive)
             if solution is not None:
                 self.history = (last.qdot, last.qddot, dt) if dt > 0.0 else None
                 self.solution, self.drive = solution, drive
@@ -524,11 +531,11 @@ class BranchFollower:
         self.solution, self.drive = solution, drive
         return solution
 
-    def _lu(self, values):
+    def _lu(self, kernel: "planar_kernel.MechanismKernel", values: Sequence[float]
+            ) -> "tuple[planar_kernel.LuKernel, planar_kernel.Factors] | None":
         """The LU kernel and factors of the scaled Jacobian ``values`` (non-zeros): in the
         row order of the last step while its pivots stay within a factor 2 of their
         columns' largest, else in partial pivoting's order here. None if singular."""
-        kernel = self.kernel
         if self.order is not None:
             lu = self.lu_kernel
             if lu is None or lu.order is not self.order:
@@ -547,12 +554,13 @@ class BranchFollower:
         self.order, self.lu_kernel = lu.order, lu
         return lu, factors
 
-    def _fast_guess(self, dt):
+    def _fast_guess(self, kernel: "planar_kernel.MechanismKernel", last: Solution, dt: float
+                    ) -> list[float]:
         """Predictor q + q' dt + q'' dt^2/2 + j dt^3/6 + s dt^4/24, the jerk j and snap s
         from the rates at the last two solutions (Taylor's expansion of q' and q'' back over
         the last step h: a(-h) - a = -j h + s h^2/2, v(-h) - v + a h = j h^2/2 - s h^3/6).
-        Without history: the generic path's q + q' dt + q'' dt^2/2."""
-        last = self.solution
+        Without history: the generic path's q + q' dt + q'' dt^2/2. ``last``: the last
+        solution."""
         if self.history is None or not dt > 0.0:
             return [q + v * dt + 0.5 * a * dt * dt
                     for q, v, a in zip(last.q, last.qdot, last.qddot)]
@@ -563,10 +571,11 @@ class BranchFollower:
         ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)          # coefficient of da
         kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h ** 3    # coefficient of db
         cv, ca = dt - kb, 0.5 * dt * dt - ka + kb * h
-        return self.kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before,
+        return kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before,
                                    cv, ca, ka, kb)
 
-    def _fast_solve(self, guess, drive):
+    def _fast_solve(self, kernel: "planar_kernel.MechanismKernel", previous: Solution,
+                    guess: list[float], drive: Sequence[tuple[float, ...]]) -> Solution | None:
         """solve_position and analyse on the compiled kernels, for the regular case.
 
         The first corrections reuse the factors of Phi_q at the last solution (the chord
@@ -584,22 +593,23 @@ class BranchFollower:
         order, whenever anything is not regular (no convergence within 4 corrections or
         max_iterations, a singular or ill-conditioned Jacobian, a change of the det sign):
         _solve then takes the step from the generic guess, with the exact condition number
-        and its messages.
+        and its messages. ``previous``: the last solution.
         """
-        kernel, tolerance = self.kernel, self.tolerance
+        tolerance = self.tolerance
         newton_small = 1e-2 * math.sqrt(tolerance)
         factored = self.factored
         if factored is None:
-            at = self.solution.q if self.factored_at is None else self.factored_at
-            factored = self._lu(kernel.jacobian(at))
+            at = previous.q if self.factored_at is None else self.factored_at
+            factored = self._lu(kernel, kernel.jacobian(at))
             if factored is None:
                 return None
         q = guess
-        residual, values = kernel.residual(q, drive), None
+        residual = kernel.residual(q, drive)
+        values: tuple[float, ...] = ()  # the Jacobian's non-zeros, set by the first correction
         chord, last = True, math.inf
         for iteration in range(1, min(self.max_iterations, 4) + 1):
             if not chord:
-                factored = self._lu(values)
+                factored = self._lu(kernel, values)
                 if factored is None:
                     return None
             lu, factors = factored
@@ -617,7 +627,7 @@ class BranchFollower:
             return None
         rates = kernel.rates(drive)
         for _ in range(2):
-            factored = self._lu(values)
+            factored = self._lu(kernel, values)
             if factored is None:
                 return None
             lu, factors = factored
@@ -645,7 +655,8 @@ class BranchFollower:
         qddot = lu.solve_scaled(factors, kernel.gamma(q, qdot, drive))
         return Solution(q, qdot, qddot, iteration, size, condition)
 
-    def _end_is_singular(self, drive):
+    def _end_is_singular(self, drive: Sequence[tuple[float, ...]]) -> bool:
+        assert self.solution is not None  # after assemble()
         try:
             _, sign = self._solve(self.solution.q, drive)
             return False
@@ -716,4 +727,4 @@ class BranchFollower:
 
 # At the end: planar_kernel imports this module's joints. Not lazily, in BranchFollower: an
 # FMU's runtime must be imported whole while its extracted folder exists.
-from . import planar_kernel
+from . import planar_kernel  # noqa: E402

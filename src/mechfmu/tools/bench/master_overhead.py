@@ -23,7 +23,7 @@ import shutil
 import tempfile
 from pathlib import Path
 from typing import NamedTuple
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
@@ -84,7 +84,8 @@ class FmpyGearAlone:
     (or, with ``component`` and ``outputs``, that component of the scene alone, its scene
     parameters and inputs as start values, no input table)."""
 
-    def __init__(self, fmu_path, scene, component="gear", outputs=GEAR_OUTPUTS):
+    def __init__(self, fmu_path: str | Path, scene: Scene, component: str = "gear",
+                 outputs: Sequence[str] = GEAR_OUTPUTS) -> None:
         self.scene, self.outputs = scene, tuple(outputs)
         self.description = read_model_description(str(fmu_path))
         self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
@@ -158,11 +159,12 @@ class MasterRows(NamedTuple):
     overhead: Row
 
 
-def _master_rows(master, medians, steps, description, repeats, label=None):
+def _master_rows(master: str, medians: dict[Any, dict[str, float]], steps: Sequence[int],
+                 description: str, repeats: int, label: str | None = None) -> MasterRows:
     """Wall, set-up, FMI and overhead rows of one master from the medians of its runs;
     ``label`` names the rows (default: the master)."""
     label = label or master
-    def median(length, key, timed):
+    def median(length: str, key: str, timed: bool) -> float:
         return medians[(master, length, timed)][key]
 
     span = f"slope between {steps[0]} and {steps[1]} steps"
@@ -181,21 +183,24 @@ def _master_rows(master, medians, steps, description, repeats, label=None):
             notes="wall per step (untimed runs) - FMI calls per step (timed runs)"))
 
 
-def actuator_alone(scene):
+def actuator_alone(scene: Scene) -> Scene:
     """The gear scene's actuator alone: one FMU (PistonActuator), its three outputs
     recorded, no connections."""
+    assert scene.record is not None  # the gear scene lists what it records
     return dataclasses.replace(
         scene, name=f"{scene.name} (actuator alone)",
         components={"actuator": scene.components["actuator"]}, connections=[],
         record=[name for name in scene.record if name.startswith("actuator.")])
 
 
-def measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats):
+def measure_one_fmu(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float],
+                    repeats: int) -> list[Row]:
     """Rows of benchmark 1 on one FMU: our master and simulate_fmu each stepping
     PistonActuator.fmu alone with the gear scene's parameters, recording its 3 outputs."""
     scene = actuator_alone(load_named_scene(scene_dir, KINEMATIC_SCENE))
     scenes = [with_stop_time(scene, stop) for stop in lengths_s]
     steps = [s.steps for s in scenes]
+    assert scene.record is not None  # set by actuator_alone
     outputs = [name.split(".", 1)[1] for name in scene.record]
     ours = [Simulation(s, fmu_dir) for s in scenes]
     alone = [FmpyGearAlone(Path(fmu_dir) / "PistonActuator.fmu", s, "actuator", outputs)
@@ -220,7 +225,8 @@ def measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats):
                       fmpy_rows.overhead, TARGET)]
 
 
-def measure(scene_dir, fmu_dir, lengths_s, repeats):
+def measure(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float],
+            repeats: int) -> list[Row]:
     """Rows of benchmark 1; ``lengths_s`` = (short, long) stop times in s."""
     scene = load_named_scene(scene_dir, KINEMATIC_SCENE)
     scenes = [with_stop_time(scene, stop) for stop in lengths_s]
