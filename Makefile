@@ -17,8 +17,8 @@ PY := $(VENV)/bin/python
 export MECHFMU_FMU_DIR := $(CURDIR)/$(FMUS)
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
-.PHONY: run test fmus references report study work-precision bench sweeps docs clean lock \
-	test-latest test-portable test-other-python test-subset
+.PHONY: run test test-fast lint fmus references report study work-precision bench sweeps \
+	docs clean lock test-latest test-portable test-other-python test-subset
 
 $(VENV)/.installed: pyproject.toml requirements.lock.txt
 	$(PYTHON) -m venv $(VENV)
@@ -38,8 +38,20 @@ fmus: $(VENV)/.installed
 run: $(FMUS)/.built
 	$(PY) sims/run_gear.py
 
-test: $(FMUS)/.built
+# Everything: the lint gate, then every test layer (unit, fmu, hosts, slow).
+test: lint $(FMUS)/.built
 	$(PY) -m pytest -q
+
+# The quick layers while working (under a minute): unit tests and the FMU tests that are not slow.
+test-fast: $(FMUS)/.built
+	$(PY) -m pytest -q -m "(unit or fmu) and not slow"
+
+# The gate: ruff (errors and annotations on every public function), ruff's formatting, mypy
+# (configured in pyproject.toml).
+lint: $(VENV)/.installed
+	$(VENV)/bin/ruff check src tests sims docs
+	$(VENV)/bin/ruff format --check src tests sims docs
+	$(VENV)/bin/mypy
 
 # Refresh the lock from pyproject.toml (needs the network): uv resolves once for every Python
 # >= 3.10 (markers where versions differ) with the hashes of every platform's files. uv is

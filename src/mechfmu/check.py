@@ -1,11 +1,19 @@
 """Compare results with references: CSV against CSV within explicit tolerances, and the
 report of a scene run against its reference."""
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 from dataclasses import dataclass
 
 import numpy as np
 
 from .cosim.results import read_csv
+from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .cosim.master import Result
 
 
 @dataclass
@@ -17,10 +25,10 @@ class Deviation:
     allowed: float
 
     @property
-    def size(self):
+    def size(self) -> float:
         return abs(self.value - self.reference)
 
-    def __str__(self):
+    def __str__(self) -> str:
         return (f"{self.column} at t = {self.time!r} s: {self.value!r} vs reference "
                 f"{self.reference!r} (|difference| {self.size:.3e}, allowed {self.allowed:.3e})")
 
@@ -30,15 +38,15 @@ class Comparison:
     ok: bool
     columns: list       # compared column names
     samples: int        # result samples inside the reference's time span
-    worst: Deviation    # largest deviation relative to its allowance (None if no samples)
+    worst: Deviation | None  # largest deviation relative to its allowance (None if no samples)
 
-    def __str__(self):
+    def __str__(self) -> str:
         verdict = "match" if self.ok else "MISMATCH"
         worst = f"; worst: {self.worst}" if self.worst else ""
         return f"{verdict}: {len(self.columns)} column(s), {self.samples} sample(s){worst}"
 
 
-def compare(result_path, reference_path, rtol=1e-9, atol=1e-12):
+def compare(result_path: Path, reference_path: Path, rtol: float=1e-9, atol: float=1e-12) -> Comparison:
     """Interpolate the reference onto the result's times and compare shared columns.
 
     A sample passes when |value - reference| <= atol + rtol * |reference|; NaN never passes.
@@ -69,7 +77,7 @@ def compare(result_path, reference_path, rtol=1e-9, atol=1e-12):
     return Comparison(worst_score <= 1.0, shared, int(span.sum()), worst)
 
 
-def worst_deviations(result, reference_path):
+def worst_deviations(result: Any, reference_path: Any) -> Any:
     """Per recorded column that the reference CSV shares: (column, worst |difference|,
     unit, time of it in s, that difference as a fraction of the column's peak |reference|).
     The reference is interpolated onto the result's times; ``result`` is a cosim Result."""
@@ -88,7 +96,7 @@ def worst_deviations(result, reference_path):
     return rows
 
 
-def run_report(result, paths, reference=None, rtol=1e-9, atol=1e-12, label="reference"):
+def run_report(result: Result, paths: dict[str, Path], reference: Path | None=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference") -> tuple[list[str], Comparison | None]:
     """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
     verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,

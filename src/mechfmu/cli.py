@@ -6,6 +6,10 @@ function of the package (imported when the verb runs, so ``mechfmu run`` never l
 study's or the benchmarks' code). The scripts in sims/ call ``script_main`` with their verb.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import argparse
 import os
 import sys
@@ -13,13 +17,20 @@ from pathlib import Path
 
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .cosim.files import OutputError
+    from .cosim.interrupt import InterruptGuard
+    from .cosim.master import SimulationError
+    from .cosim.scene import SceneError
+
 # Where the verbs find (and build writes) the FMUs unless told: the Makefile exports
 # MECHFMU_FMU_DIR (fmus-X.Y for another interpreter's venv).
 FMU_DIR = os.environ.get("MECHFMU_FMU_DIR") or "fmus"
 FMU_DIR_HELP = "folder of built FMUs (default: $MECHFMU_FMU_DIR, else fmus)"
 
 
-def _build(args):
+
+def _build(args: Any) -> int:
     from .packaging.build import build_all
     for path in build_all(args.out, args.models or None, fmi_version=args.fmi_version,
                           embed_python=args.embed_python):
@@ -27,7 +38,7 @@ def _build(args):
     return 0
 
 
-def _scene_failure(error, guard=None):
+def _scene_failure(error: SimulationError | SceneError | OutputError, guard: InterruptGuard | None=None) -> int:
     """Exit status and message for a scene that could not run: 2 for a scene or output error,
     1 for a failed simulation (whose partial results and any older result moved aside are
     named), 130/143 when SIGINT/SIGTERM stopped it (``guard``: the command's InterruptGuard)."""
@@ -47,17 +58,17 @@ def _scene_failure(error, guard=None):
         print(f"partial {kind}: {path}", file=sys.stderr)
     if getattr(error, "output_error", None) is not None:
         print(f"output error: {error.output_error}", file=sys.stderr)
-    return exit_code(error.signum) if interrupted else 1
+    return exit_code(error.signum) if isinstance(error, SimulationInterrupted) else 1
 
 
-def _run(args):
+def _run(args: argparse.Namespace) -> int:
     # Ctrl-C and SIGTERM are noted from here on and taken between steps (cosim.interrupt).
     from .cosim.interrupt import InterruptGuard
     with InterruptGuard() as guard:
         return _run_guarded(args, guard)
 
 
-def _run_guarded(args, guard):
+def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
     from .check import run_report
     from .cosim.files import OutputError
     from .cosim.interrupt import exit_code, signal_name
@@ -92,7 +103,7 @@ EXAMPLES = {
 }
 
 
-def _example(args):
+def _example(args: Any):
     from .cosim.master import SimulationError
     from .cosim.scene import SceneError
     from .tools import examples
@@ -102,7 +113,7 @@ def _example(args):
         return _scene_failure(error)
 
 
-def _export_ssp(args):
+def _export_ssp(args: argparse.Namespace) -> int:
     from .cosim.scene import SceneError, find_file
     from .tools.ssp import export_ssp, summary
     try:
@@ -113,7 +124,7 @@ def _export_ssp(args):
     return 0
 
 
-def _export_fmu(args):
+def _export_fmu(args: Any):
     from .cosim.scene import SceneError, find_file
     from .tools.container import export_scene_fmu
     schedule = {"scene": None, "sequential": True, "parallel": False}[args.schedule]
@@ -129,7 +140,7 @@ def _export_fmu(args):
     return 0
 
 
-def _check(args):
+def _check(args: Any):
     from .check import compare
     try:
         comparison = compare(args.result, args.reference, args.rtol, args.atol)
@@ -140,20 +151,20 @@ def _check(args):
     return 0 if comparison.ok else 1
 
 
-def _references(args):
+def _references(args: Any) -> int:
     from .tools.scene_references import generate
     for path in generate(args.scenes, args.out):
         print(f"wrote {path}")
     return 0
 
 
-def _report(args):
+def _report(args: Any) -> int:
     from .tools.report.seed_report import write_report
     print(f"wrote {write_report(args.out)}")
     return 0
 
 
-def _docs(args):
+def _docs(args: Any) -> int:
     from .cosim.scene import find_file
     from .tools.docs import interface_tables, reference_plot
     try:
@@ -170,17 +181,17 @@ def _docs(args):
     return 0
 
 
-def _study(args):
+def _study(args: argparse.Namespace):
     from .tools.study import command
     return command(args)
 
 
-def _bench(args):
+def _bench(args: Any):
     from .tools.bench.suite import command
     return command(args)
 
 
-def _fuzz(args):
+def _fuzz(args: Any):
     from .runtime.models import MODELS
     from .tools.fuzz import command
     unknown = [name for name in args.models if name not in MODELS]
@@ -197,19 +208,19 @@ def _fuzz(args):
     return command(args)
 
 
-def _sweep(args):
+def _sweep(args: argparse.Namespace) -> int:
     from .tools.sweep import command
     return command(args)
 
 
-def _at_least_one(text):
+def _at_least_one(text: str) -> int:
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
 
 
-def _scene_options(verb, out="out", plot=True):
+def _scene_options(verb: argparse.ArgumentParser, out: str="out", plot: bool=True) -> None:
     """--out, --fmu-dir and --no-plot: the options of every verb that runs scenes."""
     verb.add_argument("--out", default=out, help=f"output folder (default: {out})")
     verb.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
@@ -217,7 +228,7 @@ def _scene_options(verb, out="out", plot=True):
         verb.add_argument("--no-plot", action="store_true", help="skip the PNG")
 
 
-def _example_verbs(verbs):
+def _example_verbs(verbs: argparse._SubParsersAction) -> None:
     example = verbs.add_parser("example", help="a worked example: shipped scenes checked "
                                "against their references, with what each check found "
                                "(sims/run_*.py run these)")
@@ -235,7 +246,7 @@ def _example_verbs(verbs):
     example.set_defaults(func=_example)
 
 
-def _measurement_verbs(verbs):
+def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     """study, bench, fuzz, sweep: the long runs."""
     from .tools.bench import BENCHMARKS, FULL, QUICK
     study = verbs.add_parser("study", help="accuracy study: error against wall time (make "
@@ -277,6 +288,10 @@ def _measurement_verbs(verbs):
     bench.add_argument("--sweep-scenes", type=_at_least_one, default=None,
                        help=f"scenes of the sweep benchmark (default {FULL.sweep_scenes}, "
                             f"--quick {QUICK.sweep_scenes})")
+    bench.add_argument("--cpu-time", action="store_true",
+                       help="time runs and loops by the process's CPU time, not the wall clock "
+                            "(a machine shared with other work; FMI-call timers stay on the "
+                            "wall clock)")
     bench.add_argument("--profile", action="store_true",
                        help="also print cProfile's top 15 functions of each master")
     bench.set_defaults(func=_bench)
@@ -328,7 +343,7 @@ def _measurement_verbs(verbs):
     sweep.set_defaults(func=_sweep)
 
 
-def parser():
+def parser() -> argparse.ArgumentParser:
     main = argparse.ArgumentParser(prog="mechfmu", description=__doc__.split("\n\n")[0])
     verbs = main.add_subparsers(dest="verb", required=True)
 
@@ -403,12 +418,12 @@ def parser():
     return main
 
 
-def main(argv=None):
+def main(argv: list[str] | None=None) -> int:
     args = parser().parse_args(argv)
     return args.func(args)
 
 
-def script_main(script, *verb, **paths):
+def script_main(script: Any, *verb: Any, **paths: Any) -> None:
     """Entry point of a script in sims/: ``mechfmu VERB`` with each option in ``paths``
     (``out="out"`` -> ``--out <repository>/out``) inside the repository that holds the
     script, so the script writes to the same place from any directory, followed by the

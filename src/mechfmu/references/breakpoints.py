@@ -10,9 +10,12 @@ the end, so every sample has exactly one piece. Times in s.
 """
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def piece_of_samples(starts, ends, times, slack=1e-9):
+def piece_of_samples(
+    starts: "ArrayLike", ends: "ArrayLike", times: "ArrayLike", slack: float = 1e-9
+) -> np.ndarray:
     """Index of the piece each of ``times`` belongs to (int array).
 
     ``starts``/``ends``: the pieces' start and end times in order, contiguous (each start

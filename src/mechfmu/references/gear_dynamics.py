@@ -16,10 +16,12 @@ problem is not stiff. A failed integration raises, naming the time, never leaves
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from typing import Any
 
 from ..runtime.physics import gear_dynamics as gd
 from ..runtime.physics import landing_gear as gear
 from .breakpoints import piece_of_samples
+from .events import ivp_event
 
 TOLERANCE = 1e-12
 # Off the stroke surface after a crossing (s), so the restarted integration does not refire.
@@ -30,7 +32,7 @@ STEP_OFF = 1e-9
 SURFACE_RTOL = 1e-12
 
 
-def gear_values(defaults, parameters, effects, inputs):
+def gear_values(defaults: Any, parameters: Any, effects: Any, inputs: Any) -> Any:
     """The FMU's variable values as a scene sets them: defaults, parameters, effects, inputs."""
     values = dict(defaults)
     values.update(parameters)
@@ -39,7 +41,7 @@ def gear_values(defaults, parameters, effects, inputs):
     return values
 
 
-def dynamics_model(values):
+def dynamics_model(values: Any) -> Any:
     """The FMU's own right-hand side (runtime.physics.gear_dynamics.Dynamics) for the gear
     ``values``."""
     body = gd.make_body(values["bar_length"], values["bar_mass"], values["wheel_mass"])
@@ -48,24 +50,24 @@ def dynamics_model(values):
     return gd.Dynamics(values, body, geometry)
 
 
-def stroke_crossings(dynamics):
+def stroke_crossings(dynamics: Any) -> Any:
     """Terminal solve_ivp events: the piston length through stroke_max, through stroke_min
     (the integration restarts at each, as the FMU's does at the kink)."""
-    def crossing(limit):
-        def event(t, y):
+    def crossing(limit: Any):
+        def event(t: float, y: Any):
             return dynamics.piston_length(y) - limit
-        event.terminal = True
-        return event
+        return ivp_event(event, terminal=True)
     low, high = dynamics.stroke
     return [crossing(high), crossing(low)]
 
 
-def simulate(values, times):
+def simulate(values: Any, times: Any) -> Any:
     """Columns of the dynamics drive at ``times`` (s), and the stroke event times."""
     dynamics = dynamics_model(values)
     rhs = lambda t, y: dynamics.derivatives(list(y), values)[0]  # noqa: E731
     t, y = times[0], np.array(dynamics.initial_state(), dtype=float)
-    pieces, events = [], {"stroke_max": [], "stroke_min": []}
+    pieces: list = []
+    events: dict[str, list[float]] = {"stroke_max": [], "stroke_min": []}
     for _ in range(10_000):
         solution = solve_ivp(rhs, (t, times[-1]), y, method="Radau", rtol=TOLERANCE,
                              atol=TOLERANCE, dense_output=True,
@@ -99,7 +101,7 @@ def simulate(values, times):
     else:
         raise RuntimeError(f"gear reference: more than 10000 stroke crossings by t = {t!r} s")
     owner = piece_of_samples([p[0] for p in pieces], [p[1] for p in pieces], times)
-    columns = {}
+    columns: dict[str, Any] = {}
     for time, index in zip(times, owner):
         state = list(pieces[index][2](time))
         sample = dict(values, retraction_time=-1.0, extension_time=-1.0)

@@ -18,15 +18,34 @@ The base class
 """
 
 import math
+from operator import itemgetter
 
 from ..errors import MechanismError, require_finite
 from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX, INTEGRATORS, MAX_WALL_TIME, UNITS, Status, Variable, effect, input_,
     integrator_variables, output, parameter)
+from collections.abc import Callable, Sequence
+from typing import Any
 
 
-def _same_time(a, b):
+def _tuple_getter(names: Sequence[str]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
+    """A function of a dict returning the tuple of its values under ``names``."""
+    if len(names) == 1:
+        name = names[0]
+        return lambda values: (values[name],)
+    if not names:
+        return lambda values: ()
+    return itemgetter(*names)
+
+
+def _all_finite(numbers: Sequence[float]) -> bool:
+    """Whether every number is finite. One sum in C: NaN or infinity in it makes the sum
+    non-finite; a non-finite sum of finite numbers (an overflow) is looked at one by one."""
+    return math.isfinite(sum(numbers)) or all(map(math.isfinite, numbers))
+
+
+def _same_time(a: float, b: float) -> bool:
     """Equal communication times up to the rounding of a host's own time keeping."""
     return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
 
@@ -34,31 +53,33 @@ def _same_time(a, b):
 class MechSlave(Binding):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 
-    VARIABLES = ()
+    VARIABLES: tuple[Variable, ...] = ()
     author = "mechfmu"
     license = "MIT"
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.values = {v.name: v.start for v in self.VARIABLES}
+        self.values: dict[str, Any] = {v.name: v.start for v in self.VARIABLES}  # by name
         self.declared = {v.name: v for v in self.VARIABLES}
         self.initialized = False
         self.initializing = False  # between fmi2EnterInitializationMode and fmi2Exit...
         self.stale = True  # initialisation-mode outputs need computing (an input changed)
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
-        self.pending_error = None  # reported by the next doStep
-        self.integrator = None  # set by IntegratingSlave.check_parameters (fmi/integrating.py)
+        self.pending_error: str | None = None  # reported by the next doStep
+        self.integrator: Any = None  # an Integrator, set by IntegratingSlave.check_parameters (fmi/integrating.py)
         self.real_inputs = tuple(v.name for v in self.VARIABLES
                                  if v.causality == "input" and v.kind is float)
         self.real_outputs = tuple(v.name for v in self.VARIABLES
                                   if v.causality == "output" and v.kind is float)
+        self._inputs_of = _tuple_getter(self.real_inputs)
+        self._outputs_of = _tuple_getter(self.real_outputs)
         for variable in self.VARIABLES:
             self.register_declared(variable)
         self.finish_registration()
 
     # --- values, as the binding reads and writes them ---------------------------------
-    def _set(self, name, value):
+    def _set(self, name: str, value: Any) -> None:
         variable = self.declared[name]
         if variable.causality == "output":
             return  # outputs are never set by a host; pythonfmu's state restore calls this
@@ -71,25 +92,25 @@ class MechSlave(Binding):
         self.stale = True
 
     # --- model contract -------------------------------------------------------------
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         """Validate parameters (raise MechanismError); called once at initialisation."""
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> Any:
         """Compute outputs at ``time`` from the current inputs (raise MechanismError)."""
         raise NotImplementedError
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time: float) -> None:
         """Outputs at initialisation; models with internal state may override."""
         self.update(time, 0.0)
 
     # --- FMI calls (never raise) ----------------------------------------------------
-    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+    def setup_experiment(self, start_time: float, stop_time: None=None, tolerance: None=None) -> None:
         self.start_time = self.time_reached = float(start_time)
 
-    def enter_initialization_mode(self):
+    def enter_initialization_mode(self) -> None:
         self.initializing, self.stale = True, True
 
-    def _initial_outputs(self):
+    def _initial_outputs(self) -> str | None:
         """Outputs from the current parameters and inputs (FMI 2.0 InitialUnknowns).
 
         Read in initialization mode (libcosim passes them on before any FMU leaves it) and
@@ -109,13 +130,13 @@ class MechSlave(Binding):
                     self.values[variable.name] = variable.start
             return self._describe(error, self.start_time)
 
-    def refresh_initial_outputs(self):
+    def refresh_initial_outputs(self) -> None:
         """Before the binding reads outputs: in initialisation mode, compute them from the
         parameters and inputs set so far (once per change)."""
         if self.initializing and self.stale:
             self._initial_outputs()
 
-    def exit_initialization_mode(self):
+    def exit_initialization_mode(self) -> None:
         self.initializing = False
         # With the inputs the host has set by now; an error is reported at every doStep.
         self.pending_error = self._initial_outputs()
@@ -123,10 +144,12 @@ class MechSlave(Binding):
             self.log(self.pending_error, Status.error)
         self.initialized = True
 
-    def _check_outputs(self, values_before):
+    def _check_outputs(self, values_before: dict[str, float]) -> None:
         """Raise MechanismError if an output is NaN or infinite (a safety net: the physics
         should have refused the values that led there)."""
         values = self.values
+        if _all_finite(self._outputs_of(values)):
+            return
         bad = [name for name in self.real_outputs if not math.isfinite(values[name])]
         if bad:
             raise MechanismError(
@@ -135,13 +158,34 @@ class MechSlave(Binding):
                                               for name in self.real_inputs)
                 + "; the parameters or inputs are probably beyond the model's numerical range")
 
-    def do_step(self, current_time, step_size):
+    def do_step(self, current_time: float, step_size: float) -> bool:
         """One communication step: all of it, or nothing.
 
         A discarded step leaves the instance exactly as it was before the call (every
         variable and the internal state), so a host can retry it, shorter or with other
         inputs, or roll back with fmi2SetFMUstate.
         """
+        values = self.values
+        if (self.pending_error is None and self.initialized and 0.0 < step_size < math.inf
+                and self.integrator is None and math.isfinite(sum(self._inputs_of(values)))):
+            # The usual step, with the checks of _checked_step passed in one test each (a
+            # finite sum: no input is NaN or infinite). The same all-or-nothing contract.
+            values_before, internal_before = values.copy(), self.internal_state()
+            try:
+                self.update(current_time + step_size, step_size)
+                if not math.isfinite(sum(self._outputs_of(values))):
+                    self._check_outputs(values_before)
+                self.time_reached = current_time + step_size
+                return True
+            except Exception as error:  # never raised into C++ (see the module docstring)
+                values.update(values_before)  # in place: the registered getters hold it
+                self.restore_internal_state(internal_before)
+                self.log(self._describe(error, current_time + step_size), Status.error)
+                return False
+        return self._checked_step(current_time, step_size)
+
+    def _checked_step(self, current_time: float, step_size: float) -> bool:
+        """do_step with every check spelled out: its errors, integrating models."""
         values_before = internal_before = None
         try:
             if self.pending_error is not None:
@@ -162,10 +206,11 @@ class MechSlave(Binding):
                     "last one ended (roll back with fmi2SetFMUstate to step again from an "
                     "earlier time)")
             values = self.values
-            for name in self.real_inputs:
-                if not math.isfinite(values[name]):
-                    require_finite(name, values[name], self.declared[name].unit or "")
-            values_before, internal_before = dict(values), self.internal_state()
+            if not _all_finite(self._inputs_of(values)):
+                for name in self.real_inputs:
+                    if not math.isfinite(values[name]):
+                        require_finite(name, values[name], self.declared[name].unit or "")
+            values_before, internal_before = values.copy(), self.internal_state()
             if self.integrator is not None:
                 self.integrator.start_clock(values["max_wall_time"])
             self.update(current_time + step_size, step_size)
@@ -179,20 +224,20 @@ class MechSlave(Binding):
             self.log(self._describe(error, current_time + step_size), Status.error)
             return False
 
-    def _describe(self, error, time):
+    def _describe(self, error: Exception, time: float) -> str:
         if isinstance(error, MechanismError):
             return f"{self.instance_name} at t = {time!r} s: {error}"
         return f"{self.instance_name} at t = {time!r} s: internal error {error!r}"
 
     # --- FMU state: every value plus the model's internal state ------------------------
-    def internal_state(self):
+    def internal_state(self) -> Any:
         """JSON-serialisable internal state beyond the variables (override if any)."""
         return {}
 
-    def restore_internal_state(self, state):
+    def restore_internal_state(self, state: Any) -> None:
         """Inverse of internal_state."""
 
-    def _get_fmu_state(self):
+    def _get_fmu_state(self) -> dict[str, Any]:
         # A failed initialisation leaves no internal state to save (nor to step from).
         internal = None if self.pending_error is not None else self.internal_state()
         return {"values": dict(self.values), "internal": internal,
@@ -200,7 +245,7 @@ class MechSlave(Binding):
                 "time_reached": self.time_reached,
                 "pending_error": self.pending_error}
 
-    def _set_fmu_state(self, state):
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
         self.values.update(state["values"])  # in place: the registered getters hold this dict
         if state["internal"] is not None:
             self.restore_internal_state(state["internal"])

@@ -14,6 +14,10 @@ study.json          the sweep's definition, the machine and the study's own wall
 accuracy_cost.csv, and the plots and tables are written for every scene it holds.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import csv
 import json
 import math
@@ -26,11 +30,17 @@ from pathlib import Path
 from ...cosim.files import atomic_write
 from ...cosim.master import Simulation
 from ...cosim.results import versions
+from ..progress import Progress
 from . import design, measure, report
+from argparse import Namespace
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .design import StudyScene
 
 
-def _write_rows(path, rows):
-    def write(handle):
+
+def _write_rows(path: Any, rows: Any):
+    def write(handle: Any) -> None:
         writer = csv.DictWriter(handle, fieldnames=measure.COLUMNS, lineterminator="\n")
         writer.writeheader()
         for row in rows:
@@ -39,7 +49,7 @@ def _write_rows(path, rows):
     return atomic_write(path, write)
 
 
-def read_rows(path):
+def read_rows(path: Path) -> list[dict[str, Any]]:
     """The rows of an accuracy_cost.csv, numbers as numbers."""
     numbers = {"tolerance", "max_substep", "step", "max_error", "rms_error", "relative_error",
                "max_error_all", "reference_peak", "loop_time_s", "wall_time_s", "ms_per_simulated_s"}
@@ -54,26 +64,21 @@ def read_rows(path):
     return rows
 
 
-def headline_unit(scene_dir, fmu_dir, study_scene):
+def headline_unit(scene_dir: Path, fmu_dir: Path, study_scene: StudyScene) -> str:
     """The unit of the scene's headline output, from its FMU's model description."""
     simulation = Simulation(design.load(scene_dir, study_scene), fmu_dir)
     units = {name: variable.unit or "1" for name, _, variable in simulation.recorded}
     return units[study_scene.headline]
 
 
-def pareto_markdown(rows, units):
+def pareto_markdown(rows: list[dict[str, float]], units: dict[str, str]) -> str:
     """pareto.md: for each studied scene in ``units`` (scene name -> its headline output's
     unit), in the design's order, a heading and its cheapest-setting table."""
     return "\n\n".join(f"#### {s.name}\n\n" + report.front_table(rows, s, units[s.name])
                         for s in design.SCENES if s.name in units) + "\n"
 
 
-def _progress(done, total, point):
-    if done == total or done % 25 == 0:
-        print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
-
-
-def work_precision_command(args) -> int:
+def work_precision_command(args: Namespace) -> int:
     """``mechfmu study --work-precision``: write work_precision.csv and .md into args.out,
     print the summary; the exit status (1 if an error is not finite)."""
     from . import work_precision
@@ -92,7 +97,7 @@ def work_precision_command(args) -> int:
     return 0 if frame["error"].map(math.isfinite).all() else 1
 
 
-def command(args):
+def command(args: Namespace) -> Any:
     """``mechfmu study`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     if getattr(args, "work_precision", False):
@@ -114,8 +119,10 @@ def command(args):
         points += design.points(study_scene, design.couplings_of(scene), args.quick)
     print(f"running {len(points)} points on {args.workers} worker(s), "
           f"{args.repeats} repeat(s) each", flush=True)
+    meter = Progress(len(points), sys.stdout, label="study", unit="points")
     rows = measure.run_points(points, scenes, args.fmu_dir, args.repeats, args.workers,
-                              _progress)
+                              lambda done, total, point: meter.update(
+                                  done, note=f"{point.scene}: {point.label()}"))
     # Studying some scenes again keeps the rows of the others from the previous study.
     previous = out / "accuracy_cost.csv"
     kept = [row for row in read_rows(previous) if row["scene"] not in scenes] \
