@@ -52,6 +52,7 @@ def embedded_dir(tmp_path_factory):
 # A file's layer is its row below; a test of a unit file that asks for the built FMUs (fixture
 # fmu_dir) is an fmu test, one that asks for fmu3_dir or embedded_dir a hosts test.
 LAYERS = {
+    "test_portable.py": "unit",  # numpy dispatch lists of make test-portable
     "test_integrators.py": "unit",
     "test_planar.py": "unit",
     "test_planar_kernel.py": "unit",
