@@ -42,8 +42,7 @@ def disabled(level: str) -> list:
         raise ValueError(f"level {level!r}: expected one of {', '.join(LEVELS)}")
     features, dispatch = _tables()
     wanted = [is_avx512] if level == "avx512" else [is_avx512, is_avx2]
-    return [name for name in dispatch
-            if features.get(name) and any(test(name) for test in wanted)]
+    return [name for name in dispatch if features.get(name) and any(test(name) for test in wanted)]
 
 
 def main(argv: list) -> int:

@@ -22,9 +22,16 @@ def _runtime_with(disabled):
         "try:\n    from numpy._core import _multiarray_umath as m\n"
         "except ImportError:\n    from numpy.core import _multiarray_umath as m\n"
         "print(json.dumps(sorted(k for k, v in m.__cpu_features__.items() if v "
-        "and k in m.__cpu_dispatch__)))")
-    done = subprocess.run([sys.executable, "-c", code], env=env, check=False, capture_output=True,
-                          text=True, timeout=120)
+        "and k in m.__cpu_dispatch__)))"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     return set(json.loads(done.stdout))
 
@@ -43,14 +50,24 @@ def test_numpy_accepts_the_list_and_runs_without_those_kernels(level):
     disabled = portable.disabled(level)
     remaining = _runtime_with(disabled)
     assert remaining.isdisjoint(disabled)
-    done = subprocess.run([sys.executable, str(SCRIPT), level], check=False, capture_output=True,
-                          text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), level],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0 and done.stdout.split() == disabled
 
 
 def test_unknown_level_is_refused_in_one_line():
-    done = subprocess.run([sys.executable, str(SCRIPT), "sse9"], check=False, capture_output=True,
-                          text=True, timeout=120)
+    done = subprocess.run(
+        [sys.executable, str(SCRIPT), "sse9"],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 2 and done.stderr.count("\n") == 1 and "usage" in done.stderr
     with pytest.raises(ValueError, match="sse9"):
         portable.disabled("sse9")

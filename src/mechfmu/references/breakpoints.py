@@ -29,14 +29,17 @@ def piece_of_samples(
     ends = np.asarray(ends, dtype=float)
     times = np.asarray(times, dtype=float)
     if starts.size == 0 or starts.size != ends.size:
-        raise ValueError(f"{starts.size} piece starts and {ends.size} ends: need as many, "
-                         f"at least one")
+        raise ValueError(
+            f"{starts.size} piece starts and {ends.size} ends: need as many, at least one"
+        )
     if np.any(np.diff(starts) < 0.0):
         raise ValueError("piece starts are not sorted")
     margin = slack * np.maximum(1.0, np.abs(times))
     outside = (times < starts[0] - margin) | (times > ends[-1] + margin)
     if np.any(outside):
         t = float(times[np.flatnonzero(outside)[0]])
-        raise ValueError(f"sample t = {t!r} s lies outside the integrated span "
-                         f"[{float(starts[0])!r}, {float(ends[-1])!r}] s")
+        raise ValueError(
+            f"sample t = {t!r} s lies outside the integrated span "
+            f"[{float(starts[0])!r}, {float(ends[-1])!r}] s"
+        )
     return np.clip(np.searchsorted(starts, times, side="right") - 1, 0, starts.size - 1)
