@@ -1,0 +1,438 @@
+"""Compare a result with a reference, column by column: ``mechfmu.compare``.
+
+Two methods:
+
+- ``"pointwise"``: the result and the reference share their time grid (or, with
+  ``interpolate=True``, the reference is interpolated linearly onto the result's times) and a
+  sample passes when ``|value - reference| <= atol + rtol * |reference|``.
+- ``"tube"``: a sample ``(t, y)`` passes when the reference curve, widened by
+  ``time_tolerance`` in time and by the value band in value, contains it:
+  ``lo - (atol + rtol*|lo|) <= y <= hi + (atol + rtol*|hi|)`` where ``lo`` and ``hi`` are the
+  minimum and maximum of the (piecewise linear) reference over ``[t - dt, t + dt]``: its
+  samples inside the window and its interpolated values at the window's ends. A small time
+  shift at a discontinuity (an event found one step later) passes; a changed amplitude does
+  not. The result's time grid may differ from the reference's.
+
+A NaN (or an infinity) passes only where the reference holds the same value. Every column of
+the reference must be in the result ("missing column"), every column of the result in the
+reference ("extra column", unless ``ignore_extra``); the time grids must agree ("time
+grid"). ``Comparison.failures`` lists the first failing sample of each failing column.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from fnmatch import fnmatchcase
+from os import PathLike
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+import pandas as pd
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = ["FAILURE_COLUMNS", "KINDS", "Comparison", "compare", "parse_tolerance"]
+
+FAILURE_COLUMNS = ["column", "time", "value", "reference", "allowed", "kind"]
+KINDS = ("value", "missing column", "extra column", "time grid")
+Tolerance = float | tuple[float, float] | Mapping[str, float]
+
+
+def _ulp_margin(times: np.ndarray) -> float:
+    """How far two times that mean the same communication point may differ (s): 1e-9 of the
+    smallest interval, at least 64 ulp of the largest |time|."""
+    scale = float(np.max(np.abs(times))) if times.size else 0.0
+    steps = np.diff(times)
+    smallest = float(np.min(steps)) if steps.size else 0.0
+    return max(1e-9 * smallest, 64.0 * float(np.spacing(max(scale, 1.0))))
+
+
+def parse_tolerance(text: str) -> tuple[str, tuple[float, float | None]]:
+    """``"COLUMN=RTOL"`` or ``"COLUMN=RTOL,ATOL"`` (the CLI's ``--tol``) as
+    ``(column pattern, (rtol, atol or None))``; ValueError naming the text otherwise."""
+    name, sep, values = text.partition("=")
+    parts = values.split(",")
+    try:
+        numbers = [float(part) for part in parts]
+    except ValueError:
+        numbers = []
+    if not sep or not name.strip() or len(numbers) not in (1, 2) \
+            or not all(math.isfinite(x) and x >= 0 for x in numbers):
+        raise ValueError(f"--tol {text!r}: expected COLUMN=RTOL or COLUMN=RTOL,ATOL with "
+                         f"numbers >= 0 (e.g. gear.gear_angle=1e-6)")
+    return name.strip(), (numbers[0], numbers[1] if len(numbers) == 2 else None)
+
+
+def _tolerance(column: str, rtol: float, atol: float,
+               tolerances: Mapping[str, Tolerance] | None) -> tuple[float, float]:
+    """(rtol, atol) of ``column``: the last entry of ``tolerances`` whose key (a column name
+    or an fnmatch pattern such as ``gear.*``) matches it, else the defaults. An entry is an
+    rtol, an (rtol, atol) pair (atol None: the default) or {"rtol": ..., "atol": ...}."""
+    for pattern, value in (tolerances or {}).items():
+        if not fnmatchcase(column, pattern):
+            continue
+        if isinstance(value, Mapping):
+            rtol, atol = value.get("rtol", rtol), value.get("atol", atol)
+        elif isinstance(value, tuple | list):
+            rtol = value[0] if value[0] is not None else rtol
+            atol = value[1] if len(value) > 1 and value[1] is not None else atol
+        else:
+            rtol = float(value)
+    return float(rtol), float(atol)
+
+
+def _frame(data: Any, what: str) -> pd.DataFrame:
+    """``data`` (a DataFrame indexed by time or with a ``time`` column, or the path of a
+    result CSV) as a float DataFrame indexed by time; ValueError naming ``what``."""
+    if isinstance(data, str | PathLike):
+        from .io import read_result
+        return read_result(data)
+    if not isinstance(data, pd.DataFrame):
+        raise TypeError(f"the {what} must be a pandas DataFrame or a CSV path, got "
+                        f"{type(data).__name__}")
+    if "time" in data.columns:
+        data = data.set_index("time")
+    try:
+        times = np.asarray(data.index, dtype=float)
+        frame = pd.DataFrame(data.to_numpy(dtype=float), columns=[str(c) for c in data.columns],
+                             index=pd.Index(times, name="time"))
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"the {what} must hold numbers only: {error}") from None
+    if not np.isfinite(times).all() or (np.diff(times) <= 0).any():
+        raise ValueError(f"the {what}'s times must be finite and increase strictly")
+    frame.attrs.update(data.attrs)
+    return frame
+
+
+class _RangeTable:
+    """Minimum and maximum of ``values[lo:hi]`` for many (lo, hi) at once: a sparse table
+    (O(n log n) to build, O(1) per query, vectorised). NaN is ignored; ``nans(lo, hi)``
+    counts them."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        self.low = [np.where(np.isnan(values), np.inf, values)]
+        self.high = [np.where(np.isnan(values), -np.inf, values)]
+        self.nan_count = np.concatenate(([0], np.cumsum(np.isnan(values))))
+        width = 1
+        while 2 * width <= values.size:
+            low, high = self.low[-1], self.high[-1]
+            self.low.append(np.minimum(low[:-width], low[width:]))
+            self.high.append(np.maximum(high[:-width], high[width:]))
+            width *= 2
+
+    def query(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(min, max) over [lo, hi) for each pair; (+inf, -inf) where the range is empty."""
+        length = hi - lo
+        low = np.full(lo.shape, np.inf)
+        high = np.full(lo.shape, -np.inf)
+        some = length > 0
+        level = np.zeros(lo.shape, dtype=int)
+        level[some] = np.floor(np.log2(length[some])).astype(int)
+        for k in np.unique(level[some]):
+            rows = some & (level == k)
+            a, b = lo[rows], hi[rows] - (1 << int(k))
+            low[rows] = np.minimum(self.low[k][a], self.low[k][b])
+            high[rows] = np.maximum(self.high[k][a], self.high[k][b])
+        return low, high
+
+    def nans(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        return self.nan_count[hi] - self.nan_count[lo]
+
+
+def tube_bounds(times: np.ndarray, ref_times: np.ndarray, ref_values: np.ndarray,
+                time_tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(lo, hi, nan) at each of ``times`` (s): the minimum and maximum of the piecewise
+    linear reference over [t - dt, t + dt] clipped to its span (its samples inside plus its
+    interpolated values at the window's ends), and whether a NaN lies in the window."""
+    start = np.clip(times - time_tolerance, ref_times[0], ref_times[-1])
+    stop = np.clip(times + time_tolerance, ref_times[0], ref_times[-1])
+    finite = ~np.isnan(ref_values)
+    ends = [np.interp(edge, ref_times[finite], ref_values[finite]) if finite.any()
+            else np.full(edge.shape, np.nan) for edge in (start, stop)]
+    lo_index = np.searchsorted(ref_times, start, side="left")
+    hi_index = np.searchsorted(ref_times, stop, side="right")
+    table = _RangeTable(ref_values)
+    low, high = table.query(lo_index, hi_index)
+    low = np.minimum(low, np.minimum(*ends))
+    high = np.maximum(high, np.maximum(*ends))
+    return low, high, table.nans(lo_index, hi_index) > 0
+
+
+@dataclass
+class _Column:
+    """What the comparison of one column found, kept for the summary and the plot."""
+    times: np.ndarray
+    values: np.ndarray
+    reference: np.ndarray      # at ``times``: the reference (pointwise) or nearest window edge
+    lower: np.ndarray          # the passing band's lower and upper edge at ``times``
+    upper: np.ndarray
+    allowed: np.ndarray
+    failing: np.ndarray        # bool per sample
+
+
+@dataclass
+class Comparison:
+    """The outcome of ``compare``: ``passed``, ``failures`` (one row per failing column,
+    ordered by time; structural failures, whose time is NaN, first), ``summary`` (one row
+    per compared column) and ``plot()``."""
+    passed: bool
+    failures: pd.DataFrame
+    summary: pd.DataFrame
+    method: str
+    rtol: float
+    atol: float
+    time_tolerance: float | None
+    samples: int                       # result samples compared per column
+    result: pd.DataFrame = field(repr=False)
+    reference: pd.DataFrame = field(repr=False)
+    _columns: dict[str, _Column] = field(default_factory=dict, repr=False)
+
+    @property
+    def ok(self) -> bool:
+        """Same as ``passed`` (the name ``mechfmu.check.compare`` used)."""
+        return self.passed
+
+    @property
+    def columns(self) -> list[str]:
+        """The columns compared sample by sample."""
+        return list(self.summary.index)
+
+    def first_failure(self) -> str:
+        """The first row of ``failures`` as one line ('' when everything passed)."""
+        if self.failures.empty:
+            return ""
+        return describe_failure(self.failures.iloc[0])
+
+    def __str__(self) -> str:
+        compared = f"{len(self.summary)} column(s), {self.samples} sample(s)"
+        if self.passed:
+            worst = ""
+            if len(self.summary):
+                row = self.summary.sort_values("ratio", ascending=False).iloc[0]
+                worst = (f"; worst: {row.name} at t = {float(row['worst_time'])!r} s, "
+                         f"|difference| {row['max_abs']:.3e} ({row['ratio']:.2g} of allowed)")
+            return f"match: {compared}{worst}"
+        more = len(self.failures) - 1
+        extra = f"; {more} more failing column(s)" if more else ""
+        return f"MISMATCH: {compared}; first: {self.first_failure()}{extra}"
+
+    def plot(self, columns: str | list[str] | None = None, *, max_columns: int = 6) -> Figure:
+        """A matplotlib Figure, one panel per column (default: the failing ones, else all;
+        at most ``max_columns``): the reference, the result, the tolerance band (pointwise) or
+        tube, and the first failure marked."""
+        from matplotlib.figure import Figure
+        if columns is None:
+            failing = [c for c in self.failures["column"] if c in self._columns]
+            columns = list(dict.fromkeys(failing)) or list(self._columns)
+        elif isinstance(columns, str):
+            columns = [columns]
+        columns = [c for c in columns if c in self._columns][:max_columns]
+        figure = Figure(figsize=(8, 1.2 + 2.2 * max(len(columns), 1)), layout="constrained")
+        axes = figure.subplots(max(len(columns), 1), 1, squeeze=False, sharex=True)[:, 0]
+        units = {**self.reference.attrs.get("units", {}), **self.result.attrs.get("units", {})}
+        for axis, name in zip(axes, columns):
+            data = self._columns[name]
+            reference = self.reference[name]
+            axis.fill_between(data.times, data.lower, data.upper, color="tab:green", alpha=0.25,
+                              linewidth=0, label="tube" if self.method == "tube" else "band")
+            axis.plot(reference.index, reference.to_numpy(), color="tab:green", linewidth=1.0,
+                      label="reference")
+            axis.plot(data.times, data.values, color="tab:blue", linewidth=1.0,
+                      linestyle="--", label="result")
+            if data.failing.any():
+                i = int(np.argmax(data.failing))
+                axis.plot([data.times[i]], [data.values[i]], "x", color="tab:red",
+                          markersize=10, mew=2, label=f"first failure, t = {data.times[i]:.6g} s")
+                axis.axvline(data.times[i], color="tab:red", linewidth=0.6)
+            unit = units.get(name)
+            axis.set_title(name, fontsize=9, loc="left")
+            axis.set_ylabel(f"[{unit}]" if unit else "")
+            axis.grid(True, linewidth=0.3)
+            axis.legend(fontsize=7, loc="best")
+        axes[-1].set_xlabel("time [s]")
+        tolerance = (f"rtol {self.rtol:g}, atol {self.atol:g}"
+                     + (f", time tolerance {self.time_tolerance:g} s"
+                        if self.method == "tube" else ""))
+        figure.suptitle(f"{'passed' if self.passed else 'FAILED'} ({self.method}, {tolerance})",
+                        fontsize=10)
+        return figure
+
+
+def describe_failure(row: Mapping[str, Any]) -> str:
+    """One failure row as a line: 'gear.gear_angle at t = 1.5 s: 0.1 vs reference 0.2
+    (|difference| 1e-1, allowed 1e-9)' or 'missing column gear.gear_angle'."""
+    kind, column = row["kind"], row["column"]
+    time, value, reference, allowed = (float(row[key]) for key in
+                                       ("time", "value", "reference", "allowed"))
+    if kind == "value":
+        size = abs(value - reference)
+        return (f"{column} at t = {time!r} s: {value!r} vs reference {reference!r} "
+                f"(|difference| {size:.3e}, allowed {allowed:.3e})")
+    if kind == "time grid":
+        found = "none" if math.isnan(value) else f"{value!r} s"
+        expected = "none" if math.isnan(reference) else f"{reference!r} s"
+        return (f"time grid: the result has time {found} where the reference has {expected} "
+                f"(allowed difference {allowed:.3e} s)")
+    return f"{kind} {column}"
+
+
+def _grid_failure(value: float, reference: float, allowed: float) -> dict[str, Any]:
+    time = reference if not math.isnan(reference) else value
+    return {"column": "time", "time": time, "value": value, "reference": reference,
+            "allowed": allowed, "kind": "time grid"}
+
+
+def _check_grid(times: np.ndarray, ref_times: np.ndarray, margin: float,
+                same_grid: bool) -> dict[str, Any] | None:
+    """The first time-grid failure (a failures row) or None. ``same_grid``: the times must
+    be the reference's (within ``margin``); otherwise the result must start and end where
+    the reference does, within ``margin``."""
+    if same_grid:
+        n = min(times.size, ref_times.size)
+        differ = np.abs(times[:n] - ref_times[:n]) > margin
+        if differ.any():
+            i = int(np.argmax(differ))
+            return _grid_failure(float(times[i]), float(ref_times[i]), margin)
+        if times.size != ref_times.size:
+            longer = times.size > ref_times.size
+            return _grid_failure(float(times[n]) if longer else math.nan,
+                                 math.nan if longer else float(ref_times[n]), margin)
+        return None
+    if abs(times[0] - ref_times[0]) > margin:
+        return _grid_failure(float(times[0]), float(ref_times[0]), margin)
+    if abs(times[-1] - ref_times[-1]) > margin:
+        return _grid_failure(float(times[-1]), float(ref_times[-1]), margin)
+    return None
+
+
+def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str | PathLike,
+            *, rtol: float = 1e-9, atol: float = 1e-12,
+            method: Literal["pointwise", "tube"] = "pointwise",
+            time_tolerance: float | None = None,
+            tolerances: Mapping[str, Tolerance] | None = None,
+            interpolate: bool = False, ignore_extra: bool = False) -> Comparison:
+    """Compare ``result`` with ``reference``, column by column.
+
+    Args:
+        result, reference: DataFrames indexed by time in s (``mechfmu.read_result``,
+            ``mechfmu.simulate``; a ``time`` column works too) or paths of result CSVs.
+        rtol, atol: the value band: ``atol + rtol * |reference|`` (in the column's SI unit).
+        method: ``"pointwise"`` (sample by sample) or ``"tube"`` (see the module docstring).
+        time_tolerance: the tube's half width in time (s); default: the reference's largest
+            time step. Also how far the tube allows the result's first and last times to be
+            from the reference's. Not used by ``"pointwise"``.
+        tolerances: per-column overrides, ``{column or fnmatch pattern: rtol}``, or
+            ``(rtol, atol)``, or ``{"rtol": ..., "atol": ...}``; the last matching key wins.
+        interpolate: pointwise only: interpolate the reference linearly onto the result's
+            times instead of requiring the same time grid (the first and last times must
+            still agree).
+        ignore_extra: columns of the result that the reference lacks are not failures.
+
+    Returns:
+        A Comparison: ``passed``; ``failures`` with columns ``column, time, value,
+        reference, allowed, kind`` (kind one of "value", "missing column", "extra column",
+        "time grid"), the first failing sample of each failing column; for the tube,
+        ``reference`` is the window's minimum or maximum nearest to the value and
+        ``allowed`` the band there; ``summary`` per compared column (``samples``,
+        ``failing``, ``max_abs``, ``max_rel`` (of the column's peak |reference|),
+        ``ratio`` (largest deviation / allowed; <= 1 passes), ``worst_time``).
+
+    Raises:
+        ValueError: an unknown method, a negative tolerance, a DataFrame that is not a
+            result; mechfmu.io.ResultFileError for a malformed file.
+    """
+    if method not in ("pointwise", "tube"):
+        raise ValueError(f"method must be 'pointwise' or 'tube', got {method!r}")
+    for name, value in (("rtol", rtol), ("atol", atol), ("time_tolerance", time_tolerance)):
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+    result_frame = _frame(result, "result")
+    reference_frame = _frame(reference, "reference")
+    times = result_frame.index.to_numpy(dtype=float)
+    ref_times = reference_frame.index.to_numpy(dtype=float)
+    rows: list[dict[str, Any]] = []
+    missing = [c for c in reference_frame.columns if c not in result_frame.columns]
+    rows += [{"column": c, "kind": "missing column"} for c in missing]
+    if not ignore_extra:
+        rows += [{"column": c, "kind": "extra column"}
+                 for c in result_frame.columns if c not in reference_frame.columns]
+    shared = [c for c in reference_frame.columns if c in result_frame.columns]
+    margin = _ulp_margin(ref_times)
+    dt = None
+    if method == "tube":
+        steps = np.diff(ref_times)
+        dt = float(time_tolerance) if time_tolerance is not None else \
+            float(steps.max()) if steps.size else 0.0
+        grid = _check_grid(times, ref_times, dt + margin, same_grid=False)
+    else:
+        grid = _check_grid(times, ref_times, margin, same_grid=not interpolate)
+    columns: dict[str, _Column] = {}
+    summary_rows = []
+    if grid is not None:
+        rows.append(grid)
+        shared = []
+    for name in shared:
+        column_rtol, column_atol = _tolerance(name, rtol, atol, tolerances)
+        values = result_frame[name].to_numpy(dtype=float)
+        ref_values = reference_frame[name].to_numpy(dtype=float)
+        if method == "tube":
+            assert dt is not None
+            low, high, nan = tube_bounds(times, ref_times, ref_values, dt)
+            lower = low - (column_atol + column_rtol * np.abs(low))
+            upper = high + (column_atol + column_rtol * np.abs(high))
+            above = values > high
+            nearest = np.where(above, high, low)
+            allowed = column_atol + column_rtol * np.abs(nearest)
+            deviation = np.where(above, values - high, np.where(values < low, low - values, 0.0))
+            passing = ((lower <= values) & (values <= upper) & ~nan) \
+                | (np.isnan(values) & nan) | (values == low) | (values == high)
+        else:
+            expected = np.interp(times, ref_times, ref_values) if interpolate else ref_values
+            allowed = column_atol + column_rtol * np.abs(expected)
+            deviation = np.abs(values - expected)
+            nearest = expected
+            lower, upper = expected - allowed, expected + allowed
+            passing = ((deviation <= allowed) & np.isfinite(expected)) | (values == expected) \
+                | (np.isnan(values) & np.isnan(expected))
+        failing = ~passing
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = np.where(passing & ~(deviation > 0), 0.0, deviation / allowed)
+        ratio = np.where(failing & ~(ratio > 1.0), np.inf, ratio)
+        columns[name] = _Column(times, values, nearest, lower, upper, allowed, failing)
+        worst = int(np.argmax(ratio)) if ratio.size else 0
+        peak = float(np.nanmax(np.abs(ref_values))) if np.isfinite(ref_values).any() else 0.0
+        max_abs = float(np.nanmax(deviation)) if np.isfinite(deviation).any() else math.nan
+        if np.isnan(deviation).any() and failing.any():
+            max_abs = math.inf if math.isnan(max_abs) else max_abs
+        summary_rows.append({"column": name, "samples": int(values.size),
+                             "failing": int(failing.sum()), "max_abs": max_abs,
+                             "max_rel": max_abs / peak if peak > 0 else
+                             (0.0 if max_abs == 0 else math.inf),
+                             "ratio": float(ratio[worst]) if ratio.size else 0.0,
+                             "worst_time": float(times[worst]) if ratio.size else math.nan,
+                             "rtol": column_rtol, "atol": column_atol})
+        if failing.any():
+            i = int(np.argmax(failing))
+            rows.append({"column": name, "time": float(times[i]), "value": float(values[i]),
+                         "reference": float(nearest[i]), "allowed": float(allowed[i]),
+                         "kind": "value"})
+    failures = pd.DataFrame(rows, columns=FAILURE_COLUMNS).astype(
+        {"time": float, "value": float, "reference": float, "allowed": float})
+    if len(failures):
+        failures = failures.sort_values("time", na_position="first", kind="stable") \
+            .reset_index(drop=True)
+    summary = pd.DataFrame(summary_rows, columns=["column", "samples", "failing", "max_abs",
+                                                  "max_rel", "ratio", "worst_time", "rtol",
+                                                  "atol"]).set_index("column")
+    return Comparison(passed=failures.empty, failures=failures, summary=summary, method=method,
+                      rtol=rtol, atol=atol, time_tolerance=dt, samples=int(times.size),
+                      result=result_frame, reference=reference_frame, _columns=columns)
+
+
+def file_label(text: str) -> str:
+    """``text`` (a relative path and a column) as a safe file-name stem."""
+    return re.sub(r"[^\w.-]+", "_", text).strip("_") or "file"
