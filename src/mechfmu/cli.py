@@ -125,14 +125,38 @@ def _export_fmu(args):
 
 
 def _check(args):
-    from .check import compare
+    from .check import check_paths
+    from .comparison import parse_tolerance
+    from .cosim.files import OutputError
     try:
-        comparison = compare(args.result, args.reference, args.rtol, args.atol)
-    except (OSError, ValueError) as error:
+        tolerances = dict(parse_tolerance(text) for text in args.tol)
+        for name, value in (("--rtol", args.rtol), ("--atol", args.atol),
+                            ("--time-tolerance", args.time_tolerance)):
+            if value is not None and not value >= 0:
+                raise ValueError(f"{name} must be >= 0, got {value!r}")
+    except ValueError as error:
         print(f"check error: {error}", file=sys.stderr)
         return 2
-    print(comparison)
-    return 0 if comparison.ok else 1
+    run = check_paths(args.result, args.reference, rtol=args.rtol, atol=args.atol,
+                      method=args.method, time_tolerance=args.time_tolerance,
+                      tolerances=tolerances, interpolate=args.interpolate,
+                      ignore_extra=args.ignore_extra)
+    for check in run.files:
+        print(check.line())
+    for key in run.unused_tolerances():
+        print(f"check warning: --tol {key} matches no column", file=sys.stderr)
+    print(run.summary(), file=sys.stderr if run.error else sys.stdout)
+    try:
+        if args.junit:
+            from .tools.report.checks import write_junit
+            print(f"junit: {write_junit(run, args.junit)}")
+        if args.report:
+            from .tools.report.checks import write_report
+            print(f"report: {write_report(run, args.report)}")
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    return run.exit_code
 
 
 def _references(args):
@@ -364,11 +388,30 @@ def parser():
                                 "stepped before it; parallel: every link lags one step")
     container.set_defaults(func=_export_fmu)
 
-    check = verbs.add_parser("check", help="compare a result CSV with a reference CSV")
-    check.add_argument("result")
-    check.add_argument("reference")
+    check = verbs.add_parser(
+        "check", help="compare a result CSV (or a folder of them) with a reference CSV (or "
+        "folder, matched by relative path); exit 0 all match, 1 any mismatch, 2 nothing "
+        "comparable")
+    check.add_argument("result", help="result CSV file or folder")
+    check.add_argument("reference", help="reference CSV file or folder")
     check.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance")
     check.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance")
+    check.add_argument("--tol", action="append", default=[], metavar="COLUMN=RTOL[,ATOL]",
+                       help="tolerance of one column (or an fnmatch pattern such as 'gear.*'); "
+                            "repeatable, the last match wins")
+    check.add_argument("--method", choices=("pointwise", "tube"), default="pointwise",
+                       help="pointwise (default; the same time grid) or tube (the reference "
+                            "widened by --time-tolerance in time)")
+    check.add_argument("--time-tolerance", type=float, metavar="S",
+                       help="the tube's half width in time, s (default: the reference's "
+                            "largest step)")
+    check.add_argument("--interpolate", action="store_true",
+                       help="pointwise: interpolate the reference onto the result's times")
+    check.add_argument("--ignore-extra", action="store_true",
+                       help="result columns the reference lacks are not failures")
+    check.add_argument("--junit", metavar="FILE", help="write a JUnit XML file")
+    check.add_argument("--report", metavar="DIR",
+                       help="write DIR/index.html with a plot of every failing column")
     check.set_defaults(func=_check)
 
     references = verbs.add_parser("references", help="regenerate the reference CSVs")
