@@ -92,9 +92,10 @@ def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
 
 
 def _problem_cell(path: Path, cells: numpy.ndarray, names: list[str], line0: int,
-                  blank: bool) -> ResultFileError | None:
+                  blank: bool, finite: bool = True) -> ResultFileError | None:
     """The error for the first cell of ``cells`` (strings, rows from file line ``line0``)
-    that is not a finite number (or, with ``blank``, not empty either), or None."""
+    that is not a number (not empty either with ``blank``, not finite with ``finite``), or
+    None."""
     for row_index, row in enumerate(cells):
         line = line0 + row_index
         for column, text in zip(names, row):
@@ -109,7 +110,7 @@ def _problem_cell(path: Path, cells: numpy.ndarray, names: list[str], line0: int
             except ValueError:
                 return ResultFileError(f"{path}: line {line}, column {column!r}: {text!r} is "
                                        f"not a number")
-            if not math.isfinite(value):
+            if finite and not math.isfinite(value):
                 return ResultFileError(f"{path}: line {line}, column {column!r}: {text!r} is "
                                        f"not a finite number")
     return None
@@ -242,22 +243,25 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
 
 
 def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[str] = (),
-               required: Iterable[str] = ()) -> pandas.DataFrame:
+               required: Iterable[str] = (), missing: float | None = math.nan
+               ) -> pandas.DataFrame:
     """A CSV table mechfmu writes (a sweep's sweep.csv, the study's accuracy_cost.csv) as a
     DataFrame with a default index, one column per header name.
 
     Columns named in ``text`` stay strings (an empty cell is None); those in ``integers``
-    are int64; every other column is float64, an empty cell NaN (a sweep point without a
-    value). ``required`` columns must be in the header. Raises ResultFileError naming the
-    file, and the line and column, for a missing or empty file, an unnamed, repeated or
-    missing column, a line with more values than the header, or text where a number belongs.
+    are int64; every other column is float64, an empty cell ``missing`` (NaN: a sweep
+    point without a value; with ``missing=None`` such a column holds Python floats and None,
+    so an empty cell stays apart from a 'nan' written in the file). ``required`` columns
+    must be in the header. Raises ResultFileError naming the file, and the line and column,
+    for a missing or empty file, an unnamed, repeated or missing column, a line with more
+    values than the header, or text where a number belongs.
     """
     path = Path(path)
     raw = _raw_rows(path)
     names = _header(path, raw, None)
-    missing = [name for name in required if name not in names]
-    if missing:
-        raise ResultFileError(f"{path}: line 1: missing column(s) {', '.join(missing)}")
+    absent = [name for name in required if name not in names]
+    if absent:
+        raise ResultFileError(f"{path}: line 1: missing column(s) {', '.join(absent)}")
     text, integers = set(text), set(integers)
     body = raw.iloc[1:]
     frame = pandas.DataFrame(index=pandas.RangeIndex(len(body)))
@@ -266,8 +270,9 @@ def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[st
         if name in text:
             frame[name] = [cell if cell != "" else None for cell in cells]
             continue
-        problem = _problem_cell(path, cells[:, None], [name], 2, blank=name not in integers)
-        if problem is not None and "is not a finite number" not in str(problem):
+        problem = _problem_cell(path, cells[:, None], [name], 2, blank=name not in integers,
+                                finite=False)
+        if problem is not None:
             raise problem
         if name in integers:
             try:
@@ -276,8 +281,11 @@ def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[st
                 line = 2 + next(i for i, cell in enumerate(cells) if not _is_int(cell))
                 raise ResultFileError(f"{path}: line {line}, column {name!r}: "
                                       f"{cells[line - 2]!r} is not a whole number") from None
+        elif missing is None and (cells == "").any():
+            frame[name] = pandas.Series([float(cell) if cell != "" else None
+                                         for cell in cells], dtype=object)
         else:
-            frame[name] = numpy.array([float(cell) if cell != "" else math.nan
+            frame[name] = numpy.array([float(cell) if cell != "" else missing
                                        for cell in cells], dtype=float)
     return frame
 

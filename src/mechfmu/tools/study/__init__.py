@@ -39,18 +39,34 @@ def _write_rows(path, rows):
     return atomic_write(path, write)
 
 
+NUMBER_COLUMNS = ("tolerance", "max_substep", "step", "max_error", "rms_error",
+                  "relative_error", "max_error_all", "reference_peak", "loop_time_s",
+                  "wall_time_s", "ms_per_simulated_s")
+INTEGER_COLUMNS = ("repeats", "communication_steps", "substeps", "rhs_evaluations")
+
+
+def read_table(path):
+    """An accuracy_cost.csv as a pandas DataFrame (mechfmu.io.read_table): the counters
+    int64, the errors (in the output's SI unit), tolerances and times (s) float64, the
+    rest strings. ResultFileError (a ValueError) naming the file, line and column for a
+    malformed file."""
+    from ...io import read_table as read
+    text = [name for name in measure.COLUMNS
+            if name not in NUMBER_COLUMNS and name not in INTEGER_COLUMNS]
+    return read(path, text=text, integers=INTEGER_COLUMNS, required=measure.COLUMNS)
+
+
 def read_rows(path):
-    """The rows of an accuracy_cost.csv, numbers as numbers."""
-    numbers = {"tolerance", "max_substep", "step", "max_error", "rms_error", "relative_error",
-               "max_error_all", "reference_peak", "loop_time_s", "wall_time_s", "ms_per_simulated_s"}
-    integers = {"repeats", "communication_steps", "substeps", "rhs_evaluations"}
-    with open(path, newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
+    """The rows of an accuracy_cost.csv as dicts, numbers as numbers (read_table's)."""
+    rows = read_table(path).to_dict("records")
     for row in rows:
-        for key in numbers:
-            row[key] = float(row[key])
-        for key in integers:
-            row[key] = int(row[key])
+        for key, value in row.items():
+            if value is None:
+                row[key] = ""  # an empty text cell, as written
+            elif key in INTEGER_COLUMNS:
+                row[key] = int(value)
+            elif key in NUMBER_COLUMNS:
+                row[key] = float(value)
     return rows
 
 
