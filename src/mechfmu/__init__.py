@@ -16,16 +16,17 @@ from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-# name -> the module defining it (imported when the name is first used)
+# The public Python API, imported on first use (``import mechfmu`` stays cheap: no pandas
+# until a name below is used): name -> module of the package that defines it.
 _API = {"simulate": "api", "reference": "api", "sweep": "api",
         "read_result": "io", "write_result": "io", "read_table": "io",
-        "ResultFileError": "io", "compare": "compare", "Comparison": "compare"}
+        "ResultFileError": "io", "compare": "comparison", "Comparison": "comparison"}
 
 __all__ = ["__version__", *_API]
 
 if TYPE_CHECKING:
     from .api import reference, simulate, sweep
-    from .compare import Comparison, compare
+    from .comparison import Comparison, compare
     from .io import ResultFileError, read_result, read_table, write_result
 
 
