@@ -53,14 +53,57 @@ def _run(args):
 
 
 def _run_guarded(args, guard):
+    from .cosim.scene import find_file
+    if args.all == (args.scene is not None):
+        print("mechfmu run: error: give a scene or --all (every shipped scene), not both",
+              file=sys.stderr)
+        return 2
+    if args.all and args.reference:
+        print("mechfmu run: error: --reference names one scene's reference; with --all use "
+              "--check (each scene against its own)", file=sys.stderr)
+        return 2
+    if args.all:
+        return _run_all(args, guard)
+    return _run_one(args, guard, find_file(args.scene))
+
+
+def _run_all(args, guard):
+    """``mechfmu run --all``: every shipped scene into --out, in name order, one after the
+    other; a failing scene does not stop the others. Exit status: the worst of the scenes'
+    (0 all ran, and matched their references with --check; 1 a run failed or a check did not
+    match; 2 a scene or output error), or 130/143 at once when SIGINT/SIGTERM stops it."""
+    from .cosim.files import OutputError, output_folder
+    from .cosim.interrupt import exit_code
+    try:
+        output_folder(args.out)  # a bad --out costs nothing
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    scenes = sorted(SCENE_DIR.glob("*.toml"))
+    statuses = {}
+    for path in scenes:
+        statuses[path.stem] = status = _run_one(args, guard, path)
+        if status > 2:  # a signal stopped the run: the remaining scenes do not start
+            return status
+        if guard.requested:
+            return exit_code(guard.take())
+    failed = [name for name, status in statuses.items() if status]
+    print(f"ran {len(scenes)} shipped scene(s) into {args.out}: "
+          f"{len(scenes) - len(failed)} ok" + (f", {len(failed)} not: {', '.join(failed)}"
+                                               if failed else ""),
+          file=sys.stderr if failed else sys.stdout)
+    return max(statuses.values(), default=0)
+
+
+def _run_one(args, guard, scene_path):
     from .check import run_report
     from .cosim.files import OutputError
     from .cosim.interrupt import exit_code, signal_name
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
-    from .cosim.scene import SceneError, find_file
+    from .cosim.scene import SceneError
     try:
-        result, paths = run_scene(find_file(args.scene), args.out, args.fmu_dir,
+        result, paths = run_scene(scene_path, args.out, args.fmu_dir,
                                   plot=not args.no_plot, guard=guard)
     except (SceneError, OutputError, SimulationError) as error:
         return _scene_failure(error, guard)
@@ -356,12 +399,16 @@ def parser():
                             "models import, so the FMUs run where no Python is installed")
     build.set_defaults(func=_build)
 
-    run = verbs.add_parser("run", help="run a scene and write CSV, JSON and PNG")
-    run.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    run = verbs.add_parser("run", help="run a scene (or every shipped scene) and write CSV, "
+                           "JSON and PNG")
+    run.add_argument("scene", nargs="?", help="scene TOML file, or the name of a shipped scene")
+    run.add_argument("--all", action="store_true",
+                     help="run every shipped scene into --out (a baseline tree for mechfmu "
+                          "check); a failing scene does not stop the others")
     _scene_options(run)
     run.add_argument("--check", action="store_true",
                      help="compare with the scene's reference CSV afterwards")
-    run.add_argument("--reference", help="compare with this CSV afterwards")
+    run.add_argument("--reference", help="compare with this CSV afterwards (one scene)")
     run.add_argument("--rtol", type=float, default=1e-9)
     run.add_argument("--atol", type=float, default=1e-12)
     run.set_defaults(func=_run)
