@@ -65,8 +65,8 @@ def _raw_rows(path: Path) -> pandas.DataFrame:
                                   f"{expected} columns") from None
         detail = str(error).split("C error: ")[-1].strip()
         raise ResultFileError(f"{path}: malformed CSV: {detail}") from None
-    except UnicodeDecodeError as error:
-        raise ResultFileError(f"{path}: not UTF-8 text (byte {error.start})") from None
+    except UnicodeDecodeError:
+        raise ResultFileError(f"{path}: not UTF-8 text") from None
     except OSError as error:
         raise ResultFileError(f"{path}: cannot be read: {error.strerror or error}") from None
     blank = (raw == "").all(axis=1).to_numpy()
@@ -268,7 +268,8 @@ def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[st
     for position, name in enumerate(names):
         cells = body.iloc[:, position].to_numpy()
         if name in text:
-            frame[name] = [cell if cell != "" else None for cell in cells]
+            frame[name] = pandas.Series([cell if cell != "" else None for cell in cells],
+                                        dtype=object, index=frame.index)
             continue
         problem = _problem_cell(path, cells[:, None], [name], 2, blank=name not in integers,
                                 finite=False)
@@ -283,7 +284,7 @@ def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[st
                                       f"{cells[line - 2]!r} is not a whole number") from None
         elif missing is None and (cells == "").any():
             frame[name] = pandas.Series([float(cell) if cell != "" else None
-                                         for cell in cells], dtype=object)
+                                         for cell in cells], dtype=object, index=frame.index)
         else:
             frame[name] = numpy.array([float(cell) if cell != "" else missing
                                        for cell in cells], dtype=float)
