@@ -191,6 +191,9 @@ class Comparison:
     reference: pd.DataFrame = field(repr=False)
     _columns: dict[str, _Column] = field(default_factory=dict, repr=False)
 
+    def __repr__(self) -> str:
+        return f"<Comparison {self}>"
+
     @property
     def ok(self) -> bool:
         """Same as ``passed`` (the name ``mechfmu.check.compare`` used)."""
