@@ -22,7 +22,7 @@ import pandas
 
 from .cosim.master import Simulation, model_description, parameter_values, resolve_fmu
 from .cosim.results import versions
-from .cosim.scene import PACKAGE_ROOT, Scene, SceneError, find_file, load_scene
+from .cosim.scene import PACKAGE_ROOT, SCENE_DIR, Scene, SceneError, find_file, load_scene
 
 __all__ = ["reference", "simulate", "sweep"]
 
@@ -48,7 +48,12 @@ def _scene(scene: SceneLike, start_time: float | None = None, stop_time: float |
     if not isinstance(scene, (str, PathLike)):
         raise TypeError(f"scene must be a shipped scene's name, a scene file or a Scene, got "
                         f"{type(scene).__name__}")
-    return load_scene(find_file(str(scene)), overrides)
+    path = find_file(str(scene))
+    if not path.exists() and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
+        shipped = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
+        raise SceneError(f"no shipped scene named {str(scene)!r} and no such file; shipped "
+                         f"scenes: {', '.join(shipped)}")
+    return load_scene(path, overrides)
 
 
 def _fmu_folder(scene: Scene, fmu_dir: StrPath | None) -> Path:
