@@ -202,6 +202,21 @@ def _check(args):
     return run.exit_code
 
 
+def _baseline_update(args):
+    from .baseline import BaselineError, summary, update_baselines
+    from .cosim.files import OutputError
+    try:
+        changes = update_baselines(args.results, args.baselines, prune=args.prune,
+                                   dry_run=args.dry_run)
+    except (BaselineError, OutputError) as error:
+        print(f"baseline error: {error}", file=sys.stderr)
+        return 2
+    for change in changes:
+        print(change.line())
+    print(summary(changes, args.baselines, args.dry_run))
+    return 0
+
+
 def _references(args):
     from .tools.scene_references import generate
     for path in generate(args.scenes, args.out):
@@ -460,6 +475,19 @@ def parser():
     check.add_argument("--report", metavar="DIR",
                        help="write DIR/index.html with a plot of every failing column")
     check.set_defaults(func=_check)
+
+    baseline = verbs.add_parser("baseline", help="accepted results (baselines) for mechfmu check")
+    baseline_verbs = baseline.add_subparsers(dest="baseline_verb", required=True)
+    update = baseline_verbs.add_parser(
+        "update", help="accept results as baselines: copy the new and changed CSV files (and "
+        "their JSON) and say what changed by how much")
+    update.add_argument("results", help="result CSV file or folder (e.g. of mechfmu run --all)")
+    update.add_argument("baselines", help="baseline folder (created if missing)")
+    update.add_argument("--prune", action="store_true",
+                        help="remove baselines that have no result")
+    update.add_argument("--dry-run", action="store_true",
+                        help="only say what would change")
+    update.set_defaults(func=_baseline_update)
 
     references = verbs.add_parser("references", help="regenerate the reference CSVs")
     references.add_argument("--scenes", default=str(SCENE_DIR),

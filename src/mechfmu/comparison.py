@@ -342,7 +342,8 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
         ``reference`` is the window's minimum or maximum nearest to the value and
         ``allowed`` the band there; ``summary`` per compared column (``samples``,
         ``failing``, ``max_abs``, ``max_rel`` (of the column's peak |reference|),
-        ``ratio`` (largest deviation / allowed; <= 1 passes), ``worst_time``).
+        ``ratio`` (largest deviation / allowed; <= 1 passes), ``worst_time`` (where that
+        ratio is), ``max_abs_time``, ``rtol``, ``atol``).
 
     Raises:
         ValueError: an unknown method, a negative tolerance, a DataFrame that is not a
@@ -417,6 +418,8 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
                              (0.0 if max_abs == 0 else math.inf),
                              "ratio": float(ratio[worst]) if ratio.size else 0.0,
                              "worst_time": float(times[worst]) if ratio.size else math.nan,
+                             "max_abs_time": float(times[np.nanargmax(deviation)])
+                             if np.isfinite(deviation).any() else math.nan,
                              "rtol": column_rtol, "atol": column_atol})
         if failing.any():
             i = int(np.argmax(failing))
@@ -428,9 +431,9 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
     if len(failures):
         failures = failures.sort_values("time", na_position="first", kind="stable") \
             .reset_index(drop=True)
-    summary = pd.DataFrame(summary_rows, columns=["column", "samples", "failing", "max_abs",
-                                                  "max_rel", "ratio", "worst_time", "rtol",
-                                                  "atol"]).set_index("column")
+    summary = pd.DataFrame(summary_rows, columns=[
+        "column", "samples", "failing", "max_abs", "max_rel", "ratio", "worst_time",
+        "max_abs_time", "rtol", "atol"]).set_index("column")
     return Comparison(passed=failures.empty, failures=failures, summary=summary, method=method,
                       rtol=rtol, atol=atol, time_tolerance=dt, samples=int(times.size),
                       result=result_frame, reference=reference_frame, _columns=columns)
