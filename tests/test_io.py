@@ -221,3 +221,69 @@ def _scene_with_reference(tmp_path, reference):
     path = tmp_path / "gear_retraction.toml"
     path.write_text(text)
     return path
+
+
+PROFILE_TABLES = {  # the cases of the FMU's own reader (tests/test_physics_profiles.py)
+    "header": ("time,load\n0.0,1.5\n0.5,2.5\n2.0,-1.0\n", None),
+    "comments and blank lines": ("# load history\n0,10\n\n  # indented comment\n1e-3, 20\n"
+                                 "2,30\n", None),
+    "one row": ("5,7\n", None),
+    "more values per line": ("time,height,note\n0,1,a\n1,2,b,c\n", None),
+    "repeated time": ("0,1\n1,2\n1,3\n",
+                      "line 3: time 1.0 s is not after 1.0 s (times must increase)"),
+    "time going back": ("time,load\n0,1\n2,2\n1,3\n",
+                        "line 4: time 1.0 s is not after 2.0 s (times must increase)"),
+    "text in time": ("0,1\nabc,2\n", "line 2, column 'time': 'abc' is not a number"),
+    "text in value": ("time,load\n0,1\n1,x\n", "line 3, column 'load': 'x' is not a number"),
+    "missing value": ("0,1\n1\n", "line 2: expected 'time,value', got only '1'"),
+    "NaN": ("0,1\n1,nan\n", "line 2, column 'value': nan is not a finite number"),
+    "infinity": ("0,1\ninf,2\n", "line 2, column 'time': inf is not a finite number"),
+    "second header": ("time,value\ntime,value\n0,1\n",
+                      "line 2, column 'time': 'time' is not a number"),
+    "no data rows": ("time,value\n# nothing\n", "no data rows"),
+}
+
+
+@pytest.mark.parametrize("case", list(PROFILE_TABLES))
+def test_profile_tables_read_on_the_host_as_the_fmu_reads_them(tmp_path, case):
+    from mechfmu.runtime.errors import MechanismError
+    from mechfmu.runtime.physics.profiles import read_table as fmu_read_table
+    from mechfmu.io import read_profile_table
+    text, problem = PROFILE_TABLES[case]
+    path = tmp_path / "table.csv"
+    path.write_text(text)
+    if problem is None:
+        table = read_profile_table(path)
+        times, values = fmu_read_table(path)
+        assert table.index.name == "time" and len(table.columns) == 1
+        assert (bits(table.index) == bits(times)).all()
+        assert (bits(table.iloc[:, 0]) == bits(values)).all()
+        return
+    with pytest.raises(ResultFileError) as caught:
+        read_profile_table(path)
+    assert str(caught.value) == f"{path}: {problem}"
+    with pytest.raises(MechanismError) as fmu:
+        fmu_read_table(path)
+    line = problem.split(":")[0].split(",")[0]
+    assert line in str(fmu.value) or "no data rows" in str(fmu.value)
+
+
+def test_a_bad_table_is_a_scene_error_before_the_run(fmu_dir, tmp_path):
+    table = tmp_path / "load.csv"
+    table.write_text("time,load\n0,0\n1,12,5\n2,1e3x\n")
+    scene = tmp_path / "table.toml"
+    scene.write_text('stop_time = 1.0\nstep = 0.1\nrecord = ["load.load"]\n'
+                     '[components.load]\nfmu = "LoadProfile"\n'
+                     'parameters = { shape = "table", table_file = "load.csv" }\n')
+    done = subprocess.run([sys.executable, "-m", "mechfmu", "run", str(scene), "--out",
+                           str(tmp_path / "out"), "--fmu-dir", str(fmu_dir), "--no-plot"],
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 2
+    assert done.stderr.strip().splitlines() == [
+        f"scene error: {scene}: component 'load': table_file: {table}: line 4, column 'load': "
+        f"'1e3x' is not a number"]
+    assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
+    table.write_text("time,load\n0,0\n1,12\n")
+    import mechfmu
+    frame = mechfmu.simulate(scene, fmu_dir=fmu_dir)
+    np.testing.assert_allclose(frame["load.load"], 12.0 * frame.index, rtol=1e-12, atol=1e-12)

@@ -22,7 +22,8 @@ import pandas
 
 from .cosim.master import Simulation, model_description, parameter_values, resolve_fmu
 from .cosim.results import versions
-from .cosim.scene import PACKAGE_ROOT, SCENE_DIR, Scene, SceneError, find_file, load_scene
+from .cosim.scene import (PACKAGE_ROOT, SCENE_DIR, Scene, SceneError, check_tables, find_file,
+                          load_scene)
 
 __all__ = ["reference", "simulate", "sweep"]
 
@@ -153,14 +154,15 @@ def simulate(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
     ``steps`` and ``log`` (the FMUs' messages above ok).
 
     Raises mechfmu.cosim.scene.SceneError (a ValueError) naming the file and the problem for
-    a scene that cannot run: a missing or malformed scene file, an unknown component or
-    parameter, FMUs not built, a corrupt FMU (FmuError); and
+    a scene that cannot run: a missing or malformed scene file or table file, an unknown
+    component or parameter, FMUs not built, a corrupt FMU (FmuError); and
     mechfmu.cosim.master.SimulationError when a component fails during the run (its
     ``result`` holds the rows computed before).
     """
     chosen = _scene(scene, start_time, stop_time, step)
     folder = _fmu_folder(chosen, fmu_dir)
     apply_parameters(chosen, parameters, folder)
+    check_tables(chosen)
     simulation = Simulation(chosen, folder)
     result = simulation.run()
     return frame(result.times, result.columns, result.units,

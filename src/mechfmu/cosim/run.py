@@ -6,14 +6,14 @@ from .files import OutputError, output_folder
 from .interrupt import InterruptGuard, signal_name
 from .master import Simulation, SimulationError, SimulationInterrupted, parameter_values
 from .results import move_aside_complete, write_result
-from .scene import Scene, load_scene
+from .scene import Scene, check_tables, load_scene
 
 
 def run_scene(scene, out_dir, fmu_dir=None, plot=True, guard=None):
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
-    The scene and the output folder (created if missing, OutputError if it cannot be
-    written) are checked before anything runs. Returns (Result, {kind: path}).
+    The scene, its table files (check_tables) and the output folder (created if missing,
+    OutputError if it cannot be written) are checked before anything runs. Returns (Result, {kind: path}).
 
     SIGINT and SIGTERM are taken between steps: ``guard`` is an InterruptGuard the caller
     has installed (the command line, for its whole duration), or None for one installed
@@ -26,6 +26,7 @@ def run_scene(scene, out_dir, fmu_dir=None, plot=True, guard=None):
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
+        check_tables(scene)
         simulation = Simulation(scene, fmu_dir)
         out_dir = output_folder(out_dir)
         setup = {"components": parameter_values(simulation), "order": simulation.order,

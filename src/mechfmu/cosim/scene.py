@@ -228,3 +228,24 @@ def load_scene(path, overrides=None):
     ``overrides``: top-level keys (stop_time, step, ...) replacing the file's."""
     path = Path(path)
     return parse_scene({**read_toml(path), **(overrides or {})}, path)
+
+
+def check_tables(scene):
+    """Read every table file of ``scene`` on the host before it runs: each ``*_file``
+    parameter of a component whose ``shape`` is "table" (LoadProfile, RoadProfile), by
+    mechfmu.io.read_profile_table (pandas, the rules of the FMU's own reader). A missing or
+    malformed table raises SceneError naming the scene, the component, the file, the line
+    and the column, before any FMU is loaded. Returns {component.parameter: its DataFrame}."""
+    from ..io import ResultFileError, read_profile_table
+    tables = {}
+    for name, spec in scene.components.items():
+        if spec.parameters.get("shape") != "table":
+            continue
+        for key, value in spec.parameters.items():
+            if key.endswith("_file") and isinstance(value, str) and value:
+                try:
+                    tables[f"{name}.{key}"] = read_profile_table(value)
+                except ResultFileError as error:
+                    raise SceneError(f"{scene.path}: component {name!r}: {key}: {error}") \
+                        from None
+    return tables
