@@ -309,5 +309,11 @@ def test_plot_shows_reference_result_band_and_the_first_failure():
         assert marker.get_label().startswith("first failure")
         assert marker.get_xdata()[0] == pytest.approx(comparison.failures.iloc[0]["time"])
         assert len(axes[0].collections) == 1  # the band or tube
+        zooms = [axis for axis in figure.axes if axis.get_title(loc="right")]
+        first = comparison.failures.iloc[0]["time"]
+        assert len(zooms) == len(failing)
+        assert zooms[0].get_title(loc="right") == f"around t = {first:.6g} s"
+        shown = zooms[0].lines[1].get_xdata()  # the result's samples near the failure
+        assert len(shown) == 51 and shown[25] == pytest.approx(first)
     passing = mechfmu.compare(reference, reference).plot()
     assert len([axis for axis in passing.axes if axis.get_title(loc="left")]) == 3

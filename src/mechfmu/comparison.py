@@ -223,10 +223,45 @@ class Comparison:
         extra = f"; {more} more failing column(s)" if more else ""
         return f"MISMATCH: {compared}; first: {self.first_failure()}{extra}"
 
-    def plot(self, columns: str | list[str] | None = None, *, max_columns: int = 6) -> Figure:
-        """A matplotlib Figure, one panel per column (default: the failing ones, else all;
-        at most ``max_columns``): the reference, the result, the tolerance band (pointwise) or
-        tube, and the first failure marked."""
+    def draw(self, axis: Any, column: str, *, around: float | None = None,
+             legend: bool = True) -> None:
+        """Draw ``column`` on a matplotlib Axes: the band (pointwise) or tube, the reference,
+        the result and the first failure (a red cross). ``around``: only the samples within
+        that many seconds of the first failure (or of the start, when it passes)."""
+        data = self._columns[column]
+        reference = self.reference[column]
+        ref_times, ref_values = reference.index.to_numpy(), reference.to_numpy()
+        shown = slice(None)
+        ref_shown = slice(None)
+        first = int(np.argmax(data.failing)) if data.failing.any() else None
+        if around is not None:
+            centre = data.times[first] if first is not None else data.times[0]
+            shown = (data.times >= centre - around) & (data.times <= centre + around)
+            ref_shown = (ref_times >= centre - around) & (ref_times <= centre + around)
+        label = "tube" if self.method == "tube" else "band"
+        axis.fill_between(data.times[shown], data.lower[shown], data.upper[shown],
+                          color="tab:green", alpha=0.25, linewidth=0, label=label)
+        axis.plot(ref_times[ref_shown], ref_values[ref_shown], color="tab:green", linewidth=1.0,
+                  marker="." if around is not None else None, label="reference")
+        axis.plot(data.times[shown], data.values[shown], color="tab:blue", linewidth=1.0,
+                  linestyle="--", marker="." if around is not None else None, label="result")
+        if first is not None:
+            axis.plot([data.times[first]], [data.values[first]], "x", color="tab:red",
+                      markersize=10, mew=2, label=f"first failure, t = {data.times[first]:.6g} s")
+            axis.axvline(data.times[first], color="tab:red", linewidth=0.6)
+        units = {**self.reference.attrs.get("units", {}), **self.result.attrs.get("units", {})}
+        unit = units.get(column)
+        axis.set_ylabel(f"[{unit}]" if unit else "")
+        axis.grid(True, linewidth=0.3)
+        if legend:
+            axis.legend(fontsize=7, loc="best")
+
+    def plot(self, columns: str | list[str] | None = None, *, max_columns: int = 6,
+             zoom: int = 25) -> Figure:
+        """A matplotlib Figure, one row per column (default: the failing ones, else all; at
+        most ``max_columns``): the reference, the result, the tolerance band (pointwise) or
+        tube, the first failure marked; beside a failing column, the same ``zoom`` samples
+        either side of its first failure (0: no zoom)."""
         from matplotlib.figure import Figure
         if columns is None:
             failing = [c for c in self.failures["column"] if c in self._columns]
@@ -234,29 +269,26 @@ class Comparison:
         elif isinstance(columns, str):
             columns = [columns]
         columns = [c for c in columns if c in self._columns][:max_columns]
-        figure = Figure(figsize=(8, 1.2 + 2.2 * max(len(columns), 1)), layout="constrained")
-        axes = figure.subplots(max(len(columns), 1), 1, squeeze=False, sharex=True)[:, 0]
-        units = {**self.reference.attrs.get("units", {}), **self.result.attrs.get("units", {})}
-        for axis, name in zip(axes, columns):
+        zoomed = zoom > 0 and any(self._columns[c].failing.any() for c in columns)
+        figure = Figure(figsize=(11 if zoomed else 8, 1.2 + 2.4 * max(len(columns), 1)),
+                        layout="constrained")
+        axes = figure.subplots(max(len(columns), 1), 2 if zoomed else 1, squeeze=False,
+                               width_ratios=[2, 1] if zoomed else None)
+        for row, name in zip(axes, columns):
+            self.draw(row[0], name)
+            row[0].set_title(name, fontsize=9, loc="left")
             data = self._columns[name]
-            reference = self.reference[name]
-            axis.fill_between(data.times, data.lower, data.upper, color="tab:green", alpha=0.25,
-                              linewidth=0, label="tube" if self.method == "tube" else "band")
-            axis.plot(reference.index, reference.to_numpy(), color="tab:green", linewidth=1.0,
-                      label="reference")
-            axis.plot(data.times, data.values, color="tab:blue", linewidth=1.0,
-                      linestyle="--", label="result")
-            if data.failing.any():
+            if zoomed and data.failing.any():
                 i = int(np.argmax(data.failing))
-                axis.plot([data.times[i]], [data.values[i]], "x", color="tab:red",
-                          markersize=10, mew=2, label=f"first failure, t = {data.times[i]:.6g} s")
-                axis.axvline(data.times[i], color="tab:red", linewidth=0.6)
-            unit = units.get(name)
-            axis.set_title(name, fontsize=9, loc="left")
-            axis.set_ylabel(f"[{unit}]" if unit else "")
-            axis.grid(True, linewidth=0.3)
-            axis.legend(fontsize=7, loc="best")
-        axes[-1].set_xlabel("time [s]")
+                lo, hi = max(i - zoom, 0), min(i + zoom, data.times.size - 1)
+                self.draw(row[1], name, around=max(data.times[i] - data.times[lo],
+                                                   data.times[hi] - data.times[i]),
+                          legend=False)
+                row[1].set_title(f"around t = {data.times[i]:.6g} s", fontsize=9, loc="right")
+            elif zoomed:
+                row[1].set_axis_off()
+        for axis in axes[-1]:
+            axis.set_xlabel("time [s]")
         tolerance = (f"rtol {self.rtol:g}, atol {self.atol:g}"
                      + (f", time tolerance {self.time_tolerance:g} s"
                         if self.method == "tube" else ""))
