@@ -179,3 +179,24 @@ def test_run_all_writes_every_shipped_scene(fmu_dir, tmp_path, capsys):
     assert gear.attrs["units"]["gear.gear_angle"] == "rad"
     assert cli(["run", "gear_retraction", "--all", "--out", str(out)]) == 2
     assert "give a scene or --all" in capsys.readouterr().err
+
+
+def test_a_malformed_reference_given_to_run_is_one_line(fmu_dir, tmp_path):
+    bad = tmp_path / "reference.csv"
+    bad.write_text("time,gear.gear_angle\n0.0,1.0\n0.01,1.0x\n")
+    command = [sys.executable, "-m", "mechfmu", "run", "--out", str(tmp_path / "out"),
+               "--fmu-dir", str(fmu_dir), "--no-plot"]
+    done = subprocess.run([*command, "gear_retraction", "--reference", str(bad)],
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 2
+    message = f"check error: {bad}: line 3, column 'gear.gear_angle': '1.0x' is not a number"
+    assert done.stderr.strip().splitlines() == [message]
+    assert not (tmp_path / "out").exists()  # read before the run: nothing written
+    scene = tmp_path / "gear.toml"
+    scene.write_text((SCENES / "gear_retraction.toml").read_text().replace(
+        'reference = "reference/gear_retraction.csv"', 'reference = "reference.csv"'))
+    done = subprocess.run([*command, str(scene), "--check"], capture_output=True, text=True,
+                          timeout=120, check=False)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert done.stderr.splitlines()[0] == message
+    assert (tmp_path / "out" / "gear_retraction.csv").is_file()  # the run itself is kept

@@ -64,6 +64,13 @@ def _run_guarded(args, guard):
         return 2
     if args.all:
         return _run_all(args, guard)
+    if args.reference:  # a bad --reference costs nothing: read before the run
+        from .io import read_result
+        try:
+            read_result(args.reference)
+        except ValueError as error:
+            print(f"check error: {error}", file=sys.stderr)
+            return 2
     return _run_one(args, guard, find_file(args.scene))
 
 
@@ -113,7 +120,13 @@ def _run_one(args, guard, scene_path):
               file=sys.stderr)
         return exit_code(guard.signum)
     reference = args.reference or (result.scene.reference if args.check else None)
-    lines, comparison = run_report(result, paths, reference, args.rtol, args.atol)
+    try:
+        lines, comparison = run_report(result, paths, reference, args.rtol, args.atol)
+    except ValueError as error:  # a malformed reference CSV (ResultFileError names it)
+        print(f"check error: {error}", file=sys.stderr)
+        for kind, path in paths.items():
+            print(f"  {kind}: {path}", file=sys.stderr)
+        return 2
     print("\n".join(lines))
     return 0 if comparison is None or comparison.ok else 1
 
