@@ -10,11 +10,11 @@ import zipfile
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import FMU_DIR, SCENES
 
 import mechfmu
-from conftest import FMU_DIR, SCENES
 from mechfmu.cli import main as cli
-from mechfmu.cosim.scene import SceneError
+from mechfmu.cosim.scene import SceneError, load_scene
 from mechfmu.io import read_result, write_result
 
 FOOT = 0.3048  # m
@@ -70,6 +70,14 @@ def test_time_overrides_and_a_scene_file_path(fmu_dir, tmp_path):
     assert len(frame) == 21 and frame.index[-1] == pytest.approx(1.0, abs=1e-12)
     assert_matches(frame, mechfmu.reference("gear_retraction", stop_time=1.0, step=0.05),
                    rtol=1e-9, atol=1e-12)
+    scene = load_scene(SCENES / "gear_retraction.toml")  # a parsed scene, changed in memory
+    scene.components["actuator"].parameters["stroke_time"] = 2.0
+    frame = mechfmu.simulate(scene, stop_time=2.0, fmu_dir=fmu_dir)
+    assert len(frame) == 201 and scene.stop_time == 3.0  # the caller's scene is left alone
+    assert_matches(frame, mechfmu.reference(scene, stop_time=2.0), rtol=1e-9, atol=1e-12)
+    with pytest.raises(SceneError, match=r"gear_retraction.toml: stop_time = 0.0 s must "
+                                         r"exceed start_time = 0.0 s"):
+        mechfmu.simulate(scene, stop_time=0.0, fmu_dir=fmu_dir)
     with pytest.raises(SceneError, match=r"\(stop_time - start_time\) / step = .* is not a "
                                          r"whole number of communication steps"):
         mechfmu.simulate("gear_retraction", step=0.07, fmu_dir=fmu_dir)
@@ -86,13 +94,13 @@ def test_simulate_result_written_and_read_back_keeps_units_and_scene(fmu_dir, tm
 
 
 @pytest.mark.parametrize("parameters, message", [
-    ({"wheel.mass": 1.0}, "parameters: 'wheel.mass': scene gear_retraction has no component "
-                          "'wheel'; its components: actuator, gear"),
-    ({"gear.no_such": 1.0}, "parameters: 'gear.no_such': 'gear' (LandingGear) has no "
-                            "parameter 'no_such'; its parameters: aero_drag, "),
+    ({"wheel.mass": 1.0}, ("parameters: 'wheel.mass': scene gear_retraction has no component "
+                           "'wheel'; its components: actuator, gear")),
+    ({"gear.no_such": 1.0}, ("parameters: 'gear.no_such': 'gear' (LandingGear) has no "
+                             "parameter 'no_such'; its parameters: aero_drag, ")),
     ({"stroke_time": 1.0}, "parameters: 'stroke_time' is not of the form component.parameter"),
-    ({"actuator.stroke_time": "fast"}, "gear_retraction.toml: parameters: "
-                                       "actuator.stroke_time is Real, got str 'fast'"),
+    ({"actuator.stroke_time": "fast"}, ("gear_retraction.toml: parameters: "
+                                        "actuator.stroke_time is Real, got str 'fast'")),
 ])
 def test_bad_parameters_are_named(fmu_dir, parameters, message):
     with pytest.raises(SceneError) as caught:

@@ -12,10 +12,16 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
-
 from conftest import REFERENCES, SCENES
+
 from mechfmu.cosim.run import run_scene
-from mechfmu.io import ResultFileError, companion_json, read_result, read_table, write_result
+from mechfmu.io import (
+    ResultFileError,
+    companion_json,
+    read_result,
+    read_table,
+    write_result,
+)
 
 GOOD = "time,a.x,b.y\n0.0,1.0,2.0\n0.5,1.5,-2.5\n1.0,2.0,3.0\n"
 
@@ -112,11 +118,11 @@ MALFORMED = {
                   "{path}: line 1: the first column must be 'time', got '0.0' (no header?)"),
     "header only": ("time,a.x\n", "{path}: no data rows (only the header)"),
     "cut last line": ("time,a.x,b.y\n0.0,1.0,2.0\n0.1,1.5",
-                      "{path}: line 3, column 'b.y': empty field (the line has fewer values "
-                      "than the header: cut short?)"),
+                      ("{path}: line 3, column 'b.y': empty field (the line has fewer values "
+                       "than the header: cut short?)")),
     "cut inside a number": ("time,a.x,b.y\n0.0,1.0,2.0\n0.1,1.5,2.0\n0.2,1.",
-                            "{path}: line 4, column 'b.y': empty field (the line has fewer "
-                            "values than the header: cut short?)"),
+                            ("{path}: line 4, column 'b.y': empty field (the line has fewer "
+                             "values than the header: cut short?)")),
     "text in a number": ("time,a.x,b.y\n0.0,1.0,2.0\n0.1,1.5,abc\n",
                          "{path}: line 3, column 'b.y': 'abc' is not a number"),
     "NaN": ("time,a.x,b.y\n0.0,1.0,2.0\n0.1,nan,2.5\n",
@@ -124,11 +130,11 @@ MALFORMED = {
     "infinity": ("time,a.x\n0.0,1.0\n0.1,-inf\n",
                  "{path}: line 3, column 'a.x': '-inf' is not a finite number"),
     "repeated time": ("time,a.x\n0.0,1.0\n0.1,2.0\n0.1,3.0\n",
-                      "{path}: line 4: time 0.1 s repeats the previous line's 0.1 s (times "
-                      "must increase)"),
+                      ("{path}: line 4: time 0.1 s repeats the previous line's 0.1 s (times "
+                       "must increase)")),
     "time going back": ("time,a.x\n0.0,1.0\n0.2,2.0\n0.1,3.0\n",
-                        "{path}: line 4: time 0.1 s is before the previous line's 0.2 s "
-                        "(times must increase)"),
+                        ("{path}: line 4: time 0.1 s is before the previous line's 0.2 s "
+                         "(times must increase)")),
     "extra value": ("time,a.x\n0.0,1.0\n0.1,2.0,3.0\n",
                     "{path}: line 3 has 3 values, the header 2 columns"),
     "repeated column": ("time,a.x,a.x\n0.0,1.0,2.0\n",
@@ -205,7 +211,7 @@ def test_a_malformed_result_given_to_the_cli_is_one_line_without_traceback(tmp_p
     done = subprocess.run([sys.executable, "-m", "mechfmu", "docs", "--reference-plot",
                            str(_scene_with_reference(tmp_path, bad)), "--out",
                            str(tmp_path / "p.png")], capture_output=True, text=True,
-                          timeout=120)
+                          timeout=120, check=False)
     assert done.returncode == 2, done.stderr
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in done.stderr
@@ -225,8 +231,8 @@ def _scene_with_reference(tmp_path, reference):
 
 PROFILE_TABLES = {  # the cases of the FMU's own reader (tests/test_physics_profiles.py)
     "header": ("time,load\n0.0,1.5\n0.5,2.5\n2.0,-1.0\n", None),
-    "comments and blank lines": ("# load history\n0,10\n\n  # indented comment\n1e-3, 20\n"
-                                 "2,30\n", None),
+    "comments and blank lines": (("# load history\n0,10\n\n  # indented comment\n1e-3, 20\n"
+                                  "2,30\n"), None),
     "one row": ("5,7\n", None),
     "more values per line": ("time,height,note\n0,1,a\n1,2,b,c\n", None),
     "repeated time": ("0,1\n1,2\n1,3\n",
@@ -246,9 +252,9 @@ PROFILE_TABLES = {  # the cases of the FMU's own reader (tests/test_physics_prof
 
 @pytest.mark.parametrize("case", list(PROFILE_TABLES))
 def test_profile_tables_read_on_the_host_as_the_fmu_reads_them(tmp_path, case):
+    from mechfmu.io import read_profile_table
     from mechfmu.runtime.errors import MechanismError
     from mechfmu.runtime.physics.profiles import read_table as fmu_read_table
-    from mechfmu.io import read_profile_table
     text, problem = PROFILE_TABLES[case]
     path = tmp_path / "table.csv"
     path.write_text(text)
@@ -280,8 +286,8 @@ def test_a_bad_table_is_a_scene_error_before_the_run(fmu_dir, tmp_path):
                           capture_output=True, text=True, timeout=120, check=False)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [
-        f"scene error: {scene}: component 'load': table_file: {table}: line 4, column 'load': "
-        f"'1e3x' is not a number"]
+        (f"scene error: {scene}: component 'load': table_file: {table}: line 4, column 'load': "
+         f"'1e3x' is not a number")]
     assert not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir())
     table.write_text("time,load\n0,0\n1,12\n")
     import mechfmu

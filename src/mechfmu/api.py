@@ -11,6 +11,7 @@ Pa, ...); ``df.attrs["units"]`` names the unit of each column.
 from __future__ import annotations
 
 import copy
+import math
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from os import PathLike
@@ -22,8 +23,16 @@ import pandas
 
 from .cosim.master import Simulation, model_description, parameter_values, resolve_fmu
 from .cosim.results import versions
-from .cosim.scene import (PACKAGE_ROOT, SCENE_DIR, Scene, SceneError, check_tables, find_file,
-                          load_scene)
+from .cosim.scene import (
+    PACKAGE_ROOT,
+    SCENE_DIR,
+    Scene,
+    SceneError,
+    check_tables,
+    check_times,
+    find_file,
+    load_scene,
+)
 
 __all__ = ["reference", "simulate", "sweep"]
 
@@ -43,9 +52,14 @@ def _scene(scene: SceneLike, start_time: float | None = None, stop_time: float |
                                                ("stop_time", stop_time), ("step", step))
                  if value is not None}
     if isinstance(scene, Scene):
-        if not overrides:
-            return copy.deepcopy(scene)
-        scene = scene.path
+        chosen = copy.deepcopy(scene)
+        for key, value in overrides.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                raise SceneError(f"{key} = {value!r} must be a finite number")
+            setattr(chosen, key, float(value))
+        check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
+        return chosen
     if not isinstance(scene, (str, PathLike)):
         raise TypeError(f"scene must be a shipped scene's name, a scene file or a Scene, got "
                         f"{type(scene).__name__}")

@@ -122,17 +122,9 @@ def _connection(text, where):
     return Connection(*split_name(left, where), *split_name(right, where))
 
 
-def parse_scene(data, path):
-    """Build a Scene from parsed TOML ``data``; ``path`` locates relative files."""
-    path = Path(path)
-    where = str(path)
-    unknown = set(data) - _SCENE_KEYS
-    if unknown:
-        raise SceneError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
-                         f"allowed: {', '.join(sorted(_SCENE_KEYS))}")
-    start_time = _number(data, "start_time", where, 0.0)
-    stop_time = _number(data, "stop_time", where)
-    step = _number(data, "step", where)
+def check_times(where, start_time, stop_time, step):
+    """(start_time, stop_time, step) in s, checked: step > 0, stop after start, a whole
+    number of communication steps between them; SceneError naming ``where`` otherwise."""
     if step <= 0.0:
         raise SceneError(f"{where}: step = {step!r} s must be > 0")
     if stop_time <= start_time:
@@ -142,6 +134,20 @@ def parse_scene(data, path):
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise SceneError(f"{where}: (stop_time - start_time) / step = {ratio!r} is not a "
                          f"whole number of communication steps")
+    return start_time, stop_time, step
+
+
+def parse_scene(data, path):
+    """Build a Scene from parsed TOML ``data``; ``path`` locates relative files."""
+    path = Path(path)
+    where = str(path)
+    unknown = set(data) - _SCENE_KEYS
+    if unknown:
+        raise SceneError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
+                         f"allowed: {', '.join(sorted(_SCENE_KEYS))}")
+    start_time, stop_time, step = check_times(
+        where, _number(data, "start_time", where, 0.0), _number(data, "stop_time", where),
+        _number(data, "step", where))
     components = {}
     raw_components = data.get("components")
     if not isinstance(raw_components, dict) or not raw_components:
