@@ -221,8 +221,8 @@ def reference(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
         if variable in spec.inputs:
             spec.inputs[variable] = _plain(value)
             continue
-        declared = sorted(v.name for v in model_class(Path(spec.fmu).stem).VARIABLES
-                          if v.causality == "parameter")
+        model: Any = model_class(Path(spec.fmu).stem)
+        declared = sorted(v.name for v in model.VARIABLES if v.causality == "parameter")
         if variable not in declared:
             raise SceneError(f"parameters: {name!r}: {component!r} ({Path(spec.fmu).stem}) "
                              f"has no parameter {variable!r}; its parameters: "

@@ -331,7 +331,9 @@ def read_profile_table(path: StrPath) -> pandas.DataFrame:
         raise ResultFileError(f"{path}: not UTF-8 text") from None
     except (OSError, pandas.errors.ParserError) as error:
         raise ResultFileError(f"{path}: cannot be read: {error}") from None
-    names, times, values = ("time", "value"), [], []
+    names = ("time", "value")
+    times: list[float] = []
+    values: list[float] = []
     header_seen = False
     for number, (first, second) in enumerate(raw.itertuples(index=False), start=1):
         if (not first and not second) or first.lstrip().startswith("#"):

@@ -2,6 +2,7 @@
 
 import csv
 import json
+import os
 import platform
 import sys
 from importlib import metadata
@@ -27,7 +28,7 @@ def write_csv(path, times, columns):
     return atomic_write(path, csv_writer(times, columns))
 
 
-def read_csv(path):
+def read_csv(path: "str | os.PathLike") -> tuple[list[float], dict[str, list[float]]]:
     """(times, {column: values}) of a result CSV as lists of floats, read by mechfmu.io.read_result (pandas;
     ResultFileError, a ValueError naming the file, line and column, for a malformed file)."""
     from ..io import read_result

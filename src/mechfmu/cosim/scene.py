@@ -122,7 +122,8 @@ def _connection(text, where):
     return Connection(*split_name(left, where), *split_name(right, where))
 
 
-def check_times(where, start_time, stop_time, step):
+def check_times(where: str, start_time: float, stop_time: float, step: float
+                ) -> tuple[float, float, float]:
     """(start_time, stop_time, step) in s, checked: step > 0, stop after start, a whole
     number of communication steps between them; SceneError naming ``where`` otherwise."""
     if step <= 0.0:
@@ -236,7 +237,7 @@ def load_scene(path, overrides=None):
     return parse_scene({**read_toml(path), **(overrides or {})}, path)
 
 
-def check_tables(scene):
+def check_tables(scene: Scene) -> dict:
     """Read every table file of ``scene`` on the host before it runs: each ``*_file``
     parameter of a component whose ``shape`` is "table" (LoadProfile, RoadProfile), by
     mechfmu.io.read_profile_table (pandas, the rules of the FMU's own reader). A missing or

@@ -898,7 +898,8 @@ def write_plots(out_dir, rows, names, metrics):
 TEXT_COLUMNS = ("error", "worker")  # sweep.csv's columns that hold text, not numbers
 
 
-def read_sweep_table(path, missing=math.nan):
+def read_sweep_table(path: "str | os.PathLike", missing: "float | None" = math.nan
+                     ) -> "pandas.DataFrame":
     """A sweep.csv as a pandas DataFrame (mechfmu.io.read_table): ``index`` int64, ``error``
     and ``worker`` strings (None when empty), every other column float64 with ``missing``
     for an empty cell (a failed point's metrics). ResultFileError (a ValueError) naming the
@@ -908,7 +909,7 @@ def read_sweep_table(path, missing=math.nan):
                       required=("index", *TEXT_COLUMNS), missing=missing)
 
 
-def read_sweep_csv(path):
+def read_sweep_csv(path: "str | os.PathLike") -> list[dict]:
     """Rows of a sweep.csv as dicts (numbers as floats, empty cells as None), in file order."""
     table = read_sweep_table(path, missing=None)
     return [{key: (int(value) if key == "index" else value) for key, value in row.items()}

@@ -22,11 +22,15 @@ import platform
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ...cosim.files import atomic_write
 from ...cosim.master import Simulation
 from ...cosim.results import versions
 from . import design, measure, report
+
+if TYPE_CHECKING:
+    import pandas
 
 
 def _write_rows(path, rows):
@@ -45,7 +49,7 @@ NUMBER_COLUMNS = ("tolerance", "max_substep", "step", "max_error", "rms_error",
 INTEGER_COLUMNS = ("repeats", "communication_steps", "substeps", "rhs_evaluations")
 
 
-def read_table(path):
+def read_table(path: "str | os.PathLike") -> "pandas.DataFrame":
     """An accuracy_cost.csv as a pandas DataFrame (mechfmu.io.read_table): the counters
     int64, the errors (in the output's SI unit), tolerances and times (s) float64, the
     rest strings. ResultFileError (a ValueError) naming the file, line and column for a
@@ -56,7 +60,7 @@ def read_table(path):
     return read(path, text=text, integers=INTEGER_COLUMNS, required=measure.COLUMNS)
 
 
-def read_rows(path):
+def read_rows(path: "str | os.PathLike") -> list[dict]:
     """The rows of an accuracy_cost.csv as dicts, numbers as numbers (read_table's)."""
     rows = read_table(path).to_dict("records")
     for row in rows:
