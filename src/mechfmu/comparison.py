@@ -214,7 +214,9 @@ class Comparison:
         compared = f"{len(self.summary)} column(s), {self.samples} sample(s)"
         if self.passed:
             worst = ""
-            if len(self.summary):
+            if len(self.summary) and not (self.summary["max_abs"] > 0).any():
+                worst = "; identical"
+            elif len(self.summary):
                 row = self.summary.sort_values("ratio", ascending=False).iloc[0]
                 worst = (f"; worst: {row.name} at t = {float(row['worst_time'])!r} s, "
                          f"|difference| {row['max_abs']:.3e} ({row['ratio']:.2g} of allowed)")
@@ -224,10 +226,10 @@ class Comparison:
         return f"MISMATCH: {compared}; first: {self.first_failure()}{extra}"
 
     def draw(self, axis: Any, column: str, *, around: float | None = None,
-             legend: bool = True) -> None:
+             at: float | None = None, legend: bool = True) -> None:
         """Draw ``column`` on a matplotlib Axes: the band (pointwise) or tube, the reference,
         the result and the first failure (a red cross). ``around``: only the samples within
-        that many seconds of the first failure (or of the start, when it passes)."""
+        that many seconds of time ``at`` (default: the first failure, else the start)."""
         data = self._columns[column]
         reference = self.reference[column]
         ref_times, ref_values = reference.index.to_numpy(), reference.to_numpy()
@@ -235,7 +237,8 @@ class Comparison:
         ref_shown = slice(None)
         first = int(np.argmax(data.failing)) if data.failing.any() else None
         if around is not None:
-            centre = data.times[first] if first is not None else data.times[0]
+            centre = at if at is not None else \
+                data.times[first] if first is not None else data.times[0]
             shown = (data.times >= centre - around) & (data.times <= centre + around)
             ref_shown = (ref_times >= centre - around) & (ref_times <= centre + around)
         label = "tube" if self.method == "tube" else "band"
