@@ -208,3 +208,24 @@ def test_a_malformed_reference_given_to_run_is_one_line(fmu_dir, tmp_path):
     assert done.returncode == 2 and "Traceback" not in done.stderr
     assert done.stderr.splitlines()[0] == message
     assert (tmp_path / "out" / "gear_retraction.csv").is_file()  # the run itself is kept
+
+
+INTERRUPTED = """
+import os, signal, threading, mechfmu
+mechfmu.simulate("gear_retraction", fmu_dir={fmu_dir!r})  # imports and FMUs ready
+threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
+try:
+    mechfmu.simulate("valve_float_dynamic", stop_time=5.0, fmu_dir={fmu_dir!r})
+except KeyboardInterrupt as stop:
+    print("stopped:", stop)
+print(mechfmu.simulate("gear_retraction", fmu_dir={fmu_dir!r}).shape)
+"""
+
+
+def test_ctrl_c_stops_simulate_between_steps_and_the_next_run_works(fmu_dir):
+    done = subprocess.run([sys.executable, "-c", INTERRUPTED.format(fmu_dir=str(fmu_dir))],
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert done.returncode == 0, done.stderr
+    first, second = done.stdout.strip().splitlines()
+    assert first.startswith("stopped: interrupted by SIGINT at t = ") and " step(s)" in first
+    assert second == "(301, 6)"

@@ -21,7 +21,9 @@ from typing import Any
 import numpy
 import pandas
 
-from .cosim.master import Simulation, model_description, parameter_values, resolve_fmu
+from .cosim.interrupt import InterruptGuard
+from .cosim.master import (Simulation, SimulationInterrupted, model_description,
+                           parameter_values, resolve_fmu)
 from .cosim.results import versions
 from .cosim.scene import (
     PACKAGE_ROOT,
@@ -171,14 +173,19 @@ def simulate(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
     a scene that cannot run: a missing or malformed scene file or table file, an unknown
     component or parameter, FMUs not built, a corrupt FMU (FmuError); and
     mechfmu.cosim.master.SimulationError when a component fails during the run (its
-    ``result`` holds the rows computed before).
+    ``result`` holds the rows computed before). Ctrl-C (SIGINT, in the main thread) stops
+    the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
     """
     chosen = _scene(scene, start_time, stop_time, step)
     folder = _fmu_folder(chosen, fmu_dir)
     apply_parameters(chosen, parameters, folder)
     check_tables(chosen)
     simulation = Simulation(chosen, folder)
-    result = simulation.run()
+    with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
+        try:
+            result = simulation.run(stop=guard)
+        except SimulationInterrupted as stopped:
+            raise KeyboardInterrupt(str(stopped)) from None
     return frame(result.times, result.columns, result.units,
                  scene=chosen.name, scene_file=str(chosen.path),
                  description=chosen.description, start_time=chosen.start_time,
