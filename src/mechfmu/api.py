@@ -22,8 +22,13 @@ import numpy
 import pandas
 
 from .cosim.interrupt import InterruptGuard
-from .cosim.master import (Simulation, SimulationInterrupted, model_description,
-                           parameter_values, resolve_fmu)
+from .cosim.master import (
+    Simulation,
+    SimulationInterrupted,
+    model_description,
+    parameter_values,
+    resolve_fmu,
+)
 from .cosim.results import versions
 from .cosim.scene import (
     PACKAGE_ROOT,
