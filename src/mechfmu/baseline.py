@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from os import PathLike
 from pathlib import Path
 
+import pandas as pd
+
 from .comparison import compare
 from .cosim.files import OutputError, atomic_write_all
 
@@ -38,7 +40,7 @@ class BaselineChange:
         return f"{self.name}: {self.status}" + (f": {self.details}" if self.details else "")
 
 
-def _changes(result, baseline) -> str:
+def _changes(result: pd.DataFrame, baseline: pd.DataFrame) -> str:
     """How ``result`` differs from ``baseline`` (DataFrames), as one line."""
     comparison = compare(result, baseline, rtol=0.0, atol=0.0)
     parts = []
@@ -52,9 +54,9 @@ def _changes(result, baseline) -> str:
                          f"{baseline.index[0]!r}..{baseline.index[-1]!r} s -> "
                          f"{result.index[0]!r}..{result.index[-1]!r} s)")
     changed = comparison.summary[comparison.summary["failing"] > 0]
-    for column, row in changed.iterrows():
-        parts.append(f"{column} max |difference| {row['max_abs']:.3g} ({row['max_rel']:.3g} "
-                     f"of peak) at t = {row['max_abs_time']:.6g} s")
+    for column, stats in changed.iterrows():
+        parts.append(f"{column} max |difference| {stats['max_abs']:.3g} "
+                     f"({stats['max_rel']:.3g} of peak) at t = {stats['max_abs_time']:.6g} s")
     return "; ".join(parts)
 
 

@@ -233,8 +233,8 @@ class Comparison:
         data = self._columns[column]
         reference = self.reference[column]
         ref_times, ref_values = reference.index.to_numpy(), reference.to_numpy()
-        shown = slice(None)
-        ref_shown = slice(None)
+        shown: slice | np.ndarray = slice(None)
+        ref_shown: slice | np.ndarray = slice(None)
         first = int(np.argmax(data.failing)) if data.failing.any() else None
         if around is not None:
             centre = at if at is not None else \
@@ -300,7 +300,7 @@ class Comparison:
         return figure
 
 
-def describe_failure(row: Mapping[str, Any]) -> str:
+def describe_failure(row: Mapping[Any, Any] | pd.Series) -> str:
     """One failure row as a line: 'gear.gear_angle at t = 1.5 s: 0.1 vs reference 0.2
     (|difference| 1e-1, allowed 1e-9)' or 'missing column gear.gear_angle'."""
     kind, column = row["kind"], row["column"]

@@ -90,7 +90,7 @@ def write_report(run: CheckRun, folder: str | PathLike) -> Path:
     """Write ``folder``/index.html (every file's verdict line and failures table) and, for
     every failing value column, a PNG of the result, the reference, the tolerance band or
     tube and the first failure; all files atomically. Returns the index's path."""
-    folder = output_folder(folder)
+    folder = Path(output_folder(folder))
     contents: dict[Path, str | bytes] = {}
     options = run.options
     body = [f"<h1>mechfmu check</h1><p>{html.escape(run.summary())}</p>",
@@ -154,7 +154,8 @@ def tube_example() -> bytes:
     figure = Figure(figsize=(9, 3.4), layout="constrained")
     axes = figure.subplots(1, 2, sharey=True)
     for axis, method in zip(axes, ("pointwise", "tube")):
-        comparison = compare(late, reference, atol=atol, method=method, time_tolerance=0.01)
+        comparison = compare(late, reference, atol=atol, time_tolerance=0.01,
+                             method=method)  # type: ignore[arg-type]
         comparison.draw(axis, "suspension.deflection", around=0.12, at=3.1)
         verdict = "passes" if comparison.passed else "fails"
         axis.set_title(f"{method}: {verdict}", fontsize=10)
