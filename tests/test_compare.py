@@ -160,7 +160,8 @@ def test_tube_bounds_match_the_definition_on_random_curves():
             a, b = max(t - dt, ref_times[0]), min(t + dt, ref_times[-1])
             window = [np.interp(a, ref_times, ref_values), np.interp(b, ref_times, ref_values)]
             window += list(ref_values[(ref_times >= a) & (ref_times <= b)])
-            assert lo == min(window) and hi == max(window)
+            assert lo == pytest.approx(min(window), rel=1e-12, abs=1e-12)
+            assert hi == pytest.approx(max(window), rel=1e-12, abs=1e-12)
         values = np.interp(times, ref_times, ref_values) + rng.normal(scale=0.3, size=80)
         comparison = mechfmu.compare(frame(times, y=values), frame(ref_times, y=ref_values),
                                      method="tube", time_tolerance=dt, rtol=1e-3, atol=0.1)

@@ -108,39 +108,62 @@ def _frame(data: Any, what: str) -> pd.DataFrame:
     return frame
 
 
-class _RangeTable:
-    """Minimum and maximum of ``values[lo:hi]`` for many (lo, hi) at once: a sparse table
-    (O(n log n) to build, O(1) per query, vectorised). NaN is ignored; ``nans(lo, hi)``
-    counts them."""
+class _Windows:
+    """The tube's windows: for each result time t, [t - dt, t + dt] clipped to the
+    reference's span, as what ``bounds`` needs for any column of the reference: the range
+    of reference samples inside ([lo, hi)) and the interpolation at both ends. Computed once
+    per comparison; ``bounds`` is then a few vectorised gathers per column (a sparse table
+    of minima and maxima, only as deep as the longest window needs)."""
 
-    def __init__(self, values: np.ndarray) -> None:
-        self.low = [np.where(np.isnan(values), np.inf, values)]
-        self.high = [np.where(np.isnan(values), -np.inf, values)]
-        self.nan_count = np.concatenate(([0], np.cumsum(np.isnan(values))))
-        width = 1
-        while 2 * width <= values.size:
-            low, high = self.low[-1], self.high[-1]
-            self.low.append(np.minimum(low[:-width], low[width:]))
-            self.high.append(np.maximum(high[:-width], high[width:]))
-            width *= 2
+    def __init__(self, times: np.ndarray, ref_times: np.ndarray, dt: float) -> None:
+        n = ref_times.size
+        start = np.clip(times - dt, ref_times[0], ref_times[-1])
+        stop = np.clip(times + dt, ref_times[0], ref_times[-1])
+        self.lo = np.searchsorted(ref_times, start, side="left")
+        self.hi = np.searchsorted(ref_times, stop, side="right")
+        self.ends = []  # per window end: (j, w): value = (1 - w) * v[j - 1] + w * v[j]
+        for edge in (start, stop):
+            if n == 1:
+                self.ends.append((np.ones(edge.shape, dtype=int), np.zeros(edge.shape)))
+                continue
+            j = np.clip(np.searchsorted(ref_times, edge, side="right"), 1, n - 1)
+            w = np.clip((edge - ref_times[j - 1]) / (ref_times[j] - ref_times[j - 1]), 0.0, 1.0)
+            self.ends.append((j, w))
+        length = self.hi - self.lo
+        self.empty = length <= 0
+        self.level = np.floor(np.log2(np.maximum(length, 1))).astype(int)
+        self.second = np.maximum(self.hi - (1 << self.level), self.lo)
+        self.depth = int(self.level.max(initial=0)) + 1
 
-    def query(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(min, max) over [lo, hi) for each pair; (+inf, -inf) where the range is empty."""
-        length = hi - lo
-        low = np.full(lo.shape, np.inf)
-        high = np.full(lo.shape, -np.inf)
-        some = length > 0
-        level = np.zeros(lo.shape, dtype=int)
-        level[some] = np.floor(np.log2(length[some])).astype(int)
-        for k in np.unique(level[some]):
-            rows = some & (level == k)
-            a, b = lo[rows], hi[rows] - (1 << int(k))
-            low[rows] = np.minimum(self.low[k][a], self.low[k][b])
-            high[rows] = np.maximum(self.high[k][a], self.high[k][b])
-        return low, high
-
-    def nans(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        return self.nan_count[hi] - self.nan_count[lo]
+    def bounds(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(lo, hi, nan) per window: the minimum and maximum of the piecewise linear
+        reference ``values`` over it (its samples inside and its values at both ends), and
+        whether a reference sample inside is NaN."""
+        n = values.size
+        padded = np.append(values, values[-1:])  # v[j] for j = n (the one-sample case)
+        low_table = np.full((self.depth, n), np.inf)
+        high_table = np.full((self.depth, n), -np.inf)
+        nan = np.isnan(values)
+        low_table[0] = np.where(nan, np.inf, values)
+        high_table[0] = np.where(nan, -np.inf, values)
+        for k in range(1, self.depth):
+            half, size = 1 << (k - 1), n - (1 << k) + 1
+            low_table[k, :size] = np.minimum(low_table[k - 1, :size],
+                                             low_table[k - 1, half:half + size])
+            high_table[k, :size] = np.maximum(high_table[k - 1, :size],
+                                              high_table[k - 1, half:half + size])
+        lo = np.minimum(self.lo, n - 1)
+        second = np.minimum(self.second, n - 1)
+        low = np.where(self.empty, np.inf, np.minimum(low_table[self.level, lo],
+                                                      low_table[self.level, second]))
+        high = np.where(self.empty, -np.inf, np.maximum(high_table[self.level, lo],
+                                                        high_table[self.level, second]))
+        for j, w in self.ends:
+            end = (1.0 - w) * padded[j - 1] + w * padded[j]
+            end = np.where(w == 0.0, padded[j - 1], np.where(w == 1.0, padded[j], end))
+            low, high = np.minimum(low, end), np.maximum(high, end)
+        counts = np.concatenate(([0], np.cumsum(nan)))
+        return low, high, (counts[self.hi] - counts[self.lo]) > 0
 
 
 def tube_bounds(times: np.ndarray, ref_times: np.ndarray, ref_values: np.ndarray,
@@ -148,18 +171,7 @@ def tube_bounds(times: np.ndarray, ref_times: np.ndarray, ref_values: np.ndarray
     """(lo, hi, nan) at each of ``times`` (s): the minimum and maximum of the piecewise
     linear reference over [t - dt, t + dt] clipped to its span (its samples inside plus its
     interpolated values at the window's ends), and whether a NaN lies in the window."""
-    start = np.clip(times - time_tolerance, ref_times[0], ref_times[-1])
-    stop = np.clip(times + time_tolerance, ref_times[0], ref_times[-1])
-    finite = ~np.isnan(ref_values)
-    ends = [np.interp(edge, ref_times[finite], ref_values[finite]) if finite.any()
-            else np.full(edge.shape, np.nan) for edge in (start, stop)]
-    lo_index = np.searchsorted(ref_times, start, side="left")
-    hi_index = np.searchsorted(ref_times, stop, side="right")
-    table = _RangeTable(ref_values)
-    low, high = table.query(lo_index, hi_index)
-    low = np.minimum(low, np.minimum(*ends))
-    high = np.maximum(high, np.maximum(*ends))
-    return low, high, table.nans(lo_index, hi_index) > 0
+    return _Windows(times, ref_times, time_tolerance).bounds(ref_values)
 
 
 @dataclass
@@ -414,13 +426,13 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
     if grid is not None:
         rows.append(grid)
         shared = []
+    windows = _Windows(times, ref_times, dt) if dt is not None and shared else None
     for name in shared:
         column_rtol, column_atol = _tolerance(name, rtol, atol, tolerances)
         values = result_frame[name].to_numpy(dtype=float)
         ref_values = reference_frame[name].to_numpy(dtype=float)
-        if method == "tube":
-            assert dt is not None
-            low, high, nan = tube_bounds(times, ref_times, ref_values, dt)
+        if windows is not None:
+            low, high, nan = windows.bounds(ref_values)
             lower = low - (column_atol + column_rtol * np.abs(low))
             upper = high + (column_atol + column_rtol * np.abs(high))
             above = values > high
