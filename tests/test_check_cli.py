@@ -114,12 +114,25 @@ def test_missing_and_extra_columns_and_time_grid(trees, capsys):
                  results / "gear_retraction.csv")
     ramp = read_result(results / "suspension_load_ramp.csv")
     write_result(ramp.iloc[:250], results / "suspension_load_ramp.csv")  # cut at 2.49 s
-    code, out, _ = run(capsys, results, references)
+    junit = results.parent / "junit.xml"
+    code, out, _ = run(capsys, results, references, "--junit", junit)
     assert code == 1
     line = line_of(out, "gear_retraction.csv")
     assert "missing column gear.gear_angle" in line and "1 more failing column(s)" in line
     line = line_of(out, "suspension_load_ramp.csv")
     assert "time grid: the result has time none where the reference has 2.5 s" in line
+    cases = {(case.get("classname"), case.get("name")): case
+             for case in ET.parse(junit).getroot().iter("testcase")}
+    failure = cases["gear_retraction.csv", "gear.gear_angle"].find("failure")
+    assert failure.get("type") == "missing column"
+    failure = cases["gear_retraction.csv", "gear.spare"].find("failure")
+    assert failure.get("type") == "extra column"
+    failure = cases["suspension_load_ramp.csv", "(time grid)"].find("failure")
+    assert failure.get("type") == "time grid" and "2.5 s" in failure.get("message")
+    skipped = cases["suspension_load_ramp.csv", "suspension.deflection"].find("skipped")
+    assert skipped.get("message") == "not compared: the time grids differ"
+    suite = ET.parse(junit).getroot().find("testsuite")
+    assert suite.get("failures") == "3" and suite.get("skipped") == "8"
     code, out, _ = run(capsys, results, references, "--ignore-extra")
     assert "1 more failing" not in line_of(out, "gear_retraction.csv")
     assert code == 1
