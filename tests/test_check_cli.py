@@ -216,3 +216,16 @@ def test_report_has_a_plot_of_every_failing_column(trees, capsys, tmp_path):
         assert (report / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "gear_retraction.csv: match" in page
     assert "valve/valve_train.csv: MISMATCH" in page
+
+
+def test_a_malformed_reference_is_named_too(trees, capsys):
+    results, references = trees
+    path = references / "suspension_load_ramp.csv"
+    path.write_text(path.read_text().replace("time,", "t,", 1))
+    code, out, err = run(capsys, results, references)
+    assert code == 1 and "Traceback" not in out + err
+    assert f"{path}: line 1: the first column must be 'time'" in \
+        line_of(out, "suspension_load_ramp.csv")
+    # one pair, a file against a folder without its namesake: nothing comparable
+    code, out, _ = run(capsys, results / "gear_retraction.csv", references / "valve")
+    assert code == 2 and "gear_retraction.csv: not compared: no reference file" in out
