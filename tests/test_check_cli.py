@@ -167,6 +167,8 @@ def test_exit_2_when_nothing_is_comparable(tmp_path, capsys):
     assert code == 2 and "expected COLUMN=RTOL or COLUMN=RTOL,ATOL" in err
     code, _, err = run(capsys, REFERENCES, REFERENCES, "--rtol", "-1")
     assert code == 2 and "--rtol must be >= 0" in err
+    code, _, err = run(capsys, REFERENCES, REFERENCES, "--time-tolerance", "0.01")
+    assert code == 2 and "give --method tube with it" in err
     # a file against the folder holding its namesake
     code, out, _ = run(capsys, REFERENCES / "gear_retraction.csv", REFERENCES)
     assert code == 0 and "gear_retraction.csv: match" in out

@@ -190,6 +190,8 @@ def _check(args):
                             ("--time-tolerance", args.time_tolerance)):
             if value is not None and not value >= 0:
                 raise ValueError(f"{name} must be >= 0, got {value!r}")
+        if args.time_tolerance is not None and args.method != "tube":
+            raise ValueError("--time-tolerance is the tube's: give --method tube with it")
     except ValueError as error:
         print(f"check error: {error}", file=sys.stderr)
         return 2
