@@ -293,3 +293,17 @@ def test_a_bad_table_is_a_scene_error_before_the_run(fmu_dir, tmp_path):
     import mechfmu
     frame = mechfmu.simulate(scene, fmu_dir=fmu_dir)
     np.testing.assert_allclose(frame["load.load"], 12.0 * frame.index, rtol=1e-12, atol=1e-12)
+
+
+def test_a_malformed_previous_study_table_stops_the_study_before_it_runs(tmp_path, capsys):
+    from mechfmu.cli import main as cli
+    from mechfmu.tools.study import measure
+    header = ",".join(measure.COLUMNS)
+    row = ["gear", "dopri5", "1e-8", "0.001", "0.01", "gauss_seidel", "gear.gear_angle",
+           "1e-9", "1e-10", "1e-9", "1e-9", "1.5", "0.1", "0.2", "3.0", "3", "300", "x", "9",
+           "ok"]
+    (tmp_path / "accuracy_cost.csv").write_text(f"{header}\n{','.join(row)}\n")
+    assert cli(["study", "--quick", "--out", str(tmp_path), "--fmu-dir", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"study error: {tmp_path / 'accuracy_cost.csv'}: line 2, column 'substeps': 'x' is "
+        f"not a whole number")

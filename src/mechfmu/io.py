@@ -273,10 +273,10 @@ def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[st
             frame[name] = pandas.Series([cell if cell != "" else None for cell in cells],
                                         dtype=object, index=frame.index)
             continue
-        problem = _problem_cell(path, cells[:, None], [name], 2, blank=name not in integers,
-                                finite=False)
-        if problem is not None:
-            raise problem
+        if name not in integers:
+            problem = _problem_cell(path, cells[:, None], [name], 2, blank=True, finite=False)
+            if problem is not None:
+                raise problem
         if name in integers:
             try:
                 frame[name] = numpy.array([int(cell) for cell in cells], dtype=numpy.int64)

@@ -105,6 +105,14 @@ def command(args):
         return 2
     started = time.perf_counter()
     out = Path(args.out)
+    # Studying some scenes again keeps the rows of the others from the previous study: read
+    # it first, so a malformed one costs nothing.
+    previous = out / "accuracy_cost.csv"
+    try:
+        previous_rows = read_rows(previous) if previous.is_file() else []
+    except ValueError as error:  # ResultFileError: the file, line and column
+        print(f"study error: {error}", file=sys.stderr)
+        return 2
     scenes, points = {}, []
     for study_scene in chosen:
         scene = design.load(args.scene_dir, study_scene)
@@ -115,10 +123,7 @@ def command(args):
           f"{args.repeats} repeat(s) each", flush=True)
     rows = measure.run_points(points, scenes, args.fmu_dir, args.repeats, args.workers,
                               _progress)
-    # Studying some scenes again keeps the rows of the others from the previous study.
-    previous = out / "accuracy_cost.csv"
-    kept = [row for row in read_rows(previous) if row["scene"] not in scenes] \
-        if previous.is_file() else []
+    kept = [row for row in previous_rows if row["scene"] not in scenes]
     rows = kept + rows
     paths = [_write_rows(previous, rows)]
     reported = [s for s in design.SCENES if any(row["scene"] == s.name for row in rows)]
