@@ -270,7 +270,7 @@ def _varies(vary: Mapping[str, Sequence[float]] | Iterable[str]) -> list:
     return [parse_vary(text) for text in vary]
 
 
-def sweep(scene: SceneLike, vary: Mapping[str, Sequence[float]] | Iterable[str] | None = None,
+def sweep(scene: StrPath, vary: Mapping[str, Sequence[float]] | Iterable[str] | None = None,
           metrics: Iterable[str] | None = None, *, links: Iterable[str] = (),
           samples: int | None = None, seed: int | None = None, method: str | None = None,
           stop_time: float | None = None, step: float | None = None, jobs: int | None = None,
@@ -308,7 +308,10 @@ def sweep(scene: SceneLike, vary: Mapping[str, Sequence[float]] | Iterable[str] 
         read_sweep_table,
         run_sweep,
     )
-    path = locate(str(scene)) if not isinstance(scene, Scene) else scene.path
+    if not isinstance(scene, (str, PathLike)):
+        raise TypeError(f"sweep: scene must be a sweep or scene file or a shipped one's name, "
+                        f"got {type(scene).__name__}")
+    path = locate(str(scene))
     try:
         data = read_toml(path, SweepError)
     except SweepError:
