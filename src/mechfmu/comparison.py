@@ -368,9 +368,11 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
     """Compare ``result`` with ``reference``, column by column.
 
     Args:
-        result, reference: DataFrames indexed by time in s (``mechfmu.read_result``,
-            ``mechfmu.simulate``; a ``time`` column works too) or paths of result CSVs.
-        rtol, atol: the value band: ``atol + rtol * |reference|`` (in the column's SI unit).
+        result: a DataFrame indexed by time in s (``mechfmu.read_result``,
+            ``mechfmu.simulate``; a ``time`` column works too) or the path of a result CSV.
+        reference: the same, for the reference.
+        rtol: relative tolerance: the value band is ``atol + rtol * |reference|``.
+        atol: absolute tolerance, in the column's SI unit.
         method: ``"pointwise"`` (sample by sample) or ``"tube"`` (see the module docstring).
         time_tolerance: the tube's half width in time (s); default: the reference's largest
             time step. Also how far the tube allows the result's first and last times to be
