@@ -73,7 +73,12 @@ def test_a_change_fails_naming_column_and_time_and_regen_accepts_it(pytester):
     result.stdout.fnmatch_lines(["*differs from the baseline*test_lift_a_b.csv*",
                                  "*column*time*value*reference*allowed*kind*",
                                  "*valve.valve_lift*0.01*value*",
+                                 "obtained: * (mechfmu check * --report DIR plots it)",
                                  "*--mechfmu-regen accepts the new values*"])
+    obtained = next(line for line in result.outlines if line.startswith("obtained: "))
+    obtained = obtained.split()[1]
+    assert read_result(obtained)["valve.valve_lift"].max() == pytest.approx(1.01)
+    assert read_result(baseline)["valve.valve_lift"].max() == pytest.approx(1.0)
     result = pytester.runpytest("-p", "no:cacheprovider", "--mechfmu-regen")
     result.assert_outcomes(failed=1, passed=1)
     result.stdout.fnmatch_lines([("*--mechfmu-regen: the baseline differed (valve.valve_lift "

@@ -7,7 +7,9 @@ CSV stored next to the test.
 ``mechfmu.compare`` (same tolerances and methods). Without a baseline, the check writes one
 (CSV and its JSON, as ``mechfmu run`` writes them) and fails, so that a new baseline is
 looked at before it is trusted: the next run compares with it. ``pytest --mechfmu-regen``
-rewrites the baselines that fail (and fails those tests once, naming the files).
+rewrites the baselines that fail (and fails those tests once, naming the files). A failing
+check keeps what it obtained as a result CSV in the test's ``tmp_path``, named in the failure
+message, for ``mechfmu check OBTAINED BASELINE --report DIR``.
 """
 
 from __future__ import annotations
@@ -48,6 +50,12 @@ class MechfmuRegression:
         module = Path(self.request.path)
         return module.parent / module.stem / f"{name}.csv"
 
+    def obtained_path(self, baseline: Path) -> Path:
+        """Where a failing check keeps the values it obtained: the test's own temporary
+        folder (pytest's ``tmp_path``), under the baseline's name."""
+        folder = self.request.getfixturevalue("tmp_path")
+        return Path(folder) / baseline.name
+
     def check(self, data: pandas.DataFrame, *, basename: str | None = None,
               rtol: float = 1e-9, atol: float = 1e-12, method: str = "pointwise",
               time_tolerance: float | None = None,
@@ -87,9 +95,16 @@ class MechfmuRegression:
         if self.regen:
             write(f"--mechfmu-regen: the baseline differed ({comparison.first_failure()})")
         table = comparison.failures.to_string(index=False)
+        obtained = self.obtained_path(path)
+        try:
+            write_result(data, obtained)
+            kept = (f"\nobtained: {obtained} (mechfmu check {obtained} {path} --report DIR "
+                    f"plots it)")
+        except (ValueError, OSError):
+            kept = ""
         pytest.fail(f"mechfmu_regression: differs from the baseline {path} ({method}, rtol "
-                    f"{rtol:g}, atol {atol:g}):\n{table}\n(pytest --mechfmu-regen accepts "
-                    f"the new values)", pytrace=False)
+                    f"{rtol:g}, atol {atol:g}):\n{table}{kept}\n(pytest --mechfmu-regen "
+                    f"accepts the new values)", pytrace=False)
         raise AssertionError("unreachable")  # pytest.fail raises
 
 
