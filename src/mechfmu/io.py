@@ -131,6 +131,34 @@ def _numbers(path: Path, cells: numpy.ndarray, names: list[str]) -> numpy.ndarra
     return values
 
 
+# pandas >= 3 parses floats exactly by default (and deprecates the option); pandas 2's
+# default ("high") may be one ulp off, its "round_trip" converter is exact
+_EXACT_FLOATS = {} if int(pandas.__version__.split(".")[0]) >= 3 else \
+    {"float_precision": "round_trip"}
+
+
+def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
+    """(float64 array of the data rows, header names) of a well-formed result CSV, parsed by
+    pandas' C reader with an exact float conversion; (None, []) when anything
+    looks wrong (the caller then reads the file as text to name the problem)."""
+    try:
+        header = pandas.read_csv(path, header=None, nrows=1, dtype=str, na_filter=False,
+                                 encoding="utf-8")
+        names = [name.strip() for name in header.iloc[0]]
+        if names[0] != "time" or "" in names or len(set(names)) != len(names):
+            return None, []
+        table = pandas.read_csv(path, header=None, skiprows=1, dtype=numpy.float64,
+                                skip_blank_lines=False, encoding="utf-8", **_EXACT_FLOATS)
+    except (ValueError, OSError, pandas.errors.ParserError, pandas.errors.EmptyDataError):
+        return None, []
+    values = table.to_numpy(dtype=numpy.float64)
+    if values.shape[1] != len(names) or len(values) == 0:
+        return None, []
+    if not numpy.isfinite(values).all():  # also a blank line (NaN): the text path decides
+        return None, []
+    return values, names
+
+
 def _metadata(path: Path) -> dict[str, Any]:
     """The JSON beside the result CSV at ``path`` as a dict ({} when there is none)."""
     meta_path = companion_json(path)
@@ -170,11 +198,13 @@ def read_result(path: StrPath) -> pandas.DataFrame:
     not increase; and for a malformed JSON beside it.
     """
     path = Path(path)
-    raw = _raw_rows(path)
-    names = _header(path, raw, "time")
-    if len(raw) < 2:
-        raise ResultFileError(f"{path}: no data rows (only the header)")
-    values = _numbers(path, raw.iloc[1:].to_numpy(), names)
+    values, names = _fast_values(path)
+    if values is None:  # something is wrong: read it again as text to say what and where
+        raw = _raw_rows(path)
+        names = _header(path, raw, "time")
+        if len(raw) < 2:
+            raise ResultFileError(f"{path}: no data rows (only the header)")
+        values = _numbers(path, raw.iloc[1:].to_numpy(), names)
     times = [float(time) for time in values[:, 0]]
     steps = numpy.diff(values[:, 0])
     if (steps <= 0.0).any():
