@@ -133,7 +133,7 @@ def _numbers(path: Path, cells: numpy.ndarray, names: list[str]) -> numpy.ndarra
 
 # pandas >= 3 parses floats exactly by default (and deprecates the option); pandas 2's
 # default ("high") may be one ulp off, its "round_trip" converter is exact
-_EXACT_FLOATS = {} if int(pandas.__version__.split(".")[0]) >= 3 else \
+_EXACT_FLOATS: dict[str, Any] = {} if int(pandas.__version__.split(".")[0]) >= 3 else \
     {"float_precision": "round_trip"}
 
 
