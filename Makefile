@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
-.PHONY: run test fmus references report study bench sweeps docs clean
+.PHONY: run test fmus references report study work-precision bench sweeps docs clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -34,6 +34,9 @@ report: $(VENV)/.installed
 # Long measurements, not tests (the suite runs small versions of them).
 study: fmus/.built
 	$(VENV)/bin/mechfmu study
+
+work-precision: $(VENV)/.installed
+	$(VENV)/bin/mechfmu study --work-precision
 
 bench: fmus/.built
 	$(VENV)/bin/mechfmu bench

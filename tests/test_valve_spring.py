@@ -434,3 +434,21 @@ def test_a_rocker_already_beyond_the_travel_limit_is_refused_at_the_start():
     model.exit_initialization_mode()
     assert "valve_lift = 0.01987" in model.pending_error
     assert "(-inf, 0.0125] m (max_valve_lift" in model.pending_error
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.booleans(), st.booleans(), st.floats(0.0, 1.0), st.floats(-1e-4, 1.2e-2),
+       st.floats(-8.0, 8.0), st.floats(0.0, 1e-4))
+def test_rhs_is_the_force_laws_written_out(contact, seat, where, lift, velocity, lash):
+    """build_rhs (inlined for speed) gives the floats of drive_at and engaged_forces (the
+    same operations in the same order; compared to 1e-14 so a CPU's fused multiply-add
+    cannot fail it)."""
+    p = vs.make_parameters(lash=lash)
+    drive = vs.StepDrive()
+    drive.set_step(0.1, 0.1 + 1e-5, (0.001, 0.5, 100.0), (0.001005, 0.51, 120.0))
+    modes = vs.Modes(vs.Engaged(contact, seat))
+    t, y = 0.1 + where * 1e-5, [lift, velocity, 0.25]
+    L, rate, _ = vs.drive_at(drive, t)
+    f = vs.engaged_forces(p, L, rate, lift, velocity, modes.engaged)
+    expected = [velocity, f.acceleration, f.contact * rate]
+    assert vs.build_rhs(p, drive, modes)(t, y) == pytest.approx(expected, rel=1e-14, abs=1e-9)

@@ -335,6 +335,10 @@ def _measurement_verbs(verbs):
     study.add_argument("--scenes", nargs="*", help="study these scenes only (default: all)")
     study.add_argument("--quick", action="store_true", help="a small corner of the sweep "
                        "(the 2 coarsest steps, 6 settings; for tests)")
+    study.add_argument("--work-precision", action="store_true",
+                       help="instead: our integrators against scipy's solve_ivp on the gear, "
+                            "suspension and valve right-hand sides (work_precision.csv, "
+                            "work_precision.md); --quick: 2 tolerances, 1 repeat")
     study.add_argument("--repeats", type=_at_least_one, default=3,
                        help="timed runs per point, median taken (default 3)")
     study.add_argument("--workers", type=_at_least_one, default=min(2, os.cpu_count() or 1),
@@ -347,7 +351,8 @@ def _measurement_verbs(verbs):
 
     bench = verbs.add_parser("bench", help="performance benchmarks: master overhead against "
                              "fmpy, model cost against null FMUs, effects, the closed-form "
-                             "floor, a sweep on 1 and 2 workers (make bench)")
+                             "floor, a sweep on 1 and 2 workers, the dynamic scenes against "
+                             "real time, cost growth with the stop time (make bench)")
     bench.add_argument("--repeats", type=_at_least_one, default=None,
                        help=f"measured repeats per case after one warm-up (default "
                             f"{FULL.repeats}, --quick {QUICK.repeats})")

@@ -7,7 +7,8 @@ asserted: they depend on the machine. suite.py runs them; this module holds thei
 
 from dataclasses import dataclass
 
-BENCHMARKS = ("master_overhead", "model_cost", "effects", "floor", "sweep")
+BENCHMARKS = ("master_overhead", "model_cost", "effects", "floor", "sweep", "dynamic_scenes",
+              "growth")
 
 
 @dataclass(frozen=True)
@@ -19,9 +20,12 @@ class Settings:
     model_steps: int
     effects_stop_time_s: float = None  # None: the scenes as written (3 s)
     sweep_scenes: int = 1000  # scenes of the sweep benchmark, run once on 1 and on 2 workers
+    dynamic_stop_fraction: float = None  # None: the dynamic scenes as written
+    growth_base_s: float = 3.0  # the growth benchmark's 1x stop time (gear_retraction's)
 
 
 FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
 # The master's lengths stay: a shorter span makes the slope noisy, and the runs are cheap.
 QUICK = Settings(repeats=2, master_lengths_s=FULL.master_lengths_s, model_steps=200,
-                 effects_stop_time_s=0.5, sweep_scenes=16)
+                 effects_stop_time_s=0.5, sweep_scenes=16, dynamic_stop_fraction=0.1,
+                 growth_base_s=0.25)

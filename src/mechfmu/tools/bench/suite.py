@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from . import BENCHMARKS, FULL, QUICK, Settings
-from . import effects, floor, master_overhead, model_cost, sweep
+from . import dynamic_scenes, effects, floor, growth, master_overhead, model_cost, sweep
 from .report import machine, machine_line, markdown_table, write_outputs
 
 
@@ -16,11 +16,13 @@ def settings_for(args):
     repeats = args.repeats if args.repeats is not None else chosen.repeats
     scenes = args.sweep_scenes if args.sweep_scenes is not None else chosen.sweep_scenes
     return Settings(repeats, chosen.master_lengths_s, chosen.model_steps,
-                    chosen.effects_stop_time_s, scenes)
+                    chosen.effects_stop_time_s, scenes, chosen.dynamic_stop_fraction,
+                    chosen.growth_base_s)
 
 
 def missing_fmus(fmu_dir):
-    needed = {"LandingGear", "PistonActuator", "LoadProfile", "Suspension",
+    needed = {"LandingGear", "PistonActuator", "LoadProfile", "Suspension", "RoadProfile",
+              "ValveSpring", "ValveTrain", "CamshaftDrive", "HydraulicActuator",
               *(case.model for case in model_cost.CASES)}
     return sorted(name for name in needed if not (Path(fmu_dir) / f"{name}.fmu").is_file())
 
@@ -36,6 +38,10 @@ def run_benchmarks(args, settings, names=BENCHMARKS):
                                            settings.effects_stop_time_s),
         "floor": lambda: floor.measure(args.scenes, args.fmu_dir, settings.repeats),
         "sweep": lambda: sweep.measure(args.sweeps, args.fmu_dir, settings.sweep_scenes),
+        "dynamic_scenes": lambda: dynamic_scenes.measure(
+            args.scenes, args.fmu_dir, settings.repeats, settings.dynamic_stop_fraction),
+        "growth": lambda: growth.measure(args.scenes, args.fmu_dir, settings.repeats,
+                                         settings.growth_base_s),
     }
     return [row for name in names for row in measures[name]()]
 

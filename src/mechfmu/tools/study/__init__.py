@@ -93,9 +93,30 @@ def _progress(done, total, point):
         print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
 
 
+def work_precision_command(args) -> int:
+    """``mechfmu study --work-precision``: write work_precision.csv and .md into args.out,
+    print the summary; the exit status (1 if an error is not finite)."""
+    from . import work_precision
+    started = time.perf_counter()
+    tolerances = work_precision.QUICK_TOLERANCES if args.quick else work_precision.TOLERANCES
+    repeats = 1 if args.quick else args.repeats
+    frame = work_precision.table(tolerances=tolerances, repeats=repeats)
+    out = Path(args.out)
+    paths = [atomic_write(out / "work_precision.csv", frame.to_csv(index=False)),
+             atomic_write(out / "work_precision.md", work_precision.markdown(frame))]
+    print(work_precision.markdown(frame))
+    for path in paths:
+        print(f"wrote {path}")
+    print(f"{len(frame)} runs in {time.perf_counter() - started:.0f} s (wall times: median "
+          f"of {repeats})")
+    return 0 if frame["error"].map(math.isfinite).all() else 1
+
+
 def command(args):
     """``mechfmu study`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
+    if getattr(args, "work_precision", False):
+        return work_precision_command(args)
     names = args.scenes or [s.name for s in design.SCENES]
     chosen = [s for s in design.SCENES if s.name in names]
     unknown = set(names) - {s.name for s in design.SCENES}

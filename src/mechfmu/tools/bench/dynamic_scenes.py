@@ -1,0 +1,116 @@
+"""Benchmark 6: every shipped dynamic scene against real time.
+
+A scene is dynamic when one of its components integrates a state inside each communication
+step (``is_dynamic``). For each, the row ``SCENE: wall / simulated`` is the wall time of the
+master's stepping loop (``meta['loop_time_s']``: every doStep, get and set; without the
+one-off extraction and instantiation, which do not grow with simulated time) divided by the
+simulated time, both in s: at most 1 is real time or faster. Each scene runs as shipped
+(its communication step, integrator and tolerances: the accuracy its reference check
+demands); ``stop_fraction`` shortens every scene for a quick run.
+"""
+
+import dataclasses
+from pathlib import Path
+
+from ...cosim.master import Simulation
+from ...cosim.scene import load_scene
+from .report import Row, Target
+from .timing import side_by_side_medians
+
+BENCHMARK = "dynamic scenes"
+TARGET = Target(1.0, "<= 1")  # the issue: every dynamic scene at least real time
+CASE_SUFFIX = ": wall / simulated"
+
+
+def is_dynamic(scene) -> bool:
+    """Whether a component of ``scene`` integrates a state over each communication step
+    (ValveSpring, HydraulicActuator, LandingGear's dynamics drive, Suspension's dynamics
+    effect)."""
+    for spec in scene.components.values():
+        if spec.fmu in ("ValveSpring", "HydraulicActuator"):
+            return True
+        if spec.fmu == "LandingGear" and spec.parameters.get("drive") == "dynamics":
+            return True
+        if spec.fmu == "Suspension" and "dynamics" in spec.effects:
+            return True
+    return False
+
+
+def dynamic_scenes(scene_dir) -> list:
+    """The dynamic scenes of ``scene_dir`` (its *.toml), sorted by name."""
+    scenes = (load_scene(path) for path in sorted(Path(scene_dir).glob("*.toml")))
+    return [scene for scene in scenes if is_dynamic(scene)]
+
+
+def _loop(simulation):
+    return {"loop": simulation.run().meta["loop_time_s"]}
+
+
+def measure(scene_dir, fmu_dir, repeats: int, stop_fraction: "float | None" = None) -> list:
+    """Rows of benchmark 6: per dynamic scene, loop wall time (s) / simulated time (s).
+    ``stop_fraction`` (0, 1] shortens each scene to that part of its span (None: as
+    written)."""
+    scenes = dynamic_scenes(scene_dir)
+    if stop_fraction is not None:
+        scenes = [dataclasses.replace(
+            scene, stop_time=scene.start_time + _whole_steps(scene, stop_fraction))
+            for scene in scenes]
+    simulations = {scene.name: Simulation(scene, fmu_dir) for scene in scenes}
+    medians = side_by_side_medians(
+        {name: (lambda simulation=simulation: _loop(simulation))
+         for name, simulation in simulations.items()}, repeats)
+    rows = []
+    for scene in scenes:
+        span = scene.stop_time - scene.start_time
+        rows.append(Row(BENCHMARK, f"{scene.name}{CASE_SUFFIX}",
+                        medians[scene.name]["loop"] / span, "s/s", repeats, TARGET,
+                        f"stepping loop {medians[scene.name]['loop'] * 1e3:.4g} ms for "
+                        f"{span:g} s simulated; step {scene.step:g} s, {scene.steps} steps"))
+    return rows
+
+
+def _whole_steps(scene, fraction):
+    """A span (s) of at least one step, a whole number of steps, ``fraction`` of the scene's."""
+    steps = max(1, round(scene.steps * fraction))
+    return steps * scene.step
+
+
+# --- what a larger communication step does to a scene's reference check -------------------
+
+# (rtol, atol) of the shipped valve scenes' reference checks (tests/test_scenes.py)
+CHECK_TOLERANCES = {"valve_train_dynamic": (1e-6, 1e-3), "valve_float_dynamic": (1e-5, 1e-3)}
+
+
+def step_accuracy(scene_dir, fmu_dir, name: str, steps, repeats: int = 3):
+    """pandas DataFrame: ``name`` run at each communication step in ``steps`` (s, each
+    dividing the span), its loop wall time per simulated s (median of ``repeats``), the
+    right-hand-side evaluations, and its reference check at CHECK_TOLERANCES[name]: the
+    worst deviation as a fraction of its allowance (<= 1 passes), its column and time."""
+    import tempfile
+
+    import pandas as pd
+
+    from ...check import compare
+    from ...cosim.run import run_scene
+    from ...cosim.scene import find_file
+
+    rtol, atol = CHECK_TOLERANCES[name]
+    shipped = load_scene(find_file(name, (scene_dir,)))
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="mechfmu_step_accuracy_") as out:
+        for step in steps:
+            scene = dataclasses.replace(shipped, step=float(step))
+            loops = []
+            for _ in range(repeats):
+                result, paths = run_scene(scene, out, fmu_dir, plot=False)
+                loops.append(result.meta["loop_time_s"])
+            check = compare(paths["csv"], scene.reference, rtol, atol)
+            loops.sort()
+            rows.append({"scene": name, "step_s": float(step),
+                         "wall_per_simulated": loops[len(loops) // 2]
+                         / (scene.stop_time - scene.start_time),
+                         "rhs_evaluations": result.columns["valve.rhs_evaluations"][-1]
+                         if "valve.rhs_evaluations" in result.columns else float("nan"),
+                         "worst_of_allowance": check.worst.size / check.worst.allowed,
+                         "worst_column": check.worst.column, "worst_time_s": check.worst.time})
+    return pd.DataFrame(rows)
