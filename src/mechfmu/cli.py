@@ -369,6 +369,10 @@ def _measurement_verbs(verbs):
     bench.add_argument("--sweep-scenes", type=_at_least_one, default=None,
                        help=f"scenes of the sweep benchmark (default {FULL.sweep_scenes}, "
                             f"--quick {QUICK.sweep_scenes})")
+    bench.add_argument("--cpu-time", action="store_true",
+                       help="time runs and loops by the process's CPU time, not the wall clock "
+                            "(a machine shared with other work; FMI-call timers stay on the "
+                            "wall clock)")
     bench.add_argument("--profile", action="store_true",
                        help="also print cProfile's top 15 functions of each master")
     bench.set_defaults(func=_bench)

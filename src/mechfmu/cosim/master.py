@@ -637,7 +637,8 @@ class _Call:
     The value references and the value buffer are ctypes arrays built once per run.
     """
 
-    __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name")
+    __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name",
+                 "raw", "sent")
 
     def __init__(self, component, verb, fmi_type, references, buffer, timer):
         name = f"fmi2{verb}{fmi_type}"
@@ -648,6 +649,8 @@ class _Call:
         self.count = len(references)
         self.buffer = buffer
         self.component, self.name = component.name, name
+        self.raw = memoryview(buffer).cast("B")  # the buffer's bytes
+        self.sent = None  # a set's bytes when it was last made (None: never)
 
 
 class _Outputs:
@@ -731,6 +734,15 @@ class _StepPlan:
         if status > _WARNING:
             raise _CallFailed(call.component, time, call.name, status)
 
+    @classmethod
+    def _set(cls, call, time):
+        """A set of inputs, made only if their values changed since it was last made (an
+        FMU keeps an input's value until it is set again)."""
+        raw = call.raw
+        if raw != call.sent:
+            cls._call(call, time)
+            call.sent = raw.tobytes()
+
     def start(self, result, time):
         """Read every needed output after initialisation and record the first row."""
         for _, _, _, _, reads in self.steps:
@@ -747,7 +759,7 @@ class _StepPlan:
         """Step from start_time to stop_time, recording after every communication step;
         before each step, stop with _Stopped if ``stop`` has been requested."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
-        call, steps, jacobi = self._call, self.steps, self.jacobi
+        call, put_changed, steps, jacobi = self._call, self._set, self.steps, self.jacobi
         for index in range(1, len(times)):
             start = times[index - 1]
             if stop.requested:
@@ -756,11 +768,11 @@ class _StepPlan:
             if jacobi:  # every input from the previous point's outputs, then every step
                 for _, _, _, sets, _ in steps:
                     for put in sets:
-                        call(put, start)
+                        put_changed(put, start)
             for name, do_step, instance, sets, reads in steps:
                 if not jacobi:
                     for put in sets:
-                        call(put, start)
+                        put_changed(put, start)
                 status = do_step(instance, start, size, fmi2True)
                 if status > _WARNING:
                     raise _CallFailed(name, start, "fmi2DoStep", status)

@@ -27,10 +27,36 @@ class Fmi2Binding(Fmi2Slave):
             getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
     def finish_registration(self):
-        """Nothing beyond the declared variables in FMI 2.0."""
+        """Tables for the per-step get and set of Reals: value reference -> name of every
+        Real, and of every Real input (what a host sets between steps)."""
+        reals = {vr: v.name for vr, v in self.vars.items() if isinstance(v, Real)}
+        self._real_names = reals
+        self._real_input_names = {vr: name for vr, name in reals.items()
+                                  if self.declared[name].causality == "input"}
 
-    # Outputs read in initialisation mode are computed from what the host has set so far.
-    get_real = reading_initial_outputs(Fmi2Slave.get_real)
+    def get_real(self, vrs):
+        """fmi2GetReal: one dict look-up per variable (pythonfmu's own calls a getter
+        closure per variable and checks its type). In initialisation mode the outputs are
+        computed first from what the host has set so far."""
+        if self.initializing and self.stale:
+            self.refresh_initial_outputs()
+        values, names = self.values, self._real_names
+        try:
+            return [values[names[vr]] for vr in vrs]
+        except KeyError:  # not a Real: pythonfmu's own answer (its TypeError)
+            return Fmi2Slave.get_real(self, vrs)
+
+    def set_real(self, vrs, values):
+        """fmi2SetReal: Real inputs stored directly; anything else (parameters, outputs,
+        not a Real) through pythonfmu's setter, i.e. MechSlave._set with its checks."""
+        inputs, store = self._real_input_names, self.values
+        for vr, value in zip(vrs, values):
+            name = inputs.get(vr)
+            if name is None:
+                Fmi2Slave.set_real(self, [vr], [value])
+            else:
+                store[name] = float(value)
+                self.stale = True
     get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
     get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
 

@@ -58,10 +58,12 @@ class FourBar(LinkageSlave):
             raise RangeError("circuit", self.values["circuit"], "{0, 1}", "",
                              "0 = open, 1 = crossed")
         self.values["grashof_class"] = fb.grashof_class(*self._lengths())
+        self.lengths = fb.check_four_bar(*self._lengths())
 
     def closed_form(self, time):
-        motion = fb.motion(*self._lengths(), self.values["circuit"], *self.driver_inputs())
-        return motion._asdict()
+        # lengths and circuit validated in check_geometry, the inputs finite (do_step)
+        motion = fb.checked_motion(self.lengths, self.values["circuit"], *self.driver_inputs())
+        return dict(zip(motion._fields, motion))
 
     def mechanism(self):
         return constraint_models.four_bar(*self._lengths())

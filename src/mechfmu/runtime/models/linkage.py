@@ -53,7 +53,8 @@ class LinkageSlave(MechSlave):
 
     def driver_inputs(self):
         """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""
-        return tuple(self.values[name] for name in self.DRIVE_INPUTS)
+        values = self.values
+        return tuple([values[name] for name in self.DRIVE_INPUTS])
 
     # --- model hooks --------------------------------------------------------------------
     def check_geometry(self):

@@ -8,7 +8,7 @@ in the solver's error messages. Coordinates per body: (x, y, phi) in m, m, rad.
 
 import math
 
-from .four_bar import singular_crossing, singular_position_kind
+from .four_bar import singular_crossings, singular_position_kind
 from .planar import GROUND, PHI, Y, Driver, Mechanism, PointOnLine, Revolute, translational
 
 def _angle(q, body):
@@ -42,18 +42,23 @@ def four_bar(ground, crank, coupler, rocker):
         # linearly at a change point, at ratios that depend on the lengths).
         return singular_position_kind(d, a, b, c, _angle(q, 0))
 
+    crossings = singular_crossings(d, a, b, c)
+
     def crossing(start, end):
         # a change point reached or passed, or a range where the linkage does not assemble
         # jumped, between the two crank angles: the closed form asks the same
-        return singular_crossing(d, a, b, c, start[0][0], end[0][0])
+        return crossings(start[0][0], end[0][0])
 
     joints = [Revolute("crank pivot O2", 0, (0.0, 0.0), GROUND, (0.0, 0.0)),
               Revolute("crank pin A", 0, (a, 0.0), 1, (0.0, 0.0)),
               Revolute("rocker pin B", 1, (b, 0.0), 2, (c, 0.0)),
               Revolute("rocker pivot O4", 2, (0.0, 0.0), GROUND, (d, 0.0)),
               Driver("crank angle", ((0, PHI, 1.0),))]
+    # A linkage without change points or gaps (a Grashof crank-rocker, a double crank)
+    # refuses no drive change: no check at every step.
     return Mechanism("four-bar", ("crank", "coupler", "rocker"), joints,
-                     (a + b + c + d) / 4.0, diagnose, singularity, crossing)
+                     (a + b + c + d) / 4.0, diagnose, singularity,
+                     None if getattr(crossings, "never", False) else crossing)
 
 
 def four_bar_guess(ground, crank, crank_angle, coupler_angle, rocker_angle):

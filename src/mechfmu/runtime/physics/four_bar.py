@@ -232,38 +232,57 @@ def singular_crossing(ground, crank, coupler, rocker, start_angle, end_angle):
     four-bar ask this before they solve (planar.crossing_error), so they refuse the same
     drive changes with the same message.
     """
-    d, a, b, c = check_four_bar(ground, crank, coupler, rocker)
-    rising = end_angle >= start_angle
-    low, high = (start_angle, end_angle) if rising else (end_angle, start_angle)
-    passed = []  # (distance from the start along the drive, position, consequence)
-    for centre in change_point_angles(d, a, b, c):
-        first = centre + 2.0 * math.pi * math.ceil((low - centre) / (2.0 * math.pi))
-        last = centre + 2.0 * math.pi * math.floor((high - centre) / (2.0 * math.pi))
-        if first <= high:
-            angle = first if rising else last
-            passed.append((abs(angle - start_angle),
-                           f"{CHANGE_POINT} at crank angle {angle!r} rad", BRANCHES_CROSS))
+    return singular_crossings(ground, crank, coupler, rocker)(start_angle, end_angle)
+
+
+def singular_crossings(ground, crank, coupler, rocker):
+    """singular_crossing for one linkage (lengths in m, validated here once): a function of
+    (start_angle, end_angle) in rad, with what depends on the lengths alone worked out once
+    (it runs at every communication step)."""
+    d, a, b, c = lengths = check_four_bar(ground, crank, coupler, rocker)
+    points = change_point_angles(d, a, b, c)
     interval = crank_angle_range(d, a, b, c)
-    if interval is not None and _assembles((d, a, b, c), end_angle):
-        flats = change_point_angles(d, a, b, c)
+    gaps = []  # (centre, half width): cos(theta2) > cos_high around 0, < cos_low around pi
+    if interval is not None:
         cos_low, cos_high = interval
-        # the gaps (centre, half width): cos(theta2) > cos_high around 0, < cos_low around pi
-        for centre, half, exists in ((0.0, math.acos(cos_high), cos_high < 1.0),
-                                     (math.pi, math.pi - math.acos(cos_low), cos_low > -1.0)):
-            if not exists or centre in flats:
-                continue
-            first = centre + 2.0 * math.pi * math.ceil((low - centre) / (2.0 * math.pi))
-            last = centre + 2.0 * math.pi * math.floor((high - centre) / (2.0 * math.pi))
+        gaps = [(centre, half) for centre, half, exists in (
+                    (0.0, math.acos(cos_high), cos_high < 1.0),
+                    (math.pi, math.pi - math.acos(cos_low), cos_low > -1.0))
+                if exists and centre not in points]
+    if not points and not gaps:
+        def never(start_angle, end_angle):
+            return None
+        never.never = True  # nothing to pass: callers may skip the check
+        return never
+    turn = 2.0 * math.pi
+
+    def crossing(start_angle, end_angle):
+        rising = end_angle >= start_angle
+        low, high = (start_angle, end_angle) if rising else (end_angle, start_angle)
+        passed = []  # (distance from the start along the drive, position, consequence)
+        for centre in points:
+            first = centre + turn * math.ceil((low - centre) / turn)
+            last = centre + turn * math.floor((high - centre) / turn)
             if first <= high:
-                middle = first if rising else last
-                edge = middle - half if rising else middle + half
-                passed.append((abs(edge - start_angle), f"{TOGGLE} at crank angle {edge!r} rad",
-                               f"the linkage does not assemble between crank angles "
-                               f"{middle - half!r} and {middle + half!r} rad, so no motion "
-                               f"joins the two drive values"))
-    if not passed:
-        return None
-    return min(passed)[1:]
+                angle = first if rising else last
+                passed.append((abs(angle - start_angle),
+                               f"{CHANGE_POINT} at crank angle {angle!r} rad", BRANCHES_CROSS))
+        if gaps and _assembles(lengths, end_angle):
+            for centre, half in gaps:
+                first = centre + turn * math.ceil((low - centre) / turn)
+                last = centre + turn * math.floor((high - centre) / turn)
+                if first <= high:
+                    middle = first if rising else last
+                    edge = middle - half if rising else middle + half
+                    passed.append((abs(edge - start_angle),
+                                   f"{TOGGLE} at crank angle {edge!r} rad",
+                                   f"the linkage does not assemble between crank angles "
+                                   f"{middle - half!r} and {middle + half!r} rad, so no "
+                                   f"motion joins the two drive values"))
+        if not passed:
+            return None
+        return min(passed)[1:]
+    return crossing
 
 
 def _assembles(lengths, crank_angle):
@@ -444,6 +463,13 @@ def motion(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
     t2 = require_finite("crank_angle", crank_angle, "rad")
     w2 = require_finite("crank_speed", crank_speed, "rad/s")
     al2 = require_finite("crank_acceleration", crank_acceleration, "rad/s^2")
+    return checked_motion(lengths, circuit, t2, w2, al2)
+
+
+def checked_motion(lengths, circuit, t2, w2, al2):
+    """``motion`` for lengths from check_four_bar (m), a circuit from CIRCUITS and finite
+    crank angle (rad), speed (rad/s) and acceleration (rad/s^2): what an FMU that validated
+    them once calls at every step."""
     t3, t4, toggle = _solve(lengths, t2, circuit)
     if toggle:
         raise SingularConfiguration(

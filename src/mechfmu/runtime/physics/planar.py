@@ -438,17 +438,36 @@ class BranchFollower:
         self.solution = None
         self.drive = None
         self.sign = 0
+        # The compiled kernels of the fast path (planar_kernel), None for joint types it
+        # does not know; the LU row order in use and the condition estimate's start column.
+        try:
+            self.kernel = planar_kernel.MechanismKernel(mechanism)
+        except planar_kernel.Unsupported:
+            self.kernel = None
+        self.kernel_module = planar_kernel
+        self.order = None
+        self.lu_kernel = None  # planar_kernel.LuKernel of self.order (a cache)
+        self.column = None
+        self.history = None  # (qdot, qddot, dt) of the solution before the last, and dt to it
+        self.factored = None  # (LU kernel, factors) of Phi_q at factored_at, if known
+        self.factored_at = None  # where the fast path last factored Phi_q (None: solution.q)
 
     def snapshot(self):
-        return {"solution": None if self.solution is None else
-                [list(v) if isinstance(v, list) else v for v in self.solution],
-                "drive": None if self.drive is None else [list(d) for d in self.drive],
-                "sign": self.sign}
+        """The branch state. Solutions and drives are never changed in place, so the
+        snapshot shares them (JSON writes the tuples as arrays)."""
+        return {"solution": self.solution, "drive": self.drive, "sign": self.sign,
+                "order": self.order, "column": self.column, "history": self.history,
+                "factored_at": self.factored_at}
 
     def restore(self, state):
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
         self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
         self.sign = state["sign"]
+        self.order = None if state.get("order") is None else tuple(state["order"])
+        self.column = state.get("column")
+        self.history = None if state.get("history") is None else tuple(state["history"])
+        self.factored_at = state.get("factored_at")
+        self.factored = None  # worked out again from factored_at and order when needed
 
     def _solve(self, guess, drive):
         q, iterations, residual = solve_position(self.mechanism, guess, drive, self.tolerance,
@@ -461,6 +480,7 @@ class BranchFollower:
         drive = [tuple(map(float, d)) for d in drive]
         self.solution, self.sign = self._solve(guess, drive)
         self.drive = drive
+        self.history = self.factored = self.factored_at = None
         return self.solution
 
     def follow(self, drive, dt):
@@ -473,10 +493,18 @@ class BranchFollower:
         where the mechanism does not assemble (crossing_error).
         """
         drive = [tuple(map(float, d)) for d in drive]
-        refused = crossing_error(self.mechanism, self.drive, drive)
-        if refused:
-            raise refused
+        if self.mechanism.has_crossings:
+            refused = crossing_error(self.mechanism, self.drive, drive)
+            if refused:
+                raise refused
         last = self.solution
+        if self.kernel is not None:
+            solution = self._fast_solve(self._fast_guess(dt), drive)
+            if solution is not None:
+                self.history = (last.qdot, last.qddot, dt) if dt > 0.0 else None
+                self.solution, self.drive = solution, drive
+                return solution
+        self.history = self.factored = self.factored_at = None
         guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         try:
             solution, sign = self._solve(guess, drive)
@@ -493,6 +521,127 @@ class BranchFollower:
         solution = self._continue(drive)
         self.solution, self.drive = solution, drive
         return solution
+
+    def _lu(self, values):
+        """The LU kernel and factors of the scaled Jacobian ``values`` (non-zeros): in the
+        row order of the last step while its pivots stay within a factor 2 of their
+        columns' largest, else in partial pivoting's order here. None if singular."""
+        kernel = self.kernel
+        if self.order is not None:
+            lu = self.lu_kernel
+            if lu is None or lu.order is not self.order:
+                lu = self.lu_kernel = kernel.lu(self.order)
+            factors = lu.factor(values)
+            if factors is not None:
+                return lu, factors
+        try:
+            _, pivots = lu_factor(kernel.dense(values))
+            lu = kernel.lu(tuple(pivots))
+        except (Singular, ZeroDivisionError):
+            return None
+        factors = lu.factor(values)
+        if factors is None:
+            return None
+        self.order, self.lu_kernel = lu.order, lu
+        return lu, factors
+
+    def _fast_guess(self, dt):
+        """Predictor q + q' dt + q'' dt^2/2 + j dt^3/6 + s dt^4/24, the jerk j and snap s
+        from the rates at the last two solutions (Taylor's expansion of q' and q'' back over
+        the last step h: a(-h) - a = -j h + s h^2/2, v(-h) - v + a h = j h^2/2 - s h^3/6).
+        Without history: the generic path's q + q' dt + q'' dt^2/2."""
+        last = self.solution
+        if self.history is None or not dt > 0.0:
+            return [q + v * dt + 0.5 * a * dt * dt
+                    for q, v, a in zip(last.q, last.qdot, last.qddot)]
+        v_before, a_before, h = self.history
+        # With da = a(-h) - a and db = v(-h) - v + a h: j = (6 db + 2 da h)/h^2 and
+        # s = 6 da/h^2 + 12 db/h^3, so the guess is linear in q, v, a, v(-h) and a(-h).
+        c3, c4 = dt ** 3 / 6.0, dt ** 4 / 24.0
+        ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)          # coefficient of da
+        kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h ** 3    # coefficient of db
+        cv, ca = dt - kb, 0.5 * dt * dt - ka + kb * h
+        return self.kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before,
+                                   cv, ca, ka, kb)
+
+    def _fast_solve(self, guess, drive):
+        """solve_position and analyse on the compiled kernels, for the regular case.
+
+        The first corrections reuse the factors of Phi_q at the last solution (the chord
+        method): from the predictor _fast_guess the first one is already tiny, and the
+        chord's linear rate (about cond(Phi_q) times the change of Phi_q over the step) small.
+        They go on while each is below 1e-8 and 1e-2 times the one before; otherwise
+        Newton's own corrections follow, with Phi_q factored at every iterate. The stopping
+        rule is solve_position's (scaled residual <= tolerance, last correction <= 1e-2
+        sqrt(tolerance)) after a Newton correction, and a correction <= 1e-12 (scaled) after
+        a chord one; then one more correction with the factors of Phi_q at the converged
+        position, which the velocity, the acceleration, the determinant's sign and the
+        condition estimate (planar_kernel.inverse_one_norm) need anyway, leaves Newton's
+        quadratic accuracy (the residual reported is the one before it). The factors are
+        kept for the next step. Returns None, having changed nothing but the cached LU
+        order, whenever anything is not regular (no convergence within 4 corrections or
+        max_iterations, a singular or ill-conditioned Jacobian, a change of the det sign):
+        _solve then takes the step from the generic guess, with the exact condition number
+        and its messages.
+        """
+        kernel, tolerance = self.kernel, self.tolerance
+        newton_small = 1e-2 * math.sqrt(tolerance)
+        factored = self.factored
+        if factored is None:
+            at = self.solution.q if self.factored_at is None else self.factored_at
+            factored = self._lu(kernel.jacobian(at))
+            if factored is None:
+                return None
+        q = guess
+        residual, values = kernel.residual(q, drive), None
+        chord, last = True, math.inf
+        for iteration in range(1, min(self.max_iterations, 4) + 1):
+            if not chord:
+                factored = self._lu(values)
+                if factored is None:
+                    return None
+            lu, factors = factored
+            q, correction = lu.correct(factors, residual, q)
+            residual, values = kernel.residual_jacobian(q, drive)
+            size = max(map(abs, residual))
+            if not math.isfinite(size):
+                return None
+            if size <= tolerance and correction <= (1e-10 if chord else newton_small):
+                break
+            if chord and not (correction <= 1e-8 and correction <= 1e-2 * last):
+                chord = False
+            last = correction
+        else:
+            return None
+        rates = kernel.rates(drive)
+        for _ in range(2):
+            factored = self._lu(values)
+            if factored is None:
+                return None
+            lu, factors = factored
+            # One more correction with Phi_q at q: after chord steps it removes their error
+            # (their linear rate times the last correction), after Newton's it is at the
+            # level of rounding. The rates are solved with the same factors, so when the
+            # correction is not negligible (> 1e-14, scaled) Phi_q is factored again at the
+            # corrected position.
+            corrected, final, qdot = lu.correct_and_solve(factors, residual, q, rates)
+            at, q = q, corrected
+            if final <= 1e-14:
+                break
+            residual, values = kernel.residual_jacobian(q, drive)
+            size = max(map(abs, residual))
+        else:
+            return None
+        if lu.sign(factors) != self.sign:
+            return None
+        inverse_norm, column = self.kernel_module.inverse_one_norm(
+            lu, factors, kernel.size, self.column)
+        condition = kernel.one_norm(values) * inverse_norm
+        if not condition <= self.singularity_threshold:
+            return None
+        self.column, self.factored, self.factored_at = column, factored, at
+        qddot = lu.solve_scaled(factors, kernel.gamma(q, qdot, drive))
+        return Solution(q, qdot, qddot, iteration, size, condition)
 
     def _end_is_singular(self, drive):
         try:
@@ -558,3 +707,8 @@ class BranchFollower:
         change = [(0.0, b[0] - a[0], 0.0) for a, b in zip(start, end)]
         tangent = mechanism.unscale(lu_solve(factored, mechanism.velocity_rhs(change)))
         return [v + fraction * t for v, t in zip(q, tangent)]
+
+
+# At the end: planar_kernel imports this module's joints. Not lazily, in BranchFollower: an
+# FMU's runtime must be imported whole while its extracted folder exists.
+from . import planar_kernel

@@ -12,11 +12,11 @@ timers cost time of their own); overhead = per-step wall time - per-step FMI tim
 
 import contextlib
 import cProfile
+import dataclasses
 import io
 import pstats
 import shutil
 import tempfile
-import time
 from pathlib import Path
 from typing import NamedTuple
 
@@ -24,7 +24,14 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
 from ...cosim.master import CallTimer, Simulation
-from .gear import GEAR_OUTPUTS, KINEMATIC_SCENE, load_named_scene, piston_table, with_stop_time
+from . import timing
+from .gear import (
+    GEAR_OUTPUTS,
+    KINEMATIC_SCENE,
+    load_named_scene,
+    piston_table,
+    with_stop_time,
+)
 from .report import Row, Target, ratio_row
 from .timing import per_step, seconds_of, set_up, side_by_side_medians
 
@@ -64,14 +71,18 @@ class FmiCallTimer:
 
 
 class FmpyGearAlone:
-    """LandingGear.fmu alone under fmpy.simulate_fmu, fed the gear scene's piston motion."""
+    """LandingGear.fmu alone under fmpy.simulate_fmu, fed the gear scene's piston motion
+    (or, with ``component`` and ``outputs``, that component of the scene alone, its scene
+    parameters and inputs as start values, no input table)."""
 
-    def __init__(self, fmu_path, scene):
-        self.scene = scene
+    def __init__(self, fmu_path, scene, component="gear", outputs=GEAR_OUTPUTS):
+        self.scene, self.outputs = scene, tuple(outputs)
         self.description = read_model_description(str(fmu_path))
         self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
-        self.table = piston_table(scene)
-        self.start_values = dict(scene.components["gear"].inputs)  # the unconnected inputs
+        spec = scene.components[component]
+        self.table = piston_table(scene) if component == "gear" else None
+        # the unconnected inputs (and the parameters) as start values
+        self.start_values = {**spec.parameters, **spec.inputs}
 
     def run(self, timer=None):
         """One run: instantiate, simulate_fmu, free. Attaches ``timer`` if given."""
@@ -90,7 +101,7 @@ class FmpyGearAlone:
                     self.folder, model_description=self.description, fmu_instance=instance,
                     start_time=scene.start_time, stop_time=scene.stop_time,
                     step_size=scene.step, output_interval=scene.step, input=self.table,
-                    output=list(GEAR_OUTPUTS), start_values=dict(self.start_values))
+                    output=list(self.outputs), start_values=dict(self.start_values))
         finally:
             instance.freeInstance()
         if len(result) != scene.steps + 1:
@@ -105,9 +116,9 @@ class FmpyGearAlone:
 def _ours(simulation, timed):
     if not timed:
         return {"wall": seconds_of(simulation.run)}
-    started = time.perf_counter()
+    started = timing.now()
     result = simulation.run(time_fmi_calls=True)
-    wall = time.perf_counter() - started
+    wall = timing.now() - started
     return {"wall": wall, "fmi": result.meta["fmi_call_time_s"]}
 
 
@@ -138,8 +149,10 @@ class MasterRows(NamedTuple):
     overhead: Row
 
 
-def _master_rows(master, medians, steps, description, repeats):
-    """Wall, set-up, FMI and overhead rows of one master from the medians of its runs."""
+def _master_rows(master, medians, steps, description, repeats, label=None):
+    """Wall, set-up, FMI and overhead rows of one master from the medians of its runs;
+    ``label`` names the rows (default: the master)."""
+    label = label or master
     def median(length, key, timed):
         return medians[(master, length, timed)][key]
 
@@ -147,16 +160,55 @@ def _master_rows(master, medians, steps, description, repeats):
     wall = per_step(median("short", "wall", False), median("long", "wall", False), *steps)
     fmi = per_step(median("short", "fmi", True), median("long", "fmi", True), *steps)
     return MasterRows(
-        Row(BENCHMARK, f"{master}: wall per step", wall * MICRO, "us", repeats,
+        Row(BENCHMARK, f"{label}: wall per step", wall * MICRO, "us", repeats,
             notes=f"{description}; {span}"),
-        Row(BENCHMARK, f"{master}: set-up",
+        Row(BENCHMARK, f"{label}: set-up",
             set_up(median("short", "wall", False), wall, steps[0]) * MILLI, "ms", repeats,
             notes="intercept of the same line: extraction (ours only), instantiation, "
                   "initialisation"),
-        Row(BENCHMARK, f"{master}: FMI calls per step", fmi * MICRO, "us", repeats,
+        Row(BENCHMARK, f"{label}: FMI calls per step", fmi * MICRO, "us", repeats,
             notes=f"time inside the C get/set/doStep calls; timed runs; {span}"),
-        Row(BENCHMARK, f"{master}: overhead per step", (wall - fmi) * MICRO, "us", repeats,
+        Row(BENCHMARK, f"{label}: overhead per step", (wall - fmi) * MICRO, "us", repeats,
             notes="wall per step (untimed runs) - FMI calls per step (timed runs)"))
+
+
+def actuator_alone(scene):
+    """The gear scene's actuator alone: one FMU (PistonActuator), its three outputs
+    recorded, no connections."""
+    return dataclasses.replace(
+        scene, name=f"{scene.name} (actuator alone)",
+        components={"actuator": scene.components["actuator"]}, connections=[],
+        record=[name for name in scene.record if name.startswith("actuator.")])
+
+
+def measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats):
+    """Rows of benchmark 1 on one FMU: our master and simulate_fmu each stepping
+    PistonActuator.fmu alone with the gear scene's parameters, recording its 3 outputs."""
+    scene = actuator_alone(load_named_scene(scene_dir, KINEMATIC_SCENE))
+    scenes = [with_stop_time(scene, stop) for stop in lengths_s]
+    steps = [s.steps for s in scenes]
+    outputs = [name.split(".", 1)[1] for name in scene.record]
+    ours = [Simulation(s, fmu_dir) for s in scenes]
+    alone = [FmpyGearAlone(Path(fmu_dir) / "PistonActuator.fmu", s, "actuator", outputs)
+             for s in scenes]
+    try:
+        medians = side_by_side_medians(_runs(ours, alone), repeats)
+    finally:
+        for run in alone:
+            run.close()
+    descriptions = {
+        "one FMU, ours": f"PistonActuator alone, {len(outputs)} recorded, steps of "
+                         f"{scene.step} s",
+        "one FMU, fmpy": f"simulate_fmu: PistonActuator.fmu alone, {len(outputs)} recorded, "
+                         f"steps of {scene.step} s"}
+    rows = {label: _master_rows(master, medians, steps, descriptions[label], repeats, label)
+            for label, master in (("one FMU, ours", "ours"), ("one FMU, fmpy", "fmpy"))}
+    ours_rows, fmpy_rows = rows["one FMU, ours"], rows["one FMU, fmpy"]
+    return [*ours_rows, *fmpy_rows,
+            ratio_row("one FMU: total per step, ours / fmpy", ours_rows.wall, fmpy_rows.wall,
+                      TARGET, "the same FMU"),
+            ratio_row("one FMU: overhead per step, ours / fmpy", ours_rows.overhead,
+                      fmpy_rows.overhead, TARGET)]
 
 
 def measure(scene_dir, fmu_dir, lengths_s, repeats):
@@ -184,7 +236,8 @@ def measure(scene_dir, fmu_dir, lengths_s, repeats):
             ratio_row("total per step, ours / fmpy", ours_rows.wall, fmpy_rows.wall, TARGET,
                       "two FMUs against one"),
             ratio_row("overhead per step, ours / fmpy", ours_rows.overhead,
-                      fmpy_rows.overhead, TARGET)]
+                      fmpy_rows.overhead, TARGET),
+            *measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats)]
 
 
 def profile(scene_dir, fmu_dir, stop_time, top=15, stream=None):

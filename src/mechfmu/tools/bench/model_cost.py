@@ -13,7 +13,6 @@ import math
 import shutil
 import sys
 import tempfile
-import time
 from ctypes import c_double, c_uint
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,13 +22,17 @@ from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
 from ...packaging.build import build_all
-from ...runtime.physics import landing_gear as gear
 from ...references import landing_gear
+from ...runtime.physics import landing_gear as gear
+from . import timing
 from .report import Row, Target, ratio_row
 from .timing import side_by_side_medians
 
 BENCHMARK = "model cost"
-TARGET = Target(1.2, "<= 1.2")  # the issue: a model at most 1.2x its null twin
+# Issue 21: a closed form (every model but the constraint solvers) at most 1.3x its null
+# twin, a constraint solver at most 6x (issue 5 asked 1.2x of every model).
+TARGET = Target(1.3, "<= 1.3")
+SOLVER_TARGET = Target(6.0, "<= 6")
 MICRO = 1e6
 CAMSHAFT_SPEED = 50.0 * math.pi  # rad/s: 3000 engine rpm, as in the valve_train scene
 
@@ -142,7 +145,7 @@ class PreparedLoop:
         get_real(component, output_refs, output_count, outputs)
         initial = list(outputs)
         status = 0  # fmi2OK; any other status sets bits
-        started = time.perf_counter()
+        started = timing.now()
         if input_count:
             for values, current in zip(self.input_rows, self.times):
                 status |= set_real(component, input_refs, input_count, values)
@@ -152,7 +155,7 @@ class PreparedLoop:
             for current in self.times:
                 status |= do_step(component, current, step, 1)
                 status |= get_real(component, output_refs, output_count, outputs)
-        seconds = time.perf_counter() - started
+        seconds = timing.now() - started
         if status:
             raise RuntimeError(f"{self.case.label}: an FMI call returned a non-OK status "
                                f"(bits {status:#x}) during the loop")
@@ -234,8 +237,9 @@ def _measure_case(case, model_fmu, null_fmu, steps, repeats):
     null_row = Row(BENCHMARK, f"{case.label}: null", medians["null"]["loop"] / steps * MICRO,
                    "us", repeats, notes=f"per step; do_step returns at once; outputs held "
                                         f"their initial values; {span}")
+    target = SOLVER_TARGET if "constraint_solver" in case.label else TARGET
     return [model_row, null_row, ratio_row(f"{case.label}: model / null", model_row, null_row,
-                                           TARGET)]
+                                           target)]
 
 
 def measure(fmu_dir, steps, repeats, cases=CASES):

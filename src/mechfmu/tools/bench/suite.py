@@ -7,7 +7,8 @@ import time
 from pathlib import Path
 
 from . import BENCHMARKS, FULL, QUICK, Settings
-from . import dynamic_scenes, effects, floor, growth, master_overhead, model_cost, sweep
+from . import (dynamic_scenes, effects, floor, growth, master_overhead, model_cost, sweep,
+               timing)
 from .report import machine, machine_line, markdown_table, write_outputs
 
 
@@ -55,6 +56,7 @@ def command(args):
               f"with 'mechfmu build' (or 'make fmus')", file=sys.stderr)
         return 2
     settings = settings_for(args)
+    timing.use_cpu_time(getattr(args, "cpu_time", False))
     if args.only:  # one benchmark alone: printed, data/bench left as it is
         print(markdown_table(run_benchmarks(args, settings, [args.only])))
         return 0
@@ -67,7 +69,7 @@ def command(args):
     print(machine_line(info))
     print(f"\n{len(rows)} measurements in {time.perf_counter() - started:.0f} s "
           f"({'quick' if args.quick else 'full'}, median of {settings.repeats} after one "
-          f"warm-up); wrote {', '.join(str(path) for path in paths.values())}")
+          f"warm-up; {'CPU' if getattr(args, 'cpu_time', False) else 'wall'} time); wrote {', '.join(str(path) for path in paths.values())}")
     if args.profile:
         master_overhead.profile(args.scenes, args.fmu_dir, settings.master_lengths_s[1])
     return 0

@@ -1,0 +1,435 @@
+"""Compiled kernels of a planar.Mechanism: the solver's hot path as straight-line code (stdlib).
+
+planar.py assembles Phi, Phi_q and gamma joint by joint into dense lists and factors the
+9 x 9 Jacobian by generic Gaussian elimination: clear, general, and about 250 us per
+communication step in CPython, almost all of it interpreter overhead (method calls, tuple
+building, loops over structural zeros). A planar Jacobian is sparse (a revolute row has
+three or four non-zeros) and its pattern never changes, so this module writes, once per
+mechanism, Python source for
+
+- the scaled residual Phi(q), the non-zeros of the scaled Jacobian Phi_q(q) and gamma(q, q');
+- an LU factorisation of Phi_q for one fixed row order (the pivots partial pivoting chose at
+  some configuration), with its fill-in worked out symbolically: only the operations on
+  structural non-zeros remain, as arithmetic on local variables;
+- the forward and back substitutions with L U and with their transpose (for the condition
+  estimate), and the sign of det(Phi_q).
+
+and compiles it with ``compile``/``exec``. Partial pivoting is kept in effect: the factor
+returns None when a fixed pivot is smaller than half of another candidate in its column
+(multipliers stay <= 2), and the caller compiles (and caches) the kernel of the row order
+partial pivoting chooses at the current configuration. Every number the kernels compute is
+the same expression planar.py evaluates, up to rounding.
+
+The condition number is estimated as LAPACK's xGECON does (Hager's method as refined by
+Higham: a lower bound of ||A^-1||_1 that is exact unless the matrix is contrived), started
+from the column that gave the maximum at the previous step, so along a motion it costs one
+solve with A and one with A^T.
+"""
+
+import math
+
+from .planar import GROUND, Driver, PointOnLine, RelativeAngle, Revolute
+
+
+class Unsupported(Exception):
+    """The mechanism has a joint type this compiler does not know (use planar.py's path)."""
+
+
+def _num(value):
+    return repr(float(value))
+
+
+def _sum(terms):
+    """Source of a sum of (coefficient, expression) terms; zero coefficients dropped."""
+    parts = []
+    for coefficient, expression in terms:
+        if coefficient == 0.0:
+            continue
+        if coefficient == 1.0:
+            parts.append(f"+ {expression}")
+        elif coefficient == -1.0:
+            parts.append(f"- {expression}")
+        else:
+            parts.append(f"+ {_num(coefficient)} * {expression}")
+    if not parts:
+        return "0.0"
+    text = " ".join(parts)
+    return "(" + text.removeprefix("+ ") + ")"
+
+
+class _Body:
+    """Source names of one body's coordinates, trigonometry and rates (ground: constants)."""
+
+    def __init__(self, body):
+        self.ground = body is GROUND
+        self.index = None if self.ground else body
+        b = body
+        self.x, self.y, self.phi = (f"x{b}", f"y{b}", f"p{b}") if not self.ground else (
+            "0.0", "0.0", "0.0")
+        self.c, self.s = (f"c{b}", f"s{b}") if not self.ground else ("1.0", "0.0")
+        self.vx, self.vy, self.w = (f"vx{b}", f"vy{b}", f"w{b}") if not self.ground else (
+            "0.0", "0.0", "0.0")
+
+    def rotate(self, local):
+        """Source of A(phi) local, (x, y)."""
+        lx, ly = float(local[0]), float(local[1])
+        if self.ground:
+            return _num(lx), _num(ly)
+        return (_sum([(lx, self.c), (-ly, self.s)]), _sum([(lx, self.s), (ly, self.c)]))
+
+    def point(self, local):
+        ax, ay = self.rotate(local)
+        if self.ground:
+            return ax, ay
+        return f"({self.x} + {ax})", f"({self.y} + {ay})"
+
+    def column(self, coordinate):
+        return 3 * self.index + coordinate
+
+
+class _Emitter:
+    """Source lines and Jacobian entries of every joint of a mechanism, in row order."""
+
+    def __init__(self, mechanism):
+        self.residual, self.jacobian, self.gamma = [], [], []   # statements
+        self.residual_rows, self.gamma_rows = [], []           # one expression per row
+        self.entries = {}   # (row, column) -> [expression terms]
+        self.rate_rows = {}  # row -> drive index (velocity right-hand side)
+        row = 0
+        for k, joint in enumerate(mechanism.joints):
+            emit = _JOINTS.get(type(joint))
+            if emit is None:
+                raise Unsupported(type(joint).__name__)
+            emit(self, k, row, joint)
+            row += joint.equations
+
+    def entry(self, row, column, expression):
+        self.entries.setdefault((row, column), []).append(expression)
+
+
+def _revolute(e, k, row, joint):
+    bi, bj = _Body(joint.body_i), _Body(joint.body_j)
+    pix, piy = bi.point(joint.point_i)
+    pjx, pjy = bj.point(joint.point_j)
+    e.residual_rows += [f"{pix} - {pjx}", f"{piy} - {pjy}"]
+    gx, gy = [], []
+    for body, local, sign, tag in ((bi, joint.point_i, 1.0, "i"), (bj, joint.point_j, -1.0, "j")):
+        if body.ground:
+            continue
+        ax, ay = body.rotate(local)
+        name = f"r{k}{tag}"
+        e.jacobian.append(f"{name}x = {ax}; {name}y = {ay}")
+        e.gamma.append(f"{name}x = {ax}; {name}y = {ay}")
+        e.entry(row, body.column(0), _num(sign))
+        e.entry(row + 1, body.column(1), _num(sign))
+        # d/dphi A s = perp(A s) = (-ay, ax)
+        e.entry(row, body.column(2), f"{_num(-sign)} * {name}y")
+        e.entry(row + 1, body.column(2), f"{_num(sign)} * {name}x")
+        w2 = f"{body.w} * {body.w}"
+        gx.append(f"{_num(sign)} * {name}x * {w2}")
+        gy.append(f"{_num(sign)} * {name}y * {w2}")
+    e.gamma_rows += [" + ".join(gx) or "0.0", " + ".join(gy) or "0.0"]
+
+
+def _point_on_line_on_ground(e, k, row, joint):
+    """A point of a body on a fixed line: the normal is a constant, folded into the code
+    (a zero component drops its Jacobian entry)."""
+    bi = _Body(joint.body_i)
+    nx, ny = float(joint.normal_j[0]), float(joint.normal_j[1])
+    pix, piy = bi.point(joint.point_i)
+    pjx, pjy = _num(joint.point_j[0]), _num(joint.point_j[1])
+    aix, aiy = bi.rotate(joint.point_i)
+    e.residual_rows.append(_sum([(nx, f"({pix} - {pjx})"), (ny, f"({piy} - {pjy})")]))
+    e.jacobian.append(f"a{k}ix = {aix}; a{k}iy = {aiy}")
+    e.gamma.append(f"a{k}ix = {aix}; a{k}iy = {aiy}")
+    for coordinate, value in ((0, nx), (1, ny)):
+        if value != 0.0:
+            e.entry(row, bi.column(coordinate), _num(value))
+    # n . perp(a_i) = n_y a_ix - n_x a_iy; gamma = n . a_i w_i^2
+    e.entry(row, bi.column(2), _sum([(ny, f"a{k}ix"), (-nx, f"a{k}iy")]))
+    e.gamma_rows.append(f"{_sum([(nx, f'a{k}ix'), (ny, f'a{k}iy')])} * {bi.w} * {bi.w}")
+
+
+def _point_on_line(e, k, row, joint):
+    if joint.body_j is GROUND and joint.body_i is not GROUND:
+        _point_on_line_on_ground(e, k, row, joint)
+        return
+    bi, bj = _Body(joint.body_i), _Body(joint.body_j)
+    nx, ny = bj.rotate(joint.normal_j)
+    pix, piy = bi.point(joint.point_i)
+    pjx, pjy = bj.point(joint.point_j)
+    aix, aiy = bi.rotate(joint.point_i)
+    ajx, ajy = bj.rotate(joint.point_j)
+    parts = (f"n{k}x = {nx}; n{k}y = {ny}; d{k}x = {pix} - {pjx}; d{k}y = {piy} - {pjy}; "
+             f"a{k}ix = {aix}; a{k}iy = {aiy}; a{k}jx = {ajx}; a{k}jy = {ajy}")
+    e.residual.append(f"n{k}x = {nx}; n{k}y = {ny}")
+    e.residual_rows.append(f"n{k}x * ({pix} - {pjx}) + n{k}y * ({piy} - {pjy})")
+    e.jacobian.append(parts)
+    n = (f"n{k}x", f"n{k}y")
+    if not bi.ground:
+        e.entry(row, bi.column(0), n[0])
+        e.entry(row, bi.column(1), n[1])
+        # n . perp(a_i) = -n_x a_iy + n_y a_ix
+        e.entry(row, bi.column(2), f"(n{k}y * a{k}ix - n{k}x * a{k}iy)")
+    if not bj.ground:
+        e.entry(row, bj.column(0), f"-{n[0]}")
+        e.entry(row, bj.column(1), f"-{n[1]}")
+        # perp(n) . d - n . perp(a_j), perp(n) = (-n_y, n_x)
+        e.entry(row, bj.column(2), f"(n{k}x * d{k}y - n{k}y * d{k}x"
+                                   f" - (n{k}y * a{k}jx - n{k}x * a{k}jy))")
+    wi, wj = bi.w, bj.w
+    e.gamma.append(parts)
+    # ddot = v_i + perp(a_i) w_i - v_j - perp(a_j) w_j; centripetal = a_i w_i^2 - a_j w_j^2
+    e.gamma.append(f"dd{k}x = {bi.vx} - a{k}iy * {wi} - {bj.vx} + a{k}jy * {wj}; "
+                   f"dd{k}y = {bi.vy} + a{k}ix * {wi} - {bj.vy} - a{k}jx * {wj}")
+    e.gamma.append(f"ce{k}x = a{k}ix * {wi} * {wi} - a{k}jx * {wj} * {wj}; "
+                   f"ce{k}y = a{k}iy * {wi} * {wi} - a{k}jy * {wj} * {wj}")
+    e.gamma_rows.append(f"(n{k}x * d{k}x + n{k}y * d{k}y) * {wj} * {wj}"
+                        f" - 2.0 * {wj} * (n{k}x * dd{k}y - n{k}y * dd{k}x)"
+                        f" + n{k}x * ce{k}x + n{k}y * ce{k}y")
+
+
+def _relative_angle(e, k, row, joint):
+    bi, bj = _Body(joint.body_i), _Body(joint.body_j)
+    e.residual_rows.append(f"{bi.phi} - {bj.phi} - {_num(joint.angle)}")
+    if not bi.ground:
+        e.entry(row, bi.column(2), "1.0")
+    if not bj.ground:
+        e.entry(row, bj.column(2), "-1.0")
+    e.gamma_rows.append("0.0")
+
+
+def _driver(e, k, row, joint):
+    terms = [(weight, f"q[{3 * body + coordinate}]") for body, coordinate, weight in joint.terms]
+    e.residual_rows.append(f"{_num(joint.offset)} + {_sum(terms)} - d[{joint.index}][0]")
+    for body, coordinate, weight in joint.terms:
+        e.entry(row, 3 * body + coordinate, _num(weight))
+    e.rate_rows[row] = joint.index
+    e.gamma_rows.append(f"d[{joint.index}][2]")
+
+
+_JOINTS = {Revolute: _revolute, PointOnLine: _point_on_line, RelativeAngle: _relative_angle,
+           Driver: _driver}
+
+
+def _unpack(size, rates=False):
+    names = [f"{v}{b}" for b in range(size // 3) for v in ("x", "y", "p")]
+    lines = [f"    {', '.join(names)}, = q"]
+    if rates:
+        rate_names = [f"{v}{b}" for b in range(size // 3) for v in ("vx", "vy", "w")]
+        lines.append(f"    {', '.join(rate_names)}, = qd")
+    for b in range(size // 3):
+        lines.append(f"    c{b} = cos(p{b}); s{b} = sin(p{b})")
+    return lines
+
+
+class MechanismKernel:
+    """The compiled residual, Jacobian, gamma and velocity right-hand side of a mechanism,
+    and its LU kernels by row order (``factor``)."""
+
+    def __init__(self, mechanism):
+        e = _Emitter(mechanism)
+        n = self.size = mechanism.size
+        rs, cs = mechanism.row_scale, mechanism.column_scale
+        self.column_scale = tuple(cs)
+        self.pattern = sorted(e.entries)
+        namespace = {"cos": math.cos, "sin": math.sin}
+        lines = ["def residual(q, d):", *_unpack(n)]
+        lines += [f"    {s}" for s in e.residual]
+        lines.append("    return [" + ", ".join(
+            f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows)) + "]")
+        lines += ["def jacobian(q):", *_unpack(n)]
+        lines += [f"    {s}" for s in e.jacobian]
+        lines.append("    return (" + ", ".join(
+            f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
+            for key in self.pattern) + ",)")
+        lines += ["def predict(q, v, a, vb, ab, cv, ca, ka, kb):"]
+        lines += [f"    return [{', '.join(f'q[{j}] + cv * v[{j}] + ca * a[{j}] + ka * ab[{j}] + kb * vb[{j}]' for j in range(n))}]"]
+        lines += ["def residual_jacobian(q, d):", *_unpack(n)]
+        lines += [f"    {s}" for s in e.residual + e.jacobian]
+        lines.append("    return [" + ", ".join(
+            f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows)) + "], (" +
+            ", ".join(f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
+                      for key in self.pattern) + ",)")
+        lines += ["def gamma(q, qd, d):", *_unpack(n, rates=True)]
+        lines += [f"    {s}" for s in e.gamma]
+        lines.append("    return [" + ", ".join(
+            f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.gamma_rows)) + "]")
+        columns = {}
+        for m, (_, j) in enumerate(self.pattern):
+            columns.setdefault(j, []).append(f"abs(v[{m}])")
+        lines += ["def one_norm(v):", "    return max(" + ", ".join(
+            " + ".join(terms) for terms in columns.values()) + ")"]
+        lines += ["def rates(d):", "    return [" + ", ".join(
+            f"d[{e.rate_rows[i]}][1] * {_num(rs[i])}" if i in e.rate_rows else "0.0"
+            for i in range(n)) + "]"]
+        source = "\n".join(lines) + "\n"  # generated here from the joints, nothing read in
+        exec(compile(source, f"<{mechanism.name} kernel>", "exec"), namespace)  # noqa: S102
+        self.residual, self.jacobian = namespace["residual"], namespace["jacobian"]
+        self.gamma, self.rates = namespace["gamma"], namespace["rates"]
+        self.residual_jacobian = namespace["residual_jacobian"]
+        self.predict = namespace["predict"]  # the fast path's predictor, unrolled
+        self.one_norm = namespace["one_norm"]  # 1-norm of the scaled Jacobian's non-zeros
+        self.orders = {}
+
+    def dense(self, values):
+        """The scaled Jacobian as a dense list of rows, from jacobian()'s non-zeros."""
+        matrix = [[0.0] * self.size for _ in range(self.size)]
+        for (i, j), v in zip(self.pattern, values):
+            matrix[i][j] = v
+        return matrix
+
+    def lu(self, order):
+        """The LuKernel for row order ``order`` (compiled once, then cached)."""
+        kernel = self.orders.get(order)
+        if kernel is None:
+            kernel = self.orders[order] = LuKernel(self.pattern, self.size, order,
+                                                   self.column_scale)
+        return kernel
+
+
+class LuKernel:
+    """Sparse LU of one row order: ``factor(values)`` -> F or None (a pivot too small against
+    another candidate of its column); ``solve(F, b)``, ``solve_t(F, c)`` (A^T x = c);
+    ``sign(F)``: sign of det(A)."""
+
+    def __init__(self, pattern, n, order, scale):
+        self.order = order
+        position = {row: k for k, row in enumerate(order)}  # original row -> position
+        index = {key: m for m, key in enumerate(pattern)}
+        nonzero = {(position[i], j) for i, j in pattern}
+        lines = ["def factor(v):"]
+        for (i, j), m in index.items():
+            lines.append(f"    a{position[i]}_{j} = v[{m}]")
+        multipliers, upper = [], []
+        for k in range(n):
+            if (k, k) not in nonzero:
+                raise ZeroDivisionError("structurally singular for this row order")
+            below = [i for i in range(k + 1, n) if (i, k) in nonzero]
+            right = [j for j in range(k + 1, n) if (k, j) in nonzero]
+            for i in below:
+                lines.append(f"    if a{k}_{k} * a{k}_{k} < 0.25 * a{i}_{k} * a{i}_{k}: return None")
+            if not below:
+                lines.append(f"    if a{k}_{k} == 0.0: return None")
+            for i in below:
+                lines.append(f"    a{i}_{k} = a{i}_{k} / a{k}_{k}")
+                multipliers.append((i, k))
+                for j in right:
+                    if (i, j) in nonzero:
+                        lines.append(f"    a{i}_{j} -= a{i}_{k} * a{k}_{j}")
+                    else:
+                        nonzero.add((i, j))
+                        lines.append(f"    a{i}_{j} = -a{i}_{k} * a{k}_{j}")
+            upper += [(k, j) for j in [k] + right]
+        names = [f"a{i}_{j}" for i, j in multipliers + upper]
+        lines.append(f"    if not isfinite({' + '.join(f'a{k}_{k}' for k in range(n))}):"
+                     " return None")
+        parity = _parity(order)
+        lines.append(f"    negative = {' + '.join(f'(a{k}_{k} < 0.0)' for k in range(n))}")
+        lines.append(f"    return ({', '.join(names)}, "
+                     f"{parity} if negative % 2 == 0 else {-parity})")
+        unpack = f"    {', '.join(names)}, _ = F"
+        lower_of = {i: [k for (r, k) in multipliers if r == i] for i in range(n)}
+        upper_of = {k: [j for (r, j) in upper if r == k and j != k] for k in range(n)}
+        # A = P^T L U with row k of P A being original row order[k].
+        lines += ["def solve(F, b):", unpack]
+        for i in range(n):
+            terms = "".join(f" - a{i}_{k} * y{k}" for k in lower_of[i])
+            lines.append(f"    y{i} = b[{order[i]}]{terms}")
+        for k in range(n - 1, -1, -1):
+            terms = "".join(f" - a{k}_{j} * y{j}" for j in upper_of[k])
+            lines.append(f"    y{k} = (y{k}{terms}) / a{k}_{k}")
+        lines.append(f"    return [{', '.join(f'y{j}' for j in range(n))}]")
+        body = lines[lines.index("def solve(F, b):") + 1:-1]
+        # The same substitutions, the solution scaled by ``scale`` (the coordinates of a
+        # scaled system), and a Newton correction q - scale x with max |x|.
+        lines += ["def solve_scaled(F, b):", *body,
+                  f"    return [{', '.join(f'y{j} * {scale[j]!r}' for j in range(n))}]"]
+        corrected = ", ".join(f"q[{j}] - y{j} * {scale[j]!r}" for j in range(n))
+        largest = ", ".join(f"abs(y{j})" for j in range(n))
+        lines += ["def correct(F, b, q):", *body,
+                  f"    return ([{corrected}], max({largest}))"]
+        # The final correction and the velocity: two right-hand sides, one unpacking.
+        second = [line.replace("y", "v").replace("b[", "r[") for line in body[1:]]
+        velocity = ", ".join(f"v{j} * {scale[j]!r}" for j in range(n))
+        lines += ["def correct_and_solve(F, b, q, r):", *body, *second,
+                  f"    return [{corrected}], max({largest}), [{velocity}]"]
+        # A^T x = c: U^T w = c, L^T z = w, x[order[k]] = z[k].
+        lines += ["def solve_t(F, c):", unpack]
+        upper_col = {j: [k for (k, jj) in upper if jj == j and k != j] for j in range(n)}
+        lower_col = {k: [i for (i, kk) in multipliers if kk == k] for k in range(n)}
+        for j in range(n):
+            terms = "".join(f" - a{k}_{j} * w{k}" for k in upper_col[j])
+            lines.append(f"    w{j} = (c[{j}]{terms}) / a{j}_{j}")
+        for k in range(n - 1, -1, -1):
+            terms = "".join(f" - a{i}_{k} * w{i}" for i in lower_col[k])
+            lines.append(f"    w{k} = w{k}{terms}")
+        inverse = [0] * n
+        for k, row in enumerate(order):
+            inverse[row] = k
+        lines.append(f"    return [{', '.join(f'w{inverse[r]}' for r in range(n))}]")
+        transposed = lines[lines.index("def solve_t(F, c):") + 2:]
+        # One step of Hager's estimator: y = A^-1 x, its 1-norm, and z = A^-T sign(y).
+        lines += ["def hager_step(F, b):", *body,
+                  f"    c = ({', '.join(f'1.0 if y{j} >= 0.0 else -1.0' for j in range(n))},)",
+                  *transposed[:-1],
+                  f"    return {' + '.join(f'abs(y{j})' for j in range(n))}, "
+                  + transposed[-1].strip()[len("return "):]]
+        namespace = {"isfinite": math.isfinite}
+        source = "\n".join(lines) + "\n"  # generated here from the pattern, nothing read in
+        exec(compile(source, "<planar LU kernel>", "exec"), namespace)  # noqa: S102
+        self.factor, self.solve = namespace["factor"], namespace["solve"]
+        self.solve_t, self.hager_step = namespace["solve_t"], namespace["hager_step"]
+        self.solve_scaled, self.correct = namespace["solve_scaled"], namespace["correct"]
+        self.correct_and_solve = namespace["correct_and_solve"]
+
+    @staticmethod
+    def sign(F):
+        """Sign of det(A) from factor()'s result."""
+        return F[-1]
+
+
+def _parity(order):
+    """+1 for an even permutation, -1 for an odd one."""
+    seen, sign = [False] * len(order), 1
+    for start in range(len(order)):
+        length, j = 0, start
+        while not seen[j]:
+            seen[j] = True
+            j = order[j]
+            length += 1
+        if length and length % 2 == 0:
+            sign = -sign
+    return sign
+
+
+def inverse_one_norm(lu, F, n, start=None, iterations=5):
+    """Estimate of ||A^-1||_1 from the factors (Hager 1984, Higham 1988: LAPACK's xLACON
+    without its extra test vector), a lower bound that is exact unless A is contrived. Starts
+    from the unit vector e_start (the column that attained the estimate at the previous
+    call, along a motion usually still the one), or from (1/n, ..., 1/n) if None. Returns
+    (estimate, column): the column of A^-1 that attains it."""
+    estimate = 0.0
+    if start is None:
+        x = [1.0 / n] * n
+        column = -1
+    else:
+        x = [0.0] * n
+        x[start] = 1.0
+        column = start
+    step = lu.hager_step
+    for _ in range(iterations):
+        value, z = step(F, x)
+        if value <= estimate:
+            break
+        estimate = value
+        magnitudes = list(map(abs, z))
+        best = magnitudes.index(max(magnitudes))
+        # z^T x: x is e_column, or (1/n, ..., 1/n) at a cold start
+        along = z[column] if column >= 0 else sum(z) / n
+        if best == column or magnitudes[best] <= along:
+            break
+        column = best
+        x = [0.0] * n
+        x[best] = 1.0
+    return estimate, max(column, 0)
