@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
-.PHONY: run test fmus references report study work-precision bench sweeps docs clean
+.PHONY: run test test-fast lint fmus references report study work-precision bench sweeps docs clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,8 +22,20 @@ fmus: $(VENV)/.installed
 run: fmus/.built
 	$(PY) sims/run_gear.py
 
-test: fmus/.built
+# Everything: the lint gate, then every test layer (unit, fmu, hosts, slow).
+test: lint fmus/.built
 	$(PY) -m pytest -q
+
+# The quick layers while working (under a minute): unit tests and the FMU tests that are not slow.
+test-fast: fmus/.built
+	$(PY) -m pytest -q -m "(unit or fmu) and not slow"
+
+# The gate: ruff (errors and annotations on every public function), ruff's formatting, mypy
+# (configured in pyproject.toml).
+lint: $(VENV)/.installed
+	$(VENV)/bin/ruff check src tests sims docs
+	$(VENV)/bin/ruff format --check src tests sims docs
+	$(VENV)/bin/mypy
 
 references: $(VENV)/.installed
 	$(VENV)/bin/mechfmu references

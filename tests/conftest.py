@@ -39,3 +39,84 @@ def embedded_dir(tmp_path_factory):
     folder = tmp_path_factory.mktemp("embedded")
     build_all(folder, embed_python=True)
     return folder
+
+
+# The test layers (markers registered in pyproject.toml; `make test-fast` runs
+# `-m "(unit or fmu) and not slow"`, `make test` runs them all):
+#   unit  - Python functions only: physics, numerics, references, tables; no FMU is loaded;
+#   fmu   - the built FMUs (fmus/) through our master, fmpy or the command line;
+#   hosts - other hosts and formats: libcosim, the C host, FMI 3.0, embedded Python, containers
+#           (each builds or loads FMUs of its own);
+#   slow  - more than a few seconds each (on top of its layer).
+# A file's layer is its row below; a test of a unit file that asks for the built FMUs (fixture
+# fmu_dir) is an fmu test, one that asks for fmu3_dir or embedded_dir a hosts test.
+LAYERS = {
+    "test_integrators.py": "unit",
+    "test_planar.py": "unit",
+    "test_planar_kernel.py": "unit",
+    "test_physics_cam_valve.py": "unit",
+    "test_physics_landing_gear.py": "unit",
+    "test_physics_linkages.py": "unit",
+    "test_physics_profiles.py": "unit",
+    "test_physics_suspension.py": "unit",
+    "test_references.py": "unit",
+    "test_sweep_references.py": "unit",
+    "test_hard_cases.py": "unit",
+    "test_gear_dynamics.py": "unit",
+    "test_suspension_dynamics.py": "unit",
+    "test_valve_spring.py": "unit",
+    "test_docs.py": "unit",
+    "test_work_precision.py": "unit",
+    "test_bench.py": "fmu",
+    "test_binary_patch.py": "fmu",
+    "test_corrupt_fmus.py": "fmu",
+    "test_coupling.py": "fmu",
+    "test_four_bar_boundary.py": "fmu",
+    "test_fmus.py": "fmu",
+    "test_interrupts.py": "fmu",
+    "test_linkage_fmus.py": "fmu",
+    "test_outputs.py": "fmu",
+    "test_robustness.py": "fmu",
+    "test_scenes.py": "fmu",
+    "test_shipped_sweeps.py": "fmu",
+    "test_ssp.py": "fmu",
+    "test_study.py": "fmu",
+    "test_sweep.py": "fmu",
+    "test_sweep_faults.py": "fmu",
+    "test_validation.py": "fmu",
+    "test_c_host.py": "hosts",
+    "test_container.py": "hosts",
+    "test_embedded.py": "hosts",
+    "test_fmi3.py": "hosts",
+    "test_libcosim.py": "hosts",
+}
+# Whole files, then single tests (by name without parameters), that take more than a few
+# seconds each or many seconds together (measured with `pytest --durations=0`).
+SLOW_FILES = {
+    "test_docs.py", "test_interrupts.py", "test_robustness.py", "test_scenes.py",
+    "test_sweep.py", "test_sweep_faults.py", "test_study.py", "test_bench.py",
+    "test_validation.py", "test_shipped_sweeps.py", "test_ssp.py", "test_sweep_references.py",
+    "test_valve_spring.py", "test_suspension_dynamics.py", "test_work_precision.py",
+}
+SLOW_TESTS = {
+    "test_both_solvers_give_the_same_verdict_on_boundary_linkages",
+    "test_one_step_anywhere_in_the_crank_range_gets_the_same_verdict",
+    "test_external_hydraulics_agree_with_built_in_up_to_the_coupling_error",
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Mark every test with its layer (and slow) from the tables above."""
+    for item in items:
+        name = item.path.name
+        layer = LAYERS.get(name)
+        if layer is None:
+            raise pytest.UsageError(f"{name}: no layer in tests/conftest.py LAYERS")
+        fixtures = set(getattr(item, "fixturenames", ()))
+        if layer == "unit" and fixtures & {"fmu3_dir", "embedded_dir"}:
+            layer = "hosts"
+        elif layer == "unit" and "fmu_dir" in fixtures:
+            layer = "fmu"
+        item.add_marker(getattr(pytest.mark, layer))
+        if name in SLOW_FILES or item.originalname in SLOW_TESTS:
+            item.add_marker(pytest.mark.slow)

@@ -22,7 +22,8 @@ _API = {"simulate": "api", "reference": "api", "sweep": "api",
         "read_result": "io", "write_result": "io", "read_table": "io",
         "ResultFileError": "io", "compare": "comparison", "Comparison": "comparison"}
 
-__all__ = ["__version__", *_API]
+__all__ = ["Comparison", "ResultFileError", "__version__", "compare", "read_result",
+           "read_table", "reference", "simulate", "sweep", "write_result"]  # _API's names
 
 if TYPE_CHECKING:
     from .api import reference, simulate, sweep

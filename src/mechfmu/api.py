@@ -141,7 +141,7 @@ def _fmu_versions(simulation: Simulation) -> dict[str, dict[str, Any]]:
             for description in [component.description]}
 
 
-def frame(times: Sequence[float], columns: Mapping[str, Sequence[float]],
+def frame(times: Sequence[float] | numpy.ndarray, columns: Mapping[str, Sequence[float]],
           units: Mapping[str, str | None] | None = None, **attrs: Any) -> pandas.DataFrame:
     """A result DataFrame: index ``time`` (s, float64), one float64 column per entry of
     ``columns`` in order, ``attrs["units"]`` and the other ``attrs``."""
@@ -342,7 +342,8 @@ def sweep(scene: StrPath, vary: Mapping[str, Sequence[float]] | Iterable[str] | 
         load_scene(chosen["scene_path"], chosen["overrides"]), None)
     with tempfile.TemporaryDirectory(prefix="mechfmu-sweep-") as scratch:
         summary = run_sweep(**chosen, out_dir=Path(out_dir or Path(scratch) / "sweep"),
-                            jobs=jobs, fmu_dir=folder, progress=False, scheduler=scheduler)
+                            jobs=jobs, fmu_dir=str(folder), progress=False,
+                            scheduler=scheduler)
         table = read_sweep_table(summary["csv"])
     table = table.set_index("index").sort_index()
     table.attrs.update(summary)

@@ -13,12 +13,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from os import PathLike
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .comparison import Comparison, Tolerance
 from .comparison import compare as compare_frames
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .cosim.master import Result
 
 
 def compare(result_path: str | PathLike, reference_path: str | PathLike, rtol: float = 1e-9,
@@ -168,7 +171,7 @@ def check_paths(result: str | PathLike, reference: str | PathLike, *, rtol: floa
     return CheckRun(files, options, error)
 
 
-def worst_deviations(result, reference_path):
+def worst_deviations(result: Any, reference_path: Any) -> Any:
     """Per recorded column that the reference CSV shares: (column, worst |difference|,
     unit, time of it in s, that difference as a fraction of the column's peak |reference|).
     The reference is interpolated onto the result's times; ``result`` is a cosim Result."""
@@ -190,7 +193,7 @@ def worst_deviations(result, reference_path):
     return rows
 
 
-def run_report(result, paths, reference=None, rtol=1e-9, atol=1e-12, label="reference"):
+def run_report(result: Result, paths: dict[str, Path], reference: Path | None=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference") -> tuple[list[str], Comparison | None]:
     """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
     verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,

@@ -6,6 +6,10 @@ function of the package (imported when the verb runs, so ``mechfmu run`` never l
 study's or the benchmarks' code). The scripts in sims/ call ``script_main`` with their verb.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import argparse
 import os
 import sys
@@ -13,8 +17,14 @@ from pathlib import Path
 
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .cosim.files import OutputError
+    from .cosim.interrupt import InterruptGuard
+    from .cosim.master import SimulationError
+    from .cosim.scene import SceneError
 
-def _build(args):
+
+def _build(args: Any) -> int:
     from .packaging.build import build_all
     for path in build_all(args.out, args.models or None, fmi_version=args.fmi_version,
                           embed_python=args.embed_python):
@@ -22,7 +32,7 @@ def _build(args):
     return 0
 
 
-def _scene_failure(error, guard=None):
+def _scene_failure(error: SimulationError | SceneError | OutputError, guard: InterruptGuard | None=None) -> int:
     """Exit status and message for a scene that could not run: 2 for a scene or output error,
     1 for a failed simulation (whose partial results and any older result moved aside are
     named), 130/143 when SIGINT/SIGTERM stopped it (``guard``: the command's InterruptGuard)."""
@@ -42,17 +52,17 @@ def _scene_failure(error, guard=None):
         print(f"partial {kind}: {path}", file=sys.stderr)
     if getattr(error, "output_error", None) is not None:
         print(f"output error: {error.output_error}", file=sys.stderr)
-    return exit_code(error.signum) if interrupted else 1
+    return exit_code(error.signum) if isinstance(error, SimulationInterrupted) else 1
 
 
-def _run(args):
+def _run(args: argparse.Namespace) -> int:
     # Ctrl-C and SIGTERM are noted from here on and taken between steps (cosim.interrupt).
     from .cosim.interrupt import InterruptGuard
     with InterruptGuard() as guard:
         return _run_guarded(args, guard)
 
 
-def _run_guarded(args, guard):
+def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
     from .cosim.scene import find_file
     if args.all == (args.scene is not None):
         print("mechfmu run: error: give a scene or --all (every shipped scene), not both",
@@ -74,7 +84,7 @@ def _run_guarded(args, guard):
     return _run_one(args, guard, find_file(args.scene))
 
 
-def _run_all(args, guard):
+def _run_all(args: argparse.Namespace, guard: InterruptGuard) -> int:
     """``mechfmu run --all``: every shipped scene into --out, in name order, one after the
     other; a failing scene does not stop the others. Exit status: the worst of the scenes'
     (0 all ran, and matched their references with --check; 1 a run failed or a check did not
@@ -102,7 +112,7 @@ def _run_all(args, guard):
     return max(statuses.values(), default=0)
 
 
-def _run_one(args, guard, scene_path):
+def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) -> int:
     from .check import run_report
     from .cosim.files import OutputError
     from .cosim.interrupt import exit_code, signal_name
@@ -143,7 +153,7 @@ EXAMPLES = {
 }
 
 
-def _example(args):
+def _example(args: Any):
     from .cosim.master import SimulationError
     from .cosim.scene import SceneError
     from .tools import examples
@@ -153,7 +163,7 @@ def _example(args):
         return _scene_failure(error)
 
 
-def _export_ssp(args):
+def _export_ssp(args: argparse.Namespace) -> int:
     from .cosim.scene import SceneError, find_file
     from .tools.ssp import export_ssp, summary
     try:
@@ -164,7 +174,7 @@ def _export_ssp(args):
     return 0
 
 
-def _export_fmu(args):
+def _export_fmu(args: Any):
     from .cosim.scene import SceneError, find_file
     from .tools.container import export_scene_fmu
     schedule = {"scene": None, "sequential": True, "parallel": False}[args.schedule]
@@ -180,12 +190,12 @@ def _export_fmu(args):
     return 0
 
 
-def _check(args):
+def _check(args: Any) -> int:
     from .check import check_paths
     from .comparison import parse_tolerance
     from .cosim.files import OutputError
     try:
-        tolerances = dict(parse_tolerance(text) for text in args.tol)
+        tolerances: dict[str, Any] = dict(parse_tolerance(text) for text in args.tol)
         for name, value in (("--rtol", args.rtol), ("--atol", args.atol),
                             ("--time-tolerance", args.time_tolerance)):
             if value is not None and not value >= 0:
@@ -217,7 +227,7 @@ def _check(args):
     return run.exit_code
 
 
-def _baseline_update(args):
+def _baseline_update(args: argparse.Namespace) -> int:
     from .baseline import BaselineError, summary, update_baselines
     from .cosim.files import OutputError
     try:
@@ -232,20 +242,20 @@ def _baseline_update(args):
     return 0
 
 
-def _references(args):
+def _references(args: Any) -> int:
     from .tools.scene_references import generate
     for path in generate(args.scenes, args.out):
         print(f"wrote {path}")
     return 0
 
 
-def _report(args):
+def _report(args: Any) -> int:
     from .tools.report.seed_report import write_report
     print(f"wrote {write_report(args.out)}")
     return 0
 
 
-def _docs(args):
+def _docs(args: Any) -> int:
     from .cosim.scene import find_file
     from .tools.docs import interface_tables, reference_plot
     try:
@@ -262,17 +272,17 @@ def _docs(args):
     return 0
 
 
-def _study(args):
+def _study(args: argparse.Namespace):
     from .tools.study import command
     return command(args)
 
 
-def _bench(args):
+def _bench(args: Any):
     from .tools.bench.suite import command
     return command(args)
 
 
-def _fuzz(args):
+def _fuzz(args: Any):
     from .runtime.models import MODELS
     from .tools.fuzz import command
     unknown = [name for name in args.models if name not in MODELS]
@@ -289,19 +299,19 @@ def _fuzz(args):
     return command(args)
 
 
-def _sweep(args):
+def _sweep(args: argparse.Namespace) -> int:
     from .tools.sweep import command
     return command(args)
 
 
-def _at_least_one(text):
+def _at_least_one(text: str) -> int:
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
 
 
-def _scene_options(verb, out="out", plot=True):
+def _scene_options(verb: argparse.ArgumentParser, out: str="out", plot: bool=True) -> None:
     """--out, --fmu-dir and --no-plot: the options of every verb that runs scenes."""
     verb.add_argument("--out", default=out, help=f"output folder (default: {out})")
     verb.add_argument("--fmu-dir", default="fmus", help="folder of built FMUs (default: fmus)")
@@ -309,7 +319,7 @@ def _scene_options(verb, out="out", plot=True):
         verb.add_argument("--no-plot", action="store_true", help="skip the PNG")
 
 
-def _example_verbs(verbs):
+def _example_verbs(verbs: argparse._SubParsersAction) -> None:
     example = verbs.add_parser("example", help="a worked example: shipped scenes checked "
                                "against their references, with what each check found "
                                "(sims/run_*.py run these)")
@@ -327,7 +337,7 @@ def _example_verbs(verbs):
     example.set_defaults(func=_example)
 
 
-def _measurement_verbs(verbs):
+def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     """study, bench, fuzz, sweep: the long runs."""
     from .tools.bench import BENCHMARKS, FULL, QUICK
     study = verbs.add_parser("study", help="accuracy study: error against wall time (make "
@@ -424,7 +434,7 @@ def _measurement_verbs(verbs):
     sweep.set_defaults(func=_sweep)
 
 
-def parser():
+def parser() -> argparse.ArgumentParser:
     main = argparse.ArgumentParser(prog="mechfmu", description=__doc__.split("\n\n")[0])
     verbs = main.add_subparsers(dest="verb", required=True)
 
@@ -535,12 +545,12 @@ def parser():
     return main
 
 
-def main(argv=None):
+def main(argv: list[str] | None=None) -> int:
     args = parser().parse_args(argv)
     return args.func(args)
 
 
-def script_main(script, *verb, **paths):
+def script_main(script: Any, *verb: Any, **paths: Any) -> None:
     """Entry point of a script in sims/: ``mechfmu VERB`` with each option in ``paths``
     (``out="out"`` -> ``--out <repository>/out``) inside the repository that holds the
     script, so the script writes to the same place from any directory, followed by the

@@ -264,12 +264,13 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
     frame = _result_frame(frame)
     path = Path(path)
     names = [str(name) for name in frame.columns]
-    columns = {name: frame[name].to_numpy(dtype=float) for name in names}
-    meta = {key: value for key, value in frame.attrs.items() if key != "file"}
+    columns = {name: frame[name].to_numpy(dtype=float).tolist() for name in names}
+    meta: dict[str, Any] = {str(key): value for key, value in frame.attrs.items()
+                            if key != "file"}
     units = meta.get("units") or {}
     meta["units"] = {name: units[name] for name in names if name in units}
     meta["recorded"] = names
-    atomic_write_all({path: csv_writer(frame.index.to_numpy(dtype=float), columns),
+    atomic_write_all({path: csv_writer(frame.index.to_numpy(dtype=float).tolist(), columns),
                       companion_json(path): json_text(meta)})
     return path
 

@@ -11,10 +11,18 @@ an OutputError whose one-line message names the file and the cause; nothing half
 left behind.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import io
 import os
 import secrets
 from pathlib import Path
+from typing import Any
+from collections.abc import Callable
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from matplotlib.figure import Figure
 
 MAX_NAME_LENGTH = 200  # characters of a result's name; a file name holds at most 255 bytes
 
@@ -23,14 +31,14 @@ class OutputError(RuntimeError):
     """An output file or folder that cannot be written; the message names it and the cause."""
 
 
-def _cause(error):
+def _cause(error: OSError | PermissionError) -> str:
     """'[Errno 28] No space left on device' without the file name OSError appends."""
     if isinstance(error, OSError) and error.strerror:
         return f"[Errno {error.errno}] {error.strerror}" if error.errno else error.strerror
     return str(error)
 
 
-def plain_file_name(name):
+def plain_file_name(name: str) -> str | None:
     """The reason ``name`` is not a plain file name (one path component that is not hidden),
     or None if it is one."""
     if not isinstance(name, str) or not name:
@@ -48,7 +56,7 @@ def plain_file_name(name):
     return None
 
 
-def output_folder(folder):
+def output_folder(folder: Path | str) -> Path:
     """``folder`` as a Path, created with its parents if missing, after checking that files
     can be created in it (a probe file, created and removed): OutputError otherwise.
 
@@ -71,7 +79,7 @@ def output_folder(folder):
     return folder
 
 
-def inside(folder, name):
+def inside(folder: Path, name: str) -> Path:
     """folder / name, or OutputError unless it is a file directly inside ``folder`` (after
     resolving '..' and symbolic links of the folder)."""
     folder = Path(folder)
@@ -82,7 +90,7 @@ def inside(folder, name):
     return path
 
 
-def _content_bytes(content, path):
+def _content_bytes(content: Callable | bytes | str, path: Path) -> bytes:
     """The bytes of ``content``: str (UTF-8), bytes, or a callable writing text to a handle."""
     if callable(content):
         handle = io.StringIO(newline="")
@@ -96,7 +104,7 @@ def _content_bytes(content, path):
                     f"{type(content).__name__}")
 
 
-def _write_temporary(path, data):
+def _write_temporary(path: Path, data: bytes) -> Path:
     """A new temporary file beside ``path`` holding ``data``; its path."""
     temporary = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
     descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
@@ -113,7 +121,7 @@ def _write_temporary(path, data):
     return temporary
 
 
-def atomic_write_all(contents):
+def atomic_write_all(contents: Any) -> list[Path]:
     """Write several files all or none; ``contents`` maps each path to its content (str,
     bytes, or a callable writing text to a handle). Returns the paths, in order. Missing
     parent folders are created.
@@ -144,19 +152,19 @@ def atomic_write_all(contents):
     return paths
 
 
-def atomic_write(path, content):
+def atomic_write(path: str | Path, content: bytes | str | Callable[[Any], None]) -> Path:
     """Write one file atomically (see atomic_write_all); returns its path."""
     return atomic_write_all({path: content})[0]
 
 
-def save_figure(path, figure, **options):
+def save_figure(path: Path, figure: Figure, **options: Any) -> Path:
     """Write a matplotlib figure (PNG unless ``format`` says otherwise) atomically."""
     buffer = io.BytesIO()
     figure.savefig(buffer, format=options.pop("format", "png"), **options)
     return atomic_write(path, buffer.getvalue())
 
 
-def move_aside(paths, marker="previous"):
+def move_aside(paths: list[Path], marker: str="previous") -> list[Any]:
     """Rename each existing file '<stem>.<ext>' in ``paths`` to '<stem>.<marker>.<ext>'
     (replacing an older one of that name); returns the new paths."""
     moved = []

@@ -9,6 +9,10 @@ library under it is a complete ELF file for this machine (every segment the load
 lies inside the file). Every failure is an FmuError naming the file and the cause.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import platform
 import struct
 import sys
@@ -20,14 +24,17 @@ from fmpy import read_model_description, sharedLibraryExtension
 
 from .scene import SceneError
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.model_description import ModelDescription
+
 
 class FmuError(SceneError):
     """An FMU file that cannot be loaded; the message names the file and the cause."""
 
 
-def checked_description(path):
+def checked_description(path: str) -> ModelDescription:
     """fmpy's ModelDescription of the FMU at ``path`` after the checks of this module."""
-    def refuse(cause):
+    def refuse(cause: Any):
         raise FmuError(f"{path} is not a valid FMU: {cause}")
 
     try:
@@ -73,7 +80,7 @@ _MACHINES = {"x86_64": 62, "amd64": 62, "aarch64": 183, "arm64": 183, "i386": 3,
 _ET_DYN, _PT_LOAD = 3, 1
 
 
-def elf_problem(data):
+def elf_problem(data: bytes) -> str | None:
     """Why ``data`` is not a complete ELF shared library for this machine, or None.
 
     Reads the ELF header (class, byte order, type, machine), then checks that the program

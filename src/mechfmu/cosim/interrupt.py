@@ -11,16 +11,18 @@ master asks ``requested`` between steps and stops cleanly there.
 
 import signal
 import threading
+from types import TracebackType
+from typing import Any, Literal
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
-def exit_code(signum):
+def exit_code(signum: Any) -> Any:
     """The shell's code for a command ended by ``signum``: 128 + number (130, 143)."""
     return 128 + int(signum)
 
 
-def signal_name(signum):
+def signal_name(signum: signal.Signals) -> str:
     """'SIGINT', 'SIGTERM', ..."""
     return signal.Signals(signum).name
 
@@ -36,33 +38,33 @@ class InterruptGuard:
     (SIG_IGN, as under nohup) stays ignored.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.signum = None
         self.taken = False
-        self._previous = {}
+        self._previous: dict[int, Any] = {}
 
-    def __enter__(self):
+    def __enter__(self) -> "InterruptGuard":
         if threading.current_thread() is threading.main_thread():
             for signum in SIGNALS:
                 if signal.getsignal(signum) is not signal.SIG_IGN:
                     self._previous[signum] = signal.signal(signum, self._note)
         return self
 
-    def _note(self, signum, frame):
+    def _note(self, signum: Any, frame: Any) -> None:
         if self.signum is None:
             self.signum = signum
 
     @property
-    def requested(self):
+    def requested(self) -> bool:
         """Whether a signal arrived and the work should stop at the next safe point."""
         return self.signum is not None
 
-    def take(self):
+    def take(self) -> Any:
         """Acknowledge the signal (it has been acted on); returns its number."""
         self.taken = True
         return self.signum
 
-    def __exit__(self, kind, value, traceback):
+    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None, traceback: TracebackType | None) -> Literal[False]:
         for signum, previous in self._previous.items():
             signal.signal(signum, signal.SIG_DFL if previous is None else previous)
         self._previous.clear()

@@ -9,6 +9,9 @@ communication point and frees every instance, also on error. A step an FMU refus
 component, the time and the FMU's own log message, and carries the rows computed so far.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import ctypes
 import functools
 import shutil
@@ -19,6 +22,8 @@ import weakref
 from ctypes import byref
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
+from collections.abc import Callable
 
 from fmpy import extract
 from fmpy.fmi1 import FMICallException
@@ -31,6 +36,11 @@ from .fmu_file import FmuError, checked_description
 from .interrupt import signal_name
 from .scene import SceneError, split_name
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.model_description import ModelDescription, ModelVariable
+    from .interrupt import InterruptGuard
+    from .scene import ComponentSpec, Connection, Scene
+
 EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.runtime.fmi.slave)
 STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
@@ -39,9 +49,11 @@ _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "S
 class SimulationError(RuntimeError):
     """A component failed during the run; ``result`` holds the rows computed before."""
 
-    def __init__(self, component, time, message, result):
+    def __init__(self, component: str | None, time: float, message: str, result: "Result") -> None:
         self.component, self.time, self.result = component, time, result
-        self.paths, self.moved_aside, self.output_error = {}, [], None  # set by run_scene
+        self.paths: dict[str, Path] = {}  # set by run_scene
+        self.moved_aside: list[Path] = []
+        self.output_error: Exception | None = None
         super().__init__(f"component {component!r} failed at t = {time!r} s: {message}")
 
 
@@ -49,7 +61,7 @@ class SimulationInterrupted(SimulationError):
     """SIGINT or SIGTERM (``signum``) stopped the run between two steps at ``time``;
     ``result`` holds the rows computed before."""
 
-    def __init__(self, signum, time, result):
+    def __init__(self, signum: Any, time: float, result: Any) -> None:
         super().__init__(None, time, "", result)
         self.signum = signum
         RuntimeError.__init__(self, f"interrupted by {signal_name(signum)} at t = {time!r} s "
@@ -60,7 +72,7 @@ class SimulationInterrupted(SimulationError):
 class Result:
     """Recorded signals of one run: ``columns`` maps 'component.variable' to values."""
 
-    scene: object
+    scene: Any
     times: list = field(default_factory=list)
     columns: dict = field(default_factory=dict)
     units: dict = field(default_factory=dict)
@@ -69,12 +81,12 @@ class Result:
     partial: bool = False
 
 
-def default_fmu_dir():
+def default_fmu_dir() -> Path:
     """``./fmus`` of the current folder (the repository root in the README's commands)."""
     return Path.cwd() / "fmus"
 
 
-def resolve_fmu(spec, scene, fmu_dir):
+def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
     """Path of a component's FMU: a model name in ``fmu_dir`` or a path to an .fmu."""
     if spec.fmu.endswith(".fmu"):
         candidate = Path(spec.fmu)
@@ -88,24 +100,24 @@ def resolve_fmu(spec, scene, fmu_dir):
     return candidate
 
 
-def file_version(path):
+def file_version(path: Path) -> tuple[str, int, int]:
     """(path, modification time in ns, size): a rebuilt FMU is a new version."""
     stat = Path(path).stat()
     return str(path), stat.st_mtime_ns, stat.st_size
 
 
-def model_description(path):
+def model_description(path: Path) -> ModelDescription:
     """fmpy's ModelDescription of the FMU at ``path``, checked (fmu_file: FmuError names the
     file and what is wrong with it) and parsed once per file version."""
     return _parsed_description(*file_version(path))
 
 
 @functools.lru_cache(maxsize=128)
-def _parsed_description(path, mtime_ns, size):
+def _parsed_description(path: str, mtime_ns: int, size: int) -> ModelDescription:
     return checked_description(path)
 
 
-def _route(environment, instance, status, category, message):
+def _route(environment: int, instance: bytes, status: int, category: bytes, message: bytes) -> None:
     """The one logger every LogBook installs: hands the message to the book it belongs to."""
     book = LogBook._books.get(environment)
     if book is not None:
@@ -126,10 +138,10 @@ class LogBook:
     """
 
     _next_key = 1
-    _books = weakref.WeakValueDictionary()  # componentEnvironment value -> LogBook
+    _books: weakref.WeakValueDictionary[int, Any] = weakref.WeakValueDictionary()  # componentEnvironment value -> LogBook
 
-    def __init__(self):
-        self.messages = []
+    def __init__(self) -> None:
+        self.messages: list[Any] = []
         self.key = LogBook._next_key
         LogBook._next_key += 1
         LogBook._books[self.key] = self
@@ -144,13 +156,13 @@ class LogBook:
         except Exception:
             pass
 
-    def record(self, instance, status, category, message):
-        def text(raw):
+    def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
+        def text(raw: Any):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
         self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
                               "category": text(category), "message": text(message)})
 
-    def last_problem(self, instance):
+    def last_problem(self, instance: str) -> str:
         for entry in reversed(self.messages):
             if entry["instance"] == instance and entry["status"] in ("error", "fatal", "discard"):
                 return entry["message"]
@@ -169,14 +181,14 @@ class Instances:
     ``created`` and ``reused`` count the instances made and the resets that saved one.
     """
 
-    def __init__(self, keep=False):
+    def __init__(self, keep: bool=False) -> None:
         self.keep = keep
         self.logbook = LogBook()  # instances log through the book they were created with
-        self._folders = {}        # (FMU path, mtime, size) -> extracted folder
-        self._idle = {}           # (folder, instance name) -> [FMU2Slave ready to set up]
+        self._folders: dict[tuple, Path] = {}  # (FMU path, mtime, size) -> extracted folder
+        self._idle: dict[tuple, list] = {}  # (folder, instance name) -> [FMU2Slave ready to set up]
         self.created = self.reused = 0
 
-    def acquire(self, component):
+    def acquire(self, component: "_Component") -> FMU2Slave:
         """An instantiated FMU2Slave for ``component``, named after it."""
         version = file_version(component.path)
         folder = self._folders.get(version)
@@ -199,7 +211,7 @@ class Instances:
         self.created += 1
         return slave
 
-    def release(self, component):
+    def release(self, component: "_Component") -> None:
         """Take back ``component``'s instance: reset and keep it, or free it."""
         slave = component.slave
         try:
@@ -216,7 +228,7 @@ class Instances:
                 return
         slave.freeInstance()
 
-    def close(self):
+    def close(self) -> None:
         """Free every kept instance and delete the extracted FMUs."""
         for slaves in self._idle.values():
             for slave in slaves:
@@ -230,12 +242,12 @@ class Instances:
 class _Component:
     """One FMU instance in a running scene, with its variables by name."""
 
-    def __init__(self, spec, path, description):
+    def __init__(self, spec: ComponentSpec, path: Path, description: ModelDescription) -> None:
         self.spec, self.name, self.path, self.description = spec, spec.name, path, description
         self.variables = {v.name: v for v in description.modelVariables}
-        self.slave = None
+        self.slave: Any = None  # fmpy's FMU2Slave, from InstancePool.acquire
 
-    def variable(self, name, where, causality=None):
+    def variable(self, name: str, where: str, causality: tuple[str] | None=None) -> ModelVariable:
         variable = self.variables.get(name)
         if variable is None:
             names = ", ".join(sorted(self.variables))
@@ -246,33 +258,33 @@ class _Component:
                              f"expected {' or '.join(causality)}")
         return variable
 
-    def getter(self, variable):
+    def getter(self, variable: ModelVariable) -> Callable:
         """A function returning the variable's current value (bound once, called per step)."""
         get, reference = accessor(self.slave, variable.type, "get"), [variable.valueReference]
         return lambda: get(reference)[0]
 
-    def setter(self, variable):
+    def setter(self, variable: ModelVariable) -> Callable:
         """A function setting the variable (bound once, called per step)."""
         put, reference = accessor(self.slave, variable.type, "set"), [variable.valueReference]
         return lambda value: put(reference, [value])
 
-    def set(self, variable, value):
+    def set(self, variable: ModelVariable, value: float) -> None:
         self.setter(variable)(value)
 
 
-def accessor(slave, fmi_type, verb):
+def accessor(slave: FMU2Slave, fmi_type: str, verb: str) -> Callable:
     """fmpy's get/set method of an FMU2Slave for an FMI type ('Real', 'Integer', ...)."""
     return getattr(slave, f"{verb}{fmi_type}")
 
 
-def _check_value(component, variable, value, where):
+def _check_value(component: str, variable: ModelVariable, value: float, where: str) -> None:
     expected = _PYTHON_TYPES[variable.type]
     if not isinstance(value, expected) or (variable.type != "Boolean" and isinstance(value, bool)):
         raise SceneError(f"{where}: {component}.{variable.name} is {variable.type}, got "
                          f"{type(value).__name__} {value!r}")
 
 
-def order_components(names, connections, feedthrough=None):
+def order_components(names: list[str], connections: list[Any], feedthrough: Callable | None=None) -> tuple:
     """Components in stepping order, and the connections that must lag one step.
 
     ``feedthrough(connection)`` tells whether the connection's source output depends
@@ -285,7 +297,7 @@ def order_components(names, connections, feedthrough=None):
     """
     feedthrough = feedthrough or (lambda connection: True)
     hard = [c for c in connections if feedthrough(c)]
-    targets = {name: set() for name in names}
+    targets: dict[str, set[str]] = {name: set() for name in names}
     for connection in hard:
         targets[connection.source].add(connection.target)
     cycle = _find_cycle(names, targets)
@@ -303,7 +315,7 @@ def order_components(names, connections, feedthrough=None):
     return _topological(names, targets), lagged
 
 
-def _topological(names, targets):
+def _topological(names: list[str], targets: dict[str, set[str] | set[Any]]) -> list[str]:
     indegree = {name: 0 for name in names}
     for name in names:
         for target in targets[name]:
@@ -320,7 +332,7 @@ def _topological(names, targets):
     return ordered
 
 
-def _find_cycle(names, targets):
+def _find_cycle(names: list[str], targets: dict[str, set[str] | set[Any]]) -> list[str] | None:
     """A list of components forming a cycle, or None (iterative depth-first search)."""
     state = {name: 0 for name in names}  # 0 new, 1 on the current path, 2 done
     for root in names:
@@ -348,7 +360,7 @@ def _find_cycle(names, targets):
 class Simulation:
     """A scene bound to its FMUs, checked and ready to run."""
 
-    def __init__(self, scene, fmu_dir=None):
+    def __init__(self, scene: Scene, fmu_dir: str | Path | None=None) -> None:
         self.scene = scene
         fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
         self.components = {}
@@ -363,7 +375,7 @@ class Simulation:
         self.order, self.lagged = order_components(list(self.components), self.connections,
                                                    self._feedthrough)
 
-    def _feedthrough(self, connection):
+    def _feedthrough(self, connection: Connection) -> bool:
         """Whether the connection's source output depends directly on one of its inputs."""
         description = self.components[connection.source].description
         for unknown in description.outputs:
@@ -371,9 +383,9 @@ class Simulation:
                 return bool(unknown.dependencies) or unknown.dependencies is None
         return True
 
-    def _check(self):
+    def _check(self) -> None:
         where = str(self.scene.path)
-        fed = {}
+        fed: dict[tuple[str, str], str] = {}
         for connection in self.scene.connections:
             for name in (connection.source, connection.target):
                 if name not in self.components:
@@ -435,7 +447,7 @@ class Simulation:
             self.recorded.append((full_name, self.components[component_name], variable))
         self.pruned = self._prune()
 
-    def _prune(self):
+    def _prune(self) -> dict[Any, Any]:
         """Drop components that feed none of the recorded outputs; return {name: why}."""
         needed = {component.name for _, component, _ in self.recorded}
         frontier = list(needed)
@@ -453,7 +465,7 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls=False, instances=None, stop=None):
+    def run(self, time_fmi_calls: bool=False, instances: Any=None, stop: Any=None) -> Result:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -547,7 +559,7 @@ class Simulation:
                 instances.close()
         return result
 
-    def _feeds(self, name, skip=()):
+    def _feeds(self, name: str, skip: Any=()) -> list[Any]:
         """(get from source, set on ``name``) pairs for the connected inputs of ``name``."""
         feeds = []
         for connection in self.connections:
@@ -558,12 +570,12 @@ class Simulation:
                               target.setter(target.variables[connection.input])))
         return feeds
 
-    def _feed(self, name, skip=()):
+    def _feed(self, name: str, skip: Any=()) -> None:
         """Set the connected inputs of ``name`` from its sources' current outputs."""
         for get, put in self._feeds(name, skip):
             put(get())
 
-    def _set_from_source(self, connection):
+    def _set_from_source(self, connection: Connection) -> None:
         source, target = self.components[connection.source], self.components[connection.target]
         target.set(target.variables[connection.input],
                    source.getter(source.variables[connection.output])())
@@ -578,7 +590,7 @@ _CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (f
 class _InstantiationFailed(Exception):
     """fmi2Instantiate of ``component`` returned NULL."""
 
-    def __init__(self, component):
+    def __init__(self, component: Any) -> None:
         super().__init__(component)
         self.component = component
 
@@ -587,7 +599,7 @@ class _Stopped(Exception):
     """The run's InterruptGuard received a signal; the loop stopped before the step at
     ``time``."""
 
-    def __init__(self, time):
+    def __init__(self, time: float) -> None:
         super().__init__(time)
         self.time = time
 
@@ -604,7 +616,7 @@ _NEVER = _NoStop()
 class _CallFailed(Exception):
     """An FMI call of the stepping loop returned a status worse than fmi2Warning."""
 
-    def __init__(self, component, time, function, status):
+    def __init__(self, component: str, time: float, function: str, status: int) -> None:
         super().__init__(component, time, function, status)
         self.component, self.time, self.function, self.status = component, time, function, status
 
@@ -616,18 +628,18 @@ class CallTimer:
     benchmarks, so both sides are timed at the same layer.
     """
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.total = 0.0
 
-    def wrap(self, function):
-        def timed(*arguments, _function=function, _clock=clock.perf_counter):
+    def wrap(self, function: Any) -> Any:
+        def timed(*arguments: Any, _function=function, _clock=clock.perf_counter):
             begin = _clock()
             status = _function(*arguments)
             self.total += _clock() - begin
             return status
         # A ctypes caller may read these from the function it looked up (fmpy's _call does).
-        timed.restype, timed.argtypes = function.restype, function.argtypes
-        timed.argnames = getattr(function, "argnames", None)
+        for name in ("restype", "argtypes", "argnames"):
+            setattr(timed, name, getattr(function, name, None))
         return timed
 
 
@@ -640,7 +652,7 @@ class _Call:
     __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name",
                  "raw", "sent")
 
-    def __init__(self, component, verb, fmi_type, references, buffer, timer):
+    def __init__(self, component: Any, verb: str, fmi_type: Any, references: Any, buffer: Any, timer: Any) -> None:
         name = f"fmi2{verb}{fmi_type}"
         function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
         self.function = timer.wrap(function) if timer else function
@@ -650,7 +662,7 @@ class _Call:
         self.buffer = buffer
         self.component, self.name = component.name, name
         self.raw = memoryview(buffer).cast("B")  # the buffer's bytes
-        self.sent = None  # a set's bytes when it was last made (None: never)
+        self.sent: bytes | None = None  # a set's bytes when it was last made (None: never)
 
 
 class _Outputs:
@@ -662,7 +674,7 @@ class _Outputs:
     the buffer's bytes appended as they are.
     """
 
-    def __init__(self, component, fmi_type, groups, recorded, timer):
+    def __init__(self, component: _Component, fmi_type: str, groups: list[Any], recorded: list[Any], timer: CallTimer | None) -> None:
         variables = [variable for _, variables in groups for variable in variables]
         self.offsets, start = {}, 0
         for key, group in groups:
@@ -679,7 +691,7 @@ class _Outputs:
         self.rows = array(code)  # row-major: one row per communication point
         self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
 
-    def view(self, key, size):
+    def view(self, key: Any, size: Any) -> Any:
         """The part of the buffer that holds connection group ``key`` (shared memory)."""
         ctype = self.call.buffer._type_
         return (ctype * size).from_buffer(self.call.buffer,
@@ -696,20 +708,20 @@ class _StepPlan:
     inputs are set from the buffers of the previous point before any component steps.
     """
 
-    def __init__(self, simulation, timer):
+    def __init__(self, simulation: Simulation, timer: CallTimer | None) -> None:
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
-        members = {}  # (target, source, type) -> ([source outputs], [target inputs])
+        members: dict[tuple, tuple[list, list]] = {}  # (target, source, type) -> ([source outputs], [target inputs])
         for connection in simulation.connections:
             output = components[connection.source].variables[connection.output]
             outputs, inputs = members.setdefault(
                 (connection.target, connection.source, output.type), ([], []))
             outputs.append(output)
             inputs.append(components[connection.target].variables[connection.input])
-        groups = {}  # (source, type) -> [(member key, [source outputs])]
+        groups: dict[tuple, list] = {}  # (source, type) -> [(member key, [source outputs])]
         for key, (outputs, _) in members.items():
             groups.setdefault(key[1:], []).append((key, outputs))
-        recorded = {}
+        recorded: dict[tuple, list] = {}
         for full_name, component, variable in simulation.recorded:
             recorded.setdefault((component.name, variable.type), []).append((full_name, variable))
         self.outputs = {key: _Outputs(components[key[0]], key[1], groups.get(key, []),
@@ -729,13 +741,13 @@ class _StepPlan:
                                slave.component, sets, reads))
 
     @staticmethod
-    def _call(call, time):
+    def _call(call: _Call, time: float) -> None:
         status = call.function(call.instance, call.references, call.count, call.buffer)
         if status > _WARNING:
             raise _CallFailed(call.component, time, call.name, status)
 
     @classmethod
-    def _set(cls, call, time):
+    def _set(cls, call: _Call, time: float) -> None:
         """A set of inputs, made only if their values changed since it was last made (an
         FMU keeps an input's value until it is set again)."""
         raw = call.raw
@@ -743,19 +755,19 @@ class _StepPlan:
             cls._call(call, time)
             call.sent = raw.tobytes()
 
-    def start(self, result, time):
+    def start(self, result: Result, time: float) -> None:
         """Read every needed output after initialisation and record the first row."""
         for _, _, _, _, reads in self.steps:
             for read in reads:
                 self._call(read, time)
         self._record(result, time)
 
-    def _record(self, result, time):
+    def _record(self, result: Result, time: float) -> None:
         for recorder in self.recorders:
             recorder.rows.frombytes(recorder.raw)
         result.times.append(time)
 
-    def run(self, result, scene, stop=_NEVER):
+    def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop=_NEVER) -> None:
         """Step from start_time to stop_time, recording after every communication step;
         before each step, stop with _Stopped if ``stop`` has been requested."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
@@ -781,7 +793,7 @@ class _StepPlan:
             self._record(result, times[index])
 
     @staticmethod
-    def collect(recorders, result):
+    def collect(recorders: list[_Outputs], result: Result) -> None:
         """Copy the recorded rows into result.columns (also after a failed run)."""
         if not recorders:
             return
@@ -797,7 +809,7 @@ class _StepPlan:
 _WARNING = 1  # fmi2Warning: the worst status a step may return and still count as done
 
 
-def parameter_values(simulation):
+def parameter_values(simulation: Simulation) -> dict[str, dict[str, str | dict[str, float]] | dict[str, str | dict[str, float] | list[str]]]:
     """Every parameter of every component as applied: scene values over FMU defaults."""
     values = {}
     for component in simulation.components.values():

@@ -1,21 +1,29 @@
 """Result files of a run: CSV, JSON metadata and a PNG plot, each written atomically."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import csv
 import json
-import os
 import platform
 import sys
 from importlib import metadata
 
 from .files import atomic_write, atomic_write_all, inside, move_aside, save_figure
+from pathlib import Path
+from typing import Any
+from collections.abc import Callable
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .master import Result
 
 
-def csv_writer(times, columns):
+def csv_writer(times: list[float], columns: dict[str, list[float]]) -> Callable:
     """A callback writing the CSV text: 'time' then one column per name; floats in shortest
     round-trip form."""
     names = list(columns)
 
-    def write(handle):
+    def write(handle: Any) -> None:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(["time", *names])
         for i, time in enumerate(times):
@@ -23,22 +31,23 @@ def csv_writer(times, columns):
     return write
 
 
-def write_csv(path, times, columns):
+def write_csv(path: Any, times: Any, columns: Any) -> Any:
     """Write the CSV of csv_writer atomically; returns its path."""
     return atomic_write(path, csv_writer(times, columns))
 
 
-def read_csv(path: "str | os.PathLike") -> tuple[list[float], dict[str, list[float]]]:
-    """(times, {column: values}) of a result CSV as lists of floats, read by mechfmu.io.read_result (pandas;
-    ResultFileError, a ValueError naming the file, line and column, for a malformed file)."""
+def read_csv(path: Path | str) -> tuple[list[float], dict[str, list[float]]]:
+    """(times, {column: values}) of a result CSV as lists of floats, read by
+    mechfmu.io.read_result (pandas; ResultFileError, a ValueError naming the file, line and
+    column, for a malformed file)."""
     from ..io import read_result
     table = read_result(path)
     return table.index.tolist(), {name: table[name].tolist() for name in table.columns}
 
 
-def versions():
+def versions() -> dict[str, str | None]:
     """Versions of the packages a result depends on."""
-    found = {"python": platform.python_version()}
+    found: dict[str, str | None] = {"python": platform.python_version()}
     for package in ("mechfmu", "fmpy", "pythonfmu", "numpy", "matplotlib"):
         try:
             found[package] = metadata.version(package)
@@ -47,17 +56,17 @@ def versions():
     return found
 
 
-def json_text(data):
+def json_text(data: dict[str, Any]) -> str:
     """The JSON text of a result's or a sweep's metadata (anything else as str)."""
     return json.dumps(data, indent=2, default=str)
 
 
-def write_json(path, data):
+def write_json(path: Path, data: dict[str, Any]) -> Path:
     """Write json_text(data) atomically; returns its path."""
     return atomic_write(path, json_text(data))
 
 
-def write_plot(path, times, columns, units, title):
+def write_plot(path: Any, times: Any, columns: Any, units: Any, title: Any) -> Any:
     """One panel per signal against time, y axes labelled with their units."""
     import matplotlib
     matplotlib.use("Agg")
@@ -85,12 +94,12 @@ def write_plot(path, times, columns, units, title):
 RESULT_FILES = ("csv", "json", "png")
 
 
-def result_stem(result):
+def result_stem(result: Result) -> str:
     """'<scene>' for a complete run, '<scene>.partial' for a failed or interrupted one."""
     return result.scene.name + (".partial" if result.partial else "")
 
 
-def write_result(result, out_dir, plot=True):
+def write_result(result: Result, out_dir: Path, plot: bool=True) -> dict[str, Path]:
     """Write <scene>.csv and .json as a pair (both or neither), then .png; ``.partial`` in
     the names for a failed or interrupted run. Every file lands inside ``out_dir``
     (OutputError otherwise). Returns {kind: path}."""
@@ -113,7 +122,7 @@ def write_result(result, out_dir, plot=True):
     return written
 
 
-def move_aside_complete(scene_name, out_dir):
+def move_aside_complete(scene_name: str, out_dir: Path) -> list[Any]:
     """Rename an older complete result of ``scene_name`` in ``out_dir`` (<scene>.csv, .json,
     .png) to <scene>.previous.*, so a failed or interrupted run leaves no complete-looking
     result that is not its own. Returns the new paths."""

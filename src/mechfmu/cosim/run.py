@@ -1,5 +1,8 @@
 """Run a scene end to end: check it, simulate it, write its result files."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 from contextlib import nullcontext
 
 from .files import OutputError, output_folder
@@ -7,9 +10,13 @@ from .interrupt import InterruptGuard, signal_name
 from .master import Simulation, SimulationError, SimulationInterrupted, parameter_values
 from .results import move_aside_complete, write_result
 from .scene import Scene, check_tables, load_scene
+from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .master import Result
 
 
-def run_scene(scene, out_dir, fmu_dir=None, plot=True, guard=None):
+def run_scene(scene: Path | Scene, out_dir: Path | str, fmu_dir: Path | str | None=None, plot: bool=True, guard: InterruptGuard | None=None) -> tuple[Result, dict[str, Path]]:
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
     The scene, its table files (check_tables) and the output folder (created if missing,
@@ -41,7 +48,8 @@ def run_scene(scene, out_dir, fmu_dir=None, plot=True, guard=None):
             error.result.meta.update(
                 setup, error=str(error), failed_component=error.component,
                 failed_at=error.time, interrupted=interrupted,
-                signal=signal_name(error.signum) if interrupted else None,
+                signal=(signal_name(error.signum) if isinstance(error, SimulationInterrupted)
+                        else None),
                 moved_aside=[str(path) for path in error.moved_aside])
             try:
                 error.paths = write_result(error.result, out_dir, plot)

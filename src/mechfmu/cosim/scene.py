@@ -27,15 +27,26 @@ into one of them, from any working directory.
 """
 
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .files import plain_file_name
+from typing import Any
 
-try:
+if sys.version_info >= (3, 11):
     import tomllib
-except ModuleNotFoundError:  # Python 3.10
+else:  # Python 3.10
     import tomli as tomllib
+
+
+def refuse_unknown_keys(table: dict[str, Any], allowed: set[str], where: Path | str, error: type[Exception] | None=None) -> None:
+    """Raise ``error`` (default SceneError) naming the keys of the TOML ``table`` that are
+    not ``allowed``, at ``where`` (the file, and the table in it)."""
+    unknown = set(table) - set(allowed)
+    if unknown:
+        raise (error or SceneError)(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
+                                    f"allowed: {', '.join(sorted(allowed))}")
 
 
 class SceneError(ValueError):
@@ -49,7 +60,7 @@ class Connection:
     target: str
     input: str
 
-    def __str__(self):
+    def __str__(self) -> str:
         return f"{self.source}.{self.output} -> {self.target}.{self.input}"
 
 
@@ -70,18 +81,18 @@ class Scene:
     step: float
     components: dict
     connections: list
-    record: list = None
+    record: list | None = None
     start_time: float = 0.0
     description: str = ""
-    reference: Path = None
+    reference: Path | None = None
     coupling: str = "gauss_seidel"
 
     @property
-    def steps(self):
+    def steps(self) -> int:
         """Number of communication steps from start_time to stop_time."""
         return round((self.stop_time - self.start_time) / self.step)
 
-    def time(self, index):
+    def time(self, index: int) -> float:
         """Time of communication point ``index`` (computed, never accumulated)."""
         return self.start_time + index * self.step
 
@@ -95,7 +106,7 @@ COUPLINGS = ("gauss_seidel", "jacobi")
 _COMPONENT_KEYS = {"fmu", "parameters", "inputs", "effects"}
 
 
-def _number(data, key, where, default=None):
+def _number(data: dict[str, Any], key: str, where: str, default: float | None=None) -> float:
     value = data.get(key, default)
     if value is None:
         raise SceneError(f"{where}: missing '{key}'")
@@ -104,7 +115,7 @@ def _number(data, key, where, default=None):
     return float(value)
 
 
-def split_name(text, where):
+def split_name(text: str, where: str) -> tuple[str, str]:
     """'component.variable' -> (component, variable)."""
     if not isinstance(text, str) or "." not in text:
         raise SceneError(f"{where}: {text!r} is not of the form component.variable")
@@ -114,7 +125,7 @@ def split_name(text, where):
     return component, variable
 
 
-def _connection(text, where):
+def _connection(text: str, where: str) -> Connection:
     if not isinstance(text, str) or text.count("->") != 1:
         raise SceneError(f"{where}: {text!r} is not of the form "
                          f"'component.output -> component.input'")
@@ -138,14 +149,11 @@ def check_times(where: str, start_time: float, stop_time: float, step: float
     return start_time, stop_time, step
 
 
-def parse_scene(data, path):
+def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     """Build a Scene from parsed TOML ``data``; ``path`` locates relative files."""
     path = Path(path)
     where = str(path)
-    unknown = set(data) - _SCENE_KEYS
-    if unknown:
-        raise SceneError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
-                         f"allowed: {', '.join(sorted(_SCENE_KEYS))}")
+    refuse_unknown_keys(data, _SCENE_KEYS, where)
     start_time, stop_time, step = check_times(
         where, _number(data, "start_time", where, 0.0), _number(data, "stop_time", where),
         _number(data, "step", where))
@@ -157,10 +165,7 @@ def parse_scene(data, path):
         cwhere = f"{where}: component {name!r}"
         if not isinstance(spec, dict):
             raise SceneError(f"{cwhere} must be a table")
-        unknown = set(spec) - _COMPONENT_KEYS
-        if unknown:
-            raise SceneError(f"{cwhere}: unknown key(s) {', '.join(sorted(unknown))}; "
-                             f"allowed: {', '.join(sorted(_COMPONENT_KEYS))}")
+        refuse_unknown_keys(spec, _COMPONENT_KEYS, cwhere)
         if not isinstance(spec.get("fmu"), str):
             raise SceneError(f"{cwhere}: missing 'fmu' (a model name or an .fmu path)")
         parameters = dict(spec.get("parameters", {}))
@@ -203,7 +208,7 @@ SWEEP_DIR = PACKAGE_ROOT / "sweeps"  # the shipped sweeps
 REFERENCE_DIR = SCENE_DIR / "reference"  # the shipped scenes' reference CSVs
 
 
-def find_file(text, folders=(SCENE_DIR,)):
+def find_file(text: str, folders: tuple=(SCENE_DIR,)) -> Path:
     """The scene or sweep file that ``text`` names.
 
     ``text`` is a path when it names an existing file or ends in .toml; otherwise the name
@@ -218,7 +223,7 @@ def find_file(text, folders=(SCENE_DIR,)):
     return next((candidate for candidate in candidates if candidate.is_file()), candidates[0])
 
 
-def read_toml(path, error=SceneError, what="scene file"):
+def read_toml(path: Path, error: type[Exception]=SceneError, what: str="scene file") -> dict[str, Any]:
     """The parsed TOML file at ``path``; a missing or malformed file raises ``error`` naming
     the file and the problem."""
     try:
@@ -230,7 +235,7 @@ def read_toml(path, error=SceneError, what="scene file"):
         raise error(f"{path}: malformed TOML: {problem}") from None
 
 
-def load_scene(path, overrides=None):
+def load_scene(path: Path | str, overrides: dict[str, Any] | None=None) -> Scene:
     """Read and parse a scene TOML file; errors name the file and the problem.
     ``overrides``: top-level keys (stop_time, step, ...) replacing the file's."""
     path = Path(path)

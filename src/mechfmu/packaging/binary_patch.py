@@ -17,6 +17,7 @@ alone and reported.
 """
 
 import struct
+from collections.abc import Iterator
 
 SYMBOL = b"finalizePythonInterpreter"
 ENDBR64 = bytes.fromhex("f30f1efa")
@@ -25,14 +26,14 @@ RET = 0xC3
 SHT_DYNSYM = 11
 
 
-def _sections(elf):
+def _sections(elf: bytes) -> Iterator[tuple[int, int, int, int, int, int, int, int, int, int]]:
     shoff, = struct.unpack_from("<Q", elf, 0x28)
     shentsize, shnum = struct.unpack_from("<HH", elf, 0x3A)
     for i in range(shnum):
         yield struct.unpack_from("<IIQQQQIIQQ", elf, shoff + i * shentsize)
 
 
-def find_symbol_offset(elf, symbol):
+def find_symbol_offset(elf: bytes, symbol: bytes) -> int | None:
     """File offset of a dynamic symbol's code in an ELF64 little-endian image, or None."""
     if elf[:4] != b"\x7fELF" or elf[4] != 2 or elf[5] != 1:
         return None
@@ -50,7 +51,7 @@ def find_symbol_offset(elf, symbol):
     return None
 
 
-def patch_exit_finaliser(elf):
+def patch_exit_finaliser(elf: bytes) -> tuple[bytes, str]:
     """Return (patched image, message). Unpatched when the bytes are not the expected ones."""
     offset = find_symbol_offset(elf, SYMBOL)
     if offset is None:

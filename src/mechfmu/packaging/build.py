@@ -16,6 +16,7 @@ binary, and the build says so. ``embed_python`` adds the build interpreter's own
 (embed.py), for machines without Python.
 """
 
+from typing import Any
 import importlib
 import importlib.util
 import io
@@ -53,12 +54,12 @@ FMI3_BINDING = ('"""FMI 3.0: this copy of the runtime binds to pythonfmu3 (writt
                 'build)."""\n\nfrom .fmi3 import Fmi3Binding as Binding  # noqa: F401\n')
 
 
-def pythonfmu_library_name(name):
+def pythonfmu_library_name(name: str) -> str:
     """File name of pythonfmu's own library in binaries/linux64/ when the loader is installed."""
     return f"{name}{PYTHONFMU_SUFFIX}"
 
 
-def fmi_headers():
+def fmi_headers() -> Any:
     """fmpy's copy of the FMI 2.0 and 3.0 headers (fmi2Functions.h, fmi3Functions.h and their
     includes)."""
     spec = importlib.util.find_spec("fmpy")
@@ -67,7 +68,7 @@ def fmi_headers():
     return Path(spec.origin).resolve().parent / "c-code"
 
 
-def python_runtime():
+def python_runtime() -> Any:
     """(soname, libdir, major.minor) of the libpython the FMUs are built for: this Python's."""
     version = sysconfig.get_config_var("py_version_short") or sysconfig.get_config_var("VERSION")
     soname = sysconfig.get_config_var("INSTSONAME") or ""
@@ -76,11 +77,11 @@ def python_runtime():
     return soname, sysconfig.get_config_var("LIBDIR") or "", version
 
 
-def _c_string(text):
+def _c_string(text: str):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def compile_loader(folder, runtime=None, fmi_version=2):
+def compile_loader(folder: Any, runtime: Any=None, fmi_version: Any=2) -> Any:
     """Compile the C loader for FMI ``fmi_version`` into ``folder``/loader<version>.so; return
     (path or None, message).
 
@@ -119,7 +120,7 @@ def compile_loader(folder, runtime=None, fmi_version=2):
                     + (f"; compiler warnings: {warnings}" if warnings else ""))
 
 
-def runtime_package(name, fmi_version=2):
+def runtime_package(name: str, fmi_version: Any=2) -> Any:
     """Private package name of the runtime inside ``name``.fmu.
 
     Every FMU carries its own copy under its own name: FMUs loaded into one Python process
@@ -130,7 +131,7 @@ def runtime_package(name, fmi_version=2):
     return f"mechfmu_fmu_{name}" if fmi_version == 2 else f"mechfmu_fmu{fmi_version}_{name}"
 
 
-def _entry_module(fmu_name, fmi_version):
+def _entry_module(fmu_name: Any, fmi_version: Any):
     """Name of the FMU's entry module (pythonfmu imports it by this name)."""
     # Not the model's name: fmpy puts a module of its own under sys.modules[model name], so a
     # second load of the FMU would import that one.
@@ -138,7 +139,7 @@ def _entry_module(fmu_name, fmi_version):
             else f"mechfmu_entry{fmi_version}_{fmu_name}")
 
 
-def _stage_runtime(target, fmi_version):
+def _stage_runtime(target: Any, fmi_version: Any) -> None:
     """Copy the FMU runtime (mechfmu.runtime) into the package folder ``target``, bound to
     pythonfmu (FMI 2.0) or pythonfmu3 (FMI 3.0)."""
     shutil.copytree(RUNTIME_ROOT, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
@@ -146,12 +147,12 @@ def _stage_runtime(target, fmi_version):
         (target / "fmi" / "binding.py").write_text(FMI3_BINDING)
 
 
-def null_name(name):
+def null_name(name: str) -> str:
     """FMU name of the null variant of model ``name`` (see build_model)."""
     return f"{name}Null"
 
 
-def _entry_script(name, fmu_name, inner_module, fmi_version=2):
+def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any=2):
     """Source of the FMU's entry module: the model's class, or its null subclass."""
     # pythonfmu 0.7's loader (findClass) re-runs this file at every instantiation and then
     # releases one reference to the module namespace that it only borrowed: after the first
@@ -181,7 +182,7 @@ def _entry_script(name, fmu_name, inner_module, fmi_version=2):
                      + null_step)
 
 
-def _builder(fmi_version):
+def _builder(fmi_version: Any):
     """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags."""
     if fmi_version == 2:
         return Fmi2Builder, {"canGetAndSetFMUstate": True}
@@ -191,7 +192,7 @@ def _builder(fmi_version):
                          "canHandleVariableCommunicationStepSize": True}
 
 
-def build_model(name, out_dir, staging, null=False, loader=None, fmi_version=2, embed=None):
+def build_model(name: str, out_dir: Any, staging: Any, null: bool=False, loader: Any=None, fmi_version: Any=2, embed: Any=None) -> Any:
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
     null=True builds ``out_dir``/``name``Null.fmu instead: the same variables, parameters and
@@ -224,7 +225,7 @@ def build_model(name, out_dir, staging, null=False, loader=None, fmi_version=2, 
                         _rewrite_fmu(built, fmu_name, loader, fmi_version, extra))
 
 
-def _rewrite_fmu(fmu, name, loader, fmi_version, extra):
+def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any):
     """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
     binary_patch; pythonfmu3's library has other code there and is left as built) and, when
     the loader was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so.
@@ -271,7 +272,7 @@ def _rewrite_fmu(fmu, name, loader, fmi_version, extra):
     return patched_fmu.getvalue()
 
 
-def build_all(out_dir, names=None, null=False, fmi_version=2, embed_python=False):
+def build_all(out_dir: Any, names: Any=None, null: bool=False, fmi_version: Any=2, embed_python: bool=False) -> Any:
     """Build the named models (default: all of MODELS); return the FMU paths.
 
     null=True builds their null variants (``<name>Null.fmu``, see build_model).

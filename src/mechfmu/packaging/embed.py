@@ -75,7 +75,7 @@ sys.stdout.write(repr(found))
 '''
 
 
-def _strip(source, target):
+def _strip(source: Path, target: Path) -> None:
     """Copy a shared library, without its debug symbols when ``strip`` is there."""
     strip = shutil.which("strip")
     if strip is not None:
@@ -86,7 +86,7 @@ def _strip(source, target):
     shutil.copyfile(source, target)
 
 
-def _compiled(source, relative, folder):
+def _compiled(source: Path, relative: str, folder: Path) -> bytes:
     """The .pyc bytes of a standard-library module, its tracebacks naming ``relative``
     (unchecked hash: the FMU carries no source to compare with)."""
     target = Path(folder) / "compiled.pyc"
@@ -106,7 +106,7 @@ class EmbeddedPython:
     executable: Path    # the base interpreter (not a venv's), for the trace
 
     @classmethod
-    def of_this_interpreter(cls):
+    def of_this_interpreter(cls) -> "EmbeddedPython":
         """The build interpreter's runtime; RuntimeError when it has no shared library."""
         version = sysconfig.get_config_var("py_version_short")
         libdir = Path(sysconfig.get_config_var("LIBDIR") or "")
@@ -124,11 +124,11 @@ class EmbeddedPython:
                    Path(sysconfig.get_config_var("DESTSHARED")), executable)
 
     @property
-    def zip_name(self):
+    def zip_name(self) -> str:
         """lib/python3x.zip: the name on the interpreter's default path."""
         return f"python{self.version.replace('.', '')}.zip"
 
-    def trace_modules(self, fmu):
+    def trace_modules(self, fmu: Path) -> tuple[dict[str, Path], dict[str, Path]]:
         """(pure modules, extension modules) of the standard library that a run of ``fmu``
         imports: {dotted name: source file} and {dotted name: .so file}."""
         with tempfile.TemporaryDirectory(prefix="mechfmu_trace_") as folder:
@@ -154,7 +154,7 @@ class EmbeddedPython:
                 pure[name] = path
         return pure, extensions
 
-    def _always(self):
+    def _always(self) -> dict[str, Path]:
         """{dotted name: source} of the packages shipped whole (ALWAYS)."""
         found = {}
         for package in ALWAYS:
@@ -164,7 +164,7 @@ class EmbeddedPython:
                 found[".".join(parts)] = source
         return found
 
-    def files_for(self, fmu, folder):
+    def files_for(self, fmu: Path, folder: Path) -> dict[str, bytes]:
         """{FMU member name: bytes} of the runtime that ``fmu`` (built, not yet embedded)
         needs; ``folder`` is scratch space."""
         folder = Path(folder)

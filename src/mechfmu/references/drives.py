@@ -6,9 +6,11 @@ t0 the shaft turns at w0. Units: rad, rad/s, rad/s^2, s.
 """
 
 import numpy as np
+from numpy import ndarray
+from typing import Any
 
 
-def rotation(times, initial_angle, initial_speed, speed, ramp_time, start_time=0.0, ratio=1.0):
+def rotation(times: float | ndarray, initial_angle: float, initial_speed: float, speed: float, ramp_time: float, start_time: float=0.0, ratio: float=1.0) -> dict[str, Any]:
     """Columns 'angle', 'speed', 'acceleration' at ``times``; speeds scaled by ``ratio``
     (0.5 for a camshaft driven from the crankshaft speeds)."""
     t = np.asarray(times, dtype=float) - start_time

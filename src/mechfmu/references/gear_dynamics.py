@@ -9,14 +9,16 @@ output at the scene's sample times.
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from typing import Any
 
 from ..runtime.physics import gear_dynamics as gd
 from ..runtime.physics import landing_gear as gear
+from .events import ivp_event
 
 TOLERANCE = 1e-12
 
 
-def gear_values(defaults, parameters, effects, inputs):
+def gear_values(defaults: Any, parameters: Any, effects: Any, inputs: Any) -> Any:
     """The FMU's variable values as a scene sets them: defaults, parameters, effects, inputs."""
     values = dict(defaults)
     values.update(parameters)
@@ -25,7 +27,7 @@ def gear_values(defaults, parameters, effects, inputs):
     return values
 
 
-def dynamics_model(values):
+def dynamics_model(values: Any) -> Any:
     """The FMU's own right-hand side (runtime.physics.gear_dynamics.Dynamics) for the gear
     ``values``."""
     body = gd.make_body(values["bar_length"], values["bar_mass"], values["wheel_mass"])
@@ -34,24 +36,24 @@ def dynamics_model(values):
     return gd.Dynamics(values, body, geometry)
 
 
-def stroke_crossings(dynamics):
+def stroke_crossings(dynamics: Any) -> Any:
     """Terminal solve_ivp events: the piston length through stroke_max, through stroke_min
     (the integration restarts at each, as the FMU's does at the kink)."""
-    def crossing(limit):
-        def event(t, y):
+    def crossing(limit: Any):
+        def event(t: float, y: Any):
             return dynamics.piston_length(y) - limit
-        event.terminal = True
-        return event
+        return ivp_event(event, terminal=True)
     low, high = dynamics.stroke
     return [crossing(high), crossing(low)]
 
 
-def simulate(values, times):
+def simulate(values: Any, times: Any) -> Any:
     """Columns of the dynamics drive at ``times`` (s), and the stroke event times."""
     dynamics = dynamics_model(values)
     rhs = lambda t, y: dynamics.derivatives(list(y), values)[0]  # noqa: E731
     t, y = times[0], np.array(dynamics.initial_state(), dtype=float)
-    pieces, events = [], {"stroke_max": [], "stroke_min": []}
+    pieces: list = []
+    events: dict[str, list[float]] = {"stroke_max": [], "stroke_min": []}
     for _ in range(10_000):
         solution = solve_ivp(rhs, (t, times[-1]), y, method="Radau", rtol=TOLERANCE,
                              atol=TOLERANCE, dense_output=True,
@@ -72,7 +74,7 @@ def simulate(values, times):
                          dense_output=True)
         pieces.append((t, t_next, step.sol))
         t, y = t_next, step.y[:, -1]
-    columns = {}
+    columns: dict[str, Any] = {}
     for time in times:
         for start, end, sol in reversed(pieces):
             if start <= time <= end:

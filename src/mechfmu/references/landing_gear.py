@@ -13,11 +13,12 @@ and the rates are infinite or NaN (the reference does not raise, it reports).
 """
 
 import numpy as np
+from numpy import ndarray
 
 STROKE_PROFILES = ("constant_speed", "cycloidal")
 
 
-def design_geometry(retracted_length, extended_length):
+def design_geometry(retracted_length: float, extended_length: float) -> tuple[float, float, float]:
     """Attachment distance d, pivot height h and start angle theta_1 from the design conditions.
 
     The piston is perpendicular to d at x_r (so h^2 = d^2 + x_r^2, cos(theta_1) = d/h,
@@ -41,7 +42,7 @@ def design_geometry(retracted_length, extended_length):
     return d, h, theta_1
 
 
-def gear_from_piston(x, xdot, xddot, d, h):
+def gear_from_piston(x: float | list[float] | ndarray, xdot: float | ndarray, xddot: float | ndarray, d: float, h: float) -> tuple:
     """Gear angle, angular velocity and angular acceleration for a piston motion.
 
     theta = arccos((h^2 + d^2 - x^2) / (2 d h)); differentiating the law of cosines once,
@@ -57,7 +58,7 @@ def gear_from_piston(x, xdot, xddot, d, h):
     return theta, omega, alpha
 
 
-def piston_from_gear(theta, omega, alpha, d, h):
+def piston_from_gear(theta: ndarray, omega: float | ndarray, alpha: float | ndarray, d: float, h: float) -> tuple[ndarray, ndarray, ndarray]:
     """Piston length, speed and acceleration for a gear-angle motion.
 
     x = sqrt(h^2 + d^2 - 2 d h cos(theta)), xdot = d h sin(theta) omega / x,
@@ -73,7 +74,7 @@ def piston_from_gear(theta, omega, alpha, d, h):
     return x, xdot, xddot
 
 
-def stroke(t, start_extension, end_extension, stroke_time, profile, start_time=0.0):
+def stroke(t: float | list[float] | ndarray, start_extension: float, end_extension: float, stroke_time: float, profile: str, start_time: float=0.0) -> tuple[ndarray, ndarray, ndarray]:
     """Piston extension, speed and acceleration of a stroke at times ``t`` (arrays).
 
     tau = (t - start_time) / stroke_time. Before the stroke x holds start_extension, after it
@@ -109,7 +110,7 @@ def stroke(t, start_extension, end_extension, stroke_time, profile, start_time=0
     return x, speed, accel
 
 
-def retraction(t, d, h, start_extension, end_extension, stroke_time, profile):
+def retraction(t: ndarray, d: float, h: float, start_extension: float, end_extension: float, stroke_time: float, profile: str) -> dict[str, ndarray]:
     """Piston-driven retraction sampled at times ``t``: a dict of column arrays.
 
     Columns: piston_extension, piston_speed, piston_acceleration (from ``stroke``, starting at

@@ -27,17 +27,19 @@ Angles are wrapped to (-pi, pi]. Outside the assembly range every output is NaN;
 toggle or singular position the rates are inf or NaN. Nothing raises.
 """
 
+from typing import Any
 import numpy as np
+from numpy import ndarray
 
 
-def _wrap(angle):
+def _wrap(angle: ndarray | float) -> ndarray:
     """Angles in (-pi, pi]."""
     wrapped = np.pi - np.mod(np.pi - angle, 2.0 * np.pi)
     # np.mod may round up to 2 pi for a tiny negative argument, giving -pi
     return np.where(wrapped <= -np.pi, wrapped + 2.0 * np.pi, wrapped)
 
 
-def _solve_stacked(matrix, rhs):
+def _solve_stacked(matrix: ndarray, rhs: ndarray) -> ndarray:
     """Solve matrix[k] @ x[k] = rhs[k] for every k; rows with a singular or NaN matrix -> NaN.
 
     matrix has shape (..., 2, 2), rhs (..., 2). Bad rows are replaced by the identity for the
@@ -51,12 +53,12 @@ def _solve_stacked(matrix, rhs):
     return np.where(good[..., None], solution, np.nan)
 
 
-def _broadcast(*values):
+def _broadcast(*values: Any) -> tuple[ndarray, ...]:
     return np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values))
 
 
-def four_bar(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
-             crank_acceleration):
+def four_bar(ground: float, crank: float, coupler: float, rocker: float, circuit: int, crank_angle: float | ndarray, crank_speed: float,
+             crank_acceleration: float) -> dict[str, ndarray | float]:
     """Four-bar motion for arrays of crank angle, speed and acceleration.
 
     Returns a dict of arrays: coupler_angle, rocker_angle, coupler_angular_velocity,
@@ -106,7 +108,7 @@ def four_bar(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
     }
 
 
-def slider_crank(crank, coupler, offset, circuit, crank_angle, crank_speed, crank_acceleration):
+def slider_crank(crank: float, coupler: float, offset: float, circuit: int, crank_angle: ndarray, crank_speed: float, crank_acceleration: float) -> dict[str, ndarray]:
     """Offset slider-crank motion for arrays of crank angle, speed and acceleration.
 
     Returns a dict of arrays: slider_position, slider_speed, slider_acceleration,

@@ -18,7 +18,9 @@ v gives dF/du = 2 k (1 - L d^2 / s^3): it vanishes at s*^3 = L d^2, the limit po
 Lengths in m, stiffness in N/m, forces in N (any consistent units work).
 """
 
+from typing import Any
 import numpy as np
+from numpy import ndarray
 
 NEAR, FAR = 0, 1
 NEWTON_STEPS = 3
@@ -27,17 +29,17 @@ NEWTON_STEPS = 3
 DOUBLE_ROOT_TOLERANCE = 1e-6
 
 
-def rest_height(L, d):
+def rest_height(L: float, d: float) -> float:
     """h = sqrt(L^2 - d^2), written as sqrt((L - d)(L + d))."""
     return np.sqrt((L - d) * (L + d))
 
 
-def _length(u, L, d):
+def _length(u: float | ndarray, L: float, d: float) -> ndarray | float:
     v = rest_height(L, d) - np.asarray(u, dtype=float)
     return np.sqrt(d * d + v * v)
 
 
-def secant_stiffness(u, L, k, d):
+def secant_stiffness(u: float | ndarray, L: float, k: float, d: float) -> Any:
     """F(u)/u = 2 k (2h - u)(h - u) / (s (L + s)); exact at u = 0 (2 k h^2 / L^2)."""
     u = np.asarray(u, dtype=float)
     h = rest_height(L, d)
@@ -45,18 +47,18 @@ def secant_stiffness(u, L, k, d):
     return 2.0 * k * (2.0 * h - u) * (h - u) / (s * (L + s))
 
 
-def spring_force(u, L, k, d):
+def spring_force(u: float | ndarray, L: float, k: float, d: float) -> Any:
     """Vertical spring force F(u) = u K_sec(u) (N)."""
     return np.asarray(u, dtype=float) * secant_stiffness(u, L, k, d)
 
 
-def tangent_stiffness(u, L, k, d):
+def tangent_stiffness(u: float | ndarray, L: float, k: float, d: float) -> Any:
     """dF/du = 2 k (1 - L d^2 / s^3)."""
     s = _length(u, L, d)
     return 2.0 * k * (1.0 - L * d * d / (s * s * s))
 
 
-def limit_point(L, k, d):
+def limit_point(L: float, k: float, d: float) -> tuple[float, float]:
     """(u*, F*): the near branch's end, where dF/du = 0, from s*^3 = L d^2.
 
     v* = sqrt(s*^2 - d^2), u* = h - v*, F* = F(u*). The far branch ends at the mirror
@@ -68,7 +70,7 @@ def limit_point(L, k, d):
     return u_star, float(spring_force(u_star, L, k, d))
 
 
-def _polish(u, W, L, k, d):
+def _polish(u: float, W: float, L: float, k: float, d: float) -> float:
     """A few Newton steps on F(u) - W, each kept only if it lowers the residual."""
     residual = abs(float(spring_force(u, L, k, d)) - W)
     for _ in range(NEWTON_STEPS):
@@ -83,7 +85,7 @@ def _polish(u, W, L, k, d):
     return u
 
 
-def equilibria(W, L, k, d):
+def equilibria(W: float, L: float, k: float, d: float) -> ndarray:
     """Sorted array of every real deflection u with F(u) = W.
 
     With v = h - u and s = sqrt(d^2 + v^2), F = W reads 2 k L v / s = W + 2 k v. Squaring,
@@ -115,14 +117,14 @@ def equilibria(W, L, k, d):
             continue  # a root of the squared-in equation 2 k L v / s = -(W + 2 k v)
         found.append(_polish(h - v, W, L, k, d))
     found.sort()
-    unique = []
+    unique: list[float] = []
     for u in found:
         if not unique or u - unique[-1] > 1e-14 * scale:
             unique.append(u)
     return np.array(unique, dtype=float)
 
 
-def follow_load(W_array, L, k, d):
+def follow_load(W_array: list[float] | ndarray, L: float, k: float, d: float) -> dict[str, Any]:
     """Quasi-static equilibrium path for a load history: a dict of column arrays.
 
     Starts on the near branch (u < u*). Stays on the current stable branch while it has an

@@ -22,10 +22,12 @@ located as solve_ivp events on u crossing the boundaries of the stable regions, 
 2h - u*: leaving the region last visited for the other one.
 """
 
+from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from . import suspension as statics
+from .events import ivp_event
 
 GRAVITY = 9.81
 NEAR, FAR, BETWEEN = 0, 1, 2
@@ -34,7 +36,7 @@ TOLERANCE = 1e-12
 
 # --- exact source signals -------------------------------------------------------------------
 
-def load_signal(shape, initial_value, final_value, start_time, duration):
+def load_signal(shape: Any, initial_value: Any, final_value: Any, start_time: float, duration: float) -> Any:
     """(W(t) vectorised, breakpoints) for a LoadProfile constant, step or ramp."""
     if shape == "constant":
         return (lambda t: np.full(np.shape(t), float(initial_value))), []
@@ -42,17 +44,17 @@ def load_signal(shape, initial_value, final_value, start_time, duration):
         return (lambda t: np.where(np.asarray(t) >= start_time, final_value, initial_value)
                 .astype(float)), [start_time]
     if shape == "ramp":
-        def ramp(t):
+        def ramp(t: float):
             tau = np.clip((np.asarray(t, dtype=float) - start_time) / duration, 0.0, 1.0)
             return initial_value + (final_value - initial_value) * tau
         return ramp, [start_time, start_time + duration]
     raise ValueError(f"load shape {shape!r} is not covered by the dynamic reference")
 
 
-def road_signal(shape, height, duration, start_time, amplitude, frequency):
+def road_signal(shape: Any, height: Any, duration: float, start_time: float, amplitude: Any, frequency: Any) -> Any:
     """(r(t) -> (r, r', r'') vectorised, breakpoints) for a RoadProfile step, bump or sine."""
     if shape == "bump":
-        def bump(t):
+        def bump(t: Any):
             t = np.asarray(t, dtype=float)
             phase = (t - start_time) / duration
             inside = (phase > 0.0) & (phase < 1.0)
@@ -63,7 +65,7 @@ def road_signal(shape, height, duration, start_time, amplitude, frequency):
                     np.where(inside, 2.0 * height * w * w * np.cos(angle), 0.0))
         return bump, [start_time, start_time + duration]
     if shape == "sine":
-        def sine(t):
+        def sine(t: Any):
             t = np.asarray(t, dtype=float)
             on = t >= start_time
             w = 2.0 * np.pi * frequency
@@ -73,7 +75,7 @@ def road_signal(shape, height, duration, start_time, amplitude, frequency):
                     np.where(on, -amplitude * w * w * np.sin(angle), 0.0))
         return sine, [start_time]
     if shape == "step":
-        def kerb(t):
+        def kerb(t: Any):
             t = np.asarray(t, dtype=float)
             zero = np.zeros_like(t)
             return np.where(t >= start_time, height, 0.0), zero, zero
@@ -81,7 +83,7 @@ def road_signal(shape, height, duration, start_time, amplitude, frequency):
     raise ValueError(f"road shape {shape!r} is not covered by the dynamic reference")
 
 
-def no_road(t):
+def no_road(t: float) -> Any:
     zero = np.zeros_like(np.asarray(t, dtype=float))
     return zero, zero, zero
 
@@ -95,23 +97,23 @@ class System:
     base), or r(t) as above.
     """
 
-    def __init__(self, spring, mass, damping, tyre, load, road):
+    def __init__(self, spring: Any, mass: Any, damping: Any, tyre: Any, load: Any, road: Any) -> None:
         self.L, self.k, self.d = spring
         self.m, self.c, self.tyre = mass, damping, tyre
         self.load, self.road = load, road
         self.rigid_road = road if road is not None else no_road
 
-    def base(self, t, x):
+    def base(self, t: float, x: Any) -> Any:
         """(z, z') of the spring base: the unsprung states, or the road's mirror image."""
         if self.tyre is not None:
             return x[2], x[3]
         r, rate, _ = self.rigid_road(t)
         return -r, -rate
 
-    def suspension_force(self, u, du):
+    def suspension_force(self, u: Any, du: Any) -> Any:
         return statics.spring_force(u, self.L, self.k, self.d) + self.c * du
 
-    def __call__(self, t, x):
+    def __call__(self, t: float, x: Any) -> Any:
         z, dz = self.base(t, x)
         f = self.suspension_force(x[0] - z, x[1] - dz)
         ddy = (self.load(t) - f) / self.m
@@ -121,7 +123,7 @@ class System:
         r = self.rigid_road(t)[0]
         return np.array([x[1], ddy, x[3], (f + mu * GRAVITY - kt * (z + r)) / mu])
 
-    def initial(self, u0, du0, t0):
+    def initial(self, u0: Any, du0: Any, t0: float) -> Any:
         """State for spring deflection u0, rate du0; with the tyre the unsprung mass is at
         rest on a tyre that carries F(u0) + m_u g."""
         r, rate, _ = self.rigid_road(t0)
@@ -131,7 +133,7 @@ class System:
             return np.array([u0 + z, du0, z, 0.0])
         return np.array([u0 - r, du0 - rate], dtype=float)
 
-    def columns(self, t, x):
+    def columns(self, t: float, x: Any) -> Any:
         """Outputs at sample times t (arrays) from states x (shape (n_states, n))."""
         y, dy = x[0], x[1]
         r, rate, rate2 = self.rigid_road(t)
@@ -166,7 +168,7 @@ class System:
         }
 
 
-def simulate(system, times, u0, du0, breakpoints=(), method="DOP853", max_step=np.inf):
+def simulate(system: Any, times: Any, u0: Any, du0: Any, breakpoints: Any=(), method: str="DOP853", max_step: Any=np.inf) -> Any:
     """Integrate ``system`` over ``times`` (sorted samples, the first the start time).
 
     Returns (columns at the samples, snap-through times). Integration restarts at each
@@ -180,13 +182,13 @@ def simulate(system, times, u0, du0, breakpoints=(), method="DOP853", max_step=n
     h = float(statics.rest_height(system.L, system.d))
     far_start = 2.0 * h - near_end
 
-    def deflection(t, x):
+    def deflection(t: float, x: Any):
         return x[0] - system.base(t, x)[0]
 
     up = lambda t, x: deflection(t, x) - far_start  # noqa: E731
-    up.direction = 1.0
+    ivp_event(up, direction=1.0)
     down = lambda t, x: deflection(t, x) - near_end  # noqa: E731
-    down.direction = -1.0
+    ivp_event(down, direction=-1.0)
     edges = [t0] + sorted(b for b in breakpoints if t0 < b < t1) + [t1]
     state = system.initial(u0, du0, t0)
     states = np.empty((state.size, times.size))
@@ -223,8 +225,8 @@ def simulate(system, times, u0, du0, breakpoints=(), method="DOP853", max_step=n
 
 # --- a scene's reference -------------------------------------------------------------------------
 
-def scene_columns(times, load_name, load, suspension_name, parameters, road_name=None,
-                  road=None, record=None):
+def scene_columns(times: Any, load_name: Any, load: Any, suspension_name: Any, parameters: Any, road_name: Any=None,
+                  road: Any=None, record: Any=None) -> Any:
     """Reference columns ('component.variable') of a LoadProfile [-> RoadProfile] ->
     Suspension scene with the dynamics effect, from the components' parameters (scene values
     over the models' defaults). Only the recorded columns are returned when ``record`` is

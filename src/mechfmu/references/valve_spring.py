@@ -45,8 +45,11 @@ rebounding from its seat).
 import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
+from typing import Any
 
 from . import drives, valve_train
+from numpy import ndarray
+from collections.abc import Callable
 
 TOLERANCE = 1e-12
 TABLE_SPACING = 1e-5  # s, between the nodes of the tabulated drive
@@ -69,18 +72,18 @@ class RockerDrive:
     """L(t), L'(t), L''(t) of the rocker's valve end, and the times where they lose
     smoothness. ``shaft``: CamshaftDrive parameters; ``train``: ValveTrain parameters."""
 
-    def __init__(self, shaft, train):
+    def __init__(self, shaft: dict[str, float], train: dict[str, Any]) -> None:
         self.shaft = shaft
         self.train = train
         self.geometry = {key: train[key] for key in valve_train.GEOMETRY_FIELDS}
         self.solve = valve_train.inverse if train["mode"] == "inverse" else valve_train.forward
 
-    def rotation(self, t):
+    def rotation(self, t: float | ndarray) -> dict[str, Any]:
         s = self.shaft
         return drives.rotation(t, s["initial_angle"], s["initial_speed"], s["speed"],
                                s["ramp_time"], s["start_time"], ratio=0.5)
 
-    def __call__(self, t):
+    def __call__(self, t: float | ndarray) -> tuple:
         p = self.train
         shaft = self.rotation(t)
         w, alpha = shaft["speed"], shaft["acceleration"]
@@ -90,7 +93,7 @@ class RockerDrive:
         motion = self.solve(self.geometry, s, s1 * w, s2 * w * w + s1 * alpha)
         return motion["valve_lift"], motion["valve_velocity"], motion["valve_acceleration"]
 
-    def breakpoints(self, times):
+    def breakpoints(self, times: Any) -> Any:
         """Times in (times[0], times[-1]) where the cam law changes segment or the shaft's
         speed ramp starts or ends (the camshaft angle rises monotonically)."""
         p, s = self.train, self.shaft
@@ -107,7 +110,7 @@ class RockerDrive:
                                     times[i - 1], times[i], xtol=1e-15, rtol=1e-15))
         return sorted(set(found))
 
-    def piece(self, a, b):
+    def piece(self, a: float, b: float) -> Callable:
         """Fast scalar L(t), L'(t), L''(t) on [a, b], a smooth piece of the drive: the
         quintic interpolation of exact values at nodes about TABLE_SPACING apart. The end
         nodes take the values just inside [a, b] (the piece's one-sided limits)."""
@@ -127,7 +130,7 @@ class RockerDrive:
         second = [tuple(row[2:] * np.arange(2, 6) * np.arange(1, 5)) for row in coefficients]
         last = count - 1
 
-        def drive(t):
+        def drive(t: float):
             position = (t - a) / h
             i = min(max(int(position), 0), last)
             u = position - i
@@ -136,14 +139,14 @@ class RockerDrive:
         return drive
 
 
-def _horner(coefficients, u):
+def _horner(coefficients: tuple[float, ...], u: float) -> float:
     total = 0.0
     for c in reversed(coefficients):
         total = total * u + c
     return total
 
 
-def _unit_quintic():
+def _unit_quintic() -> ndarray:
     """Inverse of the map from the coefficients of a quintic on [0, 1] to its values and
     first two derivatives at 0 and 1."""
     powers = np.arange(6)
@@ -165,17 +168,17 @@ class Valve:
     """The equations for ValveSpring parameters ``p`` (a mapping); ``drive`` arguments are
     functions t -> (L, L', L'')."""
 
-    def __init__(self, p):
+    def __init__(self, p: Any) -> None:
         self.m, self.k, self.f0 = p["valve_mass"], p["spring_stiffness"], p["spring_preload"]
         self.kc, self.cc = p["contact_stiffness"], p["contact_damping"]
         self.ks, self.cs = p["seat_stiffness"], p["seat_damping"]
         self.lash = p["lash"]
 
-    def engaged_forces(self, L, rate, x, v):
+    def engaged_forces(self, L: Any, rate: Any, x: Any, v: Any) -> Any:
         """(contact, seat) forces if both contacts were engaged (may be negative)."""
         return self.kc * (L - x - self.lash) + self.cc * (rate - v), -self.ks * x - self.cs * v
 
-    def rhs(self, t, state, drive, contact_on, seat_on):
+    def rhs(self, t: float, state: Any, drive: Any, contact_on: Any, seat_on: Any) -> Any:
         x, v = state[0], state[1]
         L, rate, _ = drive(t)
         contact, seat = self.engaged_forces(L, rate, x, v)
@@ -183,7 +186,7 @@ class Valve:
         seat = seat if seat_on else 0.0
         return np.array([v, (contact + seat - self.f0 - self.k * x) / self.m, contact * rate])
 
-    def switches(self, t, state, drive):
+    def switches(self, t: float, state: Any, drive: Any) -> Any:
         """(contact, seat) switch functions: positive exactly where the force pushes."""
         x, v = state[0], state[1]
         L, rate, _ = drive(t)
@@ -191,7 +194,7 @@ class Valve:
         return (min(self.kc * d, self.kc * d + self.cc * (rate - v)),
                 min(-self.ks * x, -self.ks * x - self.cs * v))
 
-    def other_mode(self, which, t, state, drive, engaged):
+    def other_mode(self, which: Any, t: float, state: Any, drive: Any, engaged: Any) -> Any:
         """Mode of contact ``which`` (0 rocker, 1 seat) at an event of the other one.
 
         Its switch function is far from zero unless both switch at the same instant (no
@@ -206,7 +209,7 @@ class Valve:
             return drive(t)[1] - state[1] > 0.0
         return state[1] < 0.0
 
-    def columns(self, t, states, drive):
+    def columns(self, t: float, states: Any, drive: Any) -> Any:
         """Output columns at sample times ``t`` from states (3, n); forces by the clipped
         law, which the modes follow."""
         x, v, work = states
@@ -227,7 +230,7 @@ class Valve:
                 "kinetic_energy": 0.5 * self.m * v * v, "elastic_energy": elastic,
                 "contact_work": work}
 
-    def equilibrium(self, t, drive):
+    def equilibrium(self, t: float, drive: Any) -> Any:
         """(x, v, W) at rest on the drive: the force balance with v = L', by trying the four
         mode combinations (the net force falls strictly with x: one of them is consistent)."""
         L, rate, _ = (float(value) for value in drive(t))
@@ -243,12 +246,12 @@ class Valve:
         raise ValueError(f"no static equilibrium at t = {t} s")
 
 
-def _event(function, direction, terminal):
+def _event(function: Any, direction: Any, terminal: Any):
     function.direction, function.terminal = direction, terminal
     return function
 
 
-def simulate(valve, drive, times):
+def simulate(valve: Any, drive: Any, times: Any) -> Any:
     """Integrate from rest at times[0] over the sorted sample ``times`` (a RockerDrive).
 
     Returns (states (3, n) at the samples, separation times, seat impact times, work
@@ -295,7 +298,7 @@ def simulate(valve, drive, times):
     return states, separations, impacts, work
 
 
-def _floats(valve, drive, separations, impacts):
+def _floats(valve: Any, drive: Any, separations: Any, impacts: Any):
     """Times of the separations (t, L) with the rocker open (L > lash) at which the valve had
     not landed on its seat since the rocker left its base circle (no impact with the rocker
     open all the way from the impact to the separation)."""
@@ -310,7 +313,7 @@ def _floats(valve, drive, separations, impacts):
     return floats
 
 
-def scene_columns(times, shaft, train, parameters):
+def scene_columns(times: Any, shaft: Any, train: Any, parameters: Any) -> Any:
     """Columns of the ValveSpring component at the sample ``times`` ('variable' -> array,
     COLUMNS) and the reference's work counters, for a CamshaftDrive -> ValveTrain ->
     ValveSpring chain with the given parameters (the models' defaults included)."""
@@ -324,7 +327,7 @@ def scene_columns(times, shaft, train, parameters):
     return {name: columns[name] for name in COLUMNS}, work
 
 
-def _cumulative_count(times, events):
+def _cumulative_count(times: Any, events: Any):
     """Events so far at each sample; sample i ends the step (t_{i-1}, t_i]."""
     index = np.searchsorted(times, events, side="left")
     return np.cumsum(np.bincount(index, minlength=times.size)[:times.size]).astype(float)

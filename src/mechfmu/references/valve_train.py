@@ -19,6 +19,8 @@ plain trigonometric form, angles reduced with np.mod.
 """
 
 import numpy as np
+from numpy import ndarray
+from typing import Any
 
 CAM_LAWS = ("harmonic", "cycloidal", "polynomial_345", "polynomial_4567")
 MOTION_FIELDS = ("tappet_lift", "tappet_velocity", "tappet_acceleration", "rocker_angle",
@@ -32,7 +34,7 @@ _POLYNOMIALS = {
 }
 
 
-def normalized(law, x):
+def normalized(law: str, x: float | ndarray) -> tuple:
     """(f, f', f'') of the normalized rise at x in [0, 1] (arrays)."""
     x = np.asarray(x, dtype=float)
     if law == "harmonic":
@@ -48,7 +50,7 @@ def normalized(law, x):
     return poly(x), poly.deriv(1)(x), poly.deriv(2)(x)
 
 
-def cam_lift(law, lift, rise_start, rise_angle, high_dwell_angle, return_angle, angle):
+def cam_lift(law: str, lift: float, rise_start: float, rise_angle: float, high_dwell_angle: float, return_angle: float, angle: float | list[float] | ndarray) -> tuple[ndarray, ndarray, ndarray]:
     """Follower lift s (m) and ds/dtheta, d2s/dtheta2 (m/rad, m/rad^2) at camshaft ``angle``.
 
     Segments closed on the left: rise [0, beta_r), high dwell, return, low dwell, measured
@@ -76,11 +78,11 @@ GEOMETRY_FIELDS = ("cam_base_radius", "pushrod_length", "rocker_pivot_x", "rocke
                    "tappet_arm", "valve_arm", "valve_axis_x", "valve_link_length")
 
 
-def _unpack(geometry):
+def _unpack(geometry: dict[str, float]) -> tuple[float, ...]:
     return tuple(float(geometry[key]) for key in GEOMETRY_FIELDS)
 
 
-def _circle_point(centre_x, centre_y, radius, other_x, other_y, other_radius, sign):
+def _circle_point(centre_x: float, centre_y: ndarray | float, radius: float, other_x: float, other_y: float, other_radius: float, sign: float) -> tuple:
     """Intersection of circle (centre, radius) with circle (other, other_radius).
 
     sign = +1 takes the point to the left of the direction centre -> other, -1 to the right.
@@ -94,7 +96,7 @@ def _circle_point(centre_x, centre_y, radius, other_x, other_y, other_radius, si
     return centre_x + along * ex - sign * chord * ey, centre_y + along * ey + sign * chord * ex
 
 
-def _rocker_from_y1(geometry, y1):
+def _rocker_from_y1(geometry: dict[str, float], y1: ndarray | float) -> ndarray | float:
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     # T lies on the circle L1 about P and lt about the pivot; seen from the pivot it is
     # clockwise of P, i.e. left of the direction P -> pivot.
@@ -102,14 +104,14 @@ def _rocker_from_y1(geometry, y1):
     return np.arctan2(b - ty, a - tx)
 
 
-def _y3_from_rocker(geometry, phi):
+def _y3_from_rocker(geometry: dict[str, float], phi: ndarray | float) -> ndarray | float:
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     vx, vy = a + lv * np.cos(phi), b + lv * np.sin(phi)
     with np.errstate(invalid="ignore"):
         return vy - np.sqrt(l3 ** 2 - (c - vx) ** 2)
 
 
-def _rocker_from_y3(geometry, y3):
+def _rocker_from_y3(geometry: dict[str, float], y3: ndarray) -> ndarray:
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     # V lies on the circle L3 about Q and lv about the pivot, counter-clockwise of Q seen
     # from the pivot: right of the direction Q -> pivot.
@@ -117,20 +119,20 @@ def _rocker_from_y3(geometry, y3):
     return np.arctan2(vy - b, vx - a)
 
 
-def _y1_from_rocker(geometry, phi):
+def _y1_from_rocker(geometry: dict[str, float], phi: ndarray) -> ndarray:
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     tx, ty = a - lt * np.cos(phi), b - lt * np.sin(phi)
     with np.errstate(invalid="ignore"):
         return ty - np.sqrt(l1 ** 2 - tx ** 2)
 
 
-def closed_valve_position(geometry):
+def closed_valve_position(geometry: dict[str, float]) -> float:
     """y3 (m) at zero tappet lift."""
     r_b = float(geometry["cam_base_radius"])
     return float(_y3_from_rocker(geometry, _rocker_from_y1(geometry, np.float64(r_b))))
 
 
-def _tappet_partials(geometry, phi, y1):
+def _tappet_partials(geometry: dict[str, float], phi: ndarray | float, y1: ndarray | float) -> tuple:
     """Partials of F = a cos(phi) + (b - y1) sin(phi) - (a^2 + (b - y1)^2 + lt^2 - L1^2)/(2 lt)."""
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     w = b - y1
@@ -143,7 +145,7 @@ def _tappet_partials(geometry, phi, y1):
     return f_p, f_y, f_pp, f_py, f_yy
 
 
-def _valve_partials(geometry, phi, y3):
+def _valve_partials(geometry: dict[str, float], phi: ndarray | float, y3: ndarray | float) -> tuple:
     """Partials of H = (c - a) cos(phi) + (y3 - b) sin(phi)
     - ((c - a)^2 + (y3 - b)^2 + lv^2 - L3^2) / (2 lv)."""
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
@@ -157,7 +159,7 @@ def _valve_partials(geometry, phi, y3):
     return h_p, h_y, h_pp, h_py, h_yy
 
 
-def _driven(partials, rate, accel, driver_is_phi):
+def _driven(partials: tuple, rate: float | ndarray, accel: float | ndarray, driver_is_phi: bool) -> tuple:
     """Rates of the driven variable of F(phi, y) = 0 from those of the driver.
 
     F_phi phi' + F_y y' = 0;  F_pp phi'^2 + 2 F_py phi' y' + F_yy y'^2 + F_phi phi'' + F_y y'' = 0.
@@ -175,7 +177,7 @@ def _driven(partials, rate, accel, driver_is_phi):
         return phi_rate, phi_accel
 
 
-def forward(geometry, tappet_lift, tappet_velocity, tappet_acceleration):
+def forward(geometry: dict[str, float], tappet_lift: float | ndarray, tappet_velocity: float | ndarray, tappet_acceleration: float | ndarray) -> dict[str, ndarray | float]:
     """Rocker and valve motion for a tappet motion: dict of arrays keyed by MOTION_FIELDS.
 
     ``geometry``: mapping with the ValveGeometry field names (m).
@@ -194,7 +196,7 @@ def forward(geometry, tappet_lift, tappet_velocity, tappet_acceleration):
     return dict(zip(MOTION_FIELDS, values))
 
 
-def inverse(geometry, valve_lift, valve_velocity, valve_acceleration):
+def inverse(geometry: dict[str, float], valve_lift: ndarray, valve_velocity: ndarray, valve_acceleration: ndarray) -> dict[str, ndarray]:
     """Rocker and tappet motion for a valve motion: dict of arrays keyed by MOTION_FIELDS."""
     lift, ld, ldd = (np.asarray(v, dtype=float) for v in
                      (valve_lift, valve_velocity, valve_acceleration))
@@ -210,8 +212,8 @@ def inverse(geometry, valve_lift, valve_velocity, valve_acceleration):
     return dict(zip(MOTION_FIELDS, values))
 
 
-def revolution(geometry, law, lift, rise_start, rise_angle, high_dwell_angle, return_angle,
-               angle, camshaft_speed):
+def revolution(geometry: dict[str, float], law: str, lift: float, rise_start: float, rise_angle: float, high_dwell_angle: float, return_angle: float,
+               angle: list[float], camshaft_speed: float) -> dict[str, Any]:
     """Valve-train motion at constant camshaft speed (rad/s) over camshaft ``angle`` (rad).
 
     The tappet follows the cam: lift s, velocity s1 w, acceleration s2 w^2.

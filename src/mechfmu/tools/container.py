@@ -24,6 +24,7 @@ How its results differ from our master's (measured in tests/test_container.py):
   FMUs, before leaving initialisation, as our master does; so the first row agrees.
 """
 
+from typing import Any
 import contextlib
 import logging
 import shutil
@@ -46,7 +47,7 @@ class ContainerSummary:
     step: float         # the container's fixed step (s)
 
 
-def _start_value(value):
+def _start_value(value: Any):
     """A scene value as the container's start-value text (floats round-trip exactly)."""
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -59,16 +60,16 @@ class _StartValueFilter(logging.Filter):
     """Drops the builder's "Input ... is not connected" for inputs given a start value: the
     scene fixes them, they need no link."""
 
-    def __init__(self, container):
+    def __init__(self, container: Any) -> None:
         super().__init__()
         self.fixed = {f"Input '{port}' is not connected" for port in container.start_values}
 
-    def filter(self, record):
+    def filter(self, record: Any) -> bool:
         return record.getMessage() not in self.fixed
 
 
 @contextlib.contextmanager
-def _quiet_builder(container):
+def _quiet_builder(container: Any):
     """The toolbox's builder narrates every port at INFO level: keep its warnings and errors,
     less the false alarms of _StartValueFilter."""
     logger = logging.getLogger("fmu_manipulation_toolbox")
@@ -82,7 +83,7 @@ def _quiet_builder(container):
         logger.setLevel(level)
 
 
-def export_scene_fmu(scene_file, out, fmu_dir=None, sequential=None):
+def export_scene_fmu(scene_file: Any, out: Any, fmu_dir: Any=None, sequential: Any=None) -> Any:
     """Pack the scene ``scene_file`` with its FMUs (from ``fmu_dir``, default fmus/) into the
     container FMU ``out``; return a ContainerSummary.
 
@@ -99,16 +100,16 @@ def export_scene_fmu(scene_file, out, fmu_dir=None, sequential=None):
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="mechfmu_container_") as folder:
-        folder = Path(folder)
+        work = Path(folder)
         files = {}
         for name in simulation.order:
             # not "<name>.fmu": the container names the buffer of each link "<FMU>.<output>",
             # which would clash with the output "<name>.<output>" exposed under our name
             model = simulation.components[name].description.modelName
             files[name] = f"{name}.{model}.fmu"
-            shutil.copyfile(simulation.components[name].path, folder / files[name])
+            shutil.copyfile(simulation.components[name].path, work / files[name])
         identifier = "".join(c if c.isalnum() else "_" for c in scene.name) or "scene"
-        container = FMUContainer(identifier, folder, fmi_version=2)
+        container = FMUContainer(identifier, work, fmi_version=2)
         container.start_time, container.stop_time = scene.start_time, scene.stop_time
         for name in simulation.order:
             container.get_fmu(files[name])
@@ -131,7 +132,7 @@ def export_scene_fmu(scene_file, out, fmu_dir=None, sequential=None):
             for variable in simulation.components[name].variables.values():
                 if variable.causality == "output" and (name, variable.name) not in used:
                     container.drop_port(files[name], variable.name)  # neither linked nor recorded
-        built = folder / f"{identifier}.fmu"
+        built = work / f"{identifier}.fmu"
         with _quiet_builder(container):
             container.make_fmu(built.name, step_size=scene.step, sequential=sequential)
         shutil.move(str(built), out)

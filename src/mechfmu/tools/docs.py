@@ -5,11 +5,13 @@ command for each model page's table and for the plot of each page's reference sc
 the committed reference CSV with the units the models declare.
 """
 
+from typing import Any
 import importlib
 from pathlib import Path
 
 from ..cosim.results import write_plot
 from ..cosim.scene import load_scene
+from ..runtime.fmi.slave import MechSlave
 from ..io import read_result
 from ..runtime.models import MODELS
 
@@ -18,7 +20,7 @@ TABLE_HEADER = ("| variable | causality | type | unit | range | default | meanin
                 "|---|---|---|---|---|---|---|")
 
 
-def _range(variable):
+def _range(variable: Any):
     if variable.values:
         return " / ".join(f"`{v}`" for v in variable.values)
     if variable.min is None and variable.max is None:
@@ -28,7 +30,7 @@ def _range(variable):
     return f"[{low}, {high}]"
 
 
-def _start(variable):
+def _start(variable: Any) -> str:
     if variable.causality == "output":
         return ""
     if variable.kind is float:
@@ -36,7 +38,7 @@ def _start(variable):
     return f"`{str(variable.start).lower() if variable.kind is bool else variable.start}`"
 
 
-def model_class(name: str) -> type:
+def model_class(name: str) -> type[MechSlave]:
     """The slave class of the FMU ``name`` (a key of the model registry)."""
     try:
         module = MODELS[name]
@@ -55,12 +57,12 @@ def interface_table(name: str) -> str:
     return "\n".join([f"### `{name}.fmu`", "", model.description + ".", "", TABLE_HEADER, *rows])
 
 
-def interface_tables(names=None) -> str:
+def interface_tables(names: Any=None) -> str:
     """Markdown: the interface table of each named FMU (every registered FMU by default)."""
     return "\n\n".join(interface_table(name) for name in (names or MODELS))
 
 
-def declared_units(scene) -> dict:
+def declared_units(scene: Any) -> dict:
     """``component.variable`` -> its declared unit, for every component of a parsed scene
     whose FMU is a registered model (named, or a path to ``<Model>.fmu``)."""
     units = {}
@@ -73,7 +75,7 @@ def declared_units(scene) -> dict:
     return units
 
 
-def reference_plot(scene_path, out_path) -> Path:
+def reference_plot(scene_path: Any, out_path: Any) -> Path:
     """Plot the committed reference CSV of the scene at ``scene_path`` into the PNG
     ``out_path``: one panel per column against time (s), labelled with its declared unit."""
     scene = load_scene(scene_path)

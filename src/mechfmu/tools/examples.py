@@ -7,6 +7,7 @@ command line (``out``, ``fmu_dir``, ``no_plot``; ``sweeps``: ``out``, ``fmu_dir`
 otherwise. A scene or simulation error propagates to the command (see cli.py).
 """
 
+from typing import Any
 import copy
 import math
 import re
@@ -26,20 +27,20 @@ from ..runtime.physics.valve_train import DEFAULT_VALVE_GEOMETRY, ValveGeometry,
 from .scene_references import model_defaults
 
 
-def _run(scene, args):
+def _run(scene: Any, args: Any):
     """Run a Scene or a shipped scene by name into args.out; (Result, {kind: path})."""
     if not isinstance(scene, Scene):
         scene = find_file(scene)
     return run_scene(scene, args.out, args.fmu_dir, plot=not args.no_plot)
 
 
-def _checked(scene_name, args, rtol, atol, label):
+def _checked(scene_name: Any, args: Any, rtol: float, atol: float, label: str):
     """Run a shipped scene and print its report against its reference (check.run_report);
     (Result, whether it matches)."""
     result, paths = _run(scene_name, args)
     lines, comparison = run_report(result, paths, result.scene.reference, rtol, atol, label)
     print("\n".join(lines))
-    return result, comparison.ok
+    return result, comparison is not None and comparison.ok
 
 
 # --- gear ----------------------------------------------------------------------------------
@@ -47,7 +48,7 @@ def _checked(scene_name, args, rtol, atol, label):
 GEAR_ABSOLUTE = 1e-12  # SI units; the floor for samples where the exact value is 0
 
 
-def gear(args):
+def gear(args: Any) -> Any:
     """Nose-gear retraction over the coursework's 3 s (gear_retraction: PistonActuator ->
     LandingGear), the worst deviation of angle, angular velocity and angular acceleration
     from the closed form evaluated at every recorded time."""
@@ -86,7 +87,7 @@ def gear(args):
 FOUR_BAR_RTOL, FOUR_BAR_ATOL = 1e-10, 1e-10  # rad, rad/s, rad/s^2
 SLIDER_RTOL, SLIDER_ATOL = 1e-10, 1e-9  # m, m/s, m/s^2 (peak acceleration ~7000 m/s^2)
 
-def four_bar(args):
+def four_bar(args: Any) -> Any:
     """Four-bar linkage: the coursework's worked example (a, b, c, d = 2, 7, 9, 6 in,
     theta2 = 30 deg) on both circuits, then four_bar_crank_rocker (open circuit, Freudenstein
     closed form, one crank revolution) and four_bar_solver_crossed (crossed circuit, generic
@@ -107,7 +108,7 @@ def four_bar(args):
     return 0 if ok else 1
 
 
-def slider_crank(args):
+def slider_crank(args: Any) -> Any:
     """Offset slider-crank at 3000 rpm on the constraint solver (slider_crank_offset: crank
     50 mm, rod 150 mm, offset 10 mm, one revolution) against the closed form, the stroke
     (longer than twice the crank with the offset) and the peak slider acceleration."""
@@ -126,7 +127,7 @@ def slider_crank(args):
 
 # --- suspension ----------------------------------------------------------------------------
 
-def suspension(args):
+def suspension(args: Any) -> Any:
     """Suspension under a slow load ramp past the limit load (suspension_load_ramp):
     continuation, where the snap-through happened, the deviation from the closed form."""
     result, paths = _run("suspension_load_ramp", args)
@@ -148,14 +149,17 @@ def suspension(args):
     return 0 if comparison.ok else 1
 
 
-def declared_tolerance(scene_name):
+def declared_tolerance(scene_name: str) -> tuple[float, float]:
     """(rtol, atol) that a shipped scene declares in its '# tolerance: ...' line."""
-    text = find_file(scene_name).read_text()
-    match = re.search(r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", text, re.M)
+    path = find_file(scene_name)
+    match = re.search(r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", path.read_text(),
+                      re.M)
+    if match is None:
+        raise ValueError(f"{path}: no '# tolerance: rtol=..., atol=...' line")
     return float(match.group(1)), float(match.group(2))
 
 
-def suspension_dynamics(args):
+def suspension_dynamics(args: Any) -> Any:
     """Suspension dynamics: suspension_road_bump (load and road -> Suspension with dynamics,
     damping, tyre and road input) and suspension_sudden_load (a step load below the static
     limit load that snaps the suspension through) against their solve_ivp references at the
@@ -169,7 +173,8 @@ def suspension_dynamics(args):
             limit = statics.limit_point(statics.make_spring(0.5, 1e4, 0.2)).load
             load = max(result.columns["load.load"])
             snaps = [m["message"] for m in result.log if "snap-through" in m["message"]]
-            times = [float(re.search(r"at t = ([0-9.e+-]+) s", m).group(1)) for m in snaps]
+            found = [re.search(r"at t = ([0-9.e+-]+) s", m) for m in snaps]
+            times = [float(match.group(1)) for match in found if match]
             print(f"  load {load:.1f} N = {load / limit:.3f} of the static limit load "
                   f"{limit:.2f} N; snap-throughs at t = "
                   + ", ".join(f"{t:.6f} s" for t in times))
@@ -181,7 +186,7 @@ def suspension_dynamics(args):
 VALVE_RTOL, VALVE_ATOL = 1e-9, 1e-9  # SI units; accelerations reach ~1000 m/s^2
 
 
-def round_trip(result):
+def round_trip(result: Any) -> Any:
     """Forward solver driven by the inverse run's tappet motion; worst valve-lift deviation."""
     g = DEFAULT_VALVE_GEOMETRY
     follower = planar.BranchFollower(constraint_models.valve_train(g))
@@ -204,7 +209,7 @@ def round_trip(result):
     return worst
 
 
-def float_runs(args):
+def float_runs(args: Any) -> Any:
     """valve_float at constant camshaft speed 0.99 and 1.01 times the predicted float speed."""
     base = load_scene(find_file("valve_float"))
     parameters = {**model_defaults("ValveTrain"), **base.components["valve"].parameters}
@@ -229,7 +234,7 @@ def float_runs(args):
     return predicted, lines, ok
 
 
-def valve_train(args):
+def valve_train(args: Any) -> Any:
     """Valve train: valve_train (3-4-5 cam on the tappet at 3000 rpm, valve spring on) and
     valve_train_inverse (desired 4-5-6-7 valve motion in, cam displacement diagram out)
     against the numpy reference; the inverse result driving the forward solver (the valve
@@ -257,7 +262,7 @@ def valve_train(args):
 
 # --- the shipped sweeps --------------------------------------------------------------------
 
-def sweeps(args):
+def sweeps(args: Any) -> Any:
     """The shipped sweeps (src/mechfmu/sweeps/*.toml) against their references: each sweep's
     folder (sweep.csv, sweep.json, plots), summary.md and suspension_mass.png in args.out.
     ``quick``: a few points of each sweep around its threshold (what the tests run)."""

@@ -23,13 +23,20 @@ Checked after every call (``Finding`` when violated):
 Each sequence is reproducible from (seed, FMU name, index): ``--only INDEX`` re-runs one.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import json
 import math
 import random
 import subprocess
 import sys
 import time
+from typing import Any
 from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ..runtime.fmi.declarations import Variable
 
 MAX_STEPS = 12
 CHILD_TIME_LIMIT = 900.0  # s for one FMU's child process: past it, a hang
@@ -40,7 +47,7 @@ _NON_FINITE = (math.nan, math.inf, -math.inf)
 
 # --- what to vary, from the model's own declarations ------------------------------------------
 
-def declarations(model_name, description=None):
+def declarations(model_name: str, description: Any=None) -> dict[str, Variable]:
     """What to vary, by variable name: the model's Variable declarations
     (mechfmu.runtime.fmi.slave.Variable) for one of our models, else the same fields read from
     ``description`` (an fmpy ModelDescription): any FMU can be fuzzed."""
@@ -68,7 +75,7 @@ def declarations(model_name, description=None):
     return declared
 
 
-def _scale(variable):
+def _scale(variable: Any):
     """A typical magnitude of a Real variable, for random walks: a quarter of its range, or
     its nominal value, or its start value, or 1."""
     if variable.min is not None and variable.max is not None:
@@ -78,7 +85,7 @@ def _scale(variable):
     return abs(variable.start) if variable.start else 1.0
 
 
-def plausible(rng, variable, current=None):
+def plausible(rng: Any, variable: Any, current: Any=None) -> Any:
     """A value that a reasonable user might give: near the current or start value."""
     kind, start = variable.kind, variable.start if current is None else current
     if kind is bool:  # switches stay as declared three times in four
@@ -95,7 +102,7 @@ def plausible(rng, variable, current=None):
     return value
 
 
-def hostile(rng, variable):
+def hostile(rng: Any, variable: Any) -> Any:
     """A value at or past a bound, an extreme or a non-finite one (a wrong type's worth)."""
     kind = variable.kind
     if kind is bool:
@@ -115,7 +122,7 @@ def hostile(rng, variable):
     return rng.choice(candidates)
 
 
-def step_size(rng, typical):
+def step_size(rng: Any, typical: Any) -> Any:
     """Mostly within a decade below to 20x above ``typical`` (s), log-uniform; one step in
     twenty within two decades either side; one in twenty zero, negative, tiny, huge or not
     finite."""
@@ -127,7 +134,7 @@ def step_size(rng, typical):
     return rng.choice((0.0, -1e-3, math.nan, math.inf, -math.inf, 1e-300, 1e6))
 
 
-def plan_sequence(rng, variables):
+def plan_sequence(rng: Any, variables: Any) -> Any:
     """One random sequence: parameters, start inputs, steps (size, inputs) and a rollback."""
     parameters, inputs = {}, {}
     hostile_parameters = rng.random() < 0.2
@@ -158,7 +165,7 @@ def plan_sequence(rng, variables):
     return {"parameters": parameters, "inputs": inputs, "steps": steps, "rollback": rollback}
 
 
-def sequence_rng(seed, model_name, index):
+def sequence_rng(seed: int, model_name: str, index: int) -> Any:
     """The random generator of one sequence: reproducible from its three coordinates."""
     return random.Random(f"{seed}:{model_name}:{index}")
 
@@ -172,7 +179,7 @@ class Finding(Exception):
 class Fuzzed:
     """One instantiated FMU under fmpy, driven sequence after sequence."""
 
-    def __init__(self, path, instance="fuzzed"):
+    def __init__(self, path: Any, instance: str="fuzzed") -> None:
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
 
@@ -191,19 +198,19 @@ class Fuzzed:
         self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         self.fresh = True
 
-    def set(self, values):
+    def set(self, values: Any) -> None:
         for name, value in values.items():
             variable = self.variables[name]
             setter = getattr(self.slave, f"set{variable.type}")
             setter([variable.valueReference], [value])
 
-    def read_outputs(self):
+    def read_outputs(self) -> Any:
         return self.slave.getReal(self.output_refs)
 
-    def errors_logged(self):
+    def errors_logged(self) -> Any:
         return sum(1 for m in self.logbook.messages if m["status"] in ("error", "fatal"))
 
-    def start(self, plan):
+    def start(self, plan: Any) -> None:
         if not self.fresh:
             self.slave.reset()
         self.fresh = False
@@ -213,7 +220,7 @@ class Fuzzed:
         self.set(plan["inputs"])
         self.slave.exitInitializationMode()
 
-    def step(self, time_now, size, inputs):
+    def step(self, time_now: Any, size: Any, inputs: Any) -> Any:
         """Set inputs and step; True (OK) or False (Discard with an error logged)."""
         from fmpy.fmi1 import FMICallException
         self.set(inputs)
@@ -242,7 +249,7 @@ class Fuzzed:
                                   [v.name for v in self.outputs], outputs) if n in bad))
         return ok
 
-    def run(self, plan):
+    def run(self, plan: Any) -> Any:
         """Run one sequence; return (ok steps, discarded steps)."""
         self.start(plan)
         first_message = len(self.logbook.messages)
@@ -263,13 +270,13 @@ class Fuzzed:
                     raise
         return done, discarded
 
-    def _timed_out(self, first_message):
+    def _timed_out(self, first_message: Any):
         """Whether a step of this sequence (or of its repeat) hit its wall-clock bound: then
         the repeat may legitimately differ (the bound depends on the machine's load)."""
         return any("(max_wall_time)" in m["message"]
                    for m in self.logbook.messages[first_message:])
 
-    def _replay(self, plan, saved, end_time):
+    def _replay(self, plan: Any, saved: Any, end_time: Any):
         """Roll back to the saved state, repeat the steps from there: identical outputs."""
         state, now, first, outputs_then = saved
         final = self.read_outputs()
@@ -286,17 +293,17 @@ class Fuzzed:
             raise Finding(f"rolled back to step {first} and repeated: outputs differ "
                           f"{diff[:3]}")
 
-    def close(self):
+    def close(self) -> None:
         self.slave.terminate()
         self.slave.freeInstance()
 
 
-def child(path, model_name, sequences, seed, progress, only=None):
+def child(path: Any, model_name: str, sequences: int, seed: int, progress: Any, only: Any=None) -> Any:
     """Fuzz one FMU in this process; append a JSON line per event to ``progress``."""
     fuzzed = Fuzzed(path)
     variables = declarations(model_name, fuzzed.description)
     indices = [only] if only is not None else range(sequences)
-    totals = {"sequences": 0, "steps_ok": 0, "steps_discarded": 0, "findings": []}
+    totals: dict[str, Any] = {"sequences": 0, "steps_ok": 0, "steps_discarded": 0, "findings": []}
     started = time.perf_counter()
     with open(progress, "a", buffering=1) as log:
         for index in indices:
@@ -319,7 +326,7 @@ def child(path, model_name, sequences, seed, progress, only=None):
 
 # --- the parent: one child per FMU --------------------------------------------------------------
 
-def fuzz_model(model_name, fmu_dir, sequences, seed, work_dir, only=None):
+def fuzz_model(model_name: str, fmu_dir: Any, sequences: int, seed: int, work_dir: Any, only: Any=None) -> Any:
     """Run the child for one FMU; a summary dict with 'failure' set when it misbehaved."""
     path = Path(fmu_dir) / f"{model_name}.fmu"
     progress = Path(work_dir) / f"{model_name}.jsonl"
@@ -355,7 +362,7 @@ def fuzz_model(model_name, fmu_dir, sequences, seed, work_dir, only=None):
     return result
 
 
-def fuzz(models, fmu_dir, sequences, seed, work_dir, jobs=2, only=None):
+def fuzz(models: Any, fmu_dir: Any, sequences: int, seed: int, work_dir: Any, jobs: int=2, only: Any=None) -> Any:
     """Fuzz ``models`` with up to ``jobs`` children at a time; a list of summaries."""
     from concurrent.futures import ThreadPoolExecutor
     Path(work_dir).mkdir(parents=True, exist_ok=True)
@@ -364,7 +371,7 @@ def fuzz(models, fmu_dir, sequences, seed, work_dir, jobs=2, only=None):
                                                      work_dir, only), models))
 
 
-def command(args):
+def command(args: Any) -> Any:
     """``mechfmu fuzz`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     from ..runtime.models import MODELS

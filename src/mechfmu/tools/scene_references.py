@@ -6,6 +6,10 @@ its columns like the scene's result ('component.variable'), so ``mechfmu check``
 compare the two directly.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import importlib
 from pathlib import Path
 
@@ -17,20 +21,24 @@ from ..runtime.models import MODELS
 from ..references import (drives, gear_dynamics, landing_gear, linkages, suspension,
                suspension_dynamics, valve_spring, valve_train)
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ..cosim.scene import Scene
+    from numpy import ndarray
 
-def start_values(model, causality=None):
+
+def start_values(model: str, causality: str | None=None) -> dict[str, float]:
     """Start values declared by a model (its FMU's), of every variable or of one causality."""
     cls = getattr(importlib.import_module(MODELS[model]), model)
     return {v.name: v.start for v in cls.VARIABLES
             if causality is None or v.causality == causality}
 
 
-def model_defaults(model):
+def model_defaults(model: str) -> dict[str, float]:
     """Parameter defaults declared by a model (its FMU start values)."""
     return start_values(model, "parameter")
 
 
-def _component(scene, model):
+def _component(scene: Scene, model: str):
     """(name, parameters over defaults) of the scene's component using ``model``."""
     for name, spec in scene.components.items():
         if Path(spec.fmu).stem == model:
@@ -38,11 +46,11 @@ def _component(scene, model):
     raise ValueError(f"scene {scene.name} has no {model} component")
 
 
-def sample_times(scene):
+def sample_times(scene: Scene) -> ndarray:
     return np.array([scene.time(i) for i in range(scene.steps + 1)])
 
 
-def gear_retraction(scene):
+def gear_retraction(scene: Any) -> Any:
     """Piston stroke and gear motion columns for a PistonActuator -> LandingGear scene."""
     actuator, stroke = _component(scene, "PistonActuator")
     gear, geometry = _component(scene, "LandingGear")
@@ -55,7 +63,7 @@ def gear_retraction(scene):
     return {f"{owner.get(key, gear)}.{key}": values for key, values in columns.items()}
 
 
-def suspension_load_ramp(scene):
+def suspension_load_ramp(scene: Any) -> Any:
     """Load and equilibrium columns for a LoadProfile(ramp) -> Suspension scene."""
     source, ramp = _component(scene, "LoadProfile")
     name, spring = _component(scene, "Suspension")
@@ -69,7 +77,7 @@ def suspension_load_ramp(scene):
     return {f"{source}.load": loads, **{f"{name}.{key}": v for key, v in columns.items()}}
 
 
-def suspension_dynamics_scene(scene):
+def suspension_dynamics_scene(scene: Any) -> Any:
     """LoadProfile [-> RoadProfile] -> Suspension with the dynamics effect: solve_ivp columns."""
     source, load = _component(scene, "LoadProfile")
     name, parameters = _component(scene, "Suspension")
@@ -81,7 +89,7 @@ def suspension_dynamics_scene(scene):
                                              parameters, road_name, road, scene.record)
 
 
-def gear_dynamics_scene(scene):
+def gear_dynamics_scene(scene: Scene) -> Any:
     """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
     name, _ = _component(scene, "LandingGear")
     spec = scene.components[name]
@@ -92,7 +100,7 @@ def gear_dynamics_scene(scene):
             if scene.record is None or f"{name}.{key}" in scene.record}
 
 
-def _shaft_columns(scene, model="CrankDrive", prefix="crank", ratio=1.0):
+def _shaft_columns(scene: Any, model: str="CrankDrive", prefix: str="crank", ratio: float=1.0):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
     name, shaft = _component(scene, model)
     columns = drives.rotation(sample_times(scene), shaft["initial_angle"],
@@ -101,12 +109,12 @@ def _shaft_columns(scene, model="CrankDrive", prefix="crank", ratio=1.0):
     return name, {f"{prefix}_{key}": value for key, value in columns.items()}
 
 
-def _recorded(scene, columns):
+def _recorded(scene: Any, columns: Any):
     return {key: value for key, value in columns.items()
             if scene.record is None or key in scene.record}
 
 
-def four_bar_scene(scene):
+def four_bar_scene(scene: Any) -> Any:
     """CrankDrive -> FourBar: the crank motion and the closed-form linkage motion."""
     crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "FourBar")
@@ -118,7 +126,7 @@ def four_bar_scene(scene):
     return _recorded(scene, columns)
 
 
-def slider_crank_scene(scene):
+def slider_crank_scene(scene: Any) -> Any:
     """CrankDrive -> SliderCrank: the crank motion and the closed-form slider motion."""
     crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "SliderCrank")
@@ -130,7 +138,7 @@ def slider_crank_scene(scene):
     return _recorded(scene, columns)
 
 
-def valve_train_scene(scene):
+def valve_train_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain: the cam law composed with the closed-form rocker geometry
     (forward or inverse), and the valve spring's contact force where the effect is on."""
     cam_name, cam = _shaft_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
@@ -152,7 +160,7 @@ def valve_train_scene(scene):
     return _recorded(scene, columns)
 
 
-def valve_spring_scene(scene):
+def valve_spring_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain -> ValveSpring: the kinematic columns as valve_train_scene,
     the valve's dynamics on that drive by scipy (references/valve_spring.py)."""
     _, shaft = _component(scene, "CamshaftDrive")
@@ -189,7 +197,7 @@ INTEGRATED = {"gear_retraction_dynamic", "gear_extension_gravity", "suspension_r
               "suspension_sudden_load", "valve_train_dynamic", "valve_float_dynamic"}
 
 
-def generate(scene_dir, out_dir):
+def generate(scene_dir: Any, out_dir: Any) -> Any:
     """Write one reference CSV per entry of REFERENCES; return their paths."""
     paths = []
     for scene_name, build in REFERENCES.items():

@@ -36,11 +36,15 @@ unknowns) in initialization mode. fmpy.ssp is run through ``simulate_ssp_fmpy`` 
 fills the gaps of fmpy 0.3.32's simulate_ssp for the duration of the call.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import io
 import math
 import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import Any
 
 from fmpy import read_model_description
 
@@ -48,6 +52,12 @@ from .. import __version__
 from ..cosim.files import atomic_write
 from ..cosim.master import Simulation, default_fmu_dir, resolve_fmu
 from ..cosim.scene import Scene, SceneError, load_scene
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.model_description import ModelDescription
+    from ..cosim.scene import ComponentSpec
+    from numpy import ndarray
+    from xml.etree.ElementTree import Element
 
 SSD_NAME = "SystemStructure.ssd"
 NS = {
@@ -67,16 +77,16 @@ for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)
 
 
-def _tag(prefix, name):
+def _tag(prefix: str, name: str) -> str:
     return f"{{{NS[prefix]}}}{name}"
 
 
-def _sub(parent, prefix, tag, **attributes):
+def _sub(parent: Element, prefix: str, tag: str, **attributes: Any) -> Element:
     return ET.SubElement(parent, _tag(prefix, tag),
                          {key: value for key, value in attributes.items() if value is not None})
 
 
-def format_value(fmi_type, value, where):
+def format_value(fmi_type: str, value: float, where: str) -> str:
     """The SSP (XML Schema) literal of a scene value of FMI type ``fmi_type``."""
     if fmi_type == "Real":
         value = float(value)
@@ -98,14 +108,14 @@ def format_value(fmi_type, value, where):
 class _Part:
     """One scene component as the SSD describes it."""
 
-    def __init__(self, spec, description):
+    def __init__(self, spec: ComponentSpec, description: ModelDescription) -> None:
         self.spec, self.description = spec, description
         self.variables = {v.name: v for v in description.modelVariables}
-        self.connectors = set()  # variable names
-        self.resource = None     # resources/<Model>.fmu
+        self.connectors: set[str] = set()  # variable names
+        self.resource: str | None = None  # resources/<Model>.fmu
 
 
-def _refuse_unexpressible(scene):
+def _refuse_unexpressible(scene: Scene) -> None:
     for name, spec in scene.components.items():
         for key, value in spec.parameters.items():
             if key.endswith("_file") and isinstance(value, str) and value:
@@ -115,14 +125,15 @@ def _refuse_unexpressible(scene):
                     f"the package, so a scene with a *_file parameter is not exported")
 
 
-def describe(scene, fmu_dir=None):
+def describe(scene: Path | Scene, fmu_dir: Path | str | None=None) -> tuple[Element, dict[str, Path]]:
     """Check ``scene`` and return (SSD root element, {resource name: FMU path})."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
     simulation = Simulation(scene, fmu_dir)  # the master's checks, with its messages
     _refuse_unexpressible(scene)
     fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
-    parts, resources = {}, {}
+    parts: dict[str, Any] = {}
+    resources: dict[str, Path] = {}
     for name, spec in scene.components.items():
         path = resolve_fmu(spec, scene, fmu_dir).resolve()
         if name in simulation.components:
@@ -156,7 +167,7 @@ def describe(scene, fmu_dir=None):
                   description=" ".join(scene.description.split()) or None)
     elements = _sub(system, "ssd", "Elements")
     order = simulation.order + [name for name in scene.components if name not in simulation.order]
-    units = {}
+    units: dict[str, Any] = {}
     for name in order:
         part = parts[name]
         element = _sub(elements, "ssd", "Component", name=name, type=FMU_TYPE,
@@ -222,7 +233,7 @@ def describe(scene, fmu_dir=None):
     return root, resources
 
 
-def _unit(units, part, unit_name, where):
+def _unit(units: dict[str, dict[str, str] | dict[Any, Any]], part: _Part, unit_name: str, where: str) -> None:
     definition = next((u for u in part.description.unitDefinitions if u.name == unit_name), None)
     base = {}
     if definition is not None and definition.baseUnit is not None:
@@ -237,14 +248,14 @@ def _unit(units, part, unit_name, where):
     units[unit_name] = base
 
 
-def ssd_bytes(root):
+def ssd_bytes(root: Element) -> bytes:
     """The SSD document as UTF-8 bytes with an XML declaration, indented."""
     tree = ET.ElementTree(root)
     ET.indent(tree, space="  ")
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
 
 
-def export_ssp(scene, out, fmu_dir=None):
+def export_ssp(scene: Path | Scene, out: Path | str, fmu_dir: Path | str | None=None) -> Path:
     """Write ``scene`` (a Scene or a path) as the SSP package ``out``; return its path.
 
     The file is written to a temporary name and renamed, so a reader never sees half of it.
@@ -259,7 +270,7 @@ def export_ssp(scene, out, fmu_dir=None):
     return atomic_write(out, buffer.getvalue())
 
 
-def summary(ssp):
+def summary(ssp: Path) -> str:
     """One line on an SSP: components, connections, FMUs, parameter values."""
     with zipfile.ZipFile(ssp) as package:
         root = ET.fromstring(package.read(SSD_NAME))
@@ -271,7 +282,7 @@ def summary(ssp):
             f"{len(fmus)} FMUs, {count['Parameter']} parameter values")
 
 
-def extract_ssp(ssp, directory):
+def extract_ssp(ssp: Path, directory: Path) -> Path:
     """Unpack an SSP into ``directory`` (created); return it (hosts that read folders)."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
@@ -282,7 +293,7 @@ def extract_ssp(ssp, directory):
 
 # --- running an exported SSP in fmpy.ssp (host side) ---------------------------------------
 
-def experiment(ssp):
+def experiment(ssp: Path) -> tuple[float, float, float, list[str | None]]:
     """(start time, stop time, step, recorded 'component.variable' names) of an exported SSP.
 
     ``ssp``: the .ssp file or its extracted folder. The step and the recorded names come
@@ -301,12 +312,12 @@ def experiment(ssp):
     if default is None or scene is None:
         raise ValueError(f"{ssp}: not an SSP exported by mechfmu (no DefaultExperiment or "
                          f"no {MECHFMU_ANNOTATION} annotation)")
-    return (float(default.get("startTime")), float(default.get("stopTime")),
-            float(scene.get("step")),
+    return (float(default.attrib["startTime"]), float(default.attrib["stopTime"]),
+            float(scene.attrib["step"]),
             [item.get("variable") for item in scene.findall(_tag("mechfmu", "Record"))])
 
 
-def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
+def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray:
     """Run an exported SSP (.ssp file) in fmpy's ``fmpy.ssp.simulation.simulate_ssp``.
 
     Returns fmpy's structured array: ``time`` (the END of each step, see below), then one
@@ -353,7 +364,7 @@ def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
                 for name in ("set_value", "set_parameters", "do_step")}
     started = set()
 
-    def set_value(component, name, value):
+    def set_value(component: Any, name: str, value: Any) -> None:
         variable = component.variables[name]
         reference = [variable.valueReference]
         if variable.type == "String":
@@ -363,7 +374,7 @@ def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
         else:
             original["set_value"](component, name, value)
 
-    def set_parameters(component, parameter_set):
+    def set_parameters(component: Any, parameter_set: Any) -> None:
         for binding in component.parameterBindings:
             for values in binding.parameterValues:
                 for parameter in values.parameters:
@@ -377,7 +388,7 @@ def simulate_ssp_fmpy(ssp, initialise_from_sources=False):
                     set_value(component, connection.endConnector,
                               simulation.get_value(source, connection.startConnector))
 
-    def do_step(component, time, step_size):
+    def do_step(component: Any, time: float, step_size: float) -> None:
         system = component.parent
         if id(system) not in started:
             started.add(id(system))

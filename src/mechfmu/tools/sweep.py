@@ -27,6 +27,9 @@ SimulationError) gets its message in ``error`` and empty metrics; the sweep goes
 command exits 1 at the end, naming the failed points.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import atexit
 import copy
 import csv
@@ -44,18 +47,30 @@ import sys
 import tempfile
 import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from contextlib import nullcontext
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 import pandas
+from scipy.stats import qmc
 
 from ..cosim.files import atomic_write, inside, save_figure
 from ..cosim.results import write_json
-from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml
+from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
+from .parallel import LocalPool
+from .progress import Progress
+from argparse import Namespace
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from distributed.client import Future
+    from fmpy.model_description import ModelDescription
+    from ..cosim.interrupt import InterruptGuard
+    from ..cosim.master import Instances
+    from ..cosim.scene import Scene
+    from numpy import ndarray
 
 
 class SweepError(ValueError):
@@ -67,7 +82,7 @@ SCENE_OVERRIDES = {"stop_time", "step"}  # scene keys a sweep may replace
 
 # --- --vary ----------------------------------------------------------------------------------
 
-def split_dotted(name, option, text, what="parameter"):
+def split_dotted(name: str, option: str, text: str, what: str="parameter") -> tuple[str, str]:
     """'component.variable' -> (component, variable), or SweepError naming the option."""
     component, dot, variable = name.strip().partition(".")
     if not dot or not component or not variable:
@@ -81,14 +96,14 @@ class Vary:
     variable: str
     start: float
     stop: float
-    count: int = None  # None: only a range (sampling)
+    count: int | None = None  # None: only a range (sampling)
 
     @property
-    def name(self):
+    def name(self) -> str:
         return f"{self.component}.{self.variable}"
 
 
-def parse_vary(text):
+def parse_vary(text: str) -> Vary:
     """'comp.param=START:STOP:COUNT' (or 'comp.param=START:STOP' for sampling) -> Vary."""
     if not isinstance(text, str) or text.count("=") != 1:
         raise SweepError(f"--vary {text!r}: expected component.parameter=START:STOP:COUNT")
@@ -123,11 +138,11 @@ class Link:
     source: str        # the varied parameter's component.parameter
 
     @property
-    def name(self):
+    def name(self) -> str:
         return f"{self.component}.{self.variable}"
 
 
-def parse_link(text):
+def parse_link(text: str) -> Link:
     """'comp.param=FACTOR*comp.varied' or 'comp.param=comp.varied' -> Link."""
     if not isinstance(text, str) or text.count("=") != 1:
         raise SweepError(f"--link {text!r}: expected component.parameter=FACTOR*"
@@ -150,28 +165,24 @@ def parse_link(text):
 
 # --- points ------------------------------------------------------------------------------------
 
-def grid_points(varies):
+def grid_points(varies: list[Vary]) -> ndarray:
     """The full grid: every combination of each parameter's linspace, last varying fastest."""
     for vary in varies:
         if vary.count is None:
             raise SweepError(f"--vary {vary.name}: a grid needs START:STOP:COUNT "
                              f"(or use --samples N)")
-    axes = [np.linspace(v.start, v.stop, v.count) for v in varies]
+    axes = [np.linspace(v.start, v.stop, int(v.count or 0)) for v in varies]
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh], axis=1)
 
 
-def lhs_unit(samples, dimensions, seed):
+def lhs_unit(samples: int, dimensions: int, seed: int | None) -> ndarray:
     """Latin hypercube in [0, 1)^d: in each dimension exactly one sample per stratum
     [k/N, (k+1)/N), placed uniformly inside it; reproducible with ``seed``."""
-    rng = np.random.default_rng(seed)
-    unit = np.empty((samples, dimensions))
-    for d in range(dimensions):
-        unit[:, d] = (rng.permutation(samples) + rng.random(samples)) / samples
-    return unit
+    return qmc.LatinHypercube(d=dimensions, seed=seed).random(samples)
 
 
-def sample_points(varies, samples, seed, method="lhs"):
+def sample_points(varies: list[Vary], samples: int, seed: int | None, method: str="lhs") -> ndarray:
     """``samples`` points over the ranges: Latin hypercube ('lhs') or uniform ('random')."""
     if samples < 1:
         raise SweepError("--samples must be at least 1")
@@ -197,10 +208,10 @@ class Metric:
     text: str          # as given: the CSV column's name
     kind: str
     variable: str      # component.variable
-    threshold: float = None
+    threshold: float | None = None
 
 
-def parse_metric(text):
+def parse_metric(text: str) -> Metric:
     """'kind:comp.var' or 'first_time_above:comp.var:THRESHOLD' -> Metric."""
     if not isinstance(text, str):
         raise SweepError(f"--metrics {text!r}: expected KIND:component.variable")
@@ -224,13 +235,13 @@ def parse_metric(text):
     return Metric(text, kind, variable, threshold)
 
 
-def first_time(times, mask):
+def first_time(times: ndarray, mask: ndarray) -> float:
     """Time of the first True in ``mask``, or nan."""
     hits = np.flatnonzero(mask)
     return float(times[hits[0]]) if hits.size else math.nan
 
 
-def evaluate_metric(metric, times, values, reference=None):
+def evaluate_metric(metric: Metric, times: Any, values: Any, reference: tuple[Any, Any] | None=None) -> float:
     """The metric's value for one signal; ``reference`` = (times, values) for max_abs_error."""
     times, values = np.asarray(times, float), np.asarray(values, float)
     if values.size == 0:
@@ -258,7 +269,7 @@ def evaluate_metric(metric, times, values, reference=None):
 
 # --- scenes ------------------------------------------------------------------------------------
 
-def point_values(varies, links, kinds, values):
+def point_values(varies: list[Vary], links: tuple[()] | list[Link], kinds: dict[str, tuple[str, str]], values: list[float] | ndarray) -> dict[str, float]:
     """{component.variable: value} of one point: the varied values and the linked ones,
     as the FMI type wants them (Integer rounded)."""
     named = dict(zip((v.name for v in varies), (float(v) for v in values)))
@@ -267,7 +278,7 @@ def point_values(varies, links, kinds, values):
             for name, value in named.items()}
 
 
-def point_scene(scene, kinds, assigned):
+def point_scene(scene: Scene, kinds: dict[str, tuple[str, str]], assigned: dict[str, float | bool]) -> Scene:
     """A copy of ``scene`` with each parameter or constant input in ``assigned``
     ({component.variable: value}) set to its value."""
     components = {name: copy.deepcopy(spec) for name, spec in scene.components.items()}
@@ -278,7 +289,7 @@ def point_scene(scene, kinds, assigned):
     return dataclasses.replace(scene, components=components)
 
 
-def _sweepable(scene, descriptions, option, component, variable):
+def _sweepable(scene: Scene, descriptions: dict[str, ModelDescription], option: str, component: str, variable: str) -> tuple[str, str]:
     """('parameter' | 'input', FMI type) of a variable a sweep may set, or SweepError."""
     name = f"{component}.{variable}"
     if component not in scene.components:
@@ -301,7 +312,7 @@ def _sweepable(scene, descriptions, option, component, variable):
                      f"given as constants under [components.{component}.inputs] can be swept")
 
 
-def check_sweep(scene, varies, metrics, fmu_dir, links=()):
+def check_sweep(scene: Scene, varies: list[Vary], metrics: list[Metric], fmu_dir: str | Path, links: tuple[()] | list[Link]=()) -> tuple:
     """Check the sweep against the scene's FMUs before anything runs.
 
     Returns ({varied or linked name: ('parameter' | 'input', FMI type)},
@@ -316,7 +327,7 @@ def check_sweep(scene, varies, metrics, fmu_dir, links=()):
         for item in items:
             if item.name in kinds:
                 raise SweepError(f"{option} {item.name}: already varied or linked")
-            if option == "--link" and item.source not in {v.name for v in varies}:
+            if isinstance(item, Link) and item.source not in {v.name for v in varies}:
                 raise SweepError(f"--link {item.name}: its source {item.source} is not "
                                  f"varied; varied: {', '.join(v.name for v in varies)}")
             kinds[item.name] = _sweepable(scene, descriptions, option, item.component,
@@ -348,7 +359,7 @@ def check_sweep(scene, varies, metrics, fmu_dir, links=()):
 
 # --- the worker --------------------------------------------------------------------------------
 
-def _worker_init():
+def _worker_init() -> None:
     """Per local worker process: ignore Ctrl-C (the parent handles it)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
@@ -356,7 +367,7 @@ def _worker_init():
 _THREAD = threading.local()  # a worker thread's Instances pool: it must outlive the tasks
 
 
-def worker_instances():
+def worker_instances() -> Instances:
     """This worker thread's Instances pool: each FMU extracted once, each instance reset
     (fmi2Reset) between points instead of re-created. Freed when the process exits."""
     pool = getattr(_THREAD, "instances", None)
@@ -369,13 +380,13 @@ def worker_instances():
     return pool
 
 
-def fmu_cache_dir():
+def fmu_cache_dir() -> Path:
     """Where a worker keeps the FMUs shipped to it (one folder per content hash)."""
     user = getattr(os, "getuid", lambda: "user")()
     return Path(tempfile.gettempdir()) / f"mechfmu_fmus_{user}"
 
 
-def shipped_scene(scene, fmu_files):
+def shipped_scene(scene: Any, fmu_files: Any) -> Any:
     """``scene`` with each component's FMU replaced by this worker's copy of the shipped
     file: ``fmu_files`` maps the client's path to (file name, sha256, bytes). Each file is
     written once per worker machine, atomically, under fmu_cache_dir()/<sha256>/."""
@@ -389,12 +400,12 @@ def shipped_scene(scene, fmu_files):
     return dataclasses.replace(scene, components=components)
 
 
-def worker_name():
+def worker_name() -> str:
     """'host:pid' of this worker process (the sweep.csv's worker column)."""
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def run_point(index, scene, metrics, references, fmu_files=None):
+def run_point(index: int, scene: Scene, metrics: list[Metric], references: dict[Any, Any], fmu_files: dict | None=None) -> tuple[int, dict[str, float], str | None, float, str]:
     """Run one point; returns (index, {metric text: value}, error message or None, wall s,
     worker name).
 
@@ -416,7 +427,7 @@ def run_point(index, scene, metrics, references, fmu_files=None):
     return index, values, error, time.perf_counter() - started, worker_name()
 
 
-def resolve_fmus(scene, fmu_dir):
+def resolve_fmus(scene: Scene, fmu_dir: str | Path) -> Scene:
     """``scene`` with every component's FMU as an absolute path (workers may run elsewhere
     than the current folder)."""
     from ..cosim.master import resolve_fmu
@@ -428,46 +439,6 @@ def resolve_fmus(scene, fmu_dir):
 
 # --- where the points run ----------------------------------------------------------------------
 
-class LocalPool:
-    """Worker processes on this machine (concurrent.futures), reading the FMUs in place.
-
-    A worker process that dies (killed, out of memory, a crash in an FMU) breaks the whole
-    executor: every point not finished is lost with BrokenProcessPool. ``restart`` replaces
-    the executor; run_sweep resubmits the lost points (see _run_points)."""
-
-    def __init__(self, jobs):
-        self.workers, self.where = jobs, f"local, {jobs} process(es)"
-        self.executor = ProcessPoolExecutor(max_workers=jobs, initializer=_worker_init)
-
-    def ship(self, paths):
-        return None
-
-    def submit(self, *arguments):
-        return self.executor.submit(run_point, *arguments)
-
-    def wait(self, futures, timeout):
-        """The futures among ``futures`` that are done, waiting up to ``timeout`` s for one."""
-        return wait(futures, timeout=timeout, return_when=FIRST_COMPLETED).done
-
-    @staticmethod
-    def lost(error):
-        """Whether a point failed because its worker process died (not because of itself)."""
-        return isinstance(error, BrokenProcessPool)
-
-    def restart(self):
-        """A new executor in place of a broken one."""
-        self.executor.shutdown(wait=False, cancel_futures=True)
-        self.executor = ProcessPoolExecutor(max_workers=self.workers, initializer=_worker_init)
-
-    def alone(self):
-        """A pool of one new worker process, for a point on its last attempt: if that worker
-        dies too, the point is the cause, not a neighbour."""
-        return LocalPool(1)
-
-    def close(self, interrupted):
-        self.executor.shutdown(wait=not interrupted, cancel_futures=interrupted)
-
-
 class DaskCluster:
     """An existing Dask cluster (``--scheduler tcp://HOST:PORT``). The FMUs are sent to the
     workers once (scattered) with their content hash, so the workers need mechfmu and a
@@ -475,7 +446,7 @@ class DaskCluster:
     dies (up to its distributed.scheduler.allowed-failures, then KilledWorker: the point's
     error)."""
 
-    def __init__(self, address, timeout=10.0):
+    def __init__(self, address: str, timeout: float=10.0) -> None:
         try:
             from distributed import Client
         except ImportError:  # an optional dependency: the extra mechfmu[cluster]
@@ -495,7 +466,7 @@ class DaskCluster:
         self.workers = sum(threads.values())
         self.where = f"Dask {address}, {len(threads)} worker(s), {self.workers} thread(s)"
 
-    def ship(self, paths):
+    def ship(self, paths: list[str]) -> Future:
         files = {}
         for path in paths:
             data = Path(path).read_bytes()
@@ -503,11 +474,11 @@ class DaskCluster:
         # one object, one copy per worker; tasks then name it instead of carrying the bytes
         return self.client.scatter([files], broadcast=True)[0]
 
-    def submit(self, *arguments):
+    def submit(self, *arguments: Any) -> Future:
         return self.client.submit(run_point, *arguments, pure=False)
 
     @staticmethod
-    def wait(futures, timeout):
+    def wait(futures: list[Future], timeout: float) -> list[Any]:
         """The futures among ``futures`` that are done, polling up to ``timeout`` s."""
         deadline = time.monotonic() + timeout
         while True:
@@ -517,20 +488,20 @@ class DaskCluster:
             time.sleep(0.02)
 
     @staticmethod
-    def lost(error):
+    def lost(error: Any) -> bool:
         return False  # the scheduler has retried it already
 
-    def restart(self):
+    def restart(self) -> None:
         pass
 
-    def alone(self):
+    def alone(self) -> Any:
         return self
 
-    def close(self, interrupted):
+    def close(self, interrupted: bool) -> None:
         self.client.close()
 
 
-def probe_scheduler(address, timeout):
+def probe_scheduler(address: str, timeout: float) -> None:
     """Check that a Dask scheduler answers at ``address`` (tcp://HOST:PORT) within
     ``timeout`` s: a TCP connection, then Dask's handshake (each side sends a small framed
     message first). distributed itself would wait for ever for a handshake from a server
@@ -554,14 +525,14 @@ def probe_scheduler(address, timeout):
         raise SweepError(f"--scheduler {address}: {problem}")
 
 
-def _handshake_problem(address, timeout):
+def _handshake_problem(address: Any, timeout: float):
     """None if a Dask comm at ``address`` completes its handshake within ``timeout`` s, else
     what went wrong (one line)."""
     import asyncio
 
     from distributed.comm import connect
 
-    async def handshake():
+    async def handshake() -> None:
         comm = await connect(address, timeout=timeout)
         await comm.close()
     try:
@@ -578,11 +549,11 @@ def _handshake_problem(address, timeout):
 
 # --- the runner --------------------------------------------------------------------------------
 
-def _now():
+def _now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
 
 
-def _format(value):
+def _format(value: float | None) -> str:
     if value is None:
         return ""
     if isinstance(value, float):
@@ -590,27 +561,8 @@ def _format(value):
     return str(value)
 
 
-def safe_name(text):
+def safe_name(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_")
-
-
-class Progress:
-    """One line on stderr: done/total, rate, time left; ``already``: points done before
-    (a resumed sweep), not counted in the rate."""
-
-    def __init__(self, total, stream=None, already=0):
-        self.total, self.started, self.already = total, time.perf_counter(), already
-        self.stream = stream or sys.stderr
-
-    def update(self, done, failed):
-        elapsed = time.perf_counter() - self.started
-        rate = (done - self.already) / elapsed if elapsed > 0 else 0.0
-        left = (self.total - done) / rate if rate > 0 else math.inf
-        left_text = f"{left:.0f} s" if math.isfinite(left) else "?"
-        end = "\n" if done == self.total else ""
-        self.stream.write(f"\rsweep: {done}/{self.total} done ({failed} failed), "
-                          f"{rate:.2f} scenes/s, {left_text} left   {end}")
-        self.stream.flush()
 
 
 DEFAULT_RETRIES = 2  # extra attempts of a point whose worker process died; the last one alone
@@ -623,7 +575,7 @@ RESUME_KEYS = ("scene_file", "overrides", "varies", "links", "method", "seed", "
 class SweepInterrupted(KeyboardInterrupt):
     """SIGINT or SIGTERM (``signum``) stopped the sweep; the rows done are kept."""
 
-    def __init__(self, signum):
+    def __init__(self, signum: signal.Signals) -> None:
         super().__init__(signum)
         self.signum = signum
 
@@ -632,14 +584,14 @@ class _Stopped(Exception):
     """The sweep's InterruptGuard received a signal."""
 
 
-def at_least(option, value, minimum):
+def at_least(option: str, value: int, minimum: int) -> int:
     """``value`` if it is a whole number >= ``minimum``, else SweepError naming the option."""
     if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
         raise SweepError(f"{option} = {value!r} must be at least {minimum} (a whole number)")
     return value
 
 
-def fmu_digests(scene):
+def fmu_digests(scene: Scene) -> dict[str, str]:
     """{component: SHA-256 of its FMU file} (resolved paths): what a resumed sweep checks."""
     return {name: hashlib.sha256(Path(spec.fmu).read_bytes()).hexdigest()
             for name, spec in scene.components.items()}
@@ -655,7 +607,7 @@ class _Task:
     attempts: int = 0
 
 
-def _run_points(runner, tasks, arguments, retries, guard, record, summary):
+def _run_points(runner: Any, tasks: list[_Task], arguments: tuple, retries: int, guard: InterruptGuard, record: Callable, summary: dict[str, Any]) -> None:
     """Run every task on ``runner``, calling ``record(task, (values, error, wall, worker))``
     as each finishes.
 
@@ -665,7 +617,8 @@ def _run_points(runner, tasks, arguments, retries, guard, record, summary):
     points that only shared a pool with it are never blamed. Every 0.25 s at most the
     guard is asked; a signal raises _Stopped.
     """
-    waiting, last_chance = list(tasks), []
+    waiting = list(tasks)
+    last_chance: list = []
     while waiting or last_chance:
         if waiting:
             pool, batch, waiting = runner, waiting, []
@@ -708,7 +661,7 @@ def _run_points(runner, tasks, arguments, retries, guard, record, summary):
             (last_chance if task.attempts == retries else waiting).append(task)
 
 
-def _resumed_rows(csv_path, json_path, summary, header):
+def _resumed_rows(csv_path: Any, json_path: Any, summary: Any, header: Any):
     """The raw rows of a stopped sweep's sweep.csv to keep (one per point, those without an
     error), after checking that its sweep.json defines the same sweep (RESUME_KEYS) and its
     header is ``header``; SweepError otherwise."""
@@ -729,7 +682,8 @@ def _resumed_rows(csv_path, json_path, summary, header):
                          f"from this one's; run it without --resume, or into another --out")
     # a finished point's row has its worker (the last column); a row cut short by a crash
     # (pandas pads it with empty cells; longer ones are skipped) has not
-    kept, error_column, worker_column = {}, header.index("error"), header.index("worker")
+    kept: dict[Any, Any] = {}
+    error_column, worker_column = header.index("error"), header.index("worker")
     for line in lines[1:]:
         if not line[error_column] and line[worker_column] and line[0].isdigit() \
                 and int(line[0]) < summary["points"]:
@@ -737,16 +691,16 @@ def _resumed_rows(csv_path, json_path, summary, header):
     return list(kept.values())
 
 
-def _csv_text(header, lines):
+def _csv_text(header: list[str], lines: list[Any]) -> str:
     handle = io.StringIO()
     csv.writer(handle, lineterminator="\n").writerows([header, *lines])
     return handle.getvalue()
 
 
-def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None, seed=None,
-              method="lhs", fmu_dir="fmus", plot=False, on_point=None, progress=True,
-              scheduler=None, links=(), overrides=None, name=None, resume=False,
-              retries=DEFAULT_RETRIES, guard=None):
+def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_dir: Path | str | None=None, jobs: int | None=None, samples: int | None=None, seed: int | None=None,
+              method: str="lhs", fmu_dir: str="fmus", plot: bool=False, on_point: Callable | None=None, progress: bool=True,
+              scheduler: str | None=None, links: tuple[()] | list[Link]=(), overrides: dict[str, str] | dict[str, float] | None=None, name: str | None=None, resume: bool=False,
+              retries: int=DEFAULT_RETRIES, guard: InterruptGuard | None=None) -> dict[str, Any]:
     """Run the sweep; returns the summary dict written to sweep.json.
 
     The points run on ``jobs`` local worker processes, or on the Dask cluster whose
@@ -795,7 +749,7 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
     csv_path, json_path = inside(out_dir, "sweep.csv"), inside(out_dir, "sweep.json")
     names = [v.name for v in varies] + [k.name for k in links]
     header = ["index", *names, *(m.text for m in metrics), "error", "wall_time_s", "worker"]
-    summary = {
+    summary: dict[str, Any] = {
         "name": name, "scene": scene.name, "scene_file": str(scene_path.resolve()),
         "overrides": dict(overrides or {}),
         "varies": [{"name": v.name, "kind": kinds[v.name][0], "type": kinds[v.name][1],
@@ -811,7 +765,7 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
         "scenes_per_s": None, "csv": str(csv_path), "command": sys.argv,
     }
     kept = _resumed_rows(csv_path, json_path, summary, header) if resume else []
-    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs)
+    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs, run_point, _worker_init)
     summary.update(jobs=runner.workers, where=runner.where, resumed=len(kept), done=len(kept))
     finished = {int(line[0]) for line in kept}
     tasks = []
@@ -827,7 +781,7 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
     handle = open(csv_path, "a", newline="", encoding="utf-8")
     writer = csv.writer(handle, lineterminator="\n")
 
-    def record(task, outcome):
+    def record(task: Any, outcome: Any) -> None:
         values, error, wall, worker = outcome
         row = {"index": task.index, **dict(zip(names, task.point)), **values,
                "error": error, "wall_time_s": wall, "worker": worker}
@@ -870,7 +824,7 @@ def run_sweep(scene_path, varies, metrics, out_dir=None, jobs=None, samples=None
     return summary
 
 
-def write_plots(out_dir, rows, names, metrics):
+def write_plots(out_dir: Path, rows: list[dict[str, Any]], names: list[str], metrics: list[Metric]) -> list[Path]:
     """One PNG per (metric, varied parameter): the metric of every successful point."""
     import matplotlib
     matplotlib.use("Agg")
@@ -898,8 +852,7 @@ def write_plots(out_dir, rows, names, metrics):
 TEXT_COLUMNS = ("error", "worker")  # sweep.csv's columns that hold text, not numbers
 
 
-def read_sweep_table(path: "str | os.PathLike", missing: "float | None" = math.nan
-                     ) -> "pandas.DataFrame":
+def read_sweep_table(path: Path | str, missing: float | None = math.nan) -> pandas.DataFrame:
     """A sweep.csv as a pandas DataFrame (mechfmu.io.read_table): ``index`` int64, ``error``
     and ``worker`` strings (None when empty), every other column float64 with ``missing``
     for an empty cell (a failed point's metrics). ResultFileError (a ValueError) naming the
@@ -909,10 +862,10 @@ def read_sweep_table(path: "str | os.PathLike", missing: "float | None" = math.n
                       required=("index", *TEXT_COLUMNS), missing=missing)
 
 
-def read_sweep_csv(path: "str | os.PathLike") -> list[dict]:
+def read_sweep_csv(path: Path | str) -> list[dict[str, Any]]:
     """Rows of a sweep.csv as dicts (numbers as floats, empty cells as None), in file order."""
     table = read_sweep_table(path, missing=None)
-    return [{key: (int(value) if key == "index" else value) for key, value in row.items()}
+    return [{str(key): (int(value) if key == "index" else value) for key, value in row.items()}
             for row in table.to_dict("records")]
 
 
@@ -922,12 +875,12 @@ SWEEP_KEYS = {"description", "scene", "vary", "link", "metrics", "samples", "see
               "stop_time", "step"}
 
 
-def is_sweep_file(data):
+def is_sweep_file(data: dict[str, float | list[str] | dict[str, dict[str, str | dict[str, float]]]]) -> bool:
     """A sweep file names its scene; a scene file has components."""
     return "scene" in data and "components" not in data
 
 
-def load_sweep_file(path):
+def load_sweep_file(path: Path) -> dict[str, Any]:
     """A sweep file (TOML) -> run_sweep's settings: {'scene_path', 'varies', 'links',
     'metrics', 'samples', 'seed', 'method', 'overrides', 'name', 'description'}.
 
@@ -937,10 +890,7 @@ def load_sweep_file(path):
     """
     path = Path(path)
     data = read_toml(path, SweepError, "sweep file")
-    unknown = set(data) - SWEEP_KEYS
-    if unknown:
-        raise SweepError(f"{path}: unknown key(s) {', '.join(sorted(unknown))}; allowed: "
-                         f"{', '.join(sorted(SWEEP_KEYS))}")
+    refuse_unknown_keys(data, SWEEP_KEYS, path, SweepError)
     if not isinstance(data.get("scene"), str):
         raise SweepError(f"{path}: 'scene' must name a scene file")
     for key in ("vary", "link", "metrics"):
@@ -962,12 +912,12 @@ def load_sweep_file(path):
         raise SweepError(f"{path}: {error}") from None
 
 
-def locate(text):
+def locate(text: str) -> Path:
     """A sweep or scene file: a path, or the name of a shipped sweep, else of a shipped scene."""
     return find_file(text, (SWEEP_DIR, SCENE_DIR))
 
 
-def settings(args):
+def settings(args: Namespace) -> dict[str, Any]:
     """run_sweep's settings from the command line, over those of a sweep file if given."""
     path = locate(args.scene)
     try:
@@ -995,7 +945,7 @@ def settings(args):
 
 # --- command line (mechfmu sweep; its options are declared in mechfmu/cli.py) ------------
 
-def failure_line(summary, csv_path, shown=20):
+def failure_line(summary: dict[str, Any], csv_path: str, shown: int=20) -> str:
     """'N of M point(s) failed (index ...); index I: <its error>' for a sweep with failures."""
     indices = summary["failed_indices"]
     listed = ", ".join(str(i) for i in indices[:shown])
@@ -1006,7 +956,7 @@ def failure_line(summary, csv_path, shown=20):
             f"index {indices[0]}: {first['error']}")
 
 
-def command(args):
+def command(args: Namespace) -> int:
     """``mechfmu sweep``: run the sweep the parsed command line ``args`` describes; the exit
     status (0 all points done, 1 any point failed, 2 on a sweep, scene or output error,
     130/143 when SIGINT/SIGTERM stopped it)."""

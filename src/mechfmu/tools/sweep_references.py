@@ -16,6 +16,7 @@ without the FMUs' standard-library physics for the quantity checked:
 Units SI: m, kg, s, rad, N, Pa. Bad input raises ValueError naming the value.
 """
 
+from typing import Any
 import math
 from pathlib import Path
 
@@ -29,6 +30,7 @@ from ..references import gear_dynamics as gear_reference
 from ..references import suspension as statics
 from ..references import suspension_dynamics as dynamics
 from ..references import valve_train as valve_reference
+from ..references.events import ivp_event
 from .scene_references import model_defaults, start_values
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
@@ -49,11 +51,11 @@ FLOAT_GRID = 20001
 
 # --- validation -----------------------------------------------------------------------------
 
-def _non_negative(name, value, unit=""):
+def _non_negative(name: str, value: float, unit: str="") -> float:
     return require_between(name, value, 0.0, math.inf, unit)
 
 
-def _spring(spring_free_length, spring_stiffness, spring_base_offset):
+def _spring(spring_free_length: float, spring_stiffness: float, spring_base_offset: float) -> tuple[float, float, float]:
     L = require_positive("spring_free_length", spring_free_length, "m")
     k = require_positive("spring_stiffness", spring_stiffness, "N/m")
     d = require_positive("spring_base_offset", spring_base_offset, "m")
@@ -65,8 +67,8 @@ def _spring(spring_free_length, spring_stiffness, spring_base_offset):
 
 # --- suspension: static and sudden snap-through -----------------------------------------------
 
-def static_snap_through_mass(spring_free_length=0.5, spring_stiffness=1e4,
-                             spring_base_offset=0.2, gravity=STANDARD_GRAVITY):
+def static_snap_through_mass(spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                             spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY) -> float:
     """Sprung mass (kg) whose weight equals the static limit load F* of the near branch.
 
     A quasi-static load m g snaps through for every m above F*/g (the near equilibrium
@@ -78,7 +80,7 @@ def static_snap_through_mass(spring_free_length=0.5, spring_stiffness=1e4,
     return statics.limit_point(L, k, d)[1] / g
 
 
-def _spring_energy(u, L, k, d):
+def _spring_energy(u: float, L: float, k: float, d: float) -> float:
     """Strain energy (J) of both springs at deflection u: 2 * k (s - L)^2 / 2, with
     s - L = -u (2h - u) / (L + s) so small deflections keep their relative accuracy."""
     h = float(statics.rest_height(L, d))
@@ -87,7 +89,7 @@ def _spring_energy(u, L, k, d):
     return k * stretch * stretch
 
 
-def _saddle(W, L, k, d):
+def _saddle(W: float, L: float, k: float, d: float) -> float:
     """Unstable equilibrium u2 in (u*, h) of F(u) = W for 0 < W <= F* (F falls from F* to 0
     there, so the root is bracketed and unique)."""
     u_star, F_star = statics.limit_point(L, k, d)
@@ -98,8 +100,8 @@ def _saddle(W, L, k, d):
                   xtol=1e-15, rtol=4.0 * np.finfo(float).eps)
 
 
-def sudden_snap_through_load_undamped(spring_free_length=0.5, spring_stiffness=1e4,
-                                      spring_base_offset=0.2):
+def sudden_snap_through_load_undamped(spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                                      spring_base_offset: float=0.2) -> float:
     """Smallest suddenly applied constant load W (N) that snaps the undamped spring pair
     through, starting at rest unstressed: the energy closed form.
 
@@ -113,15 +115,15 @@ def sudden_snap_through_load_undamped(spring_free_length=0.5, spring_stiffness=1
     u_star, _ = statics.limit_point(L, k, d)
     h = float(statics.rest_height(L, d))
 
-    def surplus(u):
+    def surplus(u: Any):
         return float(statics.spring_force(u, L, k, d)) * u - _spring_energy(u, L, k, d)
 
     u2 = brentq(surplus, u_star, h, xtol=1e-15, rtol=4.0 * np.finfo(float).eps)
     return float(statics.spring_force(u2, L, k, d))
 
 
-def sudden_load_snaps(mass, damping_coefficient, spring_free_length=0.5, spring_stiffness=1e4,
-                      spring_base_offset=0.2, gravity=STANDARD_GRAVITY):
+def sudden_load_snaps(mass: float, damping_coefficient: float, spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                      spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY) -> bool:
     """True if the load W = m g, applied at t = 0 to the mass m at rest (u = 0, u' = 0) and
     held, snaps the suspension through as the Suspension FMU's dynamics mode defines it:
     the deflection rises through the start of the far stable region, 2h - u*.
@@ -151,20 +153,20 @@ def sudden_load_snaps(mass, damping_coefficient, spring_free_length=0.5, spring_
 
     system = dynamics.System((L, k, d), m, c, None, lambda t: W, None)
 
-    def snap(t, x):
+    def snap(t: float, x: Any):
         return x[0] - far_start
-    snap.terminal, snap.direction = True, 1.0
+    ivp_event(snap, terminal=True, direction=1.0)
 
     # Both "no snap" events count only before the saddle: max(., u - u2) stays positive past
     # it and is still continuous, so solve_ivp's root finding applies.
-    def turn(t, x):
+    def turn(t: float, x: Any):
         return max(x[1], x[0] - u2)
-    turn.terminal, turn.direction = True, -1.0
+    ivp_event(turn, terminal=True, direction=-1.0)
 
-    def below_saddle(t, x):
+    def below_saddle(t: float, x: Any):
         energy = 0.5 * m * x[1] * x[1] + _spring_energy(x[0], L, k, d) - W * x[0]
         return max(energy - saddle_level, x[0] - u2)
-    below_saddle.terminal, below_saddle.direction = True, -1.0
+    ivp_event(below_saddle, terminal=True, direction=-1.0)
 
     solution = solve_ivp(system, (0.0, SUSPENSION_MAX_TIME), system.initial(0.0, 0.0, 0.0),
                          method="DOP853", rtol=SUSPENSION_TOLERANCE, atol=SUSPENSION_TOLERANCE,
@@ -175,8 +177,8 @@ def sudden_load_snaps(mass, damping_coefficient, spring_free_length=0.5, spring_
                        f"{SUSPENSION_MAX_TIME} s ({solution.message})")
 
 
-def sudden_snap_through_mass(damping_coefficient, spring_free_length=0.5, spring_stiffness=1e4,
-                             spring_base_offset=0.2, gravity=STANDARD_GRAVITY, tolerance=1e-6):
+def sudden_snap_through_mass(damping_coefficient: float, spring_free_length: float=0.5, spring_stiffness: float=1e4,
+                             spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY, tolerance: float=1e-6) -> float:
     """Threshold sprung mass (kg) for a suddenly applied weight m g (Suspension FMU with the
     dynamics effect, damping c in N s/m): m above it snaps through, below it does not.
 
@@ -204,7 +206,7 @@ def sudden_snap_through_mass(damping_coefficient, spring_free_length=0.5, spring
 
 # --- landing gear: retraction time against supply pressure --------------------------------------
 
-def gear_scene_values(scene_file=GEAR_SCENE, **overrides):
+def gear_scene_values(scene_file: Path=GEAR_SCENE, **overrides: Any) -> tuple[dict[str, float], float]:
     """(LandingGear values, stop time in s) of a dynamic gear scene: the FMU's defaults, the
     scene's parameters, effects and inputs (as generate.gear_dynamics_scene applies them),
     then ``overrides`` (any gear parameter or input, e.g. supply_pressure, airspeed)."""
@@ -223,8 +225,8 @@ def gear_scene_values(scene_file=GEAR_SCENE, **overrides):
     return values, float(scene.stop_time)
 
 
-def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tolerance=1e-12,
-                    stop_time=None, **overrides):
+def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method: str="LSODA", tolerance: float=1e-12,
+                    stop_time: float | None=None, **overrides: Any) -> float:
     """Retraction time (s) of the gear_retraction_dynamic scene at ``supply_pressure`` (Pa):
     the first time the piston rises through stroke_max, as the FMU's retraction_time output
     reports it; math.nan if that does not happen by the scene's stop time.
@@ -247,7 +249,7 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     from ..references.gear_dynamics import dynamics_model, stroke_crossings
     model = dynamics_model(values)
 
-    def rhs(t, y):
+    def rhs(t: float, y: Any):
         return model.derivatives(list(y), values)[0]
 
     t, y = 0.0, np.array(model.initial_state(), dtype=float)
@@ -268,7 +270,7 @@ def retraction_time(supply_pressure, scene_file=GEAR_SCENE, method="LSODA", tole
     raise RuntimeError("more than 10000 stroke crossings")
 
 
-def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb=False, **overrides):
+def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bool=False, **overrides: Any) -> float:
     """Lowest supply pressure (Pa) at which the stalled actuator holds the gear at every angle
     from its start to stroke_max (static moment balance, numpy closed forms).
 
@@ -308,7 +310,7 @@ def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb=False, **
     weight = lever * v["gravity_acceleration"] if v["gravity"] else 0.0
     friction = v["coulomb_friction"] if (include_coulomb and v["pivot_friction"]) else 0.0
 
-    def required(theta):
+    def required(theta: Any):
         theta = np.asarray(theta, dtype=float)
         psi = theta - v["down_angle"] + v["airframe_pitch"]
         x = np.sqrt(d * d + h * h - 2.0 * d * h * np.cos(theta))
@@ -326,8 +328,8 @@ def minimum_retraction_pressure(scene_file=GEAR_SCENE, include_coulomb=False, **
     return float(max(values[i], -refined.fun))
 
 
-def lowest_retracting_pressure(low, high, scene_file=GEAR_SCENE, relative_width=1e-4,
-                               **overrides):
+def lowest_retracting_pressure(low: Any, high: Any, scene_file: Any=GEAR_SCENE, relative_width: float=1e-4,
+                               **overrides: Any) -> Any:
     """Lowest supply pressure (Pa) in [low, high] whose scene run retracts by the stop time,
     by bisection on retraction_time being finite (one gear run per halving, ~0.5 s each)."""
     low = require_positive("low", low, "Pa")
@@ -351,7 +353,7 @@ _CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle"
                "return_angle")
 
 
-def valve_float_point(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **cam):
+def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam: Any) -> tuple[float, float]:
     """(camshaft speed in rad/s, camshaft angle in rad) where the valve first floats at
     constant camshaft speed; (inf, nan) if the valve never decelerates.
 
@@ -386,7 +388,7 @@ def valve_float_point(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **ca
     geometry = {key: require_finite(key, p[key], "m") for key in valve_reference.GEOMETRY_FIELDS}
     segments = (("rise", rise, 0.0), ("return", ret, rise + dwell))
 
-    def ratio(segment, x):
+    def ratio(segment: Any, x: Any):
         """w^2 (rad^2/s^2) at which the contact force vanishes at phase x; inf where L'' >= 0."""
         f, f1, f2 = valve_reference.normalized(law, x)
         if segment == "rise":
@@ -424,7 +426,7 @@ def valve_float_point(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **ca
     return math.sqrt(best[0]), best[1]
 
 
-def valve_float_speed(spring_preload, valve_mass=0.1, spring_stiffness=5e4, **cam):
+def valve_float_speed(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam: Any) -> float:
     """Constant camshaft speed (rad/s) at which the ValveTrain FMU's valve (forward drive,
     valve_spring effect) starts to float: see valve_float_point. math.inf if it never does."""
     return valve_float_point(spring_preload, valve_mass, spring_stiffness, **cam)[0]

@@ -97,15 +97,10 @@ static int resolve_functions(void *library)
     return !loader_missing_functions("pythonfmu's library");
 }
 
-/* Loads once; 1 when every call can be forwarded. Not thread-safe: the host's first
- * fmi2Instantiate must not race another call into this FMU (hosts instantiate in turn). */
+/* Loads once; 1 when every call can be forwarded (see loader_ready). */
 static int ready(void)
 {
-    if (load_state == 0) {
-        void *library = loader_open();
-        load_state = (library && resolve_functions(library)) ? 1 : -1;
-    }
-    return load_state == 1;
+    return loader_ready(&load_state, resolve_functions);
 }
 
 /* ---- Common functions ---- */

@@ -392,6 +392,15 @@ int loader_missing_functions(const char *library_kind)
     return missing_function;
 }
 
+int loader_ready(int *state, int (*resolve)(void *library))
+{
+    if (*state == 0) {
+        void *library = loader_open();
+        *state = (library && resolve(library)) ? 1 : -1;
+    }
+    return *state == 1;
+}
+
 void *loader_open(void)
 {
     char inner[PATH_MAX];

@@ -25,4 +25,10 @@ void *loader_function(void *library, const char *name, int required);
 /* 1 (and the reason in loader_message()) when a required function was missing. */
 int loader_missing_functions(const char *library_kind);
 
+/* Loads once (loader_open, then ``resolve`` on the library); 1 when every call can be
+ * forwarded. ``state``: 0 not tried, 1 loaded, -1 failed (loader_message says why). Not
+ * thread-safe: the host's first instantiation must not race another call into this FMU
+ * (hosts instantiate in turn). */
+int loader_ready(int *state, int (*resolve)(void *library));
+
 #endif

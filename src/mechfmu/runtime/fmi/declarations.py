@@ -7,6 +7,8 @@ causality, unit, range, description, dependencies). The FMI 2.0 and FMI 3.0 bind
 
 import enum
 from xml.etree.ElementTree import Element, SubElement
+from typing import Any
+from collections.abc import Callable
 
 
 class Status(enum.IntEnum):
@@ -48,6 +50,10 @@ UNITS = {
     "Hz": {"s": -1},
 }
 
+# A variable's value: Real, Integer, Boolean or String.
+Value = float | int | bool | str
+
+
 class Variable:
     """One FMU variable, declared once.
 
@@ -61,8 +67,8 @@ class Variable:
     __slots__ = ("name", "kind", "causality", "start", "unit", "min", "max",
                  "description", "depends", "values", "nominal")
 
-    def __init__(self, name, kind, causality, start, description, unit=None,
-                 min=None, max=None, depends=(), values=None, nominal=None):
+    def __init__(self, name: str, kind: type, causality: str, start: Value, description: str, unit: str | None=None,
+                 min: float | None=None, max: float | None=None, depends: tuple[str, ...]=(), values: tuple[str, ...] | None=None, nominal: float | None=None) -> None:
         if unit is not None and unit not in UNITS:
             raise ValueError(f"unit {unit!r} of {name} is not in UNITS")
         self.name, self.kind, self.causality, self.start = name, kind, causality, start
@@ -70,19 +76,19 @@ class Variable:
         self.depends, self.values, self.nominal = tuple(depends), values, nominal
 
 
-def parameter(name, start, description, unit=None, min=None, max=None, values=None):
+def parameter(name: str, start: Value, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, values: tuple[str, ...] | None=None) -> Variable:
     """A fixed parameter; its type follows the start value."""
     return Variable(name, type(start), "parameter", start, description, unit, min, max,
                     values=values)
 
 
-def input_(name, start, description, unit=None, min=None, max=None, nominal=None):
+def input_(name: str, start: Value, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, nominal: float | None=None) -> Variable:
     """A continuous input with a start value (and a typical magnitude: nominal)."""
     return Variable(name, type(start), "input", start, description, unit, min, max,
                     nominal=nominal)
 
 
-def output(name, start, description, unit=None, depends=(), min=None, max=None):
+def output(name: str, start: Value, description: str, unit: str | None=None, depends: tuple[str, ...]=(), min: float | None=None, max: float | None=None) -> Variable:
     """An output computed from inputs and parameters (initial = calculated)."""
     return Variable(name, type(start), "output", start, description, unit, min, max, depends)
 
@@ -90,7 +96,7 @@ def output(name, start, description, unit=None, depends=(), min=None, max=None):
 EFFECT_PREFIX = "Effect: "
 
 
-def effect(name, description):
+def effect(name: str, description: str) -> Variable:
     """A Boolean parameter that switches a physical effect on (all effects default off).
 
     Scenes list effects by name; the master finds them by this description prefix.
@@ -102,7 +108,7 @@ INTEGRATORS = ("euler", "rk4", "dopri5", "radau")
 MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 
 
-def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e-3):
+def integrator_variables(default: str="dopri5", rtol: float=1e-8, atol: float=1e-10, max_substep: float=1e-3) -> tuple[Variable, ...]:
     """The parameters and counters every integrating model declares, by the same names.
 
     A model that declares them is an IntegratingSlave, which keeps its integrator in
@@ -127,7 +133,7 @@ def integrator_variables(default="dopri5", rtol=1e-8, atol=1e-10, max_substep=1e
     )
 
 
-def unit_definitions(units):
+def unit_definitions(units: Any) -> Any:
     """The UnitDefinitions element of the unit names ``units`` (None skipped; None when no
     unit is left); its form is the same in FMI 2.0 and FMI 3.0."""
     used = sorted({unit for unit in units if unit is not None})
@@ -140,12 +146,12 @@ def unit_definitions(units):
     return units
 
 
-def bound_text(variable, bound):
+def bound_text(variable: Any, bound: Any) -> Any:
     """A min or max attribute value of ``variable`` in the model description."""
     return repr(float(bound)) if variable.kind is float else str(bound)
 
 
-def describe(element, variable):
+def describe(element: Any, variable: Any) -> None:
     """Write ``variable``'s unit, min, max and nominal onto its typed element of a model description
     (FMI 2.0: the <Real> inside <ScalarVariable>; FMI 3.0: the <Float64> itself), and its
     start value exactly (pythonfmu and pythonfmu3 write 16 significant digits)."""
@@ -161,7 +167,7 @@ def describe(element, variable):
         element.set("nominal", repr(float(variable.nominal)))
 
 
-def fmi_attributes(variable):
+def fmi_attributes(variable: Variable) -> tuple:
     """(variability, initial or None) of a declared variable, as the names both FMI versions
     use: parameters are fixed and exact; Real inputs and outputs continuous, others discrete;
     outputs calculated (computed at initialisation, so no start value in the description)."""
@@ -171,7 +177,7 @@ def fmi_attributes(variable):
     return variability, ("calculated" if variable.causality == "output" else None)
 
 
-def registered(variable, types, causalities, variabilities, initials, getter, setter):
+def registered(variable: Variable, types: dict[Any, Any], causalities: Any, variabilities: Any, initials: Any, getter: Callable, setter: Callable) -> Any:
     """The pythonfmu or pythonfmu3 variable object of a declared variable.
 
     types: {float, int, bool, str: that package's variable class}; causalities,
@@ -186,10 +192,10 @@ def registered(variable, types, causalities, variabilities, initials, getter, se
                                 **options)
 
 
-def reading_initial_outputs(read):
+def reading_initial_outputs(read: Callable) -> Callable:
     """A binding's get method: ``read`` (the package's own) after refreshing the outputs in
     initialisation mode (MechSlave.refresh_initial_outputs)."""
-    def get(self, vrs):
+    def get(self: Any, vrs: Any):
         self.refresh_initial_outputs()
         return read(self, vrs)
     get.__name__ = read.__name__

@@ -6,12 +6,14 @@ InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared`
 ``VARIABLES``, ``_set`` and ``refresh_initial_outputs``.
 """
 
+from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import (Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer,
                        Real, String)
 
 from .declarations import describe, reading_initial_outputs, registered, unit_definitions
+from .declarations import Variable
 
 _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 
@@ -19,14 +21,14 @@ _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
 class Fmi2Binding(Fmi2Slave):
     """pythonfmu's Fmi2Slave, fed from MechSlave's declarations."""
 
-    def register_declared(self, variable):
+    def register_declared(self, variable: Variable) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
         self.register_variable(registered(
             variable, _FMI_TYPES, Fmi2Causality, Fmi2Variability, Fmi2Initial,
             getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
-    def finish_registration(self):
+    def finish_registration(self) -> None:
         """Tables for the per-step get and set of Reals: value reference -> name of every
         Real, and of every Real input (what a host sets between steps)."""
         reals = {vr: v.name for vr, v in self.vars.items() if isinstance(v, Real)}
@@ -34,7 +36,7 @@ class Fmi2Binding(Fmi2Slave):
         self._real_input_names = {vr: name for vr, name in reals.items()
                                   if self.declared[name].causality == "input"}
 
-    def get_real(self, vrs):
+    def get_real(self, vrs: list[int]) -> list[float]:
         """fmi2GetReal: one dict look-up per variable (pythonfmu's own calls a getter
         closure per variable and checks its type). In initialisation mode the outputs are
         computed first from what the host has set so far."""
@@ -46,7 +48,7 @@ class Fmi2Binding(Fmi2Slave):
         except KeyError:  # not a Real: pythonfmu's own answer (its TypeError)
             return Fmi2Slave.get_real(self, vrs)
 
-    def set_real(self, vrs, values):
+    def set_real(self, vrs: list[int], values: list[float]) -> None:
         """fmi2SetReal: Real inputs stored directly; anything else (parameters, outputs,
         not a Real) through pythonfmu's setter, i.e. MechSlave._set with its checks."""
         inputs, store = self._real_input_names, self.values
@@ -60,7 +62,7 @@ class Fmi2Binding(Fmi2Slave):
     get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
     get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
 
-    def to_xml(self, model_options=dict()):
+    def to_xml(self, model_options: Any=dict()) -> Any:
         root = super().to_xml(model_options)
         for element in root.iter("ScalarVariable"):
             variable = self.declared.get(element.get("name"))

@@ -9,6 +9,7 @@ on the MechSlave above it for ``values``, ``declared``, ``VARIABLES``, ``_set``,
 ``time_reached`` and ``refresh_initial_outputs``.
 """
 
+from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu3 import (Boolean, Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Variability,
@@ -23,14 +24,14 @@ _MODEL_ATTRIBUTES = ("description", "author", "license")
 class Fmi3Binding(Fmi3Slave):
     """pythonfmu3's Fmi3Slave, fed from MechSlave's declarations."""
 
-    def register_declared(self, variable):
+    def register_declared(self, variable: Any) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
         self.register_variable(registered(
             variable, _FMI_TYPES, Fmi3Causality, Fmi3Variability, Fmi3Initial,
             getter=lambda: values[name], setter=lambda value: self._set(name, value)))
 
-    def finish_registration(self):
+    def finish_registration(self) -> None:
         """The independent variable: the instance's time, the end of its last step (s)."""
         self.register_variable(Float64("time", causality=Fmi3Causality.independent,
                                        variability=Fmi3Variability.continuous,
@@ -42,7 +43,7 @@ class Fmi3Binding(Fmi3Slave):
     get_int32 = reading_initial_outputs(Fmi3Slave.get_int32)
     get_boolean = reading_initial_outputs(Fmi3Slave.get_boolean)
 
-    def to_xml(self, model_options=dict()):
+    def to_xml(self, model_options: Any=dict()) -> Any:
         root = super().to_xml(model_options)
         for attribute in _MODEL_ATTRIBUTES:  # class attributes of the model
             value = getattr(type(self), attribute, None)

@@ -24,65 +24,66 @@ that integrate nothing, such as the gear's motion drive).
 
 from ..numerics.integrators import make_integrator
 from .slave import MechSlave
+from typing import Any
 
 
 class IntegratingSlave(MechSlave):
     """MechSlave whose outputs follow from a state integrated over each communication step."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.state = None        # the integrated state at the last communication point
-        self.held_inputs = None  # the inputs read at that point (read_inputs)
+        self.state: Any = None  # the integrated state at the last communication point
+        self.held_inputs: Any = None  # the inputs read at that point (read_inputs)
 
     # --- model contract ---------------------------------------------------------------------
-    def set_up(self):
+    def set_up(self) -> Any:
         """Validate the parameters and build the equations (raise MechanismError); return
         whether this configuration integrates (False: update_without_state steps it)."""
         raise NotImplementedError
 
-    def read_inputs(self):
+    def read_inputs(self) -> tuple:
         """The inputs given for the current time, checked (raise MechanismError); a tuple
         that ``advance`` receives, with those of the step's start in self.held_inputs."""
         return ()
 
-    def initial_state(self, time):
+    def initial_state(self, time: float) -> Any:
         """The state at the start ``time`` (s); may set the model's own start values."""
         raise NotImplementedError
 
-    def advance(self, start, time, inputs):
+    def advance(self, start: float, time: float, inputs: Any) -> Any:
         """Integrate from ``start`` (s; state self.state, inputs self.held_inputs) to
         ``time`` (s) with ``inputs`` at its end; return (state at ``time``, what happened,
         for ``commit``). Raise MechanismError to discard the step; change nothing that
         internal_state does not restore."""
         raise NotImplementedError
 
-    def commit(self, time, happened):
+    def commit(self, time: float, happened: Any) -> None:
         """Apply what ``advance`` found (counters, log messages) once the step succeeded."""
 
-    def publish(self, time):
+    def publish(self, time: float) -> Any:
         """Write the outputs at ``time`` from self.state and self.held_inputs."""
         raise NotImplementedError
 
-    def update_without_state(self, time, step_size):
+    def update_without_state(self, time: float, step_size: float) -> Any:
         """Outputs at ``time`` for a configuration that integrates nothing."""
         raise NotImplementedError
 
-    def extra_state(self):
+    def extra_state(self) -> Any:
         """JSON-serialisable model state beyond the integrated one (override if any)."""
         return {}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved: Any) -> None:
         """Inverse of extra_state."""
 
     # --- MechSlave contract -----------------------------------------------------------------
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         self.integrator = None
         if self.set_up():
             v = self.values
             self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
                                               v["max_substep"])
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time: float) -> None:
         if self.integrator is None:
             self.update_without_state(time, 0.0)
             return
@@ -90,7 +91,7 @@ class IntegratingSlave(MechSlave):
         self.state = list(self.initial_state(time))
         self._publish_with_counters(time)
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> None:
         if self.integrator is None:
             self.update_without_state(time, step_size)
             return
@@ -101,20 +102,21 @@ class IntegratingSlave(MechSlave):
         self.commit(time, happened)
         self._publish_with_counters(time)
 
-    def _publish_with_counters(self, time):
+    def _publish_with_counters(self, time: float) -> None:
+        assert self.integrator is not None  # only integrating configurations publish counters
         self.publish(time)
         stats = self.integrator.stats
         self.values["rhs_evaluations"], self.values["substeps"] = (stats.rhs_evaluations,
                                                                    stats.substeps)
 
-    def internal_state(self):
+    def internal_state(self) -> dict[str, Any]:
         saved = dict(self.extra_state())
         if self.integrator is not None and self.state is not None:
             saved.update(state=list(self.state), held_inputs=list(self.held_inputs),
                          integrator=self.integrator.snapshot())
         return saved
 
-    def restore_internal_state(self, saved):
+    def restore_internal_state(self, saved: dict[str, Any]) -> None:
         self.restore_extra_state(saved)
         if self.integrator is not None and "integrator" in saved:
             self.state = list(saved["state"])

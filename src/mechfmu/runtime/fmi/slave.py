@@ -25,9 +25,11 @@ from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX, INTEGRATORS, MAX_WALL_TIME, UNITS, Status, Variable, effect, input_,
     integrator_variables, output, parameter)
+from collections.abc import Callable, Sequence
+from typing import Any
 
 
-def _tuple_getter(names):
+def _tuple_getter(names: Sequence[str]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
     """A function of a dict returning the tuple of its values under ``names``."""
     if len(names) == 1:
         name = names[0]
@@ -37,13 +39,13 @@ def _tuple_getter(names):
     return itemgetter(*names)
 
 
-def _all_finite(numbers):
+def _all_finite(numbers: Sequence[float]) -> bool:
     """Whether every number is finite. One sum in C: NaN or infinity in it makes the sum
     non-finite; a non-finite sum of finite numbers (an overflow) is looked at one by one."""
     return math.isfinite(sum(numbers)) or all(map(math.isfinite, numbers))
 
 
-def _same_time(a, b):
+def _same_time(a: float, b: float) -> bool:
     """Equal communication times up to the rounding of a host's own time keeping."""
     return abs(a - b) <= 1e-9 * max(1.0, abs(a), abs(b))
 
@@ -51,21 +53,21 @@ def _same_time(a, b):
 class MechSlave(Binding):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 
-    VARIABLES = ()
+    VARIABLES: tuple[Variable, ...] = ()
     author = "mechfmu"
     license = "MIT"
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.values = {v.name: v.start for v in self.VARIABLES}
+        self.values: dict[str, Any] = {v.name: v.start for v in self.VARIABLES}  # by name
         self.declared = {v.name: v for v in self.VARIABLES}
         self.initialized = False
         self.initializing = False  # between fmi2EnterInitializationMode and fmi2Exit...
         self.stale = True  # initialisation-mode outputs need computing (an input changed)
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
-        self.pending_error = None  # reported by the next doStep
-        self.integrator = None  # set by IntegratingSlave.check_parameters (fmi/integrating.py)
+        self.pending_error: str | None = None  # reported by the next doStep
+        self.integrator: Any = None  # an Integrator, set by IntegratingSlave.check_parameters (fmi/integrating.py)
         self.real_inputs = tuple(v.name for v in self.VARIABLES
                                  if v.causality == "input" and v.kind is float)
         self.real_outputs = tuple(v.name for v in self.VARIABLES
@@ -77,7 +79,7 @@ class MechSlave(Binding):
         self.finish_registration()
 
     # --- values, as the binding reads and writes them ---------------------------------
-    def _set(self, name, value):
+    def _set(self, name: str, value: Any) -> None:
         variable = self.declared[name]
         if variable.causality == "output":
             return  # outputs are never set by a host; pythonfmu's state restore calls this
@@ -90,25 +92,25 @@ class MechSlave(Binding):
         self.stale = True
 
     # --- model contract -------------------------------------------------------------
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         """Validate parameters (raise MechanismError); called once at initialisation."""
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> Any:
         """Compute outputs at ``time`` from the current inputs (raise MechanismError)."""
         raise NotImplementedError
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time: float) -> None:
         """Outputs at initialisation; models with internal state may override."""
         self.update(time, 0.0)
 
     # --- FMI calls (never raise) ----------------------------------------------------
-    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+    def setup_experiment(self, start_time: float, stop_time: None=None, tolerance: None=None) -> None:
         self.start_time = self.time_reached = float(start_time)
 
-    def enter_initialization_mode(self):
+    def enter_initialization_mode(self) -> None:
         self.initializing, self.stale = True, True
 
-    def _initial_outputs(self):
+    def _initial_outputs(self) -> str | None:
         """Outputs from the current parameters and inputs (FMI 2.0 InitialUnknowns).
 
         Read in initialization mode (libcosim passes them on before any FMU leaves it) and
@@ -128,13 +130,13 @@ class MechSlave(Binding):
                     self.values[variable.name] = variable.start
             return self._describe(error, self.start_time)
 
-    def refresh_initial_outputs(self):
+    def refresh_initial_outputs(self) -> None:
         """Before the binding reads outputs: in initialisation mode, compute them from the
         parameters and inputs set so far (once per change)."""
         if self.initializing and self.stale:
             self._initial_outputs()
 
-    def exit_initialization_mode(self):
+    def exit_initialization_mode(self) -> None:
         self.initializing = False
         # With the inputs the host has set by now; an error is reported at every doStep.
         self.pending_error = self._initial_outputs()
@@ -142,7 +144,7 @@ class MechSlave(Binding):
             self.log(self.pending_error, Status.error)
         self.initialized = True
 
-    def _check_outputs(self, values_before):
+    def _check_outputs(self, values_before: dict[str, float]) -> None:
         """Raise MechanismError if an output is NaN or infinite (a safety net: the physics
         should have refused the values that led there)."""
         values = self.values
@@ -156,7 +158,7 @@ class MechSlave(Binding):
                                               for name in self.real_inputs)
                 + "; the parameters or inputs are probably beyond the model's numerical range")
 
-    def do_step(self, current_time, step_size):
+    def do_step(self, current_time: float, step_size: float) -> bool:
         """One communication step: all of it, or nothing.
 
         A discarded step leaves the instance exactly as it was before the call (every
@@ -182,7 +184,7 @@ class MechSlave(Binding):
                 return False
         return self._checked_step(current_time, step_size)
 
-    def _checked_step(self, current_time, step_size):
+    def _checked_step(self, current_time: float, step_size: float) -> bool:
         """do_step with every check spelled out: its errors, integrating models."""
         values_before = internal_before = None
         try:
@@ -222,20 +224,20 @@ class MechSlave(Binding):
             self.log(self._describe(error, current_time + step_size), Status.error)
             return False
 
-    def _describe(self, error, time):
+    def _describe(self, error: Exception, time: float) -> str:
         if isinstance(error, MechanismError):
             return f"{self.instance_name} at t = {time!r} s: {error}"
         return f"{self.instance_name} at t = {time!r} s: internal error {error!r}"
 
     # --- FMU state: every value plus the model's internal state ------------------------
-    def internal_state(self):
+    def internal_state(self) -> Any:
         """JSON-serialisable internal state beyond the variables (override if any)."""
         return {}
 
-    def restore_internal_state(self, state):
+    def restore_internal_state(self, state: Any) -> None:
         """Inverse of internal_state."""
 
-    def _get_fmu_state(self):
+    def _get_fmu_state(self) -> dict[str, Any]:
         # A failed initialisation leaves no internal state to save (nor to step from).
         internal = None if self.pending_error is not None else self.internal_state()
         return {"values": dict(self.values), "internal": internal,
@@ -243,7 +245,7 @@ class MechSlave(Binding):
                 "time_reached": self.time_reached,
                 "pending_error": self.pending_error}
 
-    def _set_fmu_state(self, state):
+    def _set_fmu_state(self, state: dict[str, Any]) -> None:
         self.values.update(state["values"])  # in place: the registered getters hold this dict
         if state["internal"] is not None:
             self.restore_internal_state(state["internal"])

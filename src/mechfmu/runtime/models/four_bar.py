@@ -1,5 +1,6 @@
 """FourBar.fmu: the four-bar linkage driven by its crank (closed form or constraint solver)."""
 
+from typing import Any
 from ..fmi.slave import input_, output, parameter
 from ..physics import constraint_models
 from ..physics import four_bar as fb
@@ -47,12 +48,12 @@ class FourBar(LinkageSlave):
             f"{c.code} {c.name}" for c in fb.GRASHOF_CLASSES)),
     )
 
-    def _lengths(self):
+    def _lengths(self) -> tuple[float, float, float, float]:
         v = self.values
         return (v["ground_length"], v["crank_length"], v["coupler_length"],
                 v["rocker_length"])
 
-    def check_geometry(self):
+    def check_geometry(self) -> Any:
         fb.check_four_bar(*self._lengths())
         if self.values["circuit"] not in fb.CIRCUITS:
             raise RangeError("circuit", self.values["circuit"], "{0, 1}", "",
@@ -60,21 +61,21 @@ class FourBar(LinkageSlave):
         self.values["grashof_class"] = fb.grashof_class(*self._lengths())
         self.lengths = fb.check_four_bar(*self._lengths())
 
-    def closed_form(self, time):
+    def closed_form(self, time: float) -> dict[str, float]:
         # lengths and circuit validated in check_geometry, the inputs finite (do_step)
         motion = fb.checked_motion(self.lengths, self.values["circuit"], *self.driver_inputs())
         return dict(zip(motion._fields, motion))
 
-    def mechanism(self):
+    def mechanism(self) -> Any:
         return constraint_models.four_bar(*self._lengths())
 
-    def guess(self, time):
+    def guess(self, time: float) -> Any:
         angle = self.driver_inputs()[0]
         coupler, rocker = fb.position(*self._lengths(), angle, self.values["circuit"])
         ground, crank = self._lengths()[:2]
         return constraint_models.four_bar_guess(ground, crank, angle, coupler, rocker)
 
-    def from_solution(self, solution, time):
+    def from_solution(self, solution: Any, time: float) -> Any:
         q, qdot, qddot = solution.q, solution.qdot, solution.qddot
         coupler = constraint_models.wrap_angle(q[5])
         rocker = constraint_models.wrap_angle(q[8])

@@ -1,5 +1,7 @@
 """HydraulicActuator.fmu: the gear's hydraulic actuator as a component of its own."""
 
+from typing import Any
+
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.slave import input_, integrator_variables, output, parameter
 from ..physics import hydraulics
@@ -60,12 +62,12 @@ class HydraulicActuator(IntegratingSlave):
                depends=("valve_command",)),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.actuator = None
+        self.actuator: Any = None  # hydraulics.Actuator (set_up)
 
     # IntegratingSlave: the state is the cap and rod pressures (Pa).
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         self.actuator = hydraulics.make_actuator(
             v["supply_pressure"], v["return_pressure"], v["bore"], v["rod_diameter"],
@@ -74,22 +76,22 @@ class HydraulicActuator(IntegratingSlave):
         require_finite("initial_pressure", v["initial_pressure"], "Pa")
         return True
 
-    def initial_state(self, time):
+    def initial_state(self, time: float) -> Any:
         pressure = self.values["initial_pressure"]
         return [pressure, pressure]
 
-    def advance(self, start, time, inputs):
+    def advance(self, start: float, time: float, inputs: Any) -> Any:
         v = self.values
         command = require_finite("valve_command", v["valve_command"])
         length = require_finite("piston_extension", v["piston_extension"], "m")
         speed = require_finite("piston_speed", v["piston_speed"], "m/s")
 
-        def rhs(t, y):
+        def rhs(t: float, y: Any):
             return list(hydraulics.pressure_rates(command, y[0], y[1], length, speed,
                                                   self.actuator))
         return self.integrator.advance(rhs, start, self.state, time).y, None
 
-    def publish(self, time):
+    def publish(self, time: float) -> None:
         v = self.values
         p1, p2 = self.state
         v["cap_pressure"], v["rod_pressure"] = p1, p2

@@ -11,6 +11,7 @@ from ..errors import MechanismError, require_finite
 from ..physics.landing_gear import (COURSEWORK_BAR_LENGTH, COURSEWORK_EXTENDED_LENGTH,
                                     COURSEWORK_RETRACTED_LENGTH, DEFAULT_GEOMETRY)
 from .hydraulic_actuator import HYDRAULIC_PARAMETERS
+from typing import Any
 
 _PISTON = ("piston_extension", "piston_speed", "piston_acceleration")
 _FORCES = ("piston_force", "airspeed")
@@ -131,14 +132,14 @@ class LandingGear(IntegratingSlave):
         output("stop_contacts", 0, "End-stop contacts started so far"),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.ignored_inputs = ()   # inputs of the other driver last warned about
-        self.model = None          # gear_dynamics.Dynamics or InverseDynamics
+        self.ignored_inputs: tuple[str, ...] = ()  # inputs of the other driver last warned about
+        self.model: Any = None  # gear_dynamics.Dynamics or InverseDynamics
 
     # --- set-up (IntegratingSlave: the dynamics drive integrates [theta, omega, work(, p1,
     # p2)]; the motion drive computes closed forms) ----------------------------------------
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         d, h = gear.check_geometry(v["attachment_distance"], v["pivot_height"])
         body = gd.make_body(v["bar_length"], v["bar_mass"], v["wheel_mass"])
@@ -155,10 +156,10 @@ class LandingGear(IntegratingSlave):
         self.model = gd.InverseDynamics(v, body, geometry)
         return False
 
-    def initial_state(self, time):
+    def initial_state(self, time: float) -> list[float]:
         return self.model.initial_state()
 
-    def _note_other_driver(self, time):
+    def _note_other_driver(self, time: float) -> None:
         """Warn when an input of the driver that ``drive`` did not choose is set.
 
         ``drive`` chooses the driver and takes precedence: the piston motion (motion) or the
@@ -190,23 +191,23 @@ class LandingGear(IntegratingSlave):
                      f"({starts}) or choose drive = {other!r})", Status.warning)
         self.ignored_inputs = tuple(given)
 
-    def extra_state(self):
+    def extra_state(self) -> dict[str, list[Any]]:
         return {"ignored_inputs": list(self.ignored_inputs)}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved: Any) -> None:
         self.ignored_inputs = tuple(saved["ignored_inputs"])
 
     # --- stepping -----------------------------------------------------------------------
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> None:
         self._note_other_driver(time)
         super().update(time, step_size)
 
-    def advance(self, start, time, inputs):
+    def advance(self, start: float, time: float, inputs: tuple[()]) -> tuple[list[float], list[Any]]:
         """Dynamics drive: (state at ``time``, stroke limits crossed); the inputs
         piston_force, valve_command and airspeed are held over the step."""
         return self.model.advance(self.integrator, start, self.state, time, self.values)
 
-    def commit(self, time, crossings):
+    def commit(self, time: float, crossings: list[Any]) -> None:
         """Retraction and extension times, stop contacts and a log line per stroke limit
         reached: (event name, t s, piston length m) from Dynamics.advance."""
         v = self.values
@@ -220,10 +221,10 @@ class LandingGear(IntegratingSlave):
             self.log(f"{self.instance_name} at t = {when!r} s: piston reached {name} "
                      f"({length!r} m)", Status.ok)
 
-    def publish(self, time):
+    def publish(self, time: float) -> None:
         self.model.publish(self.values, time, self.state)
 
-    def update_without_state(self, time, step_size):
+    def update_without_state(self, time: float, step_size: float) -> None:
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
         v = self.values
         d, h = v["attachment_distance"], v["pivot_height"]

@@ -11,14 +11,17 @@ is refused by both solvers with the same message (planar.crossing_error), never 
 the other branch.
 """
 
+from typing import Any
+
 from ..fmi.slave import MechSlave, output, parameter
 from ..physics import planar
 from ..errors import RangeError, require_finite, require_positive
+from ..fmi.declarations import Variable
 
 SOLVERS = ("closed_form", "constraint_solver")
 
 
-def solver_variables(default):
+def solver_variables(default: str) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable]:
     """The parameters and counters of every model that offers both solvers."""
     return (
         parameter("solver", default, "closed_form: the mechanism's closed-form solution; "
@@ -43,48 +46,48 @@ class LinkageSlave(MechSlave):
     """Subclasses implement check_geometry, drive, closed_form, mechanism, guess and
     from_solution; each returns or writes values keyed by output name."""
 
-    DRIVE_INPUTS = ()  # (value, rate, acceleration) input names of the mechanism's driver
+    DRIVE_INPUTS: tuple[str, ...] = ()  # (value, rate, acceleration) input names of the mechanism's driver
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.follower = None
-        self.model = None       # planar.Mechanism: the solver's, and the closed form's crossings
-        self.last_drive = None  # the closed form's drive at its last communication point
+        self.follower: Any = None  # planar.BranchFollower (set_up)
+        self.model: Any = None  # planar.Mechanism: the solver's, and the closed form's crossings
+        self.last_drive: Any = None  # the closed form's drive at its last communication point
 
-    def driver_inputs(self):
+    def driver_inputs(self) -> tuple[float, float, float]:
         """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""
         values = self.values
         return tuple([values[name] for name in self.DRIVE_INPUTS])
 
     # --- model hooks --------------------------------------------------------------------
-    def check_geometry(self):
+    def check_geometry(self) -> None:
         """Validate the model's own parameters (raise MechanismError)."""
 
-    def drive(self, time):
+    def drive(self, time: float) -> Any:
         """Driver values [(value, rate, acceleration), ...] for the constraint solver."""
         return [self.driver_inputs()]
 
-    def closed_form(self, time):
+    def closed_form(self, time: float) -> Any:
         """Output values from the closed form (dict)."""
         raise NotImplementedError
 
-    def mechanism(self):
+    def mechanism(self) -> Any:
         """The planar.Mechanism of this linkage."""
         raise NotImplementedError
 
-    def guess(self, time):
+    def guess(self, time: float) -> Any:
         """A starting position on the requested assembly branch (list of coordinates)."""
         raise NotImplementedError
 
-    def from_solution(self, solution, time):
+    def from_solution(self, solution: Any, time: float) -> Any:
         """Output values from a planar.Solution (dict)."""
         raise NotImplementedError
 
-    def after_update(self, time):
+    def after_update(self, time: float) -> None:
         """Hook for effects computed from the kinematic outputs (contact forces, ...)."""
 
     # --- MechSlave contract -------------------------------------------------------------
-    def check_parameters(self):
+    def check_parameters(self) -> Any:
         v = self.values
         if v["solver"] not in SOLVERS:
             raise RangeError("solver", v["solver"], "{" + ", ".join(SOLVERS) + "}")
@@ -101,10 +104,10 @@ class LinkageSlave(MechSlave):
                 self.model, v["solver_tolerance"], v["max_iterations"],
                 v["singularity_threshold"])
 
-    def _drive_now(self, time):
+    def _drive_now(self, time: float):
         return [tuple(map(float, d)) for d in self.drive(time)]
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time: float) -> None:
         if self.follower is None:
             self._write(self.closed_form(time), 0, 0.0)
             if self.model.has_crossings:
@@ -115,7 +118,7 @@ class LinkageSlave(MechSlave):
                         solution.residual)
         self.after_update(time)
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> Any:
         if self.follower is None:
             if self.model.has_crossings:
                 drive = self._drive_now(time)
@@ -131,19 +134,19 @@ class LinkageSlave(MechSlave):
                         solution.residual)
         self.after_update(time)
 
-    def _write(self, values, iterations, residual):
+    def _write(self, values: Any, iterations: Any, residual: Any) -> None:
         # Validate everything before writing anything: a failed step keeps the last outputs.
         self.values.update(values)
         self.values["newton_iterations"] = iterations
         self.values["constraint_residual"] = residual
 
     # --- FMU state ----------------------------------------------------------------------
-    def internal_state(self):
+    def internal_state(self) -> Any:
         return {"follower": None if self.follower is None else self.follower.snapshot(),
                 "last_drive": None if self.last_drive is None
                 else [list(d) for d in self.last_drive]}
 
-    def restore_internal_state(self, state):
+    def restore_internal_state(self, state: Any) -> None:
         if self.follower is not None and state.get("follower") is not None:
             self.follower.restore(state["follower"])
         if state.get("last_drive") is not None:

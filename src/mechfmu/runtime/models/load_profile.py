@@ -22,12 +22,12 @@ class LoadProfile(TableSource):
         output("load_rate", 0.0, "Rate of change of the load", unit="N/s"),
     )
 
-    def check_shape(self):
+    def check_shape(self) -> None:
         v = self.values
         profiles.check_load(v["shape"], v["initial_value"], v["final_value"], v["start_time"],
                             v["duration"])
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> None:
         v = self.values
         sample = profiles.load(time, v["shape"], v["initial_value"], v["final_value"],
                                v["start_time"], v["duration"], self.table)

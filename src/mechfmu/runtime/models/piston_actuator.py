@@ -32,10 +32,10 @@ class PistonActuator(MechSlave):
         return (v["start_extension"], v["end_extension"], v["stroke_time"], v["profile"],
                 v["start_time"])
 
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         profiles.check_stroke(*self._stroke_parameters())
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> None:
         sample = profiles.stroke(time, *self._stroke_parameters())
         v = self.values
         v["piston_extension"], v["piston_speed"], v["piston_acceleration"] = sample

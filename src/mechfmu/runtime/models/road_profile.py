@@ -26,12 +26,12 @@ class RoadProfile(TableSource):
         output("road_rate", 0.0, "dr/dt: rate of the road height", unit="m/s"),
     )
 
-    def check_shape(self):
+    def check_shape(self) -> None:
         v = self.values
         road.check_road(v["shape"], v["height"], v["duration"], v["start_time"],
                         v["amplitude"], v["frequency"])
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> None:
         v = self.values
         sample = road.road(time, v["shape"], v["height"], v["duration"], v["start_time"],
                            v["amplitude"], v["frequency"], self.table)

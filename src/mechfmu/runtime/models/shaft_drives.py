@@ -2,6 +2,7 @@
 
 from ..fmi.slave import MechSlave, output, parameter
 from ..physics import profiles
+from ..fmi.declarations import Variable
 
 
 class _ShaftDrive(MechSlave):
@@ -14,12 +15,12 @@ class _ShaftDrive(MechSlave):
     PREFIX = ""
     RATIO = 1.0
 
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         v = self.values
         profiles.check_rotation(v["initial_angle"], v["initial_speed"], v["speed"],
                                 v["ramp_time"])
 
-    def update(self, time, step_size):
+    def update(self, time: float, step_size: float) -> None:
         v = self.values
         sample = profiles.rotation(time, v["initial_angle"], self.RATIO * v["initial_speed"],
                                    self.RATIO * v["speed"], v["ramp_time"], v["start_time"])
@@ -27,7 +28,7 @@ class _ShaftDrive(MechSlave):
         v[prefix + "_angle"], v[prefix + "_speed"], v[prefix + "_acceleration"] = sample
 
 
-def _variables(prefix, shaft, speed_description):
+def _variables(prefix: str, shaft: str, speed_description: str) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable, Variable, Variable]:
     return (
         parameter("initial_angle", 0.0, f"{shaft} angle at start_time", unit="rad"),
         parameter("initial_speed", 0.0, speed_description + " before and at the start of the "

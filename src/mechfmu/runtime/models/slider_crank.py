@@ -1,5 +1,6 @@
 """SliderCrank.fmu: the offset slider-crank driven by its crank (closed form or solver)."""
 
+from typing import Any
 from ..fmi.slave import input_, output, parameter
 from ..physics import constraint_models
 from ..physics import slider_crank as sc
@@ -44,29 +45,29 @@ class SliderCrank(LinkageSlave):
         output("coupler_angular_acceleration", 0.0, "alpha3", unit="rad/s2", depends=_CRANK),
     )
 
-    def _geometry(self):
+    def _geometry(self) -> tuple[float, float, float]:
         v = self.values
         return v["crank_length"], v["coupler_length"], v["offset"]
 
-    def check_geometry(self):
+    def check_geometry(self) -> Any:
         sc.check_slider_crank(*self._geometry())
         if self.values["circuit"] not in sc.CIRCUITS:
             raise RangeError("circuit", self.values["circuit"], "{0, 1}")
 
-    def closed_form(self, time):
+    def closed_form(self, time: float) -> Any:
         motion = sc.motion(*self._geometry(), self.values["circuit"], *self.driver_inputs())
         return motion._asdict()
 
-    def mechanism(self):
+    def mechanism(self) -> Any:
         return constraint_models.slider_crank(*self._geometry())
 
-    def guess(self, time):
+    def guess(self, time: float) -> Any:
         angle = self.driver_inputs()[0]
         coupler, slider = sc.position(*self._geometry(), angle, self.values["circuit"])
         crank, _, offset = self._geometry()
         return constraint_models.slider_crank_guess(crank, offset, angle, coupler, slider)
 
-    def from_solution(self, solution, time):
+    def from_solution(self, solution: Any, time: float) -> Any:
         q, qdot, qddot = solution.q, solution.qdot, solution.qddot
         return {"slider_position": q[6], "slider_speed": qdot[6], "slider_acceleration": qddot[6],
                 "coupler_angle": constraint_models.wrap_angle(q[5]),

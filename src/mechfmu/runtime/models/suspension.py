@@ -7,6 +7,8 @@ from ..physics import suspension_dynamics as dyn
 from ..errors import IntegrationError, MechanismError, SnapThrough, require_finite
 from ..numerics.integrators import Event
 from ..numerics.stepping import advance_through_events
+from ..physics.suspension import Spring
+from typing import Any
 
 _INPUTS = ("load", "road_height", "road_rate")
 _DYNAMIC_EFFECTS = ("damping", "tyre", "road_input")
@@ -108,23 +110,23 @@ class Suspension(IntegratingSlave):
                "no road input", unit="J", depends=_INPUTS),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.model = None          # dynamics: the Model, right-hand side, inputs, events
-        self.inputs = None
-        self.rhs = None
-        self.deflection_of = None  # u(t, y)
-        self.events = None         # {side: (Event,)}
-        self.side = None           # last stable region visited: NEAR or FAR
-        self.blowup = None         # state max-norm beyond which the integration is unstable
+        self.model: Any = None  # dynamics: the Model, right-hand side, inputs, events
+        self.inputs: Any = None  # dyn.StepInputs (set_up)
+        self.rhs: Any = None  # Callable (set_up)
+        self.deflection_of: Any = None  # u(t, y)
+        self.events: Any = None  # {side: (Event,)}
+        self.side: Any = None  # last stable region visited: NEAR or FAR
+        self.blowup: Any = None  # state max-norm beyond which the integration is unstable
 
-    def _spring(self):
+    def _spring(self) -> Spring:
         v = self.values
         return physics.make_spring(v["spring_free_length"], v["spring_stiffness"],
                                    v["spring_base_offset"])
 
     # --- set-up (IntegratingSlave: the dynamics effect integrates (y, y'[, z, z'])) ----------
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         spring = self._spring()
         limit = physics.limit_point(spring)
@@ -147,12 +149,12 @@ class Suspension(IntegratingSlave):
                        for side in (dyn.NEAR, dyn.FAR)}
         return True
 
-    def outputs_at_start(self, time):
+    def outputs_at_start(self, time: float) -> None:
         if not self.values["dynamics"]:
             self.values["branch"] = physics.NEAR  # continuation starts from the unloaded state
         super().outputs_at_start(time)
 
-    def initial_state(self, time):
+    def initial_state(self, time: float) -> list[float]:
         v = self.values
         self.inputs.set_constant(time, *self.held_inputs)
         y = dyn.initial_state(self.model, v["initial_deflection"], v["initial_velocity"],
@@ -163,20 +165,20 @@ class Suspension(IntegratingSlave):
         v["snap_through"] = False
         return y
 
-    def extra_state(self):
+    def extra_state(self) -> dict[str, float | None]:
         return {"side": self.side, "blowup": self.blowup}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved: dict[str, Any]) -> None:
         self.side, self.blowup = saved["side"], saved["blowup"]
 
     # --- stepping ----------------------------------------------------------------------------
-    def read_inputs(self):
+    def read_inputs(self) -> tuple[float, float, float]:
         v = self.values
         return (require_finite("load", v["load"], "N"),
                 require_finite("road_height", v["road_height"], "m"),
                 require_finite("road_rate", v["road_rate"], "m/s"))
 
-    def update_without_state(self, time, step_size):
+    def update_without_state(self, time: float, step_size: float) -> None:
         """Static: the equilibrium under the load, continued along its branch."""
         v = self.values
         state, snapped = physics.follow_load(
@@ -196,7 +198,7 @@ class Suspension(IntegratingSlave):
         v["potential_energy"] = (dyn.spring_energy(state.deflection, self._spring())
                                  - v["load"] * state.deflection)
 
-    def advance(self, start, time, end_inputs):
+    def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
         """Integrate to ``time`` through the snap-throughs; return (state, (snap-throughs
         as (t, u, side left), the stable region reached))."""
         v = self.values
@@ -204,7 +206,7 @@ class Suspension(IntegratingSlave):
         snaps = []
         side = [self.side]
 
-        def snap(event, t, y):
+        def snap(event: Any, t: float, y: Any):
             u = self.deflection_of(t, y)
             if v["stop_on_snap_through"]:
                 raise SnapThrough(f"dynamic snap-through at t = {t!r} s: deflection "
@@ -237,7 +239,7 @@ class Suspension(IntegratingSlave):
                 f"stability limit; reduce max_substep or use radau")
         return y, (snaps, side[0])
 
-    def commit(self, time, happened):
+    def commit(self, time: float, happened: tuple) -> None:
         snaps, self.side = happened
         v = self.values
         for t_event, u, old in snaps:
@@ -251,7 +253,7 @@ class Suspension(IntegratingSlave):
         if self.inputs.mode == "hold":  # the value held from ``time`` on
             self.inputs.set_constant(time, *self.held_inputs)
 
-    def publish(self, time):
+    def publish(self, time: float) -> None:
         v = self.values
         spring = self.model.spring
         m = dyn.motion(self.model, self.inputs, self.rhs, time, self.state)

@@ -1,5 +1,7 @@
 """Base of the signal sources that can also play a piecewise-linear table from a CSV file."""
 
+from typing import Any
+
 from ..fmi.slave import MechSlave
 from ..physics import profiles
 
@@ -10,20 +12,20 @@ class TableSource(MechSlave):
     Subclasses validate their own shape parameters in ``check_shape``.
     """
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.table = None
+        self.table: Any = None  # tuple[list[float], list[float]] (set_up)
 
-    def check_shape(self):
+    def check_shape(self) -> Any:
         raise NotImplementedError
 
-    def check_parameters(self):
+    def check_parameters(self) -> None:
         self.check_shape()
         if self.values["shape"] == "table":
             self.table = profiles.read_table(self.values["table_file"])
 
-    def internal_state(self):
+    def internal_state(self) -> Any:
         return {"table": self.table}
 
-    def restore_internal_state(self, state):
+    def restore_internal_state(self, state: Any) -> None:
         self.table = state["table"]

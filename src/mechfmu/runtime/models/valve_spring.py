@@ -7,6 +7,8 @@ from ..physics import valve_spring as vs
 from ..errors import (IntegrationError, MechanismError, RangeError, require_finite,
                       require_positive)
 from ..numerics.stepping import advance_through_events
+from ..physics.valve_spring import Happening
+from typing import Any
 
 _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
 _UNITS = ("m", "m/s", "m/s2")
@@ -105,22 +107,22 @@ class ValveSpring(IntegratingSlave):
                "elastic energy when both dampings are 0)", unit="J"),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
-        self.parameters = None   # vs.Parameters
-        self.drive = None        # vs.StepDrive read by rhs and events
-        self.modes = None        # vs.Modes read by rhs: the contacts engaged while integrating
-        self.rhs = None
-        self.events = None       # {vs.Engaged: (Event, ...)}
-        self.phase = None        # vs.Phase at the last communication point
-        self.engaged = None      # vs.Engaged at the last communication point
+        self.parameters: Any = None  # vs.Parameters
+        self.drive: Any = None  # vs.StepDrive read by rhs and events
+        self.modes: Any = None  # vs.Modes read by rhs: the contacts engaged while integrating
+        self.rhs: Any = None  # Callable (set_up)
+        self.events: Any = None  # {vs.Engaged: (Event, ...)}
+        self.phase: Any = None  # vs.Phase at the last communication point
+        self.engaged: Any = None  # vs.Engaged at the last communication point
         self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
         self.peak_energy = 0.0   # J: largest energy in play so far
-        self.max_lift = None     # m: max_valve_lift, the travel limit
-        self.last_float = None   # s: when the valve last left the rocker (float), for messages
+        self.max_lift: Any = None  # m: max_valve_lift, the travel limit
+        self.last_float: Any = None  # s: when the valve last left the rocker (float), for messages
 
     # --- set-up (IntegratingSlave: the state is (x, v, W), the inputs (L, L', L'')) ----------
-    def set_up(self):
+    def set_up(self) -> bool:
         v = self.values
         self.parameters = vs.make_parameters(
             v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
@@ -133,7 +135,7 @@ class ValveSpring(IntegratingSlave):
         self.events = vs.build_events(self.parameters, self.drive, self.max_lift)
         return True
 
-    def initial_state(self, time):
+    def initial_state(self, time: float) -> list[float]:
         L, rate, _ = self.held_inputs
         y = vs.initial_state(self.parameters, L, rate)
         if y[0] > self.max_lift:
@@ -142,13 +144,13 @@ class ValveSpring(IntegratingSlave):
         self.engaged = vs.engagement(self.parameters, L, rate, *y[:2])
         return y
 
-    def extra_state(self):
+    def extra_state(self) -> dict[str, list[bool] | float | None]:
         return {"phase": None if self.phase is None else list(self.phase),
                 "engaged": None if self.engaged is None else list(self.engaged),
                 "created": self.created, "peak_energy": self.peak_energy,
                 "last_float": self.last_float}
 
-    def restore_extra_state(self, saved):
+    def restore_extra_state(self, saved: dict[str, Any]) -> None:
         if saved["phase"] is not None:
             self.phase = vs.Phase(*saved["phase"])
             self.engaged = vs.Engaged(*saved["engaged"])
@@ -156,11 +158,11 @@ class ValveSpring(IntegratingSlave):
         self.last_float = saved["last_float"]
 
     # --- stepping ----------------------------------------------------------------------------
-    def read_inputs(self):
+    def read_inputs(self) -> tuple[float, ...]:
         return tuple(require_finite(name, self.values[name], unit)
                      for name, unit in zip(_INPUTS, _UNITS))
 
-    def advance(self, start, time, end_inputs):
+    def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
         """Integrate to ``time`` through the contact events; return (state, (the float,
         bounce and seat happenings, phase, engaged contacts, energy created, peak energy))."""
         p = self.parameters
@@ -168,14 +170,14 @@ class ValveSpring(IntegratingSlave):
         found = []
         phase = [self.phase]
 
-        def judge(t, y):
+        def judge(t: float, y: Any):
             phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], vs.drive_at(self.drive, t))
             found.extend(new)
             for happening in new:
                 if happening.kind == vs.FLOAT and self.values["stop_on_float"]:
                     raise MechanismError(_float_message(happening))
 
-        def on_event(event, t, y):
+        def on_event(event: Any, t: float, y: Any):
             if event.name == vs.TRAVEL_LIMIT:
                 floated = [h.time for h in found if h.kind == vs.FLOAT]
                 self._refuse_travel(t, y, vs.drive_at(self.drive, t),
@@ -195,7 +197,7 @@ class ValveSpring(IntegratingSlave):
         created, peak = self._check_energy(start, self.state, time, y)
         return y, (found, phase[0], self.modes.engaged, created, peak)
 
-    def commit(self, time, happened):
+    def commit(self, time: float, happened: tuple) -> None:
         found, self.phase, self.engaged, self.created, self.peak_energy = happened
         v = self.values
         for happening in found:
@@ -208,7 +210,7 @@ class ValveSpring(IntegratingSlave):
             self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
                      Status.warning)
 
-    def _refuse_travel(self, t, y, drive, floated=None):
+    def _refuse_travel(self, t: float, y: list[float], drive: tuple[float, float, float], floated: float | None=None):
         """RangeError: the valve lift reaches max_valve_lift at time t (state y, rocker end
         ``drive`` = (L, L', L''))."""
         cause = (f"the valve left the rocker (float) at t = {floated!r} s and flew on"
@@ -221,7 +223,7 @@ class ValveSpring(IntegratingSlave):
             f"valve train is damaged and the model does not apply: lower the camshaft speed, "
             f"stiffen or preload the spring, or raise max_valve_lift")
 
-    def _check_energy(self, t0, y0, t1, y1):
+    def _check_energy(self, t0: float, y0: list[float], t1: float, y1: list[float]) -> tuple[float, float]:
         """(energy created so far, largest energy in play) after a step, or IntegrationError
         when the step or the run gained more energy than a passive valve can."""
         gain, scale = vs.energy_gain(self.parameters, self.drive, t0, y0, t1, y1)
@@ -238,7 +240,7 @@ class ValveSpring(IntegratingSlave):
                 f"stability limit; reduce max_substep or use radau")
         return created, peak
 
-    def publish(self, time):
+    def publish(self, time: float) -> None:
         """Outputs at ``time`` from the state and the inputs given for that time."""
         v, p = self.values, self.parameters
         lift, velocity, work = self.state
@@ -253,25 +255,25 @@ class ValveSpring(IntegratingSlave):
         v["contact_work"] = work
 
 
-def _drive_text(happening):
+def _drive_text(happening: Happening) -> str:
     L, rate, acceleration = happening.drive
     return (f"rocker lift {L:.6g} m, velocity {rate:.6g} m/s, acceleration "
             f"{acceleration:.6g} m/s^2")
 
 
-def _float_message(happening):
+def _float_message(happening: Happening) -> str:
     return (f"valve float at t = {happening.time!r} s: the valve left the rocker at valve "
             f"lift {happening.lift:.6g} m, valve velocity {happening.velocity:.6g} m/s; "
             f"{_drive_text(happening)} (the spring cannot keep the valve on the rocker)")
 
 
-def _rebound_message(happening):
+def _rebound_message(happening: Happening) -> str:
     return (f"valve bounce at t = {happening.time!r} s: rebounding from its seat the valve "
             f"left the closing rocker at valve lift {happening.lift:.6g} m, valve velocity "
             f"{happening.velocity:.6g} m/s; {_drive_text(happening)}")
 
 
-def _bounce_message(happening):
+def _bounce_message(happening: Happening) -> str:
     return (f"valve bounce at t = {happening.time!r} s: the valve hit its seat at "
             f"{happening.velocity:.6g} m/s without the rocker; {_drive_text(happening)}")
 

@@ -1,5 +1,6 @@
 """ValveTrain.fmu: the coursework's cam-driven rocker-arm valve train on the constraint solver."""
 
+from typing import Any
 import math
 
 from ..fmi.slave import Status, effect, input_, output, parameter
@@ -97,14 +98,14 @@ class ValveTrain(LinkageSlave):
                unit="rad/s"),
     )
 
-    def __init__(self, **kwargs):
+    def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.geometry = GEOMETRY
         self.profile = CAM
         self.closed_height = 0.0   # m, valve foot height with the valve closed
 
     # --- parameters -------------------------------------------------------------------
-    def check_geometry(self):
+    def check_geometry(self) -> Any:
         v = self.values
         if v["mode"] not in MODES:
             raise RangeError("mode", v["mode"], "{" + ", ".join(MODES) + "}")
@@ -128,25 +129,25 @@ class ValveTrain(LinkageSlave):
         return cam_laws.follower_motion(self.profile, v["camshaft_angle"], v["camshaft_speed"],
                                         v["camshaft_acceleration"])
 
-    def closed_form(self, time):
+    def closed_form(self, time: float) -> Any:
         law = self._law()
         if self.values["mode"] == "inverse":
             return vt.inverse(self.geometry, *law)._asdict()
         return vt.forward(self.geometry, *law)._asdict()
 
-    def mechanism(self):
+    def mechanism(self) -> Any:
         return constraint_models.valve_train(self.geometry, self.values["mode"] == "inverse")
 
-    def guess(self, time):
+    def guess(self, time: float) -> Any:
         return constraint_models.valve_train_guess(self.geometry)
 
-    def drive(self, time):
+    def drive(self, time: float) -> Any:
         lift, velocity, acceleration = self._law()
         if self.values["mode"] == "inverse":  # the valve foot moves down as the valve opens
             return [(self.closed_height - lift, -velocity, -acceleration)]
         return [(self.geometry.cam_base_radius + lift, velocity, acceleration)]
 
-    def from_solution(self, solution, time):
+    def from_solution(self, solution: Any, time: float) -> Any:
         q, qdot, qddot = solution.q, solution.qdot, solution.qddot
         tappet, rocker, valve = (constraint_models.TAPPET, constraint_models.ROCKER,
                                  constraint_models.VALVE)
@@ -161,7 +162,7 @@ class ValveTrain(LinkageSlave):
                 "valve_acceleration": -qddot[3 * valve + 1]}
 
     # --- valve spring -----------------------------------------------------------------
-    def after_update(self, time):
+    def after_update(self, time: float) -> Any:
         v = self.values
         if not v["valve_spring"]:
             return

@@ -54,6 +54,8 @@ from ..errors import IntegrationError, MechanismError, RangeError
 from .linalg import Singular as _Singular
 from .linalg import lu_factor as _lu_factor
 from .linalg import lu_solve as _lu_solve
+from typing import Any
+from collections.abc import Callable
 
 METHODS = ("euler", "rk4", "dopri5", "radau")
 
@@ -85,20 +87,20 @@ class Stats:
 
     __slots__ = ("rhs_evaluations", "substeps", "rejected", "jacobians")
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """Set every counter to zero."""
         self.rhs_evaluations = 0
         self.substeps = 0
         self.rejected = 0
         self.jacobians = 0
 
-    def as_dict(self):
+    def as_dict(self) -> Any:
         return {name: getattr(self, name) for name in self.__slots__}
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "Stats(" + ", ".join(f"{k}={v}" for k, v in self.as_dict().items()) + ")"
 
 
@@ -116,7 +118,7 @@ class Event:
 
     __slots__ = ("name", "function", "direction", "terminal")
 
-    def __init__(self, name, function, direction=0, terminal=True):
+    def __init__(self, name: str, function: Callable, direction: int=0, terminal: bool=True) -> None:
         if not callable(function):
             raise MechanismError(f"event {name!r}: function {function!r} is not callable; "
                                  "pass a function g(t, y) -> float")
@@ -128,23 +130,23 @@ class Event:
         self.direction = int(direction)
         self.terminal = bool(terminal)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"Event({self.name!r}, {self.function!r}, direction={self.direction}, "
                 f"terminal={self.terminal})")
 
 
 # --- small numerical helpers ---------------------------------------------------------------
 
-def _rms(values):
+def _rms(values: list[float]) -> float:
     """Root mean square (the error norm of [HNW] II.4, eq. 4.11)."""
     return math.sqrt(math.fsum(v * v for v in values) / len(values))
 
 
-def _max_abs(values):
+def _max_abs(values: list[float]) -> float:
     return max(abs(v) for v in values)
 
 
-def _copied(value):
+def _copied(value: Any) -> Any:
     """A copy of an integrator attribute that shares nothing mutable with it (several times
     faster than copy.deepcopy on these few types, and taken at every communication step)."""
     if isinstance(value, (float, int, complex, bool, str, type(None))):
@@ -161,11 +163,11 @@ def _copied(value):
     return copy.deepcopy(value)
 
 
-def _all_finite(values):
+def _all_finite(values: list[float]) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
-def _scaled_rms(err, y_old, y_new, rtol, atol):
+def _scaled_rms(err: list[float], y_old: list[float], y_new: list[float], rtol: float, atol: float) -> float:
     """RMS of err_i / (atol + rtol * max(|y_old_i|, |y_new_i|)); inf if anything is NaN."""
     total = 0.0
     for e, a, b in zip(err, y_old, y_new):
@@ -176,11 +178,11 @@ def _scaled_rms(err, y_old, y_new, rtol, atol):
     return value if math.isfinite(value) else math.inf
 
 
-def _fmt(x):
+def _fmt(x: float) -> str:
     return f"{x:.6g}"
 
 
-def _fmt_step(x):
+def _fmt_step(x: float) -> str:
     return f"{x:.3g}"
 
 
@@ -203,9 +205,9 @@ class Integrator:
     (restart() forgets it, e.g. after a discontinuity in the model).
     """
 
-    method = None
+    method: str | None = None
 
-    def __init__(self, rtol=1e-8, atol=1e-10, max_substep=math.inf):
+    def __init__(self, rtol: float=1e-8, atol: float=1e-10, max_substep: float=math.inf) -> None:
         self.rtol = _check_tolerance("rtol", rtol)
         self.atol = _check_tolerance("atol", atol)
         if isinstance(max_substep, bool) or not isinstance(max_substep, (int, float)) \
@@ -216,26 +218,26 @@ class Integrator:
         self.stats = Stats()
         self._budget = MAX_SUBSTEPS
         self._growth_limit = math.inf
-        self.time_limit = None  # s of wall-clock time, set by start_clock
-        self.deadline = None  # time.monotonic() value past which a call stops
+        self.time_limit: float | None = None  # s of wall-clock time, set by start_clock
+        self.deadline: float | None = None  # time.monotonic() value past which a call stops
         self.restart()
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"{type(self).__name__}(rtol={self.rtol!r}, atol={self.atol!r}, "
                 f"max_substep={self.max_substep!r})")
 
-    def snapshot(self):
+    def snapshot(self) -> dict[str, Any]:
         """Everything the integrator carries between calls (step size, Jacobian, counters),
         copied, for an FMU state; ``restore`` puts it back exactly."""
         return {name: _copied(value) for name, value in self.__dict__.items()}
 
-    def restore(self, snapshot):
+    def restore(self, snapshot: dict[str, Any]) -> None:
         self.__dict__.update({name: _copied(value) for name, value in snapshot.items()})
 
-    def restart(self):
+    def restart(self) -> None:
         """Forget the step size (and Jacobian) carried over between advance() calls."""
 
-    def start_clock(self, seconds):
+    def start_clock(self, seconds: float) -> None:
         """Bound the wall-clock time from now until the next start_clock to ``seconds``
         (inf: no bound). A call that passes it raises IntegrationError: never a hang."""
         if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) \
@@ -246,7 +248,7 @@ class Integrator:
         self.deadline = time.monotonic() + seconds if math.isfinite(seconds) else None
 
     # --- the one public operation -----------------------------------------------------------
-    def advance(self, rhs, t, y, t_end, events=()):
+    def advance(self, rhs: Callable, t: float, y: list[float], t_end: float, events: tuple | list[Event]=()) -> "Advance":
         """Integrate y' = rhs(t, y) from t to t_end (> t); see the module docstring.
 
         Returns Advance(t_end, y(t_end), None), or Advance(t_event, y(t_event), event) at
@@ -293,7 +295,7 @@ class Integrator:
         raise self._too_many(t, t_end)
 
     # --- checks and bookkeeping ------------------------------------------------------------
-    def _check_call(self, t, y, t_end):
+    def _check_call(self, t: float, y: list[float], t_end: float) -> tuple[float, list[float], float]:
         name = self.method
         try:
             t = float(t)
@@ -322,12 +324,12 @@ class Integrator:
                                        "finite; the state must be finite before integrating")
         return t, y, t_end
 
-    def _counted(self, rhs, n):
+    def _counted(self, rhs: Callable, n: int) -> Callable:
         """rhs wrapped: counts every call, returns a list of n floats or raises."""
         stats = self.stats
         name = self.method
 
-        def f(t, y):
+        def f(t: float, y: Any):
             stats.rhs_evaluations += 1
             out = rhs(t, y)
             try:
@@ -343,14 +345,14 @@ class Integrator:
 
         return f
 
-    def _check_derivative(self, t, values):
+    def _check_derivative(self, t: float, values: list[float]) -> None:
         """The derivative at an accepted (finite) state must be finite: else the model's."""
         if not _all_finite(values):
             raise IntegrationError(f"{self.method}: rhs returned a non-finite derivative "
                                    f"{values!r} at t = {_fmt(t)} s for a finite state; check "
                                    "the model and its inputs at that time")
 
-    def _spend(self, t, t_end_hint=None):
+    def _spend(self, t: float, t_end_hint: float | None=None) -> None:
         """Count one attempted sub-step against the per-call budget."""
         self._budget -= 1
         if self._budget < 0:
@@ -362,7 +364,7 @@ class Integrator:
                 f"bound of {self.time_limit:g} s (max_wall_time) for one communication step; "
                 "shorten the communication step, loosen rtol and atol, or raise max_wall_time")
 
-    def _too_many(self, t, t_end):
+    def _too_many(self, t: float, t_end: float | None):
         where = f" (t_end = {_fmt(t_end)} s)" if t_end is not None else ""
         return IntegrationError(f"{self.method}: more than {MAX_SUBSTEPS} sub-steps in one "
                                 f"advance call, stopped at t = {_fmt(t)} s{where}: "
@@ -370,16 +372,16 @@ class Integrator:
 
     _too_many_advice = "shorten the communication step"
 
-    def _unstable(self, t, h):
+    def _unstable(self, t: float, h: float) -> IntegrationError:
         return IntegrationError(f"{self.method}: solution blew up at t = {_fmt(t)} s with "
                                 f"sub-step {_fmt_step(h)} s (unstable: the step exceeds the "
                                 "method's stability limit; reduce max_substep or use radau)")
 
-    def _underflow(self, t, h, why):
+    def _underflow(self, t: float, h: float, why: str) -> IntegrationError:
         return IntegrationError(f"{self.method}: step size {_fmt_step(h)} s underflows at "
                                 f"t = {_fmt(t)} s: {why}")
 
-    def _initial_step(self, f, t, y, f0, h_limit, order):
+    def _initial_step(self, f: Callable, t: float, y: list[float], f0: list[float], h_limit: float, order: int) -> float:
         """Starting step size by the heuristic of [HNW] II.4 (p. 169), as in SciPy.
 
         order is the order of the error estimator; one extra rhs evaluation.
@@ -401,7 +403,7 @@ class Integrator:
             h1 = (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
         return min(100.0 * h0, h1, self.max_substep)
 
-    def _carry(self, h_wanted, h_taken, factor, limited):
+    def _carry(self, h_wanted: float, h_taken: float, factor: float, limited: bool) -> float:
         """Next step size; a step cut short to land on t_end does not shrink the memory."""
         h_next = h_taken * factor
         if limited and h_taken < h_wanted and factor >= 1.0:
@@ -409,7 +411,7 @@ class Integrator:
         return min(h_next, self.max_substep)
 
     # --- events ----------------------------------------------------------------------------
-    def _event_value(self, event, t, y):
+    def _event_value(self, event: Event, t: float, y: list[float]) -> float:
         try:
             g = float(event.function(t, list(y)))
         except (TypeError, ValueError):
@@ -420,7 +422,7 @@ class Integrator:
                                    "numbers")
         return g
 
-    def _find_event(self, f, watched, g_old, t0, y0, t1, y1, start):
+    def _find_event(self, f: Callable, watched: list[Event], g_old: list[float], t0: float, y0: list[float], t1: float, y1: list[float], start: list[float] | tuple[list[float], float, list[list[float]]]) -> Advance | None:
         """Earliest terminal crossing in (t0, t1] or None; g_old is updated in place."""
         best = None  # (t, y, event)
         g_new = [self._event_value(e, t1, y1) for e in watched]
@@ -442,7 +444,7 @@ class Integrator:
             return None
         return Advance(best[0], best[1], best[2])
 
-    def _locate(self, f, event, t0, y0, g0, b, y_b, g_b, start):
+    def _locate(self, f: Callable, event: Event, t0: float, y0: list[float], g0: float, b: float, y_b: list[float], g_b: float, start: Any) -> tuple[float, list[float]]:
         """Root of g in (t0, b] by the Illinois method [DJ] with bisection safeguard.
 
         Keeps the bracket [a, b]: g(a) has the old (nonzero) sign, g(b) the new sign or 0.
@@ -493,17 +495,17 @@ class Integrator:
         return b, y_b
 
     # --- subclass interface ----------------------------------------------------------------
-    def _begin_call(self):
+    def _begin_call(self) -> None:
         pass
 
-    def _substep(self, f, t, y, t_limit):
+    def _substep(self, f: Any, t: float, y: Any, t_limit: Any):
         raise NotImplementedError
 
-    def _trial(self, f, t0, y0, tau, start):
+    def _trial(self, f: Any, t0: float, y0: Any, tau: Any, start: Any):
         raise NotImplementedError
 
 
-def _crosses(g0, g1, direction):
+def _crosses(g0: float, g1: float, direction: int) -> bool:
     """A crossing from nonzero g0 to the opposite sign or zero, in the given direction."""
     if g0 == 0.0:
         return False
@@ -512,13 +514,13 @@ def _crosses(g0, g1, direction):
     return g1 <= 0.0 and direction <= 0
 
 
-def _is_terminal(event):
+def _is_terminal(event: Event) -> bool:
     if not hasattr(event, "function") or not hasattr(event, "direction"):
         raise MechanismError(f"events must be Event objects, got {event!r}")
     return getattr(event, "terminal", True)
 
 
-def _check_tolerance(name, value):
+def _check_tolerance(name: str, value: float) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
             or not math.isfinite(value) or value < 0.0:
         raise RangeError(name, value, "[0, inf)", "", "a tolerance must be finite and >= 0")
@@ -527,7 +529,7 @@ def _check_tolerance(name, value):
 
 # --- explicit Runge-Kutta ------------------------------------------------------------------
 
-def _explicit_stages(f, t, y, h, k1, A, C, t_new):
+def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[float], A: tuple, C: tuple[float, ...], t_new: float) -> list[list[float]]:
     """Stages K_1..K_s of an explicit Runge-Kutta method (K_1 = k1 given) [HNW] II.1."""
     K = [k1]
     n = len(y)
@@ -545,7 +547,7 @@ def _explicit_stages(f, t, y, h, k1, A, C, t_new):
     return K
 
 
-def _combine(y, h, weights, K):
+def _combine(y: list[float], h: float, weights: tuple[float, ...], K: list[list[float]]) -> list[float]:
     """y + h * sum_i weights_i K_i."""
     out = list(y)
     n = len(y)
@@ -573,11 +575,13 @@ class FixedStepRungeKutta(Integrator):
     1e150 and its derivative or the state overflows to a non-finite value.
     """
 
-    A = B = C = ()
-    order = None
+    A: tuple[tuple[float, ...], ...] = ()
+    B: tuple[float, ...] = ()
+    C: tuple[float, ...] = ()
+    order: int | None = None
     _too_many_advice = "increase max_substep or shorten the communication step"
 
-    def _substep(self, f, t, y, t_limit):
+    def _substep(self, f: Callable, t: float, y: list[float], t_limit: float) -> tuple[float, list[float], list[float]]:
         self._spend(t)
         h = t_limit - t
         k1 = f(t, y)
@@ -589,10 +593,10 @@ class FixedStepRungeKutta(Integrator):
             raise self._unstable(t_limit, h)
         return t_limit, y1, k1
 
-    def _trial(self, f, t0, y0, tau, start):
+    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: list[float]) -> list[float]:
         return self._finish(f, t0, y0, tau - t0, start, tau)
 
-    def _finish(self, f, t, y, h, k1, t_new):
+    def _finish(self, f: Callable, t: float, y: list[float], h: float, k1: list[float], t_new: float) -> list[float]:
         K = _explicit_stages(f, t, y, h, k1, self.A, self.C, t_new)
         return _combine(y, h, self.B, K)
 
@@ -620,7 +624,16 @@ class RK4(FixedStepRungeKutta):
     B = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
 
 
-class DormandPrince45(Integrator):
+class _Adaptive(Integrator):
+    """An integrator with error control: each new sub-step is the last one times a factor,
+    SAFETY * (the method's error estimate)^(-1/order) within [MIN_FACTOR, MAX_FACTOR]."""
+
+    SAFETY = 0.9
+    MIN_FACTOR = 0.2
+    MAX_FACTOR = 5.0
+
+
+class DormandPrince45(_Adaptive):
     """Dormand-Prince 5(4) [DP], [HNW] II.5 Table 5.2, propagating the 5th-order solution.
 
     FSAL: the 7th stage f(t + h, y1) is the first stage of the next step, so an accepted
@@ -645,20 +658,17 @@ class DormandPrince45(Integrator):
          (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656))
     B = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84)
     E = (-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40)
-    SAFETY = 0.9
-    MIN_FACTOR = 0.2
-    MAX_FACTOR = 5.0
     _too_many_advice = ("the problem is probably stiff (an explicit method needs tiny steps "
                         "to stay stable), use radau")
 
-    def restart(self):
-        self._h = None
+    def restart(self) -> None:
+        self._h: float | None = None
         self._k1 = None
 
-    def _begin_call(self):
+    def _begin_call(self) -> None:
         self._k1 = None
 
-    def _substep(self, f, t, y, t_limit):
+    def _substep(self, f: Callable, t: float, y: list[float], t_limit: float) -> tuple[float, list[float], list[float]]:
         k1 = self._k1
         if k1 is None:
             k1 = f(t, y)
@@ -700,7 +710,7 @@ class DormandPrince45(Integrator):
                 max(self.MIN_FACTOR, self.SAFETY * error ** exponent)
             h = h_try * factor
 
-    def _trial(self, f, t0, y0, tau, start):
+    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: list[float]) -> list[float]:
         h = tau - t0
         K = _explicit_stages(f, t0, y0, h, start, self.A, self.C, tau)
         return _combine(y0, h, self.B, K)
@@ -711,7 +721,7 @@ class DormandPrince45(Integrator):
 _S6 = 6 ** 0.5
 
 
-class RadauIIA5(Integrator):
+class RadauIIA5(_Adaptive):
     """Implicit Radau IIA, 3 stages, order 5, stiffly accurate and L-stable [HW] IV.5, IV.8.
 
     Each step solves the stage system Z_i = h sum_j a_ij f(t + c_j h, y + Z_j) by
@@ -752,33 +762,31 @@ class RadauIIA5(Integrator):
     TI = ((4.17871859155190428, 0.32768282076106237, 0.52337644549944951),
           (-4.17871859155190428, -0.32768282076106237, 0.47662355450055044),
           (0.50287263494578682, -2.57192694985560522, 0.59603920482822492))
-    SAFETY = 0.9
-    MIN_FACTOR = 0.2
     MAX_FACTOR = 10.0
     _too_many_advice = ("the solution varies too fast for the tolerances; check the model "
                         "for discontinuities or loosen rtol/atol")
 
-    def restart(self):
-        self._h = None
-        self._h_old = None
-        self._error_old = None
-        self._J = None
+    def restart(self) -> None:
+        self._h: float | None = None
+        self._h_old: float | None = None
+        self._error_old: float | None = None
+        self._J: list[list[float]] | None = None
         self._J_version = 0
         self._J_current = False
         self._jac_due = False
-        self._lu = None  # (h, J_version, LU_real, LU_complex)
+        self._lu: tuple | None = None  # (h, J_version, LU_real, LU_complex)
         self._begin_call()
 
-    def _begin_call(self):
+    def _begin_call(self) -> None:
         self._f0 = None
-        self._previous = None  # (h, Z) of the last accepted step, for the Newton guess
+        self._previous: tuple | None = None  # (h, Z) of the last accepted step, for the Newton guess
         self._J_current = False
 
     @property
-    def _newton_tol(self):
+    def _newton_tol(self) -> float:
         return max(10 * _EPS / max(self.rtol, 1e-300), min(0.03, self.rtol ** 0.5))
 
-    def _jacobian(self, f, t, y, f0):
+    def _jacobian(self, f: Callable, t: float, y: list[float], f0: list[float]) -> list[list[float]]:
         """Forward-difference Jacobian (n rhs evaluations), RADAU5's increments."""
         n = len(y)
         J = [[0.0] * n for _ in range(n)]
@@ -802,12 +810,13 @@ class RadauIIA5(Integrator):
         self._jac_due = False
         return J
 
-    def _factor(self, h):
+    def _factor(self, h: float) -> tuple:
         """LU factors of mu_real/h I - J and mu_complex/h I - J, cached per (h, J)."""
         cached = self._lu
         if cached is not None and cached[0] == h and cached[1] == self._J_version:
             return cached[2], cached[3]
         J = self._J
+        assert J is not None  # _jacobian ran before the first factorisation
         n = len(J)
         real = [[(self.MU_REAL / h if i == j else 0.0) - J[i][j] for j in range(n)]
                 for i in range(n)]
@@ -817,7 +826,7 @@ class RadauIIA5(Integrator):
         self._lu = (h, self._J_version, lu_real, lu_complex)
         return lu_real, lu_complex
 
-    def _newton(self, f, t, y, h, Z0, lu_real, lu_complex):
+    def _newton(self, f: Callable, t: float, y: list[float], h: float, Z0: list[list[float]], lu_real: tuple[list[list[float]], list[int]], lu_complex: tuple) -> tuple:
         """Simplified Newton on the transformed stage system (SciPy solve_collocation_system).
 
         Returns (converged, iterations, Z, rate).
@@ -867,7 +876,7 @@ class RadauIIA5(Integrator):
             norm_old = norm
         return False, k + 1, Z, rate
 
-    def _guess(self, previous, s_values, shift):
+    def _guess(self, previous: tuple[float, list[list[float]]], s_values: list[float], shift: list[float] | None) -> list[list[float]]:
         """Stage guess from the collocation polynomial of a step (h_p, Z_p): P(s) - shift.
 
         P interpolates 0 at s = 0 and Z_p[i] at s = C[i] (s in units of h_p).
@@ -889,7 +898,7 @@ class RadauIIA5(Integrator):
             out.append(value)
         return out
 
-    def _solve_stages(self, f, t, y, f0, h, Z0):
+    def _solve_stages(self, f: Callable, t: float, y: list[float], f0: list[float], h: float, Z0: list[list[float]]) -> tuple:
         """Newton with the current J; one retry with a fresh J. Returns (ok, iters, Z, rate)."""
         while True:
             lu_real = None
@@ -903,7 +912,7 @@ class RadauIIA5(Integrator):
                 return converged, n_iter, Z, rate, (lu_real if converged else None)
             self._jacobian(f, t, y, f0)
 
-    def _substep(self, f, t, y, t_limit):
+    def _substep(self, f: Callable, t: float, y: list[float], t_limit: float) -> tuple[float, list[float], tuple[list[float], float, list[list[float]]]]:
         f0 = self._f0
         if f0 is None:
             f0 = f(t, y)
@@ -978,7 +987,7 @@ class RadauIIA5(Integrator):
         self._previous = (h_try, Z)
         return t_new, y_new, (f0, h_try, Z)
 
-    def _trial(self, f, t0, y0, tau, start):
+    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: Any) -> list[float]:
         f0, h_step, Z_step = start
         h = tau - t0
         Z0 = self._guess((h_step, Z_step), [c * h / h_step for c in self.C], None)
@@ -992,7 +1001,7 @@ class RadauIIA5(Integrator):
         return [a + b for a, b in zip(y0, Z[2])]
 
 
-def _predict_factor(h, h_old, error, error_old):
+def _predict_factor(h: float, h_old: float | None, error: float, error_old: float | None) -> float:
     """Gustafsson's predictive controller [G], [HW] IV.8 eq. 8.25 (as SciPy)."""
     if error == 0.0:
         return math.inf
@@ -1006,7 +1015,7 @@ def _predict_factor(h, h_old, error, error_old):
 _CLASSES = {"euler": Euler, "rk4": RK4, "dopri5": DormandPrince45, "radau": RadauIIA5}
 
 
-def make_integrator(method, rtol=1e-8, atol=1e-10, max_substep=math.inf):
+def make_integrator(method: str, rtol: float=1e-8, atol: float=1e-10, max_substep: float=math.inf) -> Integrator:
     """A new integrator: method in METHODS; rtol, atol >= 0; max_substep in (0, inf] s.
 
     rtol and atol steer the adaptive methods (dopri5, radau); max_substep bounds every

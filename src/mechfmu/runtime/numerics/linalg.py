@@ -6,6 +6,7 @@ explicit failure on a singular matrix, and a condition number that says how far 
 singular a matrix is (the constraint solver reports toggle and change points by it).
 """
 
+from typing import Any
 import math
 
 
@@ -13,7 +14,7 @@ class Singular(Exception):
     """Raised by lu_factor on an exactly singular or non-finite matrix."""
 
 
-def lu_factor(matrix):
+def lu_factor(matrix: list[list[Any]]) -> tuple[list[list[Any]], list[int]]:
     """LU factorisation with partial pivoting of a small dense square matrix.
 
     Works for real and complex entries (Python arithmetic). Returns (lu, pivots) with L
@@ -44,7 +45,7 @@ def lu_factor(matrix):
     return lu, pivots
 
 
-def lu_solve(factored, b):
+def lu_solve(factored: tuple[list[list[Any]], list[int]], b: list[Any]) -> list[Any]:
     """Solve A x = b given lu_factor(A) (forward then back substitution)."""
     lu, pivots = factored
     n = len(lu)
@@ -64,7 +65,7 @@ def lu_solve(factored, b):
     return x
 
 
-def determinant_sign(factored):
+def determinant_sign(factored: tuple[list[list[float]], list[int]]) -> int:
     """Sign (+1 or -1) of det(A) from lu_factor(A): product of U's diagonal signs times the
     permutation's parity. Zero determinants never reach here (lu_factor raises)."""
     lu, pivots = factored
@@ -87,13 +88,13 @@ def determinant_sign(factored):
     return sign
 
 
-def one_norm(matrix):
+def one_norm(matrix: list[list[float]]) -> float:
     """Largest column sum of absolute values."""
     n = len(matrix[0])
     return max(sum(abs(row[j]) for row in matrix) for j in range(n))
 
 
-def condition_number(matrix, factored=None):
+def condition_number(matrix: list[list[float]], factored: tuple[list[list[float]], list[int]] | None=None) -> float:
     """1-norm condition number ||A|| ||A^-1|| (exact: A^-1 column by column; n is small).
 
     Returns math.inf for a singular matrix. ``factored`` may pass lu_factor(A) to reuse it.

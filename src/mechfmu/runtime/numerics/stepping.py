@@ -1,11 +1,13 @@
 """Advance a model across one communication step through its events (standard library only)."""
 
 from ..errors import IntegrationError
+from .integrators import Event, Integrator
+from collections.abc import Callable
 
 MAX_EVENTS_PER_STEP = 1000
 
 
-def advance_through_events(integrator, rhs, t, y, t_end, events, handle):
+def advance_through_events(integrator: Integrator, rhs: Callable, t: float, y: list[float], t_end: float, events: Callable | list[Event], handle: Callable) -> list[float]:
     """Integrate y' = rhs(t, y) from t to t_end, stopping at each terminal event.
 
     At an event the integrator returns the event time and state; ``handle(event, t, y)``
@@ -31,7 +33,7 @@ def advance_through_events(integrator, rhs, t, y, t_end, events, handle):
 
 # --- inputs inside one communication step -------------------------------------------------
 
-def hermite(step, start, end):
+def hermite(step: float, start: tuple[float, ...], end: tuple[float, ...]) -> tuple[float, ...]:
     """Hermite polynomial through an input's values and rates at both ends of a step.
 
     ``start`` and ``end`` are (value, rate) or (value, rate, second rate) at tau = 0 and
@@ -68,7 +70,7 @@ def hermite(step, start, end):
             (6.0 * misfit - 3.0 * rate_misfit + 0.5 * second_misfit) / (h3 * h * h))
 
 
-def polynomial_motion(coefficients, tau):
+def polynomial_motion(coefficients: tuple[float, ...], tau: float) -> tuple[float, float, float]:
     """(p, p', p'') at tau of p(tau) = sum a_k tau^k, coefficients (a0, a1, ...) (Horner)."""
     value = rate = rate2 = 0.0
     for a in reversed(coefficients):

@@ -72,12 +72,12 @@ CONTINUITY = {
 _SERIES_LIMIT = 1.0
 
 
-def _check_law(law):
+def _check_law(law: str) -> None:
     if law not in CAM_LAWS:
         raise MechanismError(f"law = {law!r} is not one of {', '.join(CAM_LAWS)}")
 
 
-def _u_minus_sin(u):
+def _u_minus_sin(u: float) -> float:
     """u - sin(u) for u >= 0, without cancellation for small u."""
     if u >= _SERIES_LIMIT:
         return u - math.sin(u)
@@ -94,7 +94,7 @@ def _u_minus_sin(u):
     return total
 
 
-def _half(law, y):
+def _half(law: str, y: float) -> tuple[float, float, float, float]:
     """(f, f1, f2, f3) of ``law`` at y in [0, 1/2], each with full relative accuracy."""
     if law == "harmonic":
         half_angle = 0.5 * math.pi * y
@@ -122,7 +122,7 @@ def _half(law, y):
             840.0 * y * z * (1.0 + 5.0 * y * (y - 1.0)))
 
 
-def _rise(law, x):
+def _rise(law: str, x: float) -> tuple[float, float, float, float, float]:
     """(f, 1 - f, f1, f2, f3) at x in [0, 1]; 1 - f keeps full relative accuracy near x = 1."""
     if x <= 0.5:
         f, f1, f2, f3 = _half(law, x)
@@ -132,7 +132,7 @@ def _rise(law, x):
     return 1.0 - g, g, g1, -g2, g3
 
 
-def normalized(law, x):
+def normalized(law: str, x: float) -> "NormalizedRise":
     """Normalized rise f(x) and its derivatives f1, f2, f3 with respect to x, x in [0, 1].
 
     f(0) = 0, f(1) = 1 (dimensionless). Raises MechanismError for an unknown law and
@@ -144,7 +144,7 @@ def normalized(law, x):
     return NormalizedRise(f, f1, f2, f3)
 
 
-def peak_coefficients(law):
+def peak_coefficients(law: str) -> "PeakCoefficients":
     """Maxima of |f1|, |f2|, |f3| on [0, 1] in closed form: (velocity, acceleration, jerk).
 
     The peak follower velocity, acceleration and jerk of a rise of ``lift`` over ``beta``
@@ -173,7 +173,7 @@ def peak_coefficients(law):
     return _PEAKS[law]
 
 
-def check_profile(law, lift, rise_start, rise_angle, high_dwell_angle, return_angle):
+def check_profile(law: str, lift: float, rise_start: float, rise_angle: float, high_dwell_angle: float, return_angle: float) -> "CamProfile":
     """Validate a cam profile and return it as a CamProfile of floats (law, m, rad).
 
     law in CAM_LAWS; lift > 0 (m); rise_start any finite angle (the profile is periodic);
@@ -197,7 +197,7 @@ def check_profile(law, lift, rise_start, rise_angle, high_dwell_angle, return_an
 DEFAULT_CAM_PROFILE = check_profile("polynomial_345", 0.007, 0.0, 1.2, 0.1, 1.2)
 
 
-def reduce_angle(angle):
+def reduce_angle(angle: float) -> float:
     """``angle`` reduced into [0, 2 pi) (rad).
 
     math.fmod is exact, so the only errors are the float period (2.4e-16 rad per revolution,
@@ -213,7 +213,7 @@ def reduce_angle(angle):
     return reduced
 
 
-def segment_lift(profile, segment, x):
+def segment_lift(profile: "CamProfile", segment: str, x: float) -> "CamLift":
     """Lift and its angle derivatives at phase x in [0, 1] of the rise or the return.
 
     Both ends are included (they are the one-sided limits of the segment, whichever segment
@@ -231,7 +231,7 @@ def segment_lift(profile, segment, x):
                    -lift * f3 / beta ** 3)
 
 
-def cam_lift(profile, camshaft_angle):
+def cam_lift(profile: "CamProfile", camshaft_angle: float) -> "CamLift":
     """Follower lift and its derivatives with respect to the camshaft angle.
 
     ``profile`` is a CamProfile from check_profile; ``camshaft_angle`` in rad, any finite
@@ -253,7 +253,7 @@ def cam_lift(profile, camshaft_angle):
     return CamLift(0.0, 0.0, 0.0, 0.0)
 
 
-def follower_motion(profile, camshaft_angle, camshaft_speed, camshaft_acceleration):
+def follower_motion(profile: "CamProfile", camshaft_angle: float, camshaft_speed: float, camshaft_acceleration: float) -> "FollowerMotion":
     """Follower lift (m), velocity (m/s) and acceleration (m/s^2) by the chain rule.
 
     With the camshaft at angle theta (rad), speed w (rad/s) and acceleration alpha (rad/s^2):

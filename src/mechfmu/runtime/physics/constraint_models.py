@@ -6,16 +6,18 @@ Each builder returns a planar.Mechanism whose constraints are assembled from the
 in the solver's error messages. Coordinates per body: (x, y, phi) in m, m, rad.
 """
 
+from collections.abc import Sequence
+from typing import Any
 import math
 
 from .four_bar import singular_crossings, singular_position_kind
 from .planar import GROUND, PHI, Y, Driver, Mechanism, PointOnLine, Revolute, translational
 
-def _angle(q, body):
+def _angle(q: Any, body: Any):
     return q[3 * body + PHI]
 
 
-def wrap_angle(angle):
+def wrap_angle(angle: Any) -> Any:
     """Angle (rad) in (-pi, pi], for any number of revolutions."""
     wrapped = math.remainder(angle, 2.0 * math.pi)
     return math.pi if wrapped <= -math.pi else wrapped
@@ -26,15 +28,15 @@ def wrap_angle(angle):
 # rocker (2) with its frame at O4; each link lies along its frame's x axis, so phi is the
 # link angle of Norton's convention.
 
-def four_bar(ground, crank, coupler, rocker):
+def four_bar(ground: Any, crank: Any, coupler: Any, rocker: Any) -> Any:
     a, b, c, d = crank, coupler, rocker, ground
 
-    def diagnose(q):
+    def diagnose(q: Any) -> str:
         t2, t3, t4 = _angle(q, 0), _angle(q, 1), _angle(q, 2)
         return (f"crank angle {wrap_angle(t2):.9g} rad, coupler angle {wrap_angle(t3):.9g} "
                 f"rad, rocker angle {wrap_angle(t4):.9g} rad")
 
-    def singularity(q):
+    def singularity(q: Any):
         # With the crank driven, Phi_q loses rank only when coupler and rocker line up;
         # if the crank lines up with the ground too, all four links are collinear. Which
         # of the two is nearest follows from the crank angles of the toggles (comparing
@@ -44,7 +46,8 @@ def four_bar(ground, crank, coupler, rocker):
 
     crossings = singular_crossings(d, a, b, c)
 
-    def crossing(start, end):
+    def crossing(start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]]
+                 ) -> tuple[str, str] | None:
         # a change point reached or passed, or a range where the linkage does not assemble
         # jumped, between the two crank angles: the closed form asks the same
         return crossings(start[0][0], end[0][0])
@@ -61,7 +64,7 @@ def four_bar(ground, crank, coupler, rocker):
                      None if getattr(crossings, "never", False) else crossing)
 
 
-def four_bar_guess(ground, crank, crank_angle, coupler_angle, rocker_angle):
+def four_bar_guess(ground: Any, crank: Any, crank_angle: Any, coupler_angle: Any, rocker_angle: Any) -> Any:
     """Coordinates for given link angles (rad); the crank pin placed exactly."""
     ax, ay = crank * math.cos(crank_angle), crank * math.sin(crank_angle)
     return [0.0, 0.0, crank_angle, ax, ay, coupler_angle, ground, 0.0, rocker_angle]
@@ -71,15 +74,15 @@ def four_bar_guess(ground, crank, crank_angle, coupler_angle, rocker_angle):
 # Bodies: crank (0) at the origin, coupler (1) with its frame at the crank pin A, slider (2)
 # with its frame at the slider pin B, translating along the line y = offset.
 
-def slider_crank(crank, coupler, offset):
+def slider_crank(crank: Any, coupler: Any, offset: Any) -> Any:
     a, b = crank, coupler
 
-    def diagnose(q):
+    def diagnose(q: Any) -> str:
         t2, t3 = _angle(q, 0), _angle(q, 1)
         return (f"crank angle {wrap_angle(t2):.9g} rad, coupler angle {wrap_angle(t3):.9g} "
                 f"rad, slider position {q[6]:.9g} m")
 
-    def singularity(q):
+    def singularity(q: Any) -> str:
         # With the crank driven, the only rank loss: the rod perpendicular to the slider axis.
         return "limit position: coupler perpendicular to the slider axis"
 
@@ -92,7 +95,7 @@ def slider_crank(crank, coupler, offset):
                      singularity)
 
 
-def slider_crank_guess(crank, offset, crank_angle, coupler_angle, slider_position):
+def slider_crank_guess(crank: Any, offset: Any, crank_angle: Any, coupler_angle: Any, slider_position: Any) -> Any:
     ax, ay = crank * math.cos(crank_angle), crank * math.sin(crank_angle)
     return [0.0, 0.0, crank_angle, ax, ay, coupler_angle, slider_position, offset, 0.0]
 
@@ -106,17 +109,17 @@ def slider_crank_guess(crank, offset, crank_angle, coupler_angle, slider_positio
 TAPPET, ROCKER, VALVE = 0, 1, 2
 
 
-def valve_train(geometry, inverse=False):
+def valve_train(geometry: Any, inverse: bool=False) -> Any:
     """Driver: the tappet foot height y_P (forward) or the valve foot height y_Q (inverse)."""
     g = geometry
     lt, lv = g.tappet_arm, g.valve_arm
 
-    def diagnose(q):
+    def diagnose(q: Any) -> str:
         phi1, phi2, phi3 = _angle(q, TAPPET), _angle(q, ROCKER), _angle(q, VALVE)
         return (f"tappet height {q[1]:.9g} m, pushrod angle {phi1:.9g} rad, rocker angle "
                 f"{phi2:.9g} rad, valve height {q[7]:.9g} m, valve link angle {phi3:.9g} rad")
 
-    def singularity(q):
+    def singularity(q: Any) -> str:
         phi1, phi2, phi3 = _angle(q, TAPPET), _angle(q, ROCKER), _angle(q, VALVE)
         # The links point along (-sin phi, cos phi), the rocker along (cos phi2, sin phi2):
         # each pair is collinear where the sine of the angle between them, cos(phi - phi2),
@@ -140,7 +143,7 @@ def valve_train(geometry, inverse=False):
                      g.pushrod_length, diagnose, singularity)
 
 
-def valve_train_guess(geometry, rocker_angle=0.0):
+def valve_train_guess(geometry: Any, rocker_angle: float=0.0) -> Any:
     """Coordinates with the rocker at ``rocker_angle`` and both links hanging from it."""
     g = geometry
     a, b = g.rocker_pivot_x, g.rocker_pivot_y

@@ -40,6 +40,8 @@ import sys
 from collections import namedtuple
 
 from ..errors import RangeError, SingularConfiguration, require_finite, require_positive
+from collections.abc import Callable
+from typing import Any
 
 INCH = 0.0254  # m, exact by definition
 
@@ -95,7 +97,7 @@ FourBarMotion = namedtuple(
 _LINK_NAMES = ("ground", "crank", "coupler", "rocker")
 
 
-def check_four_bar(ground, crank, coupler, rocker):
+def check_four_bar(ground: float, crank: float, coupler: float, rocker: float) -> "FourBar":
     """Validate the link lengths (m) and return them as a FourBar of floats.
 
     Each must be finite and > 0, and the longest must be shorter than the sum of the other
@@ -112,7 +114,7 @@ def check_four_bar(ground, crank, coupler, rocker):
     return FourBar(*lengths)
 
 
-def grashof_class(ground, crank, coupler, rocker):
+def grashof_class(ground: float, crank: float, coupler: float, rocker: float) -> int:
     """Grashof class code (see GRASHOF_CLASSES) of a four-bar with the given lengths (m).
 
     With S, L the shortest and longest lengths and P, Q the other two: S + L = P + Q within
@@ -139,7 +141,7 @@ def grashof_class(ground, crank, coupler, rocker):
     return (2, 1, 3, 4)[index]
 
 
-def _as_lengths(linkage, count):
+def _as_lengths(linkage: tuple, count: int) -> tuple[float, float, float, float]:
     """Accept either ``count`` lengths or one sequence of them (e.g. COURSEWORK_FOUR_BAR)."""
     if len(linkage) == 1:
         linkage = tuple(linkage[0])
@@ -149,7 +151,7 @@ def _as_lengths(linkage, count):
     return linkage
 
 
-def crank_angle_range(*linkage):
+def crank_angle_range(*linkage: Any) -> tuple[float, float] | None:
     """Interval (low, high) of cos(crank_angle) in which the linkage assembles, or None.
 
     Call as crank_angle_range(ground, crank, coupler, rocker) or crank_angle_range(linkage)
@@ -172,7 +174,7 @@ def crank_angle_range(*linkage):
     return max(low, -1.0), min(high, 1.0)
 
 
-def _toggles(d, a, b, c):
+def _toggles(d: float, a: float, b: float, c: float) -> list[Any]:
     """(crank angle in [0, pi], kind) of the singular positions with the crank pin above the
     ground line (their mirror images -angle are singular too).
 
@@ -195,7 +197,7 @@ def _toggles(d, a, b, c):
     return found
 
 
-def singular_position_kind(ground, crank, coupler, rocker, crank_angle):
+def singular_position_kind(ground: float, crank: float, coupler: float, rocker: float, crank_angle: float) -> str:
     """TOGGLE or CHANGE_POINT: the kind of singular position nearest to ``crank_angle`` (rad);
     TOGGLE if the crank has no singular position at all (see _toggles)."""
     nearest = None
@@ -207,7 +209,7 @@ def singular_position_kind(ground, crank, coupler, rocker, crank_angle):
     return CHANGE_POINT if nearest is not None and nearest[1] == CHANGE_POINT else TOGGLE
 
 
-def change_point_angles(ground, crank, coupler, rocker):
+def change_point_angles(ground: float, crank: float, coupler: float, rocker: float) -> list[Any]:
     """Crank angles (rad, 0 and/or pi) of the change points: toggle positions with the crank
     on the ground line, all four links collinear, where two assembly branches cross. Empty
     unless S + L = P + Q (within CHANGE_POINT_TOLERANCE times the longest link)."""
@@ -218,7 +220,7 @@ def change_point_angles(ground, crank, coupler, rocker):
 BRANCHES_CROSS = "there two assembly branches cross and the motion may continue on either"
 
 
-def singular_crossing(ground, crank, coupler, rocker, start_angle, end_angle):
+def singular_crossing(ground: Any, crank: Any, coupler: Any, rocker: Any, start_angle: Any, end_angle: Any) -> Any:
     """The first singular position the crank passes on its way from ``start_angle`` to
     ``end_angle`` (rad, not wrapped: the drive turns through every angle in between), as
     (position, consequence) texts, or None.
@@ -235,7 +237,8 @@ def singular_crossing(ground, crank, coupler, rocker, start_angle, end_angle):
     return singular_crossings(ground, crank, coupler, rocker)(start_angle, end_angle)
 
 
-def singular_crossings(ground, crank, coupler, rocker):
+def singular_crossings(ground: float, crank: float, coupler: float, rocker: float
+                       ) -> "Callable[[float, float], tuple[str, str] | None]":
     """singular_crossing for one linkage (lengths in m, validated here once): a function of
     (start_angle, end_angle) in rad, with what depends on the lengths alone worked out once
     (it runs at every communication step)."""
@@ -250,13 +253,14 @@ def singular_crossings(ground, crank, coupler, rocker):
                     (math.pi, math.pi - math.acos(cos_low), cos_low > -1.0))
                 if exists and centre not in points]
     if not points and not gaps:
-        def never(start_angle, end_angle):
+        def never(start_angle: float, end_angle: float) -> None:
             return None
-        never.never = True  # nothing to pass: callers may skip the check
+        # nothing to pass: callers may skip the check (a marker attribute mypy cannot see)
+        never.never = True  # type: ignore[attr-defined]
         return never
     turn = 2.0 * math.pi
 
-    def crossing(start_angle, end_angle):
+    def crossing(start_angle: float, end_angle: float) -> tuple[str, str] | None:
         rising = end_angle >= start_angle
         low, high = (start_angle, end_angle) if rising else (end_angle, start_angle)
         passed = []  # (distance from the start along the drive, position, consequence)
@@ -285,13 +289,13 @@ def singular_crossings(ground, crank, coupler, rocker):
     return crossing
 
 
-def _assembles(lengths, crank_angle):
+def _assembles(lengths: Any, crank_angle: Any):
     """Whether the linkage assembles at ``crank_angle`` (rad), with _solve's tolerance."""
     to_high, to_low, tolerance = _reach_margins(lengths, crank_angle)
     return to_high >= -tolerance and to_low >= -tolerance
 
 
-def _wrap(angle):
+def _wrap(angle: float) -> float:
     """Angle in (-pi, pi]: atan2 results here lie in [-2 pi, 2 pi]."""
     if angle > math.pi:
         angle -= 2.0 * math.pi
@@ -300,7 +304,7 @@ def _wrap(angle):
     return angle
 
 
-def _half_angle_root(qa, qb, qc, root, sign):
+def _half_angle_root(qa: float, qb: float, qc: float, root: float, sign: float) -> float:
     """Angle 2 atan(x) of the root x = (-qb + sign root)/(2 qa) of qa x^2 + qb x + qc = 0.
 
     The same root is 2 qc / (-qb - sign root); the form used is the one whose numerator adds
@@ -322,18 +326,18 @@ def _half_angle_root(qa, qb, qc, root, sign):
     return _wrap(2.0 * math.atan2(numerator, denominator))
 
 
-def _difference_of_squares(x, y):
+def _difference_of_squares(x: float, y: float) -> float:
     """x^2 - y^2 as (x - y)(x + y): exact to a few ulps of the result when x is close to y."""
     return (x - y) * (x + y)
 
 
-def _crank_pin_distance(a, d, crank_angle):
+def _crank_pin_distance(a: float, d: float, crank_angle: float) -> float:
     """f = |A - O4| (m), from f^2 = (a - d)^2 + 4 a d sin^2(theta2/2): no cancellation at 0."""
     half = math.sin(0.5 * crank_angle)
     return math.sqrt((a - d) ** 2 + 4.0 * a * d * half * half)
 
 
-def _reach_margins(lengths, crank_angle):
+def _reach_margins(lengths: "FourBar", crank_angle: float) -> tuple[float, float, float]:
     """(b + c - f, f - |b - c|, tolerance) in m: how far the crank pin's distance f from the
     rocker pivot lies inside the reach of coupler and rocker; within the tolerance of either
     end (TOGGLE_ULPS eps (b + c)) the linkage is at a toggle."""
@@ -342,7 +346,7 @@ def _reach_margins(lengths, crank_angle):
     return (b + c) - f, f - abs(b - c), TOGGLE_ULPS * sys.float_info.epsilon * (b + c)
 
 
-def _solve(lengths, crank_angle, circuit):
+def _solve(lengths: "FourBar", crank_angle: float, circuit: int) -> tuple[float, float, bool]:
     """(coupler_angle, rocker_angle, toggle) for validated lengths; see ``position``."""
     d, a, b, c = lengths
     t2 = crank_angle
@@ -350,7 +354,7 @@ def _solve(lengths, crank_angle, circuit):
     high, low = b + c, abs(b - c)
     to_high, to_low, tolerance = _reach_margins(lengths, t2)
     if to_high < -tolerance or to_low < -tolerance:
-        lo, hi = crank_angle_range(d, a, b, c)
+        lo, hi = crank_angle_range(d, a, b, c) or (math.nan, math.nan)
         raise RangeError(
             "crank_angle", t2,
             f"cos(crank_angle) in [{lo!r}, {hi!r}], i.e. crank_angle (mod 2 pi) in "
@@ -389,13 +393,13 @@ def _solve(lengths, crank_angle, circuit):
     return coupler_angle, rocker_angle, toggle
 
 
-def _check_circuit(circuit):
+def _check_circuit(circuit: float | None) -> int:
     if isinstance(circuit, bool) or circuit not in CIRCUITS:
         raise RangeError("circuit", circuit, "{0, 1}", "", "0 = open, 1 = crossed")
     return int(circuit)
 
 
-def position(ground, crank, coupler, rocker, crank_angle, circuit):
+def position(ground: float, crank: float, coupler: float, rocker: float, crank_angle: float, circuit: int) -> "Position":
     """Coupler and rocker angles (rad, in (-pi, pi]) at a crank angle (rad).
 
     Freudenstein's half-angle closed form (Norton eqs 4.8-4.13, coefficients multiplied by
@@ -414,13 +418,13 @@ def position(ground, crank, coupler, rocker, crank_angle, circuit):
     return Position(coupler_angle, rocker_angle)
 
 
-def transmission_angle(coupler_angle, rocker_angle):
+def transmission_angle(coupler_angle: float, rocker_angle: float) -> float:
     """Acute angle (rad, in [0, pi/2]) between the coupler and rocker lines."""
     between = abs(_wrap(rocker_angle - coupler_angle))  # [0, pi]
     return min(between, math.pi - between)
 
 
-def _rates(lengths, t2, t3, t4, w2, al2):
+def _rates(lengths: "FourBar", t2: float, t3: float, t4: float, w2: float, al2: float) -> tuple[float, float, float, float]:
     """(omega3, omega4, alpha3, alpha4) from the differentiated loop equation.
 
     Velocity (Norton 6.18): omega3 = a w2 sin(t4 - t2) / (b sin(t3 - t4)),
@@ -445,8 +449,8 @@ def _rates(lengths, t2, t3, t4, w2, al2):
     return w3, w4, al3, al4
 
 
-def motion(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
-           crank_acceleration):
+def motion(ground: float, crank: float, coupler: float, rocker: float, circuit: float | None, crank_angle: float, crank_speed: float,
+           crank_acceleration: float) -> "FourBarMotion":
     """Coupler and rocker motion for a prescribed crank motion.
 
     Inputs: lengths in m, circuit 0 (open) or 1 (crossed), crank angle (rad), speed (rad/s)
@@ -466,7 +470,8 @@ def motion(ground, crank, coupler, rocker, circuit, crank_angle, crank_speed,
     return checked_motion(lengths, circuit, t2, w2, al2)
 
 
-def checked_motion(lengths, circuit, t2, w2, al2):
+def checked_motion(lengths: "FourBar", circuit: int, t2: float, w2: float, al2: float
+                   ) -> "FourBarMotion":
     """``motion`` for lengths from check_four_bar (m), a circuit from CIRCUITS and finite
     crank angle (rad), speed (rad/s) and acceleration (rad/s^2): what an FMU that validated
     them once calls at every step."""

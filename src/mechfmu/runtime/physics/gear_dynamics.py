@@ -37,6 +37,8 @@ from . import landing_gear as kinematics
 from ..errors import MechanismError, require_between, require_finite, require_positive
 from ..numerics.integrators import Event
 from ..numerics.stepping import advance_through_events
+from ..numerics.integrators import DormandPrince45
+from typing import Any
 
 STANDARD_GRAVITY = 9.80665
 
@@ -59,52 +61,52 @@ Friction = namedtuple("Friction", "viscous coulomb smoothing_speed")
 Stops = namedtuple("Stops", "min_length max_length stiffness damping_ratio")
 
 
-def inertia(body):
+def inertia(body: "Body") -> float:
     """I_B (kg m^2): uniform bar about its end plus the wheel as a point mass at the tip."""
     L = body.bar_length
     return body.bar_mass * L * L / 3.0 + body.wheel_mass * L * L
 
 
-def gravity_lever(body):
+def gravity_lever(body: "Body") -> float:
     """First moment m l_cg (kg m) of bar and wheel about B."""
     return body.bar_mass * body.bar_length / 2.0 + body.wheel_mass * body.bar_length
 
 
-def bar_from_vertical(angle, geometry):
+def bar_from_vertical(angle: float, geometry: "Geometry") -> float:
     """psi (rad): the bar's angle from the downward vertical, growing with the gear angle."""
     return angle - geometry.down_angle + geometry.airframe_pitch
 
 
-def moment_arm(angle, geometry):
+def moment_arm(angle: Any, geometry: Any) -> Any:
     """Piston moment arm d h sin(theta) / x (m) at a gear angle."""
     x = kinematics.piston_motion(angle, 0.0, 0.0, geometry.attachment_distance,
                                  geometry.pivot_height).extension
     return geometry.attachment_distance * geometry.pivot_height * math.sin(angle) / x
 
 
-def gravity_moment(angle, body, geometry, gravity=STANDARD_GRAVITY):
+def gravity_moment(angle: Any, body: Any, geometry: Any, gravity: float=STANDARD_GRAVITY) -> Any:
     """Moment of gravity about B (N m), positive towards retraction."""
     return -gravity_lever(body) * gravity * math.sin(bar_from_vertical(angle, geometry))
 
 
-def gravity_potential(angle, body, geometry, gravity=STANDARD_GRAVITY):
+def gravity_potential(angle: float, body: "Body", geometry: "Geometry", gravity: float=STANDARD_GRAVITY) -> float:
     """Potential energy (J) relative to the bar hanging vertically: m g l_cg (1 - cos psi)."""
     return gravity_lever(body) * gravity * (1.0 - math.cos(bar_from_vertical(angle, geometry)))
 
 
-def drag_moment(angle, airspeed, body, geometry, drag):
+def drag_moment(angle: Any, airspeed: Any, body: Any, geometry: Any, drag: Any) -> Any:
     """Moment about B (N m) of the aerodynamic drag on the wheel at airspeed V (m/s)."""
     force = 0.5 * drag.air_density * drag.drag_area * airspeed * abs(airspeed)
     return -force * body.bar_length * math.cos(bar_from_vertical(angle, geometry))
 
 
-def friction_moment(angular_velocity, friction):
+def friction_moment(angular_velocity: Any, friction: Any) -> Any:
     """Pivot friction moment (N m): viscous plus Coulomb smoothed by tanh."""
     return -(friction.viscous * angular_velocity
              + friction.coulomb * math.tanh(angular_velocity / friction.smoothing_speed))
 
 
-def damping_ratio(restitution):
+def damping_ratio(restitution: float) -> float:
     """Damping ratio of a linear contact whose coefficient of restitution is ``restitution``."""
     e = require_between("restitution", restitution, 0.0, 1.0, low_open=True)
     if e == 1.0:
@@ -113,7 +115,7 @@ def damping_ratio(restitution):
     return -log_e / math.sqrt(math.pi * math.pi + log_e * log_e)
 
 
-def stop_force(length, speed, effective_mass, stops):
+def stop_force(length: Any, speed: float, effective_mass: Any, stops: Any) -> Any:
     """Contact force along the piston (N) from the stroke-limit stops; 0 inside the stroke."""
     if stops.min_length < length < stops.max_length:
         return 0.0
@@ -123,14 +125,14 @@ def stop_force(length, speed, effective_mass, stops):
     return max(0.0, stops.stiffness * (stops.min_length - length) - damping * speed)
 
 
-def make_body(bar_length, bar_mass, wheel_mass):
+def make_body(bar_length: float, bar_mass: float, wheel_mass: float) -> "Body":
     """Validated Body: positive bar length and mass, non-negative wheel mass."""
     return Body(require_positive("bar_length", bar_length, "m"),
                 require_positive("bar_mass", bar_mass, "kg"),
                 require_between("wheel_mass", wheel_mass, 0.0, math.inf, "kg"))
 
 
-def moment_terms(values, body, geometry):
+def moment_terms(values: dict[str, float], body: "Body", geometry: "Geometry") -> list[Any]:
     """Moment functions (angle, omega, airspeed) -> N m of the enabled effects only."""
     terms = []
     if values["gravity"]:
@@ -151,13 +153,13 @@ def moment_terms(values, body, geometry):
 class InverseDynamics:
     """Motion drive: the piston force that produces the prescribed motion."""
 
-    def __init__(self, values, body, geometry):
+    def __init__(self, values: Any, body: Any, geometry: Any) -> None:
         self.body, self.geometry = body, geometry
         self.inertia = inertia(body) if values["inertia"] else 0.0
         self.terms = moment_terms(values, body, geometry)
         self.gravity = values["gravity_acceleration"] if values["gravity"] else None
 
-    def publish(self, v, motion):
+    def publish(self, v: Any, motion: Any) -> None:
         """Required piston force (N) and energies (J) into the values ``v`` for ``motion``
         (angle rad, rate rad/s, acceleration rad/s^2); v["piston_moment_arm"] is set."""
         angle, omega, alpha = motion
@@ -177,7 +179,7 @@ class Dynamics:
     pressures (Pa) with the hydraulics effect.
     """
 
-    def __init__(self, values, body, geometry):
+    def __init__(self, values: dict[str, float], body: "Body", geometry: "Geometry") -> None:
         self.body, self.geometry = body, geometry
         self.inertia = inertia(body)
         self.terms = moment_terms(values, body, geometry)
@@ -203,30 +205,30 @@ class Dynamics:
         self.events = [Event("stroke_max", lambda t, y: self.piston_length(y) - high, +1),
                        Event("stroke_min", lambda t, y: self.piston_length(y) - low, -1)]
 
-    def initial_state(self):
+    def initial_state(self) -> list[float]:
         angle, omega, pressure = self.initial
         state = [angle, omega, 0.0]
         if self.actuator:
             state += [pressure, pressure]
         return state
 
-    def piston_length(self, y):
+    def piston_length(self, y: list[float]) -> float:
         """Piston length (m) at state y."""
         return kinematics.piston_motion(y[0], 0.0, 0.0, self.geometry.attachment_distance,
                                         self.geometry.pivot_height).extension
 
-    def piston_kinematics(self, y):
+    def piston_kinematics(self, y: list[float]) -> tuple[float, float, float]:
         """Piston length (m), rate (m/s) and moment arm (m) at state y."""
         d, h = self.geometry.attachment_distance, self.geometry.pivot_height
         piston = kinematics.piston_motion(y[0], y[1], 0.0, d, h)
         return piston.extension, piston.speed, d * h * math.sin(y[0]) / piston.extension
 
-    def _drive_force(self, y, v):
+    def _drive_force(self, y: list[float], v: dict[str, float]) -> float:
         if self.actuator:
             return hydraulics.piston_force(y[3], y[4], self.actuator)
         return v["piston_force"]
 
-    def derivatives(self, y, v):
+    def derivatives(self, y: list[float], v: dict[str, float]) -> tuple[list[float], float, float]:
         """(dy/dt, acceleration, drive force) at state y with inputs held over the step."""
         length, rate, arm = self.piston_kinematics(y)
         force = self._drive_force(y, v)
@@ -241,21 +243,21 @@ class Dynamics:
                                                self.actuator)
         return rates, alpha, force
 
-    def advance(self, integrator, t, y, t_end, v):
+    def advance(self, integrator: DormandPrince45, t: float, y: list[float], t_end: float, v: dict[str, float]) -> tuple[list[float], list[Any]]:
         """Integrate from t to t_end (s) with the inputs in ``v`` held; return the state at
         t_end and the stroke limits crossed on the way, as (event name, t, piston length)."""
         for name in ("piston_force", "valve_command", "airspeed"):
             require_finite(name, v[name])
         crossings = []
 
-        def record(event, time, state):
+        def record(event: Any, time: float, state: Any):
             crossings.append((event.name, time, self.piston_length(state)))
             return state
         y = advance_through_events(integrator, lambda time, state: self.derivatives(state, v)[0],
                                    t, y, t_end, self.events, record)
         return y, crossings
 
-    def publish(self, v, time, y):
+    def publish(self, v: dict[str, float], time: float, y: list[float]) -> None:
         """The drive's outputs at state y into the values ``v``."""
         length, rate, arm = self.piston_kinematics(y)
         rates, alpha, force = self.derivatives(y, v)

@@ -13,6 +13,7 @@ The piston force along the piston (positive extending) is p1 A1 - p2 A2.
 Pressures in Pa, flows in m^3/s, lengths in m, forces in N.
 """
 
+from typing import Any
 import math
 from collections import namedtuple
 
@@ -35,8 +36,8 @@ Actuator = namedtuple("Actuator", "supply_pressure return_pressure cap_area rod_
 Flows = namedtuple("Flows", "cap rod")
 
 
-def make_actuator(supply_pressure, return_pressure, bore, rod, bulk_modulus, dead_volume,
-                  rated_flow, rated_pressure_drop, max_flow, min_length, max_length):
+def make_actuator(supply_pressure: float, return_pressure: float, bore: float, rod: float, bulk_modulus: float, dead_volume: float,
+                  rated_flow: float, rated_pressure_drop: float, max_flow: float, min_length: float, max_length: float) -> "Actuator":
     """Validated Actuator; areas from bore and rod diameters (m); the valve's orifice
     coefficient from its rated flow (m^3/s) at a rated pressure drop (Pa)."""
     supply = require_positive("supply_pressure", supply_pressure, "Pa")
@@ -56,17 +57,17 @@ def make_actuator(supply_pressure, return_pressure, bore, rod, bulk_modulus, dea
                     require_positive("max_flow", max_flow, "m^3/s"), min_length, max_length)
 
 
-def orifice(pressure_drop, coefficient):
+def orifice(pressure_drop: float, coefficient: float) -> float:
     """Flow (m^3/s) through an orifice: coefficient * sqrt(|dp|) * sign(dp), smoothed at 0."""
     return coefficient * pressure_drop / math.sqrt(math.hypot(pressure_drop, LAMINAR_PRESSURE))
 
 
-def limited(flow, max_flow):
+def limited(flow: float, max_flow: float) -> float:
     """Smooth saturation of a flow at +-max_flow."""
     return max_flow * math.tanh(flow / max_flow)
 
 
-def valve_flows(command, cap_pressure, rod_pressure, actuator):
+def valve_flows(command: float, cap_pressure: float, rod_pressure: float, actuator: "Actuator") -> "Flows":
     """Flows into the cap side and out of the rod side (m^3/s) for a valve command."""
     u = max(-1.0, min(1.0, command))
     a = actuator
@@ -79,7 +80,7 @@ def valve_flows(command, cap_pressure, rod_pressure, actuator):
     return Flows(limited(into_cap, a.max_flow), limited(out_of_rod, a.max_flow))
 
 
-def pressure_rates(command, cap_pressure, rod_pressure, length, speed, actuator):
+def pressure_rates(command: Any, cap_pressure: Any, rod_pressure: Any, length: Any, speed: float, actuator: Any) -> Any:
     """(dp1/dt, dp2/dt) in Pa/s at piston length (m) and speed (m/s)."""
     a = actuator
     flows = valve_flows(command, cap_pressure, rod_pressure, a)
@@ -92,7 +93,7 @@ def pressure_rates(command, cap_pressure, rod_pressure, length, speed, actuator)
             a.bulk_modulus / rod_volume * (a.rod_area * speed - flows.rod))
 
 
-def piston_force(cap_pressure, rod_pressure, actuator):
+def piston_force(cap_pressure: float, rod_pressure: float, actuator: "Actuator") -> float:
     """Force along the piston, positive extending (N)."""
     return cap_pressure * actuator.cap_area - rod_pressure * actuator.rod_area
 

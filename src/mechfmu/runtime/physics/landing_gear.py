@@ -30,7 +30,7 @@ GearMotion = namedtuple("GearMotion", "angle angular_velocity angular_accelerati
 PistonMotion = namedtuple("PistonMotion", "extension speed acceleration")
 
 
-def design_geometry(retracted_length, extended_length):
+def design_geometry(retracted_length: float, extended_length: float) -> "Geometry":
     """Attachment distance d and pivot height h from the coursework's design conditions.
 
     Conditions: the piston is perpendicular to d at the retracted length x_r (so
@@ -54,7 +54,7 @@ def design_geometry(retracted_length, extended_length):
 DEFAULT_GEOMETRY = design_geometry(COURSEWORK_RETRACTED_LENGTH, COURSEWORK_EXTENDED_LENGTH)
 
 
-def check_geometry(attachment_distance, pivot_height):
+def check_geometry(attachment_distance: float, pivot_height: float) -> tuple[float, float]:
     """Validate d and h (finite, positive, not equal: d == h lets the piston shrink to 0)."""
     d = require_positive("attachment_distance", attachment_distance, "m")
     h = require_positive("pivot_height", pivot_height, "m")
@@ -64,13 +64,13 @@ def check_geometry(attachment_distance, pivot_height):
     return d, h
 
 
-def assembly_range(attachment_distance, pivot_height):
+def assembly_range(attachment_distance: float, pivot_height: float) -> tuple[float, float]:
     """Piston lengths [|h - d|, h + d] (m) for which the linkage assembles."""
     d, h = attachment_distance, pivot_height
     return abs(h - d), h + d
 
 
-def _sine_and_cosine_terms(piston_extension, d, h):
+def _sine_and_cosine_terms(piston_extension: float, d: float, h: float) -> tuple[float, float]:
     """Return (2 d h sin(theta), 2 d h cos(theta)) for piston length x.
 
     The sine term is written as the square root of a product of four factors, so it keeps
@@ -95,15 +95,15 @@ def _sine_and_cosine_terms(piston_extension, d, h):
     return math.sqrt(product), h * h + d * d - x * x
 
 
-def _two_sum_error(a, b, rounded):
+def _two_sum_error(a: float, b: float, rounded: float) -> float:
     """Exact rounding error of ``rounded = a + b`` (Knuth's TwoSum): a + b = rounded + error."""
     b_virtual = rounded - a
     a_virtual = rounded - b_virtual
     return (a - a_virtual) + (b - b_virtual)
 
 
-def gear_motion(piston_extension, piston_speed, piston_acceleration,
-                attachment_distance, pivot_height):
+def gear_motion(piston_extension: float, piston_speed: float, piston_acceleration: float,
+                attachment_distance: float, pivot_height: float) -> "GearMotion":
     """Gear angle, angular velocity and acceleration for a prescribed piston motion.
 
     theta = angle at B with cos(theta) = (h^2 + d^2 - x^2) / (2 d h),
@@ -131,8 +131,8 @@ def gear_motion(piston_extension, piston_speed, piston_acceleration,
     return GearMotion(angle, omega, alpha)
 
 
-def piston_motion(gear_angle, gear_angular_velocity, gear_angular_acceleration,
-                  attachment_distance, pivot_height):
+def piston_motion(gear_angle: float, gear_angular_velocity: float, gear_angular_acceleration: float,
+                  attachment_distance: float, pivot_height: float) -> "PistonMotion":
     """Piston length, speed and acceleration for a prescribed gear angle motion.
 
     x = sqrt(h^2 + d^2 - 2 d h cos theta), xdot = d h sin(theta) omega / x,
@@ -155,7 +155,7 @@ def piston_motion(gear_angle, gear_angular_velocity, gear_angular_acceleration,
     return PistonMotion(x, speed, accel)
 
 
-def piston_moment_arm(piston_extension, attachment_distance, pivot_height):
+def piston_moment_arm(piston_extension: float, attachment_distance: float, pivot_height: float) -> float:
     """Moment arm of the piston force about B: d h sin(theta) / x (m)."""
     two_dh_sin, _ = _sine_and_cosine_terms(piston_extension, attachment_distance, pivot_height)
     if piston_extension == 0.0:

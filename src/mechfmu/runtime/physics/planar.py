@@ -30,6 +30,8 @@ from collections import namedtuple
 
 from ..errors import MechanismError, SingularConfiguration
 from ..numerics.linalg import Singular, condition_number, determinant_sign, lu_factor, lu_solve
+from collections.abc import Callable, Sequence
+from typing import Any
 
 GROUND = None
 X, Y, PHI = 0, 1, 2  # coordinate offsets within a body's triple
@@ -44,12 +46,12 @@ class NoConvergence(MechanismError):
     """Newton-Raphson did not reach the tolerance within its iteration limit."""
 
 
-def _perp(v):
+def _perp(v: tuple[float, float]) -> tuple[float, float]:
     """v rotated by +90 degrees (d/dphi of A(phi) s is perp(A s))."""
     return (-v[1], v[0])
 
 
-def _dot(u, v):
+def _dot(u: tuple[float, float], v: tuple[float, float]) -> float:
     return u[0] * v[0] + u[1] * v[1]
 
 
@@ -58,34 +60,34 @@ class _Frames:
 
     __slots__ = ("q", "qdot")
 
-    def __init__(self, q, qdot=None):
+    def __init__(self, q: list[float], qdot: Any = None) -> None:
         self.q, self.qdot = q, qdot
 
-    def origin(self, body):
+    def origin(self, body: int | None) -> tuple[float, float]:
         if body is GROUND:
             return (0.0, 0.0)
         return (self.q[3 * body], self.q[3 * body + 1])
 
-    def angle(self, body):
+    def angle(self, body: int | None) -> float:
         return 0.0 if body is GROUND else self.q[3 * body + 2]
 
-    def rotate(self, body, vector):
+    def rotate(self, body: int | None, vector: Any) -> tuple[float, float]:
         """A(phi) vector: a body-frame vector in global axes."""
         if body is GROUND:
             return (float(vector[0]), float(vector[1]))
         c, s = math.cos(self.angle(body)), math.sin(self.angle(body))
         return (c * vector[0] - s * vector[1], s * vector[0] + c * vector[1])
 
-    def point(self, body, local):
+    def point(self, body: int | None, local: tuple[float, ...]) -> tuple[float, float]:
         r, a = self.origin(body), self.rotate(body, local)
         return (r[0] + a[0], r[1] + a[1])
 
-    def velocity(self, body):
+    def velocity(self, body: int | None) -> tuple[float, float]:
         if body is GROUND:
             return (0.0, 0.0)
         return (self.qdot[3 * body], self.qdot[3 * body + 1])
 
-    def angular_velocity(self, body):
+    def angular_velocity(self, body: int | None) -> float:
         return 0.0 if body is GROUND else self.qdot[3 * body + 2]
 
 
@@ -99,15 +101,15 @@ class Revolute:
     equations = 2
     kinds = ("length", "length")
 
-    def __init__(self, name, body_i, point_i, body_j, point_j):
+    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float]) -> None:
         self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
         self.body_j, self.point_j = body_j, tuple(point_j)
 
-    def residual(self, f, drive):
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         p, r = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
         return [p[0] - r[0], p[1] - r[1]]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f: _Frames, rows: list[list[float]]) -> None:
         for body, local, sign in ((self.body_i, self.point_i, 1.0),
                                   (self.body_j, self.point_j, -1.0)):
             if body is GROUND:
@@ -118,10 +120,10 @@ class Revolute:
             rows[0][3 * body + 2] += sign * d[0]
             rows[1][3 * body + 2] += sign * d[1]
 
-    def velocity_rhs(self, drive):
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0, 0.0]
 
-    def gamma(self, f, drive):
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         a_i, a_j = f.rotate(self.body_i, self.point_i), f.rotate(self.body_j, self.point_j)
         w_i, w_j = f.angular_velocity(self.body_i), f.angular_velocity(self.body_j)
         return [a_i[0] * w_i * w_i - a_j[0] * w_j * w_j, a_i[1] * w_i * w_i - a_j[1] * w_j * w_j]
@@ -137,7 +139,7 @@ class PointOnLine:
     equations = 1
     kinds = ("length",)
 
-    def __init__(self, name, body_i, point_i, body_j, point_j, direction_j):
+    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[float, float]) -> None:
         norm = math.hypot(*direction_j)
         if not norm > 0.0:
             raise ValueError(f"{name}: direction must be non-zero")
@@ -145,16 +147,16 @@ class PointOnLine:
         self.body_j, self.point_j = body_j, tuple(point_j)
         self.normal_j = _perp((direction_j[0] / norm, direction_j[1] / norm))
 
-    def _parts(self, f):
+    def _parts(self, f: _Frames) -> tuple[tuple[float, float], tuple[float, float]]:
         n = f.rotate(self.body_j, self.normal_j)
         p_i, p_j = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
         return n, (p_i[0] - p_j[0], p_i[1] - p_j[1])
 
-    def residual(self, f, drive):
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         n, d = self._parts(f)
         return [_dot(n, d)]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f: _Frames, rows: list[list[float]]) -> None:
         n, d = self._parts(f)
         row = rows[0]
         if self.body_i is not GROUND:
@@ -168,10 +170,10 @@ class PointOnLine:
             row[j + 1] -= n[1]
             row[j + 2] += _dot(_perp(n), d) - _dot(n, _perp(f.rotate(self.body_j, self.point_j)))
 
-    def velocity_rhs(self, drive):
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0]
 
-    def gamma(self, f, drive):
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         n, d = self._parts(f)
         a_i, a_j = f.rotate(self.body_i, self.point_i), f.rotate(self.body_j, self.point_j)
         w_i, w_j = f.angular_velocity(self.body_i), f.angular_velocity(self.body_j)
@@ -189,26 +191,26 @@ class RelativeAngle:
     equations = 1
     kinds = ("angle",)
 
-    def __init__(self, name, body_i, body_j, angle=0.0):
+    def __init__(self, name: str, body_i: int, body_j: int | None, angle: float=0.0) -> None:
         self.name, self.body_i, self.body_j, self.angle = name, body_i, body_j, float(angle)
 
-    def residual(self, f, drive):
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [f.angle(self.body_i) - f.angle(self.body_j) - self.angle]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f: _Frames, rows: list[list[float]]) -> None:
         if self.body_i is not GROUND:
             rows[0][3 * self.body_i + 2] += 1.0
         if self.body_j is not GROUND:
             rows[0][3 * self.body_j + 2] -= 1.0
 
-    def velocity_rhs(self, drive):
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0]
 
-    def gamma(self, f, drive):
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [0.0]
 
 
-def translational(name, body_i, point_i, body_j, point_j, direction_j, angle=0.0):
+def translational(name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[float, float], angle: float=0.0) -> tuple[PointOnLine, RelativeAngle]:
     """A prismatic joint: point-on-line plus a locked relative angle (2 equations)."""
     return (PointOnLine(name + " (line)", body_i, point_i, body_j, point_j, direction_j),
             RelativeAngle(name + " (angle)", body_i, body_j, angle))
@@ -223,24 +225,24 @@ class Driver:
 
     equations = 1
 
-    def __init__(self, name, terms, index=0, offset=0.0, kind="angle"):
+    def __init__(self, name: str, terms: tuple[tuple[int, int, float], ...], index: int=0, offset: float=0.0, kind: str="angle") -> None:
         self.name, self.terms, self.index = name, tuple(terms), index
         self.offset, self.kinds = float(offset), (kind,)
 
-    def residual(self, f, drive):
+    def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         total = self.offset
         for body, coordinate, weight in self.terms:
             total += weight * f.q[3 * body + coordinate]
         return [total - drive[self.index][0]]
 
-    def jacobian(self, f, rows):
+    def jacobian(self, f: _Frames, rows: list[list[float]]) -> None:
         for body, coordinate, weight in self.terms:
             rows[0][3 * body + coordinate] += weight
 
-    def velocity_rhs(self, drive):
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [drive[self.index][1]]
 
-    def gamma(self, f, drive):
+    def gamma(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         return [drive[self.index][2]]
 
 
@@ -264,8 +266,8 @@ class Mechanism:
     range where the mechanism does not assemble), or None (see crossing_error).
     """
 
-    def __init__(self, name, bodies, joints, length_scale, diagnose=None, singularity=None,
-                 crossing=None):
+    def __init__(self, name: str, bodies: tuple, joints: list[Any], length_scale: float, diagnose: Callable | None=None, singularity: Callable | None=None,
+                 crossing: Callable | None=None) -> None:
         self.name, self.bodies = name, tuple(bodies)
         self.joints = tuple(j for joint in joints
                             for j in (joint if isinstance(joint, tuple) else (joint,)))
@@ -285,17 +287,17 @@ class Mechanism:
         self.crossing = crossing or (lambda start, end: None)
         self.has_crossings = crossing is not None  # whether a drive change can be refused
 
-    def singular_position(self, q):
+    def singular_position(self, q: list[float]) -> str:
         """'<nearest singular condition> at <configuration>' for error messages."""
         return f"{self.singularity(q)} at {self.diagnose(q)}"
 
     # Scaled quantities: rows of lengths divided by L, angle columns multiplied by L.
-    def residual(self, q, drive):
+    def residual(self, q: list[float], drive: Sequence[tuple[float, ...]]) -> list[float]:
         f = _Frames(q)
         values = [v for j in self.joints for v in j.residual(f, drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
 
-    def jacobian(self, q):
+    def jacobian(self, q: list[float]) -> list[list[float]]:
         f = _Frames(q)
         matrix = []
         for joint in self.joints:
@@ -305,25 +307,25 @@ class Mechanism:
         return [[v * r * c for v, c in zip(row, self.column_scale)]
                 for row, r in zip(matrix, self.row_scale)]
 
-    def velocity_rhs(self, drive):
+    def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         values = [v for j in self.joints for v in j.velocity_rhs(drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
 
-    def gamma(self, q, qdot, drive):
+    def gamma(self, q: list[float], qdot: list[float], drive: Sequence[tuple[float, ...]]) -> list[float]:
         f = _Frames(q, qdot)
         values = [v for j in self.joints for v in j.gamma(f, drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
 
-    def unscale(self, scaled):
+    def unscale(self, scaled: list[float]) -> list[float]:
         """Solution of the scaled system -> coordinates (angle columns were multiplied by L)."""
         return [v * c for v, c in zip(scaled, self.column_scale)]
 
 
-def _max_abs(values):
+def _max_abs(values: list[float]) -> float:
     return max(abs(v) for v in values)
 
 
-def _factor(mechanism, q):
+def _factor(mechanism: Mechanism, q: list[float]) -> tuple[list[list[float]], Any]:
     matrix = mechanism.jacobian(q)
     try:
         return matrix, lu_factor(matrix)
@@ -331,8 +333,8 @@ def _factor(mechanism, q):
         return matrix, None
 
 
-def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
-                   max_iterations=DEFAULT_MAX_ITERATIONS):
+def solve_position(mechanism: Mechanism, guess: list[float], drive: Sequence[tuple[float, ...]], tolerance: float=DEFAULT_TOLERANCE,
+                   max_iterations: int=DEFAULT_MAX_ITERATIONS) -> tuple[list[float], int, float]:
     """Newton-Raphson on Phi(q) = 0 from ``guess``. Returns (q, iterations, residual).
 
     Stops when the scaled residual is below ``tolerance`` after at least one correction and
@@ -388,7 +390,7 @@ def solve_position(mechanism, guess, drive, tolerance=DEFAULT_TOLERANCE,
         f"near {mechanism.diagnose(q)}")
 
 
-def analyse(mechanism, q, drive, singularity_threshold=DEFAULT_SINGULARITY_THRESHOLD):
+def analyse(mechanism: Mechanism, q: list[float], drive: Sequence[tuple[float, ...]], singularity_threshold: float=DEFAULT_SINGULARITY_THRESHOLD) -> tuple[list[float], list[float], float, int]:
     """Velocities and accelerations at a solved position q; returns (qdot, qddot, condition,
     determinant sign). Raises SingularConfiguration when the scaled Jacobian's condition
     number exceeds ``singularity_threshold``."""
@@ -405,7 +407,7 @@ def analyse(mechanism, q, drive, singularity_threshold=DEFAULT_SINGULARITY_THRES
     return qdot, qddot, condition, determinant_sign(factored)
 
 
-def crossing_error(mechanism, start, end):
+def crossing_error(mechanism: Mechanism, start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]]) -> "SingularConfiguration | None":
     """SingularConfiguration for a drive change from ``start`` to ``end`` (lists of (value,
     rate, acceleration)) that passes a singular position the mechanism cannot be followed
     through (``mechanism.crossing``), or None. One message for the solver and for a
@@ -429,37 +431,42 @@ class BranchFollower:
     it reports an error. The last solution and drive are the state (``snapshot``/``restore``).
     """
 
-    def __init__(self, mechanism, tolerance=DEFAULT_TOLERANCE,
-                 max_iterations=DEFAULT_MAX_ITERATIONS,
-                 singularity_threshold=DEFAULT_SINGULARITY_THRESHOLD):
+    def __init__(self, mechanism: Mechanism, tolerance: float=DEFAULT_TOLERANCE,
+                 max_iterations: int=DEFAULT_MAX_ITERATIONS,
+                 singularity_threshold: float=DEFAULT_SINGULARITY_THRESHOLD) -> None:
         self.mechanism = mechanism
         self.tolerance, self.max_iterations = tolerance, max_iterations
         self.singularity_threshold = singularity_threshold
-        self.solution = None
-        self.drive = None
+        self.solution: Solution | None = None
+        self.drive: list[tuple[float, ...]] | None = None
         self.sign = 0
         # The compiled kernels of the fast path (planar_kernel), None for joint types it
         # does not know; the LU row order in use and the condition estimate's start column.
+        self.kernel: planar_kernel.MechanismKernel | None
         try:
             self.kernel = planar_kernel.MechanismKernel(mechanism)
         except planar_kernel.Unsupported:
             self.kernel = None
         self.kernel_module = planar_kernel
-        self.order = None
-        self.lu_kernel = None  # planar_kernel.LuKernel of self.order (a cache)
-        self.column = None
-        self.history = None  # (qdot, qddot, dt) of the solution before the last, and dt to it
-        self.factored = None  # (LU kernel, factors) of Phi_q at factored_at, if known
-        self.factored_at = None  # where the fast path last factored Phi_q (None: solution.q)
+        self.order: tuple[int, ...] | None = None
+        # planar_kernel.LuKernel of self.order (a cache)
+        self.lu_kernel: planar_kernel.LuKernel | None = None
+        self.column: int | None = None
+        # (qdot, qddot, dt) of the solution before the last, and dt to it
+        self.history: tuple[Any, ...] | None = None
+        # (LU kernel, factors) of Phi_q at factored_at, if known
+        self.factored: tuple[planar_kernel.LuKernel, planar_kernel.Factors] | None = None
+        # where the fast path last factored Phi_q (None: solution.q)
+        self.factored_at: list[float] | None = None
 
-    def snapshot(self):
+    def snapshot(self) -> dict[str, Any]:
         """The branch state. Solutions and drives are never changed in place, so the
         snapshot shares them (JSON writes the tuples as arrays)."""
         return {"solution": self.solution, "drive": self.drive, "sign": self.sign,
                 "order": self.order, "column": self.column, "history": self.history,
                 "factored_at": self.factored_at}
 
-    def restore(self, state):
+    def restore(self, state: Any) -> None:
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
         self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
         self.sign = state["sign"]
@@ -469,21 +476,21 @@ class BranchFollower:
         self.factored_at = state.get("factored_at")
         self.factored = None  # worked out again from factored_at and order when needed
 
-    def _solve(self, guess, drive):
+    def _solve(self, guess: list[float], drive: Sequence[tuple[float, ...]]) -> tuple[Solution, int]:
         q, iterations, residual = solve_position(self.mechanism, guess, drive, self.tolerance,
                                                  self.max_iterations)
         qdot, qddot, condition, sign = analyse(self.mechanism, q, drive,
                                                self.singularity_threshold)
         return Solution(q, qdot, qddot, iterations, residual, condition), sign
 
-    def assemble(self, guess, drive):
+    def assemble(self, guess: list[float], drive: Sequence[tuple[float, ...]]) -> "Solution":
         drive = [tuple(map(float, d)) for d in drive]
         self.solution, self.sign = self._solve(guess, drive)
         self.drive = drive
         self.history = self.factored = self.factored_at = None
         return self.solution
 
-    def follow(self, drive, dt):
+    def follow(self, drive: Sequence[tuple[float, ...]], dt: float) -> "Solution":
         """Solve at the new drive values; ``dt`` (s) is the time since the last solution.
 
         A drive change that reaches or passes a point where two assembly branches cross (a
@@ -493,13 +500,15 @@ class BranchFollower:
         where the mechanism does not assemble (crossing_error).
         """
         drive = [tuple(map(float, d)) for d in drive]
+        last = self.solution
+        assert last is not None and self.drive is not None  # follow() comes after assemble()
         if self.mechanism.has_crossings:
             refused = crossing_error(self.mechanism, self.drive, drive)
             if refused:
                 raise refused
-        last = self.solution
-        if self.kernel is not None:
-            solution = self._fast_solve(self._fast_guess(dt), drive)
+        kernel = self.kernel
+        if kernel is not None:
+            solution = self._fast_solve(kernel, last, self._fast_guess(kernel, last, dt), drive)
             if solution is not None:
                 self.history = (last.qdot, last.qddot, dt) if dt > 0.0 else None
                 self.solution, self.drive = solution, drive
@@ -522,11 +531,11 @@ class BranchFollower:
         self.solution, self.drive = solution, drive
         return solution
 
-    def _lu(self, values):
+    def _lu(self, kernel: "planar_kernel.MechanismKernel", values: Sequence[float]
+            ) -> "tuple[planar_kernel.LuKernel, planar_kernel.Factors] | None":
         """The LU kernel and factors of the scaled Jacobian ``values`` (non-zeros): in the
         row order of the last step while its pivots stay within a factor 2 of their
         columns' largest, else in partial pivoting's order here. None if singular."""
-        kernel = self.kernel
         if self.order is not None:
             lu = self.lu_kernel
             if lu is None or lu.order is not self.order:
@@ -545,12 +554,13 @@ class BranchFollower:
         self.order, self.lu_kernel = lu.order, lu
         return lu, factors
 
-    def _fast_guess(self, dt):
+    def _fast_guess(self, kernel: "planar_kernel.MechanismKernel", last: Solution, dt: float
+                    ) -> list[float]:
         """Predictor q + q' dt + q'' dt^2/2 + j dt^3/6 + s dt^4/24, the jerk j and snap s
         from the rates at the last two solutions (Taylor's expansion of q' and q'' back over
         the last step h: a(-h) - a = -j h + s h^2/2, v(-h) - v + a h = j h^2/2 - s h^3/6).
-        Without history: the generic path's q + q' dt + q'' dt^2/2."""
-        last = self.solution
+        Without history: the generic path's q + q' dt + q'' dt^2/2. ``last``: the last
+        solution."""
         if self.history is None or not dt > 0.0:
             return [q + v * dt + 0.5 * a * dt * dt
                     for q, v, a in zip(last.q, last.qdot, last.qddot)]
@@ -561,10 +571,11 @@ class BranchFollower:
         ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)          # coefficient of da
         kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h ** 3    # coefficient of db
         cv, ca = dt - kb, 0.5 * dt * dt - ka + kb * h
-        return self.kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before,
+        return kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before,
                                    cv, ca, ka, kb)
 
-    def _fast_solve(self, guess, drive):
+    def _fast_solve(self, kernel: "planar_kernel.MechanismKernel", previous: Solution,
+                    guess: list[float], drive: Sequence[tuple[float, ...]]) -> Solution | None:
         """solve_position and analyse on the compiled kernels, for the regular case.
 
         The first corrections reuse the factors of Phi_q at the last solution (the chord
@@ -582,22 +593,23 @@ class BranchFollower:
         order, whenever anything is not regular (no convergence within 4 corrections or
         max_iterations, a singular or ill-conditioned Jacobian, a change of the det sign):
         _solve then takes the step from the generic guess, with the exact condition number
-        and its messages.
+        and its messages. ``previous``: the last solution.
         """
-        kernel, tolerance = self.kernel, self.tolerance
+        tolerance = self.tolerance
         newton_small = 1e-2 * math.sqrt(tolerance)
         factored = self.factored
         if factored is None:
-            at = self.solution.q if self.factored_at is None else self.factored_at
-            factored = self._lu(kernel.jacobian(at))
+            at = previous.q if self.factored_at is None else self.factored_at
+            factored = self._lu(kernel, kernel.jacobian(at))
             if factored is None:
                 return None
         q = guess
-        residual, values = kernel.residual(q, drive), None
+        residual = kernel.residual(q, drive)
+        values: tuple[float, ...] = ()  # the Jacobian's non-zeros, set by the first correction
         chord, last = True, math.inf
         for iteration in range(1, min(self.max_iterations, 4) + 1):
             if not chord:
-                factored = self._lu(values)
+                factored = self._lu(kernel, values)
                 if factored is None:
                     return None
             lu, factors = factored
@@ -615,7 +627,7 @@ class BranchFollower:
             return None
         rates = kernel.rates(drive)
         for _ in range(2):
-            factored = self._lu(values)
+            factored = self._lu(kernel, values)
             if factored is None:
                 return None
             lu, factors = factored
@@ -643,7 +655,8 @@ class BranchFollower:
         qddot = lu.solve_scaled(factors, kernel.gamma(q, qdot, drive))
         return Solution(q, qdot, qddot, iteration, size, condition)
 
-    def _end_is_singular(self, drive):
+    def _end_is_singular(self, drive: Sequence[tuple[float, ...]]) -> bool:
+        assert self.solution is not None  # after assemble()
         try:
             _, sign = self._solve(self.solution.q, drive)
             return False
@@ -652,10 +665,12 @@ class BranchFollower:
         except NoConvergence:
             return False
 
-    def _continue(self, drive):
+    def _continue(self, drive: Sequence[tuple[float, ...]]) -> "Solution":
         """Split the drive change into 2, 4, ... pieces; each piece predicted along the
         branch tangent dq/ds (J dq/ds = d(drive)/ds on the driver rows)."""
-        start, last_error = self.drive, None
+        start = self.drive
+        assert start is not None and self.solution is not None  # after assemble()
+        last_error: SingularConfiguration | NoConvergence | None = None
         furthest = (0.0, self.solution)  # furthest fraction of the change reached, and where
         for halvings in range(1, MAX_CONTINUATION_HALVINGS + 1):
             pieces = 2 ** halvings
@@ -696,9 +711,10 @@ class BranchFollower:
                 f"{self.mechanism.singular_position(solution.q)} (condition number "
                 f"{solution.condition:.3g}, {reached:.4g} of the way from the last step), and "
                 f"Newton-Raphson finds no position beyond it") from last_error
+        assert last_error is not None  # every halving raised one
         raise last_error
 
-    def _tangent_predictor(self, q, start, end, fraction):
+    def _tangent_predictor(self, q: list[float], start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]], fraction: float) -> list[float]:
         mechanism = self.mechanism
         _, factored = _factor(mechanism, q)
         if factored is None:
@@ -711,4 +727,4 @@ class BranchFollower:
 
 # At the end: planar_kernel imports this module's joints. Not lazily, in BranchFollower: an
 # FMU's runtime must be imported whole while its extracted folder exists.
-from . import planar_kernel
+from . import planar_kernel  # noqa: E402

@@ -27,19 +27,25 @@ solve with A and one with A^T.
 """
 
 import math
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from .planar import GROUND, Driver, PointOnLine, RelativeAngle, Revolute
+
+
+Drive = Sequence[Sequence[float]]  # per driver: (value, rate, second derivative)
+Factors = tuple[Any, ...]  # an LU kernel's factors, the sign of det(A) last
 
 
 class Unsupported(Exception):
     """The mechanism has a joint type this compiler does not know (use planar.py's path)."""
 
 
-def _num(value):
+def _num(value: float) -> str:
     return repr(float(value))
 
 
-def _sum(terms):
+def _sum(terms: Sequence[tuple[float, str]]) -> str:
     """Source of a sum of (coefficient, expression) terms; zero coefficients dropped."""
     parts = []
     for coefficient, expression in terms:
@@ -60,9 +66,9 @@ def _sum(terms):
 class _Body:
     """Source names of one body's coordinates, trigonometry and rates (ground: constants)."""
 
-    def __init__(self, body):
+    def __init__(self, body: Any) -> None:
         self.ground = body is GROUND
-        self.index = None if self.ground else body
+        self.index: int | None = None if self.ground else body
         b = body
         self.x, self.y, self.phi = (f"x{b}", f"y{b}", f"p{b}") if not self.ground else (
             "0.0", "0.0", "0.0")
@@ -70,31 +76,35 @@ class _Body:
         self.vx, self.vy, self.w = (f"vx{b}", f"vy{b}", f"w{b}") if not self.ground else (
             "0.0", "0.0", "0.0")
 
-    def rotate(self, local):
+    def rotate(self, local: Sequence[float]) -> tuple[str, str]:
         """Source of A(phi) local, (x, y)."""
         lx, ly = float(local[0]), float(local[1])
         if self.ground:
             return _num(lx), _num(ly)
         return (_sum([(lx, self.c), (-ly, self.s)]), _sum([(lx, self.s), (ly, self.c)]))
 
-    def point(self, local):
+    def point(self, local: Sequence[float]) -> tuple[str, str]:
         ax, ay = self.rotate(local)
         if self.ground:
             return ax, ay
         return f"({self.x} + {ax})", f"({self.y} + {ay})"
 
-    def column(self, coordinate):
+    def column(self, coordinate: int) -> int:
+        assert self.index is not None  # called for moving bodies only (code generation)
         return 3 * self.index + coordinate
 
 
 class _Emitter:
     """Source lines and Jacobian entries of every joint of a mechanism, in row order."""
 
-    def __init__(self, mechanism):
-        self.residual, self.jacobian, self.gamma = [], [], []   # statements
-        self.residual_rows, self.gamma_rows = [], []           # one expression per row
-        self.entries = {}   # (row, column) -> [expression terms]
-        self.rate_rows = {}  # row -> drive index (velocity right-hand side)
+    def __init__(self, mechanism: Any) -> None:
+        self.residual: list[str] = []   # statements
+        self.jacobian: list[str] = []
+        self.gamma: list[str] = []
+        self.residual_rows: list[str] = []  # one expression per row
+        self.gamma_rows: list[str] = []
+        self.entries: dict[tuple[int, int], list[str]] = {}  # (row, column) -> [expression terms]
+        self.rate_rows: dict[int, int] = {}  # row -> drive index (velocity right-hand side)
         row = 0
         for k, joint in enumerate(mechanism.joints):
             emit = _JOINTS.get(type(joint))
@@ -103,16 +113,17 @@ class _Emitter:
             emit(self, k, row, joint)
             row += joint.equations
 
-    def entry(self, row, column, expression):
+    def entry(self, row: int, column: int, expression: str) -> None:
         self.entries.setdefault((row, column), []).append(expression)
 
 
-def _revolute(e, k, row, joint):
+def _revolute(e: _Emitter, k: int, row: int, joint: Any) -> None:
     bi, bj = _Body(joint.body_i), _Body(joint.body_j)
     pix, piy = bi.point(joint.point_i)
     pjx, pjy = bj.point(joint.point_j)
     e.residual_rows += [f"{pix} - {pjx}", f"{piy} - {pjy}"]
-    gx, gy = [], []
+    gx: list[str] = []
+    gy: list[str] = []
     for body, local, sign, tag in ((bi, joint.point_i, 1.0, "i"), (bj, joint.point_j, -1.0, "j")):
         if body.ground:
             continue
@@ -131,7 +142,7 @@ def _revolute(e, k, row, joint):
     e.gamma_rows += [" + ".join(gx) or "0.0", " + ".join(gy) or "0.0"]
 
 
-def _point_on_line_on_ground(e, k, row, joint):
+def _point_on_line_on_ground(e: _Emitter, k: int, row: int, joint: Any) -> None:
     """A point of a body on a fixed line: the normal is a constant, folded into the code
     (a zero component drops its Jacobian entry)."""
     bi = _Body(joint.body_i)
@@ -150,7 +161,7 @@ def _point_on_line_on_ground(e, k, row, joint):
     e.gamma_rows.append(f"{_sum([(nx, f'a{k}ix'), (ny, f'a{k}iy')])} * {bi.w} * {bi.w}")
 
 
-def _point_on_line(e, k, row, joint):
+def _point_on_line(e: _Emitter, k: int, row: int, joint: Any) -> None:
     if joint.body_j is GROUND and joint.body_i is not GROUND:
         _point_on_line_on_ground(e, k, row, joint)
         return
@@ -189,7 +200,7 @@ def _point_on_line(e, k, row, joint):
                         f" + n{k}x * ce{k}x + n{k}y * ce{k}y")
 
 
-def _relative_angle(e, k, row, joint):
+def _relative_angle(e: _Emitter, k: int, row: int, joint: Any) -> None:
     bi, bj = _Body(joint.body_i), _Body(joint.body_j)
     e.residual_rows.append(f"{bi.phi} - {bj.phi} - {_num(joint.angle)}")
     if not bi.ground:
@@ -199,7 +210,7 @@ def _relative_angle(e, k, row, joint):
     e.gamma_rows.append("0.0")
 
 
-def _driver(e, k, row, joint):
+def _driver(e: _Emitter, k: int, row: int, joint: Any) -> None:
     terms = [(weight, f"q[{3 * body + coordinate}]") for body, coordinate, weight in joint.terms]
     e.residual_rows.append(f"{_num(joint.offset)} + {_sum(terms)} - d[{joint.index}][0]")
     for body, coordinate, weight in joint.terms:
@@ -208,11 +219,11 @@ def _driver(e, k, row, joint):
     e.gamma_rows.append(f"d[{joint.index}][2]")
 
 
-_JOINTS = {Revolute: _revolute, PointOnLine: _point_on_line, RelativeAngle: _relative_angle,
+_JOINTS: dict[type, Callable[[_Emitter, int, int, Any], None]] = {Revolute: _revolute, PointOnLine: _point_on_line, RelativeAngle: _relative_angle,
            Driver: _driver}
 
 
-def _unpack(size, rates=False):
+def _unpack(size: int, rates: bool = False) -> list[str]:
     names = [f"{v}{b}" for b in range(size // 3) for v in ("x", "y", "p")]
     lines = [f"    {', '.join(names)}, = q"]
     if rates:
@@ -227,13 +238,13 @@ class MechanismKernel:
     """The compiled residual, Jacobian, gamma and velocity right-hand side of a mechanism,
     and its LU kernels by row order (``factor``)."""
 
-    def __init__(self, mechanism):
+    def __init__(self, mechanism: Any) -> None:
         e = _Emitter(mechanism)
         n = self.size = mechanism.size
         rs, cs = mechanism.row_scale, mechanism.column_scale
         self.column_scale = tuple(cs)
         self.pattern = sorted(e.entries)
-        namespace = {"cos": math.cos, "sin": math.sin}
+        namespace: dict[str, Any] = {"cos": math.cos, "sin": math.sin}
         lines = ["def residual(q, d):", *_unpack(n)]
         lines += [f"    {s}" for s in e.residual]
         lines.append("    return [" + ", ".join(
@@ -255,7 +266,7 @@ class MechanismKernel:
         lines += [f"    {s}" for s in e.gamma]
         lines.append("    return [" + ", ".join(
             f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.gamma_rows)) + "]")
-        columns = {}
+        columns: dict[int, list[str]] = {}
         for m, (_, j) in enumerate(self.pattern):
             columns.setdefault(j, []).append(f"abs(v[{m}])")
         lines += ["def one_norm(v):", "    return max(" + ", ".join(
@@ -265,21 +276,29 @@ class MechanismKernel:
             for i in range(n)) + "]"]
         source = "\n".join(lines) + "\n"  # generated here from the joints, nothing read in
         exec(compile(source, f"<{mechanism.name} kernel>", "exec"), namespace)  # noqa: S102
-        self.residual, self.jacobian = namespace["residual"], namespace["jacobian"]
-        self.gamma, self.rates = namespace["gamma"], namespace["rates"]
-        self.residual_jacobian = namespace["residual_jacobian"]
-        self.predict = namespace["predict"]  # the fast path's predictor, unrolled
-        self.one_norm = namespace["one_norm"]  # 1-norm of the scaled Jacobian's non-zeros
-        self.orders = {}
+        # The generated functions (their signatures are the ``def`` lines above).
+        self.residual: Callable[[Sequence[float], Drive], list[float]] = namespace["residual"]
+        self.jacobian: Callable[[Sequence[float]], tuple[float, ...]] = namespace["jacobian"]
+        self.gamma: Callable[[Sequence[float], Sequence[float], Drive], list[float]] = (
+            namespace["gamma"])
+        self.rates: Callable[[Drive], list[float]] = namespace["rates"]
+        self.residual_jacobian: Callable[
+            [Sequence[float], Drive], tuple[list[float], tuple[float, ...]]] = (
+            namespace["residual_jacobian"])
+        # the fast path's predictor, unrolled
+        self.predict: Callable[..., list[float]] = namespace["predict"]
+        # 1-norm of the scaled Jacobian's non-zeros
+        self.one_norm: Callable[[Sequence[float]], float] = namespace["one_norm"]
+        self.orders: dict[tuple[int, ...], LuKernel] = {}
 
-    def dense(self, values):
+    def dense(self, values: Sequence[float]) -> list[list[float]]:
         """The scaled Jacobian as a dense list of rows, from jacobian()'s non-zeros."""
         matrix = [[0.0] * self.size for _ in range(self.size)]
         for (i, j), v in zip(self.pattern, values):
             matrix[i][j] = v
         return matrix
 
-    def lu(self, order):
+    def lu(self, order: tuple[int, ...]) -> "LuKernel":
         """The LuKernel for row order ``order`` (compiled once, then cached)."""
         kernel = self.orders.get(order)
         if kernel is None:
@@ -293,7 +312,8 @@ class LuKernel:
     another candidate of its column); ``solve(F, b)``, ``solve_t(F, c)`` (A^T x = c);
     ``sign(F)``: sign of det(A)."""
 
-    def __init__(self, pattern, n, order, scale):
+    def __init__(self, pattern: Sequence[tuple[int, int]], n: int, order: tuple[int, ...],
+                 scale: Sequence[float]) -> None:
         self.order = order
         position = {row: k for k, row in enumerate(order)}  # original row -> position
         index = {key: m for m, key in enumerate(pattern)}
@@ -301,7 +321,8 @@ class LuKernel:
         lines = ["def factor(v):"]
         for (i, j), m in index.items():
             lines.append(f"    a{position[i]}_{j} = v[{m}]")
-        multipliers, upper = [], []
+        multipliers: list[tuple[int, int]] = []
+        upper: list[tuple[int, int]] = []
         for k in range(n):
             if (k, k) not in nonzero:
                 raise ZeroDivisionError("structurally singular for this row order")
@@ -375,21 +396,32 @@ class LuKernel:
                   *transposed[:-1],
                   f"    return {' + '.join(f'abs(y{j})' for j in range(n))}, "
                   + transposed[-1].strip()[len("return "):]]
-        namespace = {"isfinite": math.isfinite}
+        namespace: dict[str, Any] = {"isfinite": math.isfinite}
         source = "\n".join(lines) + "\n"  # generated here from the pattern, nothing read in
         exec(compile(source, "<planar LU kernel>", "exec"), namespace)  # noqa: S102
-        self.factor, self.solve = namespace["factor"], namespace["solve"]
-        self.solve_t, self.hager_step = namespace["solve_t"], namespace["hager_step"]
-        self.solve_scaled, self.correct = namespace["solve_scaled"], namespace["correct"]
-        self.correct_and_solve = namespace["correct_and_solve"]
+        # The generated functions; F, factor()'s result, is a tuple (the factors, then the
+        # sign of det(A)).
+        self.factor: Callable[[Sequence[float]], Factors | None] = namespace["factor"]
+        self.solve: Callable[[Factors, Sequence[float]], list[float]] = namespace["solve"]
+        self.solve_t: Callable[[Factors, Sequence[float]], list[float]] = namespace["solve_t"]
+        self.hager_step: Callable[[Factors, Sequence[float]], tuple[float, list[float]]] = (
+            namespace["hager_step"])
+        self.solve_scaled: Callable[[Factors, Sequence[float]], list[float]] = (
+            namespace["solve_scaled"])
+        self.correct: Callable[
+            [Factors, Sequence[float], Sequence[float]], tuple[list[float], float]] = (
+            namespace["correct"])
+        self.correct_and_solve: Callable[
+            [Factors, Sequence[float], Sequence[float], Sequence[float]],
+            tuple[list[float], float, list[float]]] = namespace["correct_and_solve"]
 
     @staticmethod
-    def sign(F):
+    def sign(F: Factors) -> int:
         """Sign of det(A) from factor()'s result."""
         return F[-1]
 
 
-def _parity(order):
+def _parity(order: Sequence[int]) -> int:
     """+1 for an even permutation, -1 for an odd one."""
     seen, sign = [False] * len(order), 1
     for start in range(len(order)):
@@ -403,7 +435,8 @@ def _parity(order):
     return sign
 
 
-def inverse_one_norm(lu, F, n, start=None, iterations=5):
+def inverse_one_norm(lu: LuKernel, F: Factors, n: int, start: int | None = None,
+                     iterations: int = 5) -> tuple[float, int]:
     """Estimate of ||A^-1||_1 from the factors (Hager 1984, Higham 1988: LAPACK's xLACON
     without its extra test vector), a lower bound that is exact unless A is contrived. Starts
     from the unit vector e_start (the column that attained the estimate at the previous

@@ -11,6 +11,7 @@ import math
 from collections import namedtuple
 
 from ..errors import MechanismError, RangeError, require_finite, require_positive
+from typing import Any
 
 Sample = namedtuple("Sample", "value rate rate2")
 
@@ -23,7 +24,7 @@ LOAD_SHAPES = ("constant", "ramp", "step", "table")
 TIME_SNAP = 1e-9
 
 
-def _phase(time, start_time, duration):
+def _phase(time: float, start_time: float, duration: float) -> float:
     """Normalised time tau in [0, 1] through a segment, snapped at both ends."""
     tau = (time - start_time) / duration
     if abs(tau) <= TIME_SNAP:
@@ -33,7 +34,7 @@ def _phase(time, start_time, duration):
     return tau
 
 
-def check_stroke(start_extension, end_extension, stroke_time, profile, start_time=0.0):
+def check_stroke(start_extension: float, end_extension: float, stroke_time: float, profile: str | None, start_time: float=0.0) -> None:
     """Validate stroke parameters; stroke_time must lie in (0, 4] s."""
     require_finite("start_extension", start_extension, "m")
     require_finite("end_extension", end_extension, "m")
@@ -46,7 +47,7 @@ def check_stroke(start_extension, end_extension, stroke_time, profile, start_tim
         raise MechanismError(f"profile = {profile!r} is not one of {', '.join(STROKE_PROFILES)}")
 
 
-def stroke(time, start_extension, end_extension, stroke_time, profile, start_time=0.0):
+def stroke(time: float, start_extension: float, end_extension: float, stroke_time: float, profile: str, start_time: float=0.0) -> "Sample":
     """Piston extension (m), speed (m/s) and acceleration (m/s^2) at ``time`` (s).
 
     constant_speed: x moves linearly from start to end over stroke_time, then holds
@@ -72,18 +73,25 @@ def stroke(time, start_extension, end_extension, stroke_time, profile, start_tim
                   travel * 2.0 * math.pi * math.sin(angle) / stroke_time ** 2)
 
 
-def check_load(shape, initial_value, final_value, start_time, duration):
+def check_shape(shape: Any, shapes: Any, finite: Any) -> Any:
+    """Raise MechanismError unless ``shape`` is one of ``shapes`` and each (name, value,
+    unit) of ``finite`` is a finite number (checked in that order)."""
+    if shape not in shapes:
+        raise MechanismError(f"shape = {shape!r} is not one of {', '.join(shapes)}")
+    for name, value, unit in finite:
+        require_finite(name, value, unit)
+
+
+def check_load(shape: str, initial_value: float, final_value: float, start_time: float, duration: float) -> None:
     """Validate load-shape parameters."""
-    if shape not in LOAD_SHAPES:
-        raise MechanismError(f"shape = {shape!r} is not one of {', '.join(LOAD_SHAPES)}")
-    require_finite("initial_value", initial_value, "N")
-    require_finite("final_value", final_value, "N")
-    require_finite("start_time", start_time, "s")
+    check_shape(shape, LOAD_SHAPES, (("initial_value", initial_value, "N"),
+                                     ("final_value", final_value, "N"),
+                                     ("start_time", start_time, "s")))
     if shape == "ramp":
         require_positive("duration", duration, "s")
 
 
-def load(time, shape, initial_value, final_value, start_time, duration, table=None):
+def load(time: float, shape: str, initial_value: float, final_value: float, start_time: float, duration: float, table: tuple[list[float], list[float]] | None=None) -> "Sample":
     """Load value (N), rate (N/s) and second rate (N/s^2) at ``time`` (s).
 
     constant: initial_value. step: initial_value before start_time, final_value from it on.
@@ -103,15 +111,17 @@ def load(time, shape, initial_value, final_value, start_time, duration, table=No
         change = final_value - initial_value
         value = final_value if tau == 1.0 else initial_value + change * tau
         return Sample(value, change / duration, 0.0)
+    assert table is not None  # shape 'table' is read with its table (check_load)
     return interpolate(table, time)
 
 
-def read_table(path):
+def read_table(path: Any) -> tuple[list[float], list[float]]:
     """Read a two-column CSV (time in s, value; a header row is allowed) into sorted lists.
 
     Times must be finite and strictly increasing; at least one row is needed.
     """
-    times, values = [], []
+    times: list[float] = []
+    values: list[float] = []
     header_seen = False
     try:
         with open(path, newline="", encoding="utf-8") as handle:
@@ -140,7 +150,7 @@ def read_table(path):
     return times, values
 
 
-def interpolate(table, time):
+def interpolate(table: tuple[list[float], list[float]], time: float) -> "Sample":
     """Piecewise-linear value and slope of ``table`` at ``time``, held outside its range."""
     times, values = table
     if time <= times[0]:
@@ -152,7 +162,7 @@ def interpolate(table, time):
     return Sample(values[i] + slope * (time - times[i]), slope, 0.0)
 
 
-def check_rotation(initial_angle, initial_speed, final_speed, ramp_time):
+def check_rotation(initial_angle: Any, initial_speed: Any, final_speed: Any, ramp_time: Any) -> Any:
     """Validate a shaft rotation: finite angle and speeds (rad, rad/s), ramp_time >= 0 s."""
     require_finite("initial_angle", initial_angle, "rad")
     require_finite("initial_speed", initial_speed, "rad/s")
@@ -162,7 +172,7 @@ def check_rotation(initial_angle, initial_speed, final_speed, ramp_time):
         raise RangeError("ramp_time", ramp, "[0, inf)", "s")
 
 
-def rotation(time, initial_angle, initial_speed, final_speed, ramp_time, start_time=0.0):
+def rotation(time: float, initial_angle: Any, initial_speed: Any, final_speed: Any, ramp_time: Any, start_time: float=0.0) -> Any:
     """Shaft angle (rad), speed (rad/s) and angular acceleration (rad/s^2) at ``time`` (s).
 
     The speed ramps linearly from initial_speed to final_speed over ramp_time from

@@ -15,28 +15,26 @@ Heights are what the tyre (or, without a tyre, the spring base) rests on, so a b
 the wheel up, i.e. the suspension's downward displacements decrease.
 """
 
+from typing import Any
 import math
 
-from ..errors import MechanismError, require_finite, require_positive
-from .profiles import TIME_SNAP, Sample, interpolate
+from ..errors import require_positive
+from .profiles import TIME_SNAP, Sample, check_shape, interpolate
 
 ROAD_SHAPES = ("step", "bump", "sine", "table")
 
 
-def check_road(shape, height, duration, start_time, amplitude, frequency):
+def check_road(shape: str, height: float, duration: float, start_time: float, amplitude: float, frequency: float) -> Any:
     """Validate road parameters (only the ones the shape uses must be usable)."""
-    if shape not in ROAD_SHAPES:
-        raise MechanismError(f"shape = {shape!r} is not one of {', '.join(ROAD_SHAPES)}")
-    require_finite("start_time", start_time, "s")
-    require_finite("height", height, "m")
-    require_finite("amplitude", amplitude, "m")
+    check_shape(shape, ROAD_SHAPES, (("start_time", start_time, "s"), ("height", height, "m"),
+                                     ("amplitude", amplitude, "m")))
     if shape == "bump":
         require_positive("duration", duration, "s")
     if shape == "sine":
         require_positive("frequency", frequency, "Hz")
 
 
-def bump(time, height, duration, start_time=0.0):
+def bump(time: float, height: float, duration: float, start_time: float=0.0) -> Sample:
     """One-cosine bump: height (m), rate (m/s), second rate (m/s^2); 0 outside it."""
     tau = (time - start_time) / duration
     if abs(tau) <= TIME_SNAP or abs(tau - 1.0) <= TIME_SNAP or tau < 0.0 or tau > 1.0:
@@ -48,7 +46,7 @@ def bump(time, height, duration, start_time=0.0):
                   height * 2.0 * rate_scale * rate_scale * math.cos(angle))
 
 
-def sine(time, amplitude, frequency, start_time=0.0):
+def sine(time: float, amplitude: float, frequency: float, start_time: float=0.0) -> Sample:
     """amplitude sin(2 pi f (t - start_time)) from start_time on, 0 before."""
     if time < start_time - TIME_SNAP:
         return Sample(0.0, 0.0, 0.0)
@@ -58,13 +56,13 @@ def sine(time, amplitude, frequency, start_time=0.0):
                   -amplitude * omega * omega * math.sin(angle))
 
 
-def step(time, height, start_time=0.0):
+def step(time: float, height: float, start_time: float=0.0) -> Sample:
     """0 before start_time, ``height`` from it on (times within TIME_SNAP count as on it)."""
     return Sample(height if time >= start_time - TIME_SNAP else 0.0, 0.0, 0.0)
 
 
-def road(time, shape, height=0.0, duration=1.0, start_time=0.0, amplitude=0.0,
-         frequency=1.0, table=None):
+def road(time: float, shape: str, height: float=0.0, duration: float=1.0, start_time: float=0.0, amplitude: float=0.0,
+         frequency: float=1.0, table: tuple[list[float], list[float]] | None=None) -> Sample:
     """Road height (m), rate (m/s), second rate (m/s^2) at ``time`` for any shape."""
     if shape == "step":
         return step(time, height, start_time)
@@ -72,4 +70,5 @@ def road(time, shape, height=0.0, duration=1.0, start_time=0.0, amplitude=0.0,
         return bump(time, height, duration, start_time)
     if shape == "sine":
         return sine(time, amplitude, frequency, start_time)
+    assert table is not None  # shape 'table' is read with its table (check_road)
     return interpolate(table, time)

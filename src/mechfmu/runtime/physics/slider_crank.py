@@ -21,6 +21,7 @@ perpendicular to the slider axis: there the rates are infinite (SingularConfigur
 All lengths in m, angles in rad, time in s.
 """
 
+from typing import Any
 import math
 import sys
 from collections import namedtuple
@@ -46,7 +47,7 @@ SliderCrankMotion = namedtuple(
     "coupler_angular_acceleration")
 
 
-def check_slider_crank(crank, coupler, offset):
+def check_slider_crank(crank: float, coupler: float, offset: float) -> "SliderCrank":
     """Validate crank, coupler (finite, > 0, m) and offset (finite, m); return SliderCrank.
 
     |offset| must be below crank + coupler, else the coupler can never reach the slider axis
@@ -62,7 +63,7 @@ def check_slider_crank(crank, coupler, offset):
     return SliderCrank(a, b, e)
 
 
-def _as_lengths(values):
+def _as_lengths(values: tuple) -> tuple[float, float, float]:
     if len(values) == 1:
         values = tuple(values[0])
     if len(values) != 3:
@@ -71,7 +72,7 @@ def _as_lengths(values):
     return values
 
 
-def crank_angle_range(*slider_crank):
+def crank_angle_range(*slider_crank: Any) -> tuple[float, float] | None:
     """Interval (low, high) of sin(crank_angle) in which the slider-crank assembles, or None.
 
     Call as crank_angle_range(crank, coupler, offset) or crank_angle_range(slider_crank).
@@ -86,12 +87,12 @@ def crank_angle_range(*slider_crank):
     return max(low, -1.0), min(high, 1.0)
 
 
-def _wrap(angle):
+def _wrap(angle: float) -> float:
     """Angle in (-pi, pi]: atan2 returns [-pi, pi]."""
     return math.pi if angle <= -math.pi else angle
 
 
-def _solve(geometry, crank_angle, circuit):
+def _solve(geometry: "SliderCrank", crank_angle: float, circuit: int) -> tuple[float, float, float, float, bool]:
     """(theta3, b sin(theta3), b cos(theta3), s, singular) for validated geometry."""
     a, b, e = geometry
     t2 = crank_angle
@@ -100,7 +101,7 @@ def _solve(geometry, crank_angle, circuit):
     tolerance = SINGULAR_ULPS * sys.float_info.epsilon * (a + b + abs(e))
     margin = b - abs(rise)
     if margin < -tolerance:
-        low, high = crank_angle_range(a, b, e)
+        low, high = crank_angle_range(a, b, e) or (math.nan, math.nan)
         raise RangeError(
             "crank_angle", t2,
             f"sin(crank_angle) in [{low!r}, {high!r}], i.e. crank_angle (mod 2 pi) in "
@@ -117,14 +118,14 @@ def _solve(geometry, crank_angle, circuit):
     return coupler_angle, rise, run, a * cos2 + run, singular
 
 
-def _check_circuit(circuit):
+def _check_circuit(circuit: float | None) -> int:
     if isinstance(circuit, bool) or circuit not in CIRCUITS:
         raise RangeError("circuit", circuit, "{0, 1}", "",
                          "0 = slider on the +x side of the crank pin, 1 = mirror branch")
     return int(circuit)
 
 
-def position(crank, coupler, offset, crank_angle, circuit):
+def position(crank: float, coupler: float, offset: float, crank_angle: float, circuit: int) -> "SliderCrankPosition":
     """Coupler angle (rad, in (-pi, pi]) and slider position (m) at a crank angle (rad).
 
     Returns SliderCrankPosition(coupler_angle, slider_position). Raises RangeError where the
@@ -137,7 +138,7 @@ def position(crank, coupler, offset, crank_angle, circuit):
     return SliderCrankPosition(t3, s)
 
 
-def motion(crank, coupler, offset, circuit, crank_angle, crank_speed, crank_acceleration):
+def motion(crank: float, coupler: float, offset: float, circuit: float | None, crank_angle: float, crank_speed: float, crank_acceleration: float) -> "SliderCrankMotion":
     """Slider and coupler motion for a prescribed crank motion.
 
     Differentiating a sin(t2) + b sin(t3) = offset and s = a cos(t2) + b cos(t3):

@@ -43,7 +43,7 @@ Equilibrium = namedtuple(
     "Equilibrium", "deflection spring_force secant_stiffness tangent_stiffness stable branch")
 
 
-def make_spring(spring_free_length, spring_stiffness, spring_base_offset):
+def make_spring(spring_free_length: float, spring_stiffness: float, spring_base_offset: float) -> "Spring":
     """Validated Spring(L [m], k [N/m], d [m]); requires L > 0, k > 0, 0 < d < L."""
     L = require_positive("spring_free_length", spring_free_length, "m")
     k = require_positive("spring_stiffness", spring_stiffness, "N/m")
@@ -54,18 +54,18 @@ def make_spring(spring_free_length, spring_stiffness, spring_base_offset):
     return Spring(L, k, d)
 
 
-def rest_height(spring):
+def rest_height(spring: "Spring") -> float:
     """h = sqrt(L^2 - d^2) (m), computed as sqrt((L - d)(L + d)) for accuracy."""
     L, _, d = spring
     return math.sqrt((L - d) * (L + d))
 
 
-def spring_length(deflection, spring):
+def spring_length(deflection: float, spring: "Spring") -> float:
     """s = sqrt(d^2 + (h - u)^2) (m)."""
     return math.hypot(spring.base_offset, rest_height(spring) - deflection)
 
 
-def secant_stiffness(deflection, spring):
+def secant_stiffness(deflection: float, spring: "Spring") -> float:
     """F(u) / u (N/m), exact at u = 0 where it equals the limit 2 k h^2 / L^2."""
     L, k, _ = spring
     h = rest_height(spring)
@@ -73,19 +73,19 @@ def secant_stiffness(deflection, spring):
     return 2.0 * k * (2.0 * h - deflection) * (h - deflection) / (s * (L + s))
 
 
-def spring_force(deflection, spring):
+def spring_force(deflection: float, spring: "Spring") -> float:
     """Vertical force F(u) (N) the two springs carry at deflection u (m)."""
     return deflection * secant_stiffness(deflection, spring)
 
 
-def tangent_stiffness(deflection, spring):
+def tangent_stiffness(deflection: float, spring: "Spring") -> float:
     """dF/du = 2 k (1 - L d^2 / s^3) (N/m)."""
     L, k, d = spring
     s = spring_length(deflection, spring)
     return 2.0 * k * (1.0 - L * d * d / (s * s * s))
 
 
-def limit_point(spring):
+def limit_point(spring: "Spring") -> "LimitPoint":
     """Deflection (m) and load (N) where the near branch ends (dF/du = 0)."""
     L, _, d = spring
     s_star = (L * d * d) ** (1.0 / 3.0)
@@ -94,7 +94,7 @@ def limit_point(spring):
     return LimitPoint(u_star, spring_force(u_star, spring))
 
 
-def _branch_interval(branch, spring):
+def _branch_interval(branch: int, spring: "Spring") -> tuple[float, float]:
     """Deflection interval (low, high) of a stable branch; one end is infinite."""
     u_star = limit_point(spring).deflection
     if branch == NEAR:
@@ -102,7 +102,7 @@ def _branch_interval(branch, spring):
     return 2.0 * rest_height(spring) - u_star, math.inf
 
 
-def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
+def solve_on_branch(load: float, branch: int, spring: "Spring", guess: float | None=None, tolerance: float=1e-13) -> float:
     """Equilibrium deflection (m) on one stable branch for a load W (N).
 
     F is strictly increasing on a stable branch, so a bracket plus safeguarded Newton
@@ -177,7 +177,7 @@ def solve_on_branch(load, branch, spring, guess=None, tolerance=1e-13):
                            f"iterations (bracket [{low!r}, {high!r}] m)")
 
 
-def _polish(u, load, spring, low, high, steps=3):
+def _polish(u: float, load: float, spring: "Spring", low: float, high: float, steps: int=3) -> float:
     """A few extra Newton steps, each kept only if it reduces the residual.
 
     The stopping test above is on the step size; these steps take the residual down to
@@ -196,14 +196,14 @@ def _polish(u, load, spring, low, high, steps=3):
     return u
 
 
-def equilibrium(deflection, spring, branch):
+def equilibrium(deflection: float, spring: "Spring", branch: int | None) -> "Equilibrium":
     """All outputs of the static model at a known deflection."""
     tangent = tangent_stiffness(deflection, spring)
     return Equilibrium(deflection, spring_force(deflection, spring),
                        secant_stiffness(deflection, spring), tangent, tangent > 0.0, branch)
 
 
-def follow_load(load, branch, spring, guess=None, continue_past_limit=True):
+def follow_load(load: float, branch: int, spring: "Spring", guess: float | None=None, continue_past_limit: bool=True) -> tuple[Equilibrium, bool]:
     """Continuation step: equilibrium for ``load`` starting from ``branch``.
 
     Stays on the current stable branch while it has an equilibrium; when the load passes

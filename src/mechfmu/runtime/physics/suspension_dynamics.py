@@ -44,11 +44,14 @@ effects; a disabled effect's function is never called.
 Units: m, s, kg, N, J.
 """
 
+from typing import Any
 from collections import namedtuple
 
 from . import suspension as statics
 from ..errors import MechanismError, RangeError, require_finite, require_positive
 from ..numerics.stepping import hermite, polynomial_motion
+from .suspension import Spring
+from collections.abc import Callable
 
 GRAVITY = statics.GRAVITY
 
@@ -70,8 +73,8 @@ Motion = namedtuple(
               "tyre_force kinetic_energy potential_energy")
 
 
-def make_model(spring, mass, damping=0.0, tyre_stiffness=DEFAULT_TYRE_STIFFNESS,
-               unsprung_mass=DEFAULT_UNSPRUNG_MASS, effects=Effects(False, False, False)):
+def make_model(spring: Spring, mass: float, damping: float=0.0, tyre_stiffness: float=DEFAULT_TYRE_STIFFNESS,
+               unsprung_mass: float=DEFAULT_UNSPRUNG_MASS, effects: "Effects"=Effects(False, False, False)) -> "Model":
     """Validated Model; only the parameters of enabled effects are checked."""
     mass = require_positive("mass", mass, "kg")
     if effects.damping:
@@ -88,22 +91,22 @@ def make_model(spring, mass, damping=0.0, tyre_stiffness=DEFAULT_TYRE_STIFFNESS,
 
 # --- the terms: one small function each ----------------------------------------------------
 
-def spring_force_term(deflection, spring):
+def spring_force_term(deflection: float, spring: Spring) -> float:
     """F(u) (N), the static model's spring force."""
     return statics.spring_force(deflection, spring)
 
 
-def damping_force(damping, relative_velocity):
+def damping_force(damping: float, relative_velocity: float) -> float:
     """Damper force c u' (N), opposing the spring's compression rate."""
     return damping * relative_velocity
 
 
-def tyre_force(tyre_stiffness, unsprung_displacement, road_height):
+def tyre_force(tyre_stiffness: float, unsprung_displacement: float, road_height: float) -> float:
     """Tyre compression force k_t (z + r) (N), upward on the unsprung mass."""
     return tyre_stiffness * (unsprung_displacement + road_height)
 
 
-def spring_energy(deflection, spring):
+def spring_energy(deflection: float, spring: Spring) -> float:
     """Elastic energy of both springs k (s - L)^2 (J), accurate at small deflection."""
     L, k, _ = spring
     h = statics.rest_height(spring)
@@ -123,19 +126,19 @@ class StepInputs:
 
     __slots__ = ("mode", "t0", "load0", "load_slope", "road")
 
-    def __init__(self, mode="interpolate"):
+    def __init__(self, mode: str="interpolate") -> None:
         if mode not in INPUT_MODES:
             raise MechanismError(f"input_interpolation = {mode!r} is not one of "
                                  f"{', '.join(INPUT_MODES)}")
         self.mode = mode
         self.set_constant(0.0, 0.0, 0.0, 0.0)
 
-    def set_constant(self, t, load, road_height, road_rate):
+    def set_constant(self, t: float, load: float, road_height: float, road_rate: float) -> None:
         """Inputs frozen at their values at ``t`` (initialisation, outputs at an instant)."""
         self.t0, self.load0, self.load_slope = t, load, 0.0
-        self.road = (road_height, road_rate, 0.0, 0.0)
+        self.road: tuple[float, ...] = (road_height, road_rate, 0.0, 0.0)
 
-    def set_step(self, t0, t1, start, end):
+    def set_step(self, t0: float, t1: float, start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
         """Inputs over [t0, t1] from (load, road_height, road_rate) at t0 and at t1."""
         load0, r0, rate0 = start
         load1, r1, rate1 = end
@@ -149,33 +152,33 @@ class StepInputs:
         self.road = hermite(step, (r0, rate0), (r1, rate1))
 
 
-def load_at(inputs, t):
+def load_at(inputs: StepInputs, t: float) -> float:
     """Load W (N) at time t inside the current step."""
     return inputs.load0 + inputs.load_slope * (t - inputs.t0)
 
 
-def road_at(inputs, t):
+def road_at(inputs: Any, t: float) -> Any:
     """Road height (m), rate (m/s), second rate (m/s^2) at time t inside the current step."""
     return polynomial_motion(inputs.road, t - inputs.t0)
 
 
 # --- the system built from the enabled effects --------------------------------------------
 
-def state_size(model):
+def state_size(model: Any) -> Any:
     return 4 if model.effects.tyre else 2
 
 
-def build_rhs(model, inputs):
+def build_rhs(model: "Model", inputs: StepInputs) -> Callable:
     """y' = rhs(t, y) for the enabled effects, composed once (module functions looked up now)."""
     spring, m = model.spring, model.mass
     force, load, effects = spring_force_term, load_at, model.effects
     if effects.damping:
         damp, c = damping_force, model.damping
 
-        def suspension(u, v):
+        def suspension(u: Any, v: Any):
             return force(u, spring) + damp(c, v)
     else:
-        def suspension(u, v):
+        def suspension(u: Any, v: Any):
             return force(u, spring)
 
     if effects.tyre:
@@ -184,28 +187,28 @@ def build_rhs(model, inputs):
         if effects.road_input:
             road = road_at
 
-            def rhs(t, y):
+            def rhs(t: float, y: Any):
                 f = suspension(y[0] - y[2], y[1] - y[3])
                 return [y[1], (load(inputs, t) - f) / m,
                         y[3], (f + weight - tyre(kt, y[2], road(inputs, t)[0])) / mu]
         else:
-            def rhs(t, y):
+            def rhs(t: float, y: Any):
                 f = suspension(y[0] - y[2], y[1] - y[3])
                 return [y[1], (load(inputs, t) - f) / m,
                         y[3], (f + weight - tyre(kt, y[2], 0.0)) / mu]
     elif effects.road_input:
         road = road_at
 
-        def rhs(t, y):
+        def rhs(t: float, y: Any):
             r, rate, _ = road(inputs, t)
             return [y[1], (load(inputs, t) - suspension(y[0] + r, y[1] + rate)) / m]
     else:
-        def rhs(t, y):
+        def rhs(t: float, y: Any):
             return [y[1], (load(inputs, t) - suspension(y[0], y[1])) / m]
     return rhs
 
 
-def build_deflection(model, inputs):
+def build_deflection(model: "Model", inputs: StepInputs) -> Callable:
     """u(t, y): the spring deflection, for event functions."""
     if model.effects.tyre:
         return lambda t, y: y[0] - y[2]
@@ -215,7 +218,7 @@ def build_deflection(model, inputs):
     return lambda t, y: y[0]
 
 
-def base_motion(model, inputs, t, y):
+def base_motion(model: "Model", inputs: StepInputs, t: float, y: list[float]) -> tuple:
     """(z, z', z'') of the spring base for the state y at time t (z'' needs the rhs)."""
     if model.effects.tyre:
         return y[2], y[3], None
@@ -225,7 +228,7 @@ def base_motion(model, inputs, t, y):
     return 0.0, 0.0, 0.0
 
 
-def initial_state(model, deflection, velocity, inputs, t):
+def initial_state(model: "Model", deflection: float, velocity: float, inputs: StepInputs, t: float) -> list[float]:
     """State for a spring deflection u and rate u' at time t.
 
     Without the tyre the base is where the road puts it. With the tyre the unsprung mass
@@ -245,7 +248,7 @@ def initial_state(model, deflection, velocity, inputs, t):
     return [u, v]
 
 
-def energy(model, inputs, t, y):
+def energy(model: "Model", inputs: StepInputs, t: float, y: list[float]) -> tuple[float, float, float]:
     """(kinetic T, potential V, scale) in J at state y and time t.
 
     scale is the sum of the magnitudes of the terms of T + V, a measure of the energy in
@@ -269,7 +272,7 @@ def energy(model, inputs, t, y):
     return kinetic, potential, scale
 
 
-def motion(model, inputs, rhs, t, y):
+def motion(model: "Model", inputs: StepInputs, rhs: Callable, t: float, y: list[float]) -> "Motion":
     """Every output of the dynamic model for state y at time t (a Motion)."""
     derivative = rhs(t, y)
     z, z_rate, z_rate2 = base_motion(model, inputs, t, y)
@@ -284,12 +287,12 @@ def motion(model, inputs, rhs, t, y):
                   potential)
 
 
-def passive(model, inputs):
+def passive(model: "Model", inputs: StepInputs) -> bool:
     """True when T + V cannot grow over the current step: no road input, constant load."""
     return not model.effects.road_input and inputs.load_slope == 0.0
 
 
-def region(deflection, spring):
+def region(deflection: float, spring: Spring) -> int:
     """Position region: NEAR (u < u*), FAR (u > 2h - u*) or BETWEEN (the unstable band)."""
     u_star = statics.limit_point(spring).deflection
     if deflection < u_star:
@@ -299,13 +302,13 @@ def region(deflection, spring):
     return BETWEEN
 
 
-def snap_boundaries(spring):
+def snap_boundaries(spring: Spring) -> tuple[float, float]:
     """(u*, 2h - u*): the end of the near stable region and the start of the far one."""
     u_star = statics.limit_point(spring).deflection
     return u_star, 2.0 * statics.rest_height(spring) - u_star
 
 
-def snap_function(model, inputs, side):
+def snap_function(model: "Model", inputs: StepInputs, side: int) -> Callable:
     """Event function for leaving the stable region last visited (``side`` NEAR or FAR).
 
     From NEAR it crosses zero upward when u reaches the far region (2h - u*); from FAR it

@@ -61,6 +61,8 @@ from collections import namedtuple
 from ..errors import MechanismError, RangeError, require_finite, require_positive
 from ..numerics.integrators import Event
 from ..numerics.stepping import hermite, polynomial_motion
+from typing import Any
+from collections.abc import Callable
 
 # Defaults (N, m, kg, s), documented in the README and the FMU:
 DEFAULT_MASS = 0.1  # kg: valve, retainer and a third of the spring, as ValveTrain's
@@ -96,19 +98,19 @@ Happening = namedtuple("Happening", "kind time lift velocity drive")
 FLOAT, REBOUND, SEAT_IMPACT, BOUNCE = "float", "rebound", "seat impact", "bounce"
 
 
-def _non_negative(name, value, unit):
+def _non_negative(name: str, value: float, unit: str) -> float:
     number = require_finite(name, value, unit)
     if number < 0.0:
         raise RangeError(name, number, "[0, inf)", unit, "must not be negative")
     return number
 
 
-def make_parameters(mass=DEFAULT_MASS, spring_stiffness=DEFAULT_SPRING_STIFFNESS,
-                    spring_preload=DEFAULT_SPRING_PRELOAD,
-                    contact_stiffness=DEFAULT_CONTACT_STIFFNESS,
-                    contact_damping=DEFAULT_CONTACT_DAMPING,
-                    seat_stiffness=DEFAULT_SEAT_STIFFNESS, seat_damping=DEFAULT_SEAT_DAMPING,
-                    lash=DEFAULT_LASH):
+def make_parameters(mass: float=DEFAULT_MASS, spring_stiffness: float=DEFAULT_SPRING_STIFFNESS,
+                    spring_preload: float=DEFAULT_SPRING_PRELOAD,
+                    contact_stiffness: float=DEFAULT_CONTACT_STIFFNESS,
+                    contact_damping: float=DEFAULT_CONTACT_DAMPING,
+                    seat_stiffness: float=DEFAULT_SEAT_STIFFNESS, seat_damping: float=DEFAULT_SEAT_DAMPING,
+                    lash: float=DEFAULT_LASH) -> "Parameters":
     """Validated Parameters; RangeError names the parameter, its value and its range.
 
     The mass and the three stiffnesses must be positive (without them there is no equation
@@ -127,17 +129,17 @@ def make_parameters(mass=DEFAULT_MASS, spring_stiffness=DEFAULT_SPRING_STIFFNESS
 
 # --- the force laws: one small function each ---------------------------------------------
 
-def spring_force(p, lift):
+def spring_force(p: "Parameters", lift: float) -> float:
     """Valve spring force F0 + k x (N), closing the valve."""
     return p.spring_preload + p.spring_stiffness * lift
 
 
-def penetration(p, rocker_lift, lift):
+def penetration(p: "Parameters", rocker_lift: float, lift: float) -> float:
     """d = L - x - lash (m): how far the rocker end presses into the valve tip."""
     return rocker_lift - lift - p.lash
 
 
-def contact_force(p, depth, depth_rate):
+def contact_force(p: "Parameters", depth: float, depth_rate: float) -> float:
     """Rocker-on-valve force max(0, k_c d + c_c d') for d > 0, else 0 (N)."""
     if depth <= 0.0:
         return 0.0
@@ -145,7 +147,7 @@ def contact_force(p, depth, depth_rate):
     return force if force > 0.0 else 0.0
 
 
-def seat_force(p, lift, velocity):
+def seat_force(p: "Parameters", lift: float, velocity: float) -> float:
     """Seat-on-valve force max(0, -k_s x - c_s v) for x < 0, else 0 (N)."""
     if lift >= 0.0:
         return 0.0
@@ -153,19 +155,19 @@ def seat_force(p, lift, velocity):
     return force if force > 0.0 else 0.0
 
 
-def contact_switch(p, depth, depth_rate):
+def contact_switch(p: "Parameters", depth: float, depth_rate: float) -> float:
     """Positive exactly where the contact force is (N); zero where it switches."""
     spring = p.contact_stiffness * depth
     return min(spring, spring + p.contact_damping * depth_rate)
 
 
-def seat_switch(p, lift, velocity):
+def seat_switch(p: "Parameters", lift: float, velocity: float) -> float:
     """Positive exactly where the seat force is (N); zero where it switches."""
     spring = -p.seat_stiffness * lift
     return min(spring, spring - p.seat_damping * velocity)
 
 
-def forces(p, rocker_lift, rocker_velocity, lift, velocity):
+def forces(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Forces":
     """Forces (acceleration m/s^2, contact N, seat N, spring N, penetration m) at a state."""
     depth = penetration(p, rocker_lift, lift)
     contact = contact_force(p, depth, rocker_velocity - velocity)
@@ -174,12 +176,12 @@ def forces(p, rocker_lift, rocker_velocity, lift, velocity):
     return Forces((contact + seat - spring) / p.mass, contact, seat, spring, depth)
 
 
-def kinetic_energy(p, velocity):
+def kinetic_energy(p: "Parameters", velocity: float) -> float:
     """m v^2 / 2 (J)."""
     return 0.5 * p.mass * velocity * velocity
 
 
-def elastic_energy(p, rocker_lift, lift):
+def elastic_energy(p: "Parameters", rocker_lift: float, lift: float) -> float:
     """Energy stored in the valve spring (relative to the closed valve), the contact and
     the seat (J)."""
     depth = penetration(p, rocker_lift, lift)
@@ -191,7 +193,7 @@ def elastic_energy(p, rocker_lift, lift):
     return energy
 
 
-def energy_scale(p, rocker_lift, lift, velocity):
+def energy_scale(p: "Parameters", rocker_lift: float, lift: float, velocity: float) -> float:
     """Sum of the magnitudes of the energy terms (J): the energy in play at a state, against
     which a change of T + V is judged."""
     depth = penetration(p, rocker_lift, lift)
@@ -204,7 +206,7 @@ def energy_scale(p, rocker_lift, lift, velocity):
     return scale
 
 
-def energy_gain(p, drive, t0, y0, t1, y1):
+def energy_gain(p: "Parameters", drive: "StepDrive", t0: float, y0: list[float], t1: float, y1: list[float]) -> tuple[float, float]:
     """(gain, scale) in J over [t0, t1]: the growth of T + V beyond the contact work,
     (T + V)(t1) - (T + V)(t0) - (W(t1) - W(t0)), which the exact solution keeps <= 0 (the
     dashpots only dissipate), and the energy in play it is judged against (the largest
@@ -220,7 +222,7 @@ def energy_gain(p, drive, t0, y0, t1, y1):
 
 # --- static equilibrium ------------------------------------------------------------------
 
-def static_equilibrium(p, rocker_lift, rocker_velocity):
+def static_equilibrium(p: "Parameters", rocker_lift: float, rocker_velocity: float) -> float:
     """Valve lift x (m) where the forces balance with the valve moving with the rocker.
 
     With v = L' the contact dashpot is idle, and every force is linear in x on each side of
@@ -270,19 +272,20 @@ class StepDrive:
 
     __slots__ = ("mode", "t0", "coefficients")
 
-    def __init__(self, mode="interpolate"):
+    def __init__(self, mode: str="interpolate") -> None:
         if mode not in INPUT_MODES:
             raise MechanismError(f"input_interpolation = {mode!r} is not one of "
                                  f"{', '.join(INPUT_MODES)}")
         self.mode = mode
         self.set_constant(0.0, (0.0, 0.0, 0.0))
 
-    def set_constant(self, t, start):
+    def set_constant(self, t: float, start: tuple[float, float, float]) -> None:
         """The motion from (L, L', L'') at t with constant acceleration."""
         lift, rate, acceleration = start
-        self.t0, self.coefficients = t, (lift, rate, 0.5 * acceleration)
+        self.t0 = t
+        self.coefficients: tuple[float, ...] = (lift, rate, 0.5 * acceleration)
 
-    def set_step(self, t0, t1, start, end):
+    def set_step(self, t0: float, t1: float, start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
         """The motion over [t0, t1] from (L, L', L'') at t0 and at t1."""
         if self.mode == "hold" or not t1 > t0:
             self.set_constant(t0, start)
@@ -290,26 +293,26 @@ class StepDrive:
         self.t0, self.coefficients = t0, hermite(t1 - t0, start, end)
 
 
-def drive_at(drive, t):
+def drive_at(drive: StepDrive, t: float) -> tuple[float, float, float]:
     """(L m, L' m/s, L'' m/s^2) of the rocker end at time t inside the current step."""
     return polynomial_motion(drive.coefficients, t - drive.t0)
 
 
 # --- the system for the integrator: contacts engaged or not -------------------------------
 
-def switches(p, rocker_lift, rocker_velocity, lift, velocity):
+def switches(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> tuple[float, float]:
     """(contact, seat) switch functions (N) at a state: positive where the force pushes."""
     return (contact_switch(p, penetration(p, rocker_lift, lift), rocker_velocity - velocity),
             seat_switch(p, lift, velocity))
 
 
-def engagement(p, rocker_lift, rocker_velocity, lift, velocity):
+def engagement(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Engaged":
     """Engaged(contact, seat) at a state: each contact engaged where its force pushes."""
     contact, seat = switches(p, rocker_lift, rocker_velocity, lift, velocity)
     return Engaged(contact > 0.0, seat > 0.0)
 
 
-def resume(p, engaged, rocker_lift, rocker_velocity, lift, velocity):
+def resume(p: "Parameters", engaged: "Engaged", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Engaged":
     """Engaged at the start of a step: each contact as its switch function's sign says, or as
     ``engaged`` (the end of the last step) where the function is exactly 0. They agree
     unless the drive jumps at the communication point (input_interpolation = hold: the
@@ -320,7 +323,7 @@ def resume(p, engaged, rocker_lift, rocker_velocity, lift, velocity):
                      for value, mode in zip(values, engaged)))
 
 
-def engaged_forces(p, rocker_lift, rocker_velocity, lift, velocity, engaged):
+def engaged_forces(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float, engaged: "Engaged") -> "Forces":
     """Forces with the contacts ``engaged`` (Engaged) acting by their unclipped Kelvin-Voigt
     law and the others idle: the smooth right-hand side of one integration segment."""
     depth = penetration(p, rocker_lift, lift)
@@ -331,7 +334,7 @@ def engaged_forces(p, rocker_lift, rocker_velocity, lift, velocity, engaged):
     return Forces((contact + seat - spring) / p.mass, contact, seat, spring, depth)
 
 
-def after_switch(p, engaged, fired, rocker_lift, rocker_velocity, lift, velocity):
+def after_switch(p: "Parameters", engaged: "Engaged", fired: int, rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Engaged":
     """Engaged after the switch function ``fired`` (CONTACT or SEAT) crossed zero at a state.
 
     The fired contact flips. The other one keeps following its own sign, which is far from
@@ -356,11 +359,11 @@ class Modes:
 
     __slots__ = ("engaged",)
 
-    def __init__(self, engaged=None):
-        self.engaged = engaged
+    def __init__(self, engaged: "Engaged | None" = None) -> None:
+        self.engaged: Any = engaged  # an Engaged once the integration starts
 
 
-def build_rhs(p, drive, modes):
+def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
     """y' = rhs(t, y) for y = (x, v, W): the valve's motion and the contact work, with the
     contacts engaged as ``modes`` says (smooth between switches).
 
@@ -371,7 +374,7 @@ def build_rhs(p, drive, modes):
     m, k, preload, lash = p.mass, p.spring_stiffness, p.spring_preload, p.lash
     kc, cc, ks, cs = p.contact_stiffness, p.contact_damping, p.seat_stiffness, p.seat_damping
 
-    def rhs(t, y):
+    def rhs(t: float, y: Any):
         tau = t - drive.t0
         L = rate = 0.0
         for a in reversed(drive.coefficients):  # polynomial_motion without p''
@@ -385,19 +388,19 @@ def build_rhs(p, drive, modes):
     return rhs
 
 
-def build_events(p, drive, max_lift=None):
+def build_events(p: "Parameters", drive: StepDrive, max_lift: float | None=None) -> dict[Engaged, tuple[Event, ...]]:
     """{Engaged: events to watch in that mode}: each contact's switch function crossing
     towards the other mode (falling while engaged, rising while idle) ends the segment, and
     d falling through 0 (the valve leaving the rocker) is located for the float report;
     with ``max_lift`` (m), the valve lift rising through it (TRAVEL_LIMIT) as well."""
-    def contact(t, y):
+    def contact(t: float, y: Any):
         L, rate, _ = drive_at(drive, t)
         return contact_switch(p, penetration(p, L, y[0]), rate - y[1])
 
-    def seat(t, y):
+    def seat(t: float, y: Any):
         return seat_switch(p, y[0], y[1])
 
-    def separation(t, y):
+    def separation(t: float, y: Any):
         return penetration(p, drive_at(drive, t)[0], y[0])
 
     always = [Event("separation", separation, -1)]
@@ -408,21 +411,21 @@ def build_events(p, drive, max_lift=None):
             for c in (False, True) for s in (False, True)}
 
 
-def initial_state(p, rocker_lift, rocker_velocity):
+def initial_state(p: "Parameters", rocker_lift: float, rocker_velocity: float) -> list[float]:
     """(x, v, W) at the start: static equilibrium, moving with the rocker, no work done."""
     return [static_equilibrium(p, rocker_lift, rocker_velocity), float(rocker_velocity), 0.0]
 
 
 # --- what happened inside a step -----------------------------------------------------------
 
-def contact_phase(p, rocker_lift, lift, landed=False):
+def contact_phase(p: "Parameters", rocker_lift: float, lift: float, landed: bool=False) -> "Phase":
     """Phase(touching: d > 0, open: x > 0, landed) at a state; ``landed``: the valve has
     come down on its seat since the rocker last sat on its base circle (L <= lash)."""
     return Phase(penetration(p, rocker_lift, lift) > 0.0, lift > 0.0,
                  landed and rocker_lift - p.lash > 0.0)
 
 
-def next_phase(p, before, t, lift, velocity, drive):
+def next_phase(p: "Parameters", before: "Phase", t: float, lift: float, velocity: float, drive: tuple[float, float, float]) -> tuple:
     """(Phase at time t, [Happening]) for a state reached from the Phase ``before``.
 
     Happenings, each Happening(kind, t, x, v, (L, L', L'')):

@@ -50,10 +50,13 @@ linear in the unknown rate, solved directly in forward and inverse.
 import math
 import sys
 from collections import namedtuple
+from typing import Any
 
 from . import cam_laws
 from ..errors import (RangeError, SingularConfiguration, require_between, require_finite,
                      require_positive)
+from .cam_laws import CamProfile
+from collections.abc import Callable
 
 ValveGeometry = namedtuple(
     "ValveGeometry",
@@ -84,7 +87,7 @@ GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # 0.618...
 
 # --- geometry checks and ranges ----------------------------------------------------------
 
-def check_geometry(g):
+def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     """Validate a ValveGeometry and return it with float fields.
 
     Layout: every length > 0; the rocker pivot right of the tappet axis (rocker_pivot_x > 0)
@@ -135,13 +138,13 @@ def check_geometry(g):
     return checked
 
 
-def _triangle_factors(side, arm, distance):
+def _triangle_factors(side: float, arm: float, distance: float) -> tuple[float, float, float, float]:
     """(L + l - R, R + l - L, R + L - l, perimeter) of the triangle link L, arm l, distance R."""
     return (side + arm - distance, distance + arm - side, distance + side - arm,
             distance + side + arm)
 
 
-def _phi_from_y1(g, y1):
+def _phi_from_y1(g: "ValveGeometry", y1: float) -> float:
     """Rocker angle for a pushrod foot at height y1 (m), no checks: psi - acos(K/R)."""
     u = g.rocker_pivot_x
     w = g.rocker_pivot_y - y1
@@ -153,7 +156,7 @@ def _phi_from_y1(g, y1):
     return math.atan2(w, u) - math.atan2(s, k)
 
 
-def _y3_from_phi(g, phi):
+def _y3_from_phi(g: "ValveGeometry", phi: float) -> float:
     """Valve-link foot height y3 (m) for rocker angle phi, no checks."""
     dx = g.valve_axis_x - (g.rocker_pivot_x + g.valve_arm * math.cos(phi))
     length = g.valve_link_length
@@ -161,13 +164,13 @@ def _y3_from_phi(g, phi):
             - math.sqrt(max((length - dx) * (length + dx), 0.0)))
 
 
-def rest_position(g):
+def rest_position(g: "ValveGeometry") -> tuple[float, float]:
     """(rocker angle phi0 in rad, valve foot height y3_closed in m) at zero tappet lift."""
     phi0 = _phi_from_y1(g, g.cam_base_radius)
     return phi0, _y3_from_phi(g, phi0)
 
 
-def _component(low, high, reference):
+def _component(low: float, high: float, reference: float) -> tuple[float, float]:
     """The one of [low, high] and [-high, -low] that holds ``reference`` (low > 0), or
     [-high, high] when low == 0."""
     if low == 0.0:
@@ -175,7 +178,7 @@ def _component(low, high, reference):
     return (low, high) if reference > 0.0 else (-high, -low)
 
 
-def tappet_lift_range(g):
+def tappet_lift_range(g: "ValveGeometry") -> tuple[float, float]:
     """Tappet lifts (m) for which the rocker assembles on the branch: [low, high].
 
     The pushrod foot's distance to the pivot, hypot(a, b - y1), must lie between
@@ -192,7 +195,7 @@ def tappet_lift_range(g):
     return base - w_max, base - w_min
 
 
-def _angle_interval(cos_low, cos_high, reference):
+def _angle_interval(cos_low: float, cos_high: float, reference: float) -> tuple[float, float]:
     """Angles around ``reference`` (|reference| < pi/2) with cos_low <= cos <= cos_high."""
     if cos_low <= -1.0 and cos_high >= 1.0:
         return -math.inf, math.inf
@@ -204,20 +207,20 @@ def _angle_interval(cos_low, cos_high, reference):
     return (near, far) if reference >= 0.0 else (-far, -near)
 
 
-def rocker_angle_range(g):
+def rocker_angle_range(g: "ValveGeometry") -> tuple[float, float]:
     """Rocker angles (rad) that valve_from_rocker accepts: |c - V_x| <= L3, around rest."""
     u = g.valve_axis_x - g.rocker_pivot_x
     length, arm = g.valve_link_length, g.valve_arm
     return _angle_interval((u - length) / arm, (u + length) / arm, rest_position(g)[0])
 
 
-def tappet_rocker_angle_range(g):
+def tappet_rocker_angle_range(g: "ValveGeometry") -> tuple[float, float]:
     """Rocker angles (rad) that tappet_from_rocker accepts: |T_x| <= L1, around rest."""
     a, arm, length = g.rocker_pivot_x, g.tappet_arm, g.pushrod_length
     return _angle_interval((a - length) / arm, (a + length) / arm, rest_position(g)[0])
 
 
-def valve_position_range(g):
+def valve_position_range(g: "ValveGeometry") -> tuple[float, float]:
     """Valve foot heights y3 (m) that rocker_from_valve accepts: [low, high].
 
     The foot's distance to the pivot, hypot(c - a, y3 - b), must lie between |L3 - lv| and
@@ -233,14 +236,14 @@ def valve_position_range(g):
     return g.rocker_pivot_y + w_min, g.rocker_pivot_y + w_max
 
 
-def valve_lift_range(g):
+def valve_lift_range(g: "ValveGeometry") -> tuple[float, float]:
     """Valve lifts (m) that inverse accepts on the valve side: y3_closed - valve_position_range."""
     low, high = valve_position_range(g)
     closed = rest_position(g)[1]
     return closed - high, closed - low
 
 
-def working_range(g):
+def working_range(g: "ValveGeometry") -> "WorkingRange":
     """Tappet and valve lifts (m) between the nearest dead centres of the whole chain.
 
     forward maps [tappet_low, tappet_high] monotonically onto [valve_low, valve_high] and
@@ -290,11 +293,11 @@ def working_range(g):
 
 # --- positions ------------------------------------------------------------------------------
 
-def _singular_tolerance(perimeter):
+def _singular_tolerance(perimeter: float) -> float:
     return SINGULAR_ULPS * _EPS * perimeter
 
 
-def _require_inside(name, value, low, high, unit, scale, why):
+def _require_inside(name: str, value: float, low: float, high: float, unit: str, scale: float, why: str) -> None:
     """RangeError unless low <= value <= high, give or take a few rounding units of ``scale``.
 
     A value that misses an end only by rounding (e.g. y3_closed - valve_lift at the end of
@@ -305,7 +308,7 @@ def _require_inside(name, value, low, high, unit, scale, why):
         raise RangeError(name, value, f"[{low!r}, {high!r}]", unit, why)
 
 
-def rocker_from_tappet(g, tappet_lift):
+def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
     """Rocker angle phi (rad) for a tappet lift (m): phi = psi - acos(K/R).
 
     RangeError outside tappet_lift_range(g); SingularConfiguration where the pushrod and the
@@ -331,7 +334,7 @@ def rocker_from_tappet(g, tappet_lift):
     return _phi_from_y1(g, y1)
 
 
-def valve_from_rocker(g, rocker_angle):
+def valve_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     """Valve-link foot height y3 (m) for a rocker angle (rad): V_y - sqrt(L3^2 - (c - V_x)^2).
 
     RangeError outside rocker_angle_range(g); SingularConfiguration where the valve link is
@@ -351,7 +354,7 @@ def valve_from_rocker(g, rocker_angle):
     return _y3_from_phi(g, phi)
 
 
-def rocker_from_valve(g, valve_position):
+def rocker_from_valve(g: "ValveGeometry", valve_position: float) -> float:
     """Rocker angle phi (rad) for a valve-link foot height y3 (m): phi = psi' + acos(K'/R').
 
     RangeError outside valve_position_range(g); SingularConfiguration where the valve link
@@ -378,7 +381,7 @@ def rocker_from_valve(g, valve_position):
     return math.atan2(w, u) + math.atan2(s, k)
 
 
-def tappet_from_rocker(g, rocker_angle):
+def tappet_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     """Pushrod foot height y1 (m; tappet lift = y1 - cam_base_radius) for a rocker angle (rad).
 
     y1 = T_y - sqrt(L1^2 - T_x^2). RangeError outside tappet_rocker_angle_range(g);
@@ -401,7 +404,7 @@ def tappet_from_rocker(g, rocker_angle):
 
 # --- rates ------------------------------------------------------------------------------------
 
-def _tappet_vectors(g, phi, y1):
+def _tappet_vectors(g: "ValveGeometry", phi: float, y1: float) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
     """e = T - P, t1 = dT/dphi, t2 = d2T/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.tappet_arm
@@ -409,7 +412,7 @@ def _tappet_vectors(g, phi, y1):
     return e, (arm * sin_phi, -arm * cos_phi), (arm * cos_phi, arm * sin_phi)
 
 
-def _valve_vectors(g, phi, y3):
+def _valve_vectors(g: "ValveGeometry", phi: float, y3: float) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
     """g = V - Q, v1 = dV/dphi, v2 = d2V/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.valve_arm
@@ -418,11 +421,11 @@ def _valve_vectors(g, phi, y3):
     return link, (-arm * sin_phi, arm * cos_phi), (-arm * cos_phi, -arm * sin_phi)
 
 
-def _dot(p, q):
+def _dot(p: tuple[float, float], q: tuple[float, float]) -> float:
     return p[0] * q[0] + p[1] * q[1]
 
 
-def _rocker_rates(link, t1, t2, slider_rate, slider_accel, singular):
+def _rocker_rates(link: tuple[float, float], t1: tuple[float, float], t2: tuple[float, float], slider_rate: float, slider_accel: float, singular: str) -> tuple[float, float]:
     """Rocker rates (rad/s, rad/s^2) from the rates of a link end sliding vertically.
 
     The link vector e = (rocker end) - (slider end) has constant length, with the rocker end
@@ -438,7 +441,7 @@ def _rocker_rates(link, t1, t2, slider_rate, slider_accel, singular):
     return omega, (link[1] * slider_accel - omega * omega * _dot(link, t2) - _dot(rel, rel)) / e_t1
 
 
-def _slider_rates(link, t1, t2, omega, alpha, singular):
+def _slider_rates(link: tuple[float, float], t1: tuple[float, float], t2: tuple[float, float], omega: float, alpha: float, singular: str) -> tuple[float, float]:
     """Rates (m/s, m/s^2) of a vertically sliding link end driven by the rocker: the same
     two equations solved for y' and y''. ``singular``: the message when e_y = 0."""
     if link[1] == 0.0:
@@ -448,22 +451,30 @@ def _slider_rates(link, t1, t2, omega, alpha, singular):
     return rate, (alpha * _dot(link, t1) + omega * omega * _dot(link, t2) + _dot(rel, rel)) / link[1]
 
 
-def _motion_from_tappet(g, y3_closed, lift, velocity, acceleration):
+def _chain_rates(driving: tuple[Any, Any, Any], driven: tuple[Any, Any, Any], rate: float, acceleration: float,
+                 driving_singular: str, driven_singular: str) -> tuple[float, float, float, float]:
+    """Through the rocker: its (omega, alpha) from the driving slider's ``rate`` and
+    ``acceleration`` (vectors ``driving``), then the driven slider's (rate, acceleration)
+    (vectors ``driven``); the messages name each singular position."""
+    omega, alpha = _rocker_rates(*driving, rate, acceleration, driving_singular)
+    driven_rate, driven_acceleration = _slider_rates(*driven, omega, alpha, driven_singular)
+    return omega, alpha, driven_rate, driven_acceleration
+
+
+def _motion_from_tappet(g: "ValveGeometry", y3_closed: float, lift: float, velocity: float, acceleration: float) -> "ValveTrainMotion":
     """forward without the input checks (float_speed calls it many times)."""
     y1 = g.cam_base_radius + lift
     phi = rocker_from_tappet(g, lift)
     y3 = valve_from_rocker(g, phi)
-    omega, alpha = _rocker_rates(
-        *_tappet_vectors(g, phi, y1), velocity, acceleration,
-        f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined")
-    y3_rate, y3_accel = _slider_rates(
-        *_valve_vectors(g, phi, y3), omega, alpha,
+    omega, alpha, y3_rate, y3_accel = _chain_rates(
+        _tappet_vectors(g, phi, y1), _valve_vectors(g, phi, y3), velocity, acceleration,
+        f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined",
         f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined")
     return ValveTrainMotion(lift, velocity, acceleration, phi, omega, alpha,
                             y3_closed - y3, -y3_rate, -y3_accel)
 
 
-def forward(g, tappet_lift, tappet_velocity, tappet_acceleration):
+def forward(g: "ValveGeometry", tappet_lift: float, tappet_velocity: float, tappet_acceleration: float) -> "ValveTrainMotion":
     """Rocker and valve motion for a prescribed tappet motion (m, m/s, m/s^2).
 
     Returns ValveTrainMotion (m, m/s, m/s^2; rad, rad/s, rad/s^2; m, m/s, m/s^2). Raises the
@@ -475,7 +486,7 @@ def forward(g, tappet_lift, tappet_velocity, tappet_acceleration):
     return _motion_from_tappet(g, rest_position(g)[1], lift, velocity, acceleration)
 
 
-def inverse(g, valve_lift, valve_velocity, valve_acceleration):
+def inverse(g: "ValveGeometry", valve_lift: float, valve_velocity: float, valve_acceleration: float) -> "ValveTrainMotion":
     """Rocker and tappet motion for a prescribed valve motion (m, m/s, m/s^2).
 
     Returns ValveTrainMotion. Raises the errors of rocker_from_valve (naming valve_position
@@ -487,24 +498,22 @@ def inverse(g, valve_lift, valve_velocity, valve_acceleration):
     y3 = rest_position(g)[1] - lift
     phi = rocker_from_valve(g, y3)
     y1 = tappet_from_rocker(g, phi)
-    omega, alpha = _rocker_rates(
-        *_valve_vectors(g, phi, y3), -velocity, -acceleration,
-        f"valve_lift = {lift!r} m: valve link and valve arm in line, rates undefined")
-    y1_rate, y1_accel = _slider_rates(
-        *_tappet_vectors(g, phi, y1), omega, alpha,
+    omega, alpha, y1_rate, y1_accel = _chain_rates(
+        _valve_vectors(g, phi, y3), _tappet_vectors(g, phi, y1), -velocity, -acceleration,
+        f"valve_lift = {lift!r} m: valve link and valve arm in line, rates undefined",
         f"valve_lift = {lift!r} m: pushrod horizontal, tappet rates undefined")
     return ValveTrainMotion(y1 - g.cam_base_radius, y1_rate, y1_accel, phi, omega, alpha,
                             lift, velocity, acceleration)
 
 
-def rocker_ratio(g, tappet_lift=0.0):
+def rocker_ratio(g: "ValveGeometry", tappet_lift: float=0.0) -> float:
     """Instantaneous ratio d(valve lift) / d(tappet lift) at ``tappet_lift`` (m)."""
     return forward(g, tappet_lift, 1.0, 0.0).valve_velocity
 
 
 # --- valve spring and float -------------------------------------------------------------------
 
-def contact_force(valve_mass, spring_stiffness, spring_preload, valve_lift, valve_acceleration):
+def contact_force(valve_mass: float, spring_stiffness: float, spring_preload: float, valve_lift: float, valve_acceleration: float) -> float:
     """Force (N) the rocker must push on the valve along its axis: m a + k lift + F0.
 
     valve_mass m (kg) lumps valve, retainer and the moving part of the spring; the spring
@@ -520,7 +529,7 @@ def contact_force(valve_mass, spring_stiffness, spring_preload, valve_lift, valv
     return m * accel + k * lift + preload
 
 
-def _golden_minimum(function, low, high):
+def _golden_minimum(function: Callable, low: float, high: float) -> tuple[float, float]:
     """Minimum value and its abscissa of a unimodal ``function`` on [low, high]."""
     x1 = high - GOLDEN * (high - low)
     x2 = low + GOLDEN * (high - low)
@@ -542,8 +551,8 @@ def _golden_minimum(function, low, high):
     return best
 
 
-def float_speed(g, profile, valve_mass, spring_stiffness, spring_preload, samples=720,
-                valve_law=False):
+def float_speed(g: "ValveGeometry", profile: CamProfile, valve_mass: float, spring_stiffness: float, spring_preload: float, samples: int=720,
+                valve_law: bool=False) -> "FloatSpeed":
     """Lowest constant camshaft speed (rad/s) at which the valve floats, and where.
 
     At constant speed w the valve acceleration is L'' w^2 (L'' = d2(valve lift)/dtheta2 in
@@ -570,7 +579,7 @@ def float_speed(g, profile, valve_mass, spring_stiffness, spring_preload, sample
         raise RangeError("samples", samples, "[8, inf)", "", "an integer")
     y3_closed = rest_position(g)[1]
 
-    def ratio(segment, x):
+    def ratio(segment: Any, x: Any):
         """w^2 at which the contact force vanishes at phase x, inf where L'' >= 0."""
         s, s1, s2, _ = cam_laws.segment_lift(profile, segment, x)
         if valve_law:

@@ -18,9 +18,9 @@ class Settings:
     repeats: int
     master_lengths_s: tuple  # (short, long) stop times of the gear scene
     model_steps: int
-    effects_stop_time_s: float = None  # None: the scenes as written (3 s)
+    effects_stop_time_s: float | None = None  # None: the scenes as written (3 s)
     sweep_scenes: int = 1000  # scenes of the sweep benchmark, run once on 1 and on 2 workers
-    dynamic_stop_fraction: float = None  # None: the dynamic scenes as written
+    dynamic_stop_fraction: float | None = None  # None: the dynamic scenes as written
     growth_base_s: float = 3.0  # the growth benchmark's 1x stop time (gear_retraction's)
 
 

@@ -15,7 +15,7 @@ TARGET = Target(1.0 / 3.0, "<= 1/3")  # the issue: kinematic at most a third of 
 MILLI = 1e3
 
 
-def measure(scene_dir, fmu_dir, repeats, stop_time=None):
+def measure(scene_dir: str, fmu_dir: str, repeats: int, stop_time: float | None=None) -> list[Row]:
     """Rows of benchmark 3; ``stop_time`` (s) shortens both scenes (default: as written)."""
     scenes = [load_named_scene(scene_dir, name) for name in (KINEMATIC_SCENE, DYNAMIC_SCENE)]
     if stop_time is not None:

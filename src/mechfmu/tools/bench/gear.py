@@ -1,5 +1,8 @@
 """The gear scenes the benchmarks share: loading, longer variants, the closed form's inputs."""
 
+from __future__ import annotations
+
+from typing import Any, TYPE_CHECKING
 import dataclasses
 
 import numpy as np
@@ -8,23 +11,27 @@ from ...cosim.scene import find_file, load_scene
 from ...references import landing_gear
 from ..scene_references import model_defaults, sample_times
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ...cosim.scene import Scene
+    from numpy import ndarray
+
 KINEMATIC_SCENE = "gear_retraction"        # PistonActuator -> LandingGear, motion drive
 DYNAMIC_SCENE = "gear_retraction_dynamic"  # LandingGear alone, all six effects, radau
 PISTON_INPUTS = ("piston_extension", "piston_speed", "piston_acceleration")
 GEAR_OUTPUTS = ("gear_angle", "gear_angular_velocity", "gear_angular_acceleration")
 
 
-def load_named_scene(scene_dir, name):
+def load_named_scene(scene_dir: str, name: str) -> Scene:
     return load_scene(find_file(name, (scene_dir,)))
 
 
-def with_stop_time(scene, stop_time):
+def with_stop_time(scene: Scene, stop_time: float) -> Scene:
     """The same scene over [start_time, stop_time] s (the actuator holds its end after
     its stroke, so a longer gear scene keeps stepping in range)."""
     return dataclasses.replace(scene, stop_time=float(stop_time))
 
 
-def retraction_arguments(scene):
+def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
     """Positional arguments of references.landing_gear.retraction for a gear scene:
     its sample times (s) and the actuator's and gear's parameters over the defaults (m, s)."""
     stroke = {**model_defaults("PistonActuator"), **scene.components["actuator"].parameters}
@@ -34,7 +41,7 @@ def retraction_arguments(scene):
             stroke["profile"])
 
 
-def piston_table(scene):
+def piston_table(scene: Scene) -> ndarray:
     """fmpy input table of a gear scene: time (s) and the piston's extension (m), speed
     (m/s) and acceleration (m/s^2) from the closed form at every communication point."""
     times, _, _, *stroke = retraction_arguments(scene)

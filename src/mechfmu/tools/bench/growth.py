@@ -8,6 +8,7 @@ holds its end after its stroke, so a longer scene keeps stepping in range) at 1,
 whether a step gets dearer as a run gets longer (e.g. recording that copies its table).
 """
 
+from typing import Any
 from ...cosim.master import Simulation
 from .gear import KINEMATIC_SCENE, load_named_scene, with_stop_time
 from .report import Row, Target, ratio_row
@@ -19,7 +20,7 @@ TARGET = Target(1.25, "<= 1.25")  # linear: a step at 8x the length costs what i
 MILLI, MICRO = 1e3, 1e6
 
 
-def measure(scene_dir, fmu_dir, repeats: int, base_stop_time: float) -> list:
+def measure(scene_dir: Any, fmu_dir: Any, repeats: int, base_stop_time: float) -> list:
     """Rows of benchmark 7: loop wall time (ms) at each factor of ``base_stop_time`` (s),
     the ratios to the 1x run, and the per-step ratio 8x / 1x."""
     scene = load_named_scene(scene_dir, KINEMATIC_SCENE)

@@ -10,6 +10,10 @@ and instantiation cancel. The time inside FMI calls comes from separate timed ru
 timers cost time of their own); overhead = per-step wall time - per-step FMI time.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import contextlib
 import cProfile
 import dataclasses
@@ -19,6 +23,7 @@ import shutil
 import tempfile
 from pathlib import Path
 from typing import NamedTuple
+from collections.abc import Callable, Sequence
 
 from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
@@ -34,6 +39,10 @@ from .gear import (
 )
 from .report import Row, Target, ratio_row
 from .timing import per_step, seconds_of, set_up, side_by_side_medians
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.simulation import SimulationResult
+    from ...cosim.scene import Scene
 
 BENCHMARK = "master overhead"
 TARGET = Target(0.5, "<= 0.5")  # the issue: ours at most half of fmpy's
@@ -54,14 +63,14 @@ class FmiCallTimer:
     FUNCTIONS = ("fmi2DoStep", "fmi2SetReal", "fmi2GetReal", "fmi2SetInteger",
                  "fmi2GetInteger", "fmi2SetBoolean", "fmi2GetBoolean")
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.timer = CallTimer()
 
     @property
-    def seconds(self):
+    def seconds(self) -> float:
         return self.timer.total
 
-    def attach(self, instance):
+    def attach(self, instance: FMU2Slave) -> None:
         functions = getattr(instance, "_functions", None)
         if not isinstance(functions, dict):
             raise RuntimeError("this fmpy keeps no FMU2Slave._functions table (fmpy 0.3.2x "
@@ -75,7 +84,8 @@ class FmpyGearAlone:
     (or, with ``component`` and ``outputs``, that component of the scene alone, its scene
     parameters and inputs as start values, no input table)."""
 
-    def __init__(self, fmu_path, scene, component="gear", outputs=GEAR_OUTPUTS):
+    def __init__(self, fmu_path: str | Path, scene: Scene, component: str = "gear",
+                 outputs: Sequence[str] = GEAR_OUTPUTS) -> None:
         self.scene, self.outputs = scene, tuple(outputs)
         self.description = read_model_description(str(fmu_path))
         self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
@@ -84,7 +94,7 @@ class FmpyGearAlone:
         # the unconnected inputs (and the parameters) as start values
         self.start_values = {**spec.parameters, **spec.inputs}
 
-    def run(self, timer=None):
+    def run(self, timer: FmiCallTimer | None=None) -> SimulationResult:
         """One run: instantiate, simulate_fmu, free. Attaches ``timer`` if given."""
         scene = self.scene
         instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
@@ -109,11 +119,11 @@ class FmpyGearAlone:
                                f"{scene.steps + 1} ({scene.steps} steps)")
         return result
 
-    def close(self):
+    def close(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
-def _ours(simulation, timed):
+def _ours(simulation: Simulation, timed: bool) -> dict[str, float]:
     if not timed:
         return {"wall": seconds_of(simulation.run)}
     started = timing.now()
@@ -122,7 +132,7 @@ def _ours(simulation, timed):
     return {"wall": wall, "fmi": result.meta["fmi_call_time_s"]}
 
 
-def _fmpy(alone, timed):
+def _fmpy(alone: FmpyGearAlone, timed: bool) -> dict[str, float]:
     if not timed:
         return {"wall": seconds_of(alone.run)}
     timer = FmiCallTimer()
@@ -130,7 +140,7 @@ def _fmpy(alone, timed):
     return {"wall": wall, "fmi": timer.seconds}
 
 
-def _runs(ours, alone):
+def _runs(ours: list[Simulation], alone: list[FmpyGearAlone]) -> dict[tuple[str, str, bool], Callable]:
     """The measured runs: each master at each length, untimed and with FMI-call timers."""
     measurements = {}
     for timed in (False, True):
@@ -149,11 +159,12 @@ class MasterRows(NamedTuple):
     overhead: Row
 
 
-def _master_rows(master, medians, steps, description, repeats, label=None):
+def _master_rows(master: str, medians: dict[Any, dict[str, float]], steps: Sequence[int],
+                 description: str, repeats: int, label: str | None = None) -> MasterRows:
     """Wall, set-up, FMI and overhead rows of one master from the medians of its runs;
     ``label`` names the rows (default: the master)."""
     label = label or master
-    def median(length, key, timed):
+    def median(length: str, key: str, timed: bool) -> float:
         return medians[(master, length, timed)][key]
 
     span = f"slope between {steps[0]} and {steps[1]} steps"
@@ -172,21 +183,24 @@ def _master_rows(master, medians, steps, description, repeats, label=None):
             notes="wall per step (untimed runs) - FMI calls per step (timed runs)"))
 
 
-def actuator_alone(scene):
+def actuator_alone(scene: Scene) -> Scene:
     """The gear scene's actuator alone: one FMU (PistonActuator), its three outputs
     recorded, no connections."""
+    assert scene.record is not None  # the gear scene lists what it records
     return dataclasses.replace(
         scene, name=f"{scene.name} (actuator alone)",
         components={"actuator": scene.components["actuator"]}, connections=[],
         record=[name for name in scene.record if name.startswith("actuator.")])
 
 
-def measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats):
+def measure_one_fmu(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float],
+                    repeats: int) -> list[Row]:
     """Rows of benchmark 1 on one FMU: our master and simulate_fmu each stepping
     PistonActuator.fmu alone with the gear scene's parameters, recording its 3 outputs."""
     scene = actuator_alone(load_named_scene(scene_dir, KINEMATIC_SCENE))
     scenes = [with_stop_time(scene, stop) for stop in lengths_s]
     steps = [s.steps for s in scenes]
+    assert scene.record is not None  # set by actuator_alone
     outputs = [name.split(".", 1)[1] for name in scene.record]
     ours = [Simulation(s, fmu_dir) for s in scenes]
     alone = [FmpyGearAlone(Path(fmu_dir) / "PistonActuator.fmu", s, "actuator", outputs)
@@ -211,7 +225,8 @@ def measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats):
                       fmpy_rows.overhead, TARGET)]
 
 
-def measure(scene_dir, fmu_dir, lengths_s, repeats):
+def measure(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float],
+            repeats: int) -> list[Row]:
     """Rows of benchmark 1; ``lengths_s`` = (short, long) stop times in s."""
     scene = load_named_scene(scene_dir, KINEMATIC_SCENE)
     scenes = [with_stop_time(scene, stop) for stop in lengths_s]
@@ -240,7 +255,7 @@ def measure(scene_dir, fmu_dir, lengths_s, repeats):
             *measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats)]
 
 
-def profile(scene_dir, fmu_dir, stop_time, top=15, stream=None):
+def profile(scene_dir: Any, fmu_dir: Any, stop_time: float, top: Any=15, stream: Any=None) -> None:
     """Print cProfile's ``top`` functions by own time for one run of each master."""
     scene = with_stop_time(load_named_scene(scene_dir, KINEMATIC_SCENE), stop_time)
     simulation = Simulation(scene, fmu_dir)

@@ -8,6 +8,10 @@ fmi2SetReal of all its Real inputs (values that advance with time), fmi2DoStep,
 fmi2GetReal of all its Real outputs.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import contextlib
 import math
 import shutil
@@ -27,6 +31,11 @@ from ...runtime.physics import landing_gear as gear
 from . import timing
 from .report import Row, Target, ratio_row
 from .timing import side_by_side_medians
+from collections.abc import Callable, Iterator
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from fmpy.model_description import ModelDescription
+    from numpy import ndarray
 
 BENCHMARK = "model cost"
 # Issue 21: a closed form (every model but the constraint solvers) at most 1.3x its null
@@ -37,17 +46,17 @@ MICRO = 1e6
 CAMSHAFT_SPEED = 50.0 * math.pi  # rad/s: 3000 engine rpm, as in the valve_train scene
 
 
-def shaft_turning(prefix, speed, initial_angle=0.0):
+def shaft_turning(prefix: str, speed: float, initial_angle: float=0.0) -> Callable:
     """Inputs ``<prefix>_angle`` (rad), ``_speed`` (rad/s), ``_acceleration`` (rad/s^2) of a
     shaft turning at constant ``speed`` from ``initial_angle``, as functions of time (s)."""
-    def inputs(times):
+    def inputs(times: Any):
         return {f"{prefix}_angle": initial_angle + speed * times,
                 f"{prefix}_speed": np.full_like(times, speed),
                 f"{prefix}_acceleration": np.zeros_like(times)}
     return inputs
 
 
-def piston_stroke(times):
+def piston_stroke(times: ndarray) -> dict[str, ndarray]:
     """The coursework's stroke, 0.381 m to 0.6096 m at constant speed in 3 s (inside the
     gear's assembly range at every time)."""
     extension, speed, acceleration = landing_gear.stroke(
@@ -57,7 +66,7 @@ def piston_stroke(times):
             "piston_acceleration": acceleration}
 
 
-def load_ramp(times, peak_n=2500.0, duration_s=4.0):
+def load_ramp(times: ndarray, peak_n: float=2500.0, duration_s: float=4.0) -> dict[str, ndarray]:
     """Suspension load from 0 to 2500 N over 4 s: below the 3090.6 N limit load, no
     snap-through."""
     return {"load": peak_n * np.clip(times / duration_s, 0.0, 1.0)}
@@ -75,7 +84,7 @@ class ModelCase:
     model: str
     duration_s: float
     parameters: dict = field(default_factory=dict)
-    inputs: object = None
+    inputs: Any = None
 
 
 CASES = (
@@ -113,7 +122,7 @@ class LoopRun:
 class PreparedLoop:
     """A case's calls, prepared once: value references, per-step input arrays, times."""
 
-    def __init__(self, case, description, steps):
+    def __init__(self, case: ModelCase, description: ModelDescription, steps: int) -> None:
         self.case, self.description = case, description
         self.step = case.duration_s / steps
         self.times = [index * self.step for index in range(steps)]  # start of each step
@@ -134,7 +143,7 @@ class PreparedLoop:
         self.output_refs = (c_uint * len(outputs))(*(v.valueReference for v in outputs))
         self.output_names = [v.name for v in outputs]
 
-    def run(self, instance):
+    def run(self, instance: FMU2Slave) -> LoopRun:
         """Step ``instance`` through the prepared loop; a LoopRun."""
         set_real, do_step, get_real = (getattr(instance.dll, name) for name in
                                        ("fmi2SetReal", "fmi2DoStep", "fmi2GetReal"))
@@ -165,13 +174,13 @@ class PreparedLoop:
 class ExtractedFmu:
     """An FMU extracted once, instantiated afresh for every loop."""
 
-    def __init__(self, path):
+    def __init__(self, path: Path) -> None:
         self.path = Path(path)
         self.description = read_model_description(str(path))
         self.folder = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
 
     @contextlib.contextmanager
-    def initialised(self, parameters):
+    def initialised(self, parameters: dict[str, str]) -> Iterator[FMU2Slave]:
         """A fresh instance with ``parameters`` applied, out of initialisation mode."""
         instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
                              modelIdentifier=self.description.coSimulation.modelIdentifier,
@@ -190,11 +199,11 @@ class ExtractedFmu:
             instance.terminate()
             instance.freeInstance()
 
-    def close(self):
+    def close(self) -> None:
         shutil.rmtree(self.folder, ignore_errors=True)
 
 
-def run_case(case, fmu_path, steps):
+def run_case(case: ModelCase, fmu_path: Path, steps: int) -> LoopRun:
     """One fresh instance of ``fmu_path`` configured as ``case``, stepped ``steps`` times."""
     fmu = ExtractedFmu(fmu_path)
     try:
@@ -204,14 +213,14 @@ def run_case(case, fmu_path, steps):
         fmu.close()
 
 
-def build_null_models(models, folder):
+def build_null_models(models: list[str], folder: Path) -> dict[str, Path]:
     """Build the null twins of ``models`` into ``folder``; {model: path of its null FMU}."""
     # The build reports its binary patch on stdout; keep stdout for the results table.
     with contextlib.redirect_stdout(sys.stderr):
         return dict(zip(models, build_all(folder, models, null=True)))
 
 
-def check_null_held(case, null_run, model_run):
+def check_null_held(case: ModelCase, null_run: LoopRun, model_run: LoopRun) -> None:
     """The null twin's outputs must not move while the model's do (its do_step does nothing)."""
     if null_run.final_outputs != null_run.initial_outputs:
         raise RuntimeError(f"{case.label}: the null FMU's outputs changed during the loop")
@@ -219,11 +228,11 @@ def check_null_held(case, null_run, model_run):
         raise RuntimeError(f"{case.label}: the model's outputs did not change during the loop")
 
 
-def _measure_case(case, model_fmu, null_fmu, steps, repeats):
+def _measure_case(case: ModelCase, model_fmu: ExtractedFmu, null_fmu: ExtractedFmu, steps: int, repeats: int) -> list[Row]:
     loops = {fmu: PreparedLoop(case, fmu.description, steps) for fmu in (model_fmu, null_fmu)}
     last = {}
 
-    def timed(fmu):
+    def timed(fmu: Any):
         with fmu.initialised(case.parameters) as instance:
             last[fmu] = loops[fmu].run(instance)
         return {"loop": last[fmu].seconds}
@@ -242,7 +251,7 @@ def _measure_case(case, model_fmu, null_fmu, steps, repeats):
                                            target)]
 
 
-def measure(fmu_dir, steps, repeats, cases=CASES):
+def measure(fmu_dir: str, steps: int, repeats: int, cases: tuple[ModelCase, ...]=CASES) -> list[Row]:
     """Rows of benchmark 2: per case the model's and the null twin's time per step (us)."""
     models = list(dict.fromkeys(case.model for case in cases))
     with tempfile.TemporaryDirectory(prefix="mechfmu_bench_null_") as temp:

@@ -1,5 +1,6 @@
 """Benchmark rows and their files: bench.csv, bench.md and machine.json (each atomic)."""
 
+from typing import Any
 import csv
 import datetime
 import json
@@ -26,7 +27,7 @@ class Target:
     label: str
     at_least: bool = False
 
-    def met_by(self, value):
+    def met_by(self, value: float) -> bool:
         return value >= self.limit if self.at_least else value <= self.limit
 
 
@@ -39,22 +40,22 @@ class Row:
     value: float
     unit: str
     repeats: int
-    target: Target = None
+    target: Target | None = None
     notes: str = ""
 
-    def meets_target(self):
+    def meets_target(self) -> str:
         """'true', 'false', or '' when the row has no target."""
         if self.target is None:
             return ""
         return "true" if self.target.met_by(self.value) else "false"
 
-    def csv_fields(self):
+    def csv_fields(self) -> tuple[str, str, str, str, str, str, int, str]:
         return (self.benchmark, self.case, repr(float(self.value)), self.unit,
                 self.target.label if self.target else "", self.meets_target(), self.repeats,
                 self.notes)
 
 
-def ratio_row(case, numerator, denominator, target=None, notes=""):
+def ratio_row(case: str, numerator: Row, denominator: Row, target: Target | None=None, notes: str="") -> Row:
     """The row ``numerator.value / denominator.value``; its notes name the two parts."""
     if numerator.unit != denominator.unit:
         raise ValueError(f"ratio of {numerator.case!r} ({numerator.unit}) to "
@@ -65,25 +66,25 @@ def ratio_row(case, numerator, denominator, target=None, notes=""):
                f"{parts}; {notes}" if notes else parts)
 
 
-def ratio_parts(row):
+def ratio_parts(row: Row) -> tuple[str, str]:
     """(numerator case, denominator case) named in a ratio row's notes."""
     numerator, denominator = row.notes.split("; ")[0].split(PARTS_SEPARATOR)
     return numerator, denominator
 
 
-def write_csv(path, rows):
-    def write(handle):
+def write_csv(path: Path, rows: list[Row]) -> Path:
+    def write(handle: Any) -> None:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(CSV_COLUMNS)
         writer.writerows(row.csv_fields() for row in rows)
     return atomic_write(path, write)
 
 
-def _three_digits(value):
+def _three_digits(value: float) -> str:
     return f"{value:.3g}" if abs(value) < 1e4 else f"{value:.0f}"
 
 
-def markdown_table(rows):
+def markdown_table(rows: list[Row]) -> str:
     """The rows as a Markdown table (values to 3 significant digits)."""
     lines = ["| benchmark | case | value | unit | target | met |",
              "|---|---|---:|---|---|---|"]
@@ -94,7 +95,7 @@ def markdown_table(rows):
     return "\n".join(lines)
 
 
-def cpu_model():
+def cpu_model() -> str:
     """The CPU's model name from /proc/cpuinfo (Linux), else what platform reports."""
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as handle:
@@ -106,7 +107,7 @@ def cpu_model():
     return platform.processor() or "unknown"
 
 
-def machine():
+def machine() -> dict[str, Any]:
     """What the timings depend on: CPU, cores, OS, package versions, date (UTC)."""
     found = versions()
     return {"cpu": cpu_model(), "logical_cores": os.cpu_count(),
@@ -115,13 +116,13 @@ def machine():
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
 
 
-def machine_line(info):
+def machine_line(info: dict[str, str | int]) -> str:
     return (f"Machine: {info['cpu']}, {info['logical_cores']} logical cores, {info['os']}; "
             f"Python {info['python']}, numpy {info['numpy']}, fmpy {info['fmpy']}, "
             f"pythonfmu {info['pythonfmu']}; {info['date']}.")
 
 
-def write_outputs(out_dir, rows, info):
+def write_outputs(out_dir: str | Path, rows: list[Row], info: dict[str, Any]) -> dict[str, Path]:
     """Write bench.csv, bench.md and machine.json into ``out_dir``; return their paths."""
     out_dir = Path(out_dir)
     text = f"{markdown_table(rows)}\n\n{machine_line(info)}\n"

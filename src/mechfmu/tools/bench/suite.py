@@ -2,6 +2,9 @@
 machine.json, print the Markdown table; ``--only NAME`` runs one and only prints it.
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import sys
 import time
 from pathlib import Path
@@ -10,9 +13,14 @@ from . import BENCHMARKS, FULL, QUICK, Settings
 from . import (dynamic_scenes, effects, floor, growth, master_overhead, model_cost, sweep,
                timing)
 from .report import machine, machine_line, markdown_table, write_outputs
+from argparse import Namespace
+from typing import Any
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .report import Row
 
 
-def settings_for(args):
+def settings_for(args: Namespace) -> Settings:
     chosen = QUICK if args.quick else FULL
     repeats = args.repeats if args.repeats is not None else chosen.repeats
     scenes = args.sweep_scenes if args.sweep_scenes is not None else chosen.sweep_scenes
@@ -21,14 +29,14 @@ def settings_for(args):
                     chosen.growth_base_s)
 
 
-def missing_fmus(fmu_dir):
+def missing_fmus(fmu_dir: str) -> list[Any]:
     needed = {"LandingGear", "PistonActuator", "LoadProfile", "Suspension", "RoadProfile",
               "ValveSpring", "ValveTrain", "CamshaftDrive", "HydraulicActuator",
               *(case.model for case in model_cost.CASES)}
     return sorted(name for name in needed if not (Path(fmu_dir) / f"{name}.fmu").is_file())
 
 
-def run_benchmarks(args, settings, names=BENCHMARKS):
+def run_benchmarks(args: Namespace, settings: Settings, names: tuple[str, ...] | list[str]=BENCHMARKS) -> list[Row]:
     """Rows of the named benchmarks (default: all, in the order of the README)."""
     measures = {
         "master_overhead": lambda: master_overhead.measure(
@@ -47,7 +55,7 @@ def run_benchmarks(args, settings, names=BENCHMARKS):
     return [row for name in names for row in measures[name]()]
 
 
-def command(args):
+def command(args: Namespace) -> int:
     """``mechfmu bench`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     missing = missing_fmus(args.fmu_dir)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from .. import sweep
 from .report import Row, Target, ratio_row
+from typing import Any
 
 BENCHMARK = "sweep"
 SWEEP_FILE = "suspension_mass_static.toml"
@@ -19,7 +20,7 @@ TARGET = Target(1.7, ">= 1.7", at_least=True)  # the issue: 2 workers at least 1
 SEED = 20261121
 
 
-def run(sweep_dir, fmu_dir, scenes, jobs):
+def run(sweep_dir: str, fmu_dir: str, scenes: int, jobs: int) -> dict[str, Any]:
     """One sweep of ``scenes`` points on ``jobs`` local workers; its summary dict."""
     chosen = sweep.load_sweep_file(Path(sweep_dir) / SWEEP_FILE)
     chosen.pop("description")
@@ -32,7 +33,7 @@ def run(sweep_dir, fmu_dir, scenes, jobs):
     return summary
 
 
-def measure(sweep_dir, fmu_dir, scenes):
+def measure(sweep_dir: str, fmu_dir: str, scenes: int) -> list[Row]:
     """Rows of benchmark 5: wall time and scenes/s on 1 and 2 workers, and the speed-up."""
     rows, walls = [], {}
     for jobs in (1, 2):

@@ -1,7 +1,9 @@
 """Timing primitives: medians of side-by-side rounds after a warm-up, per-step slopes."""
 
+from typing import Any
 import statistics
 import time
+from collections.abc import Callable
 
 _clock = time.perf_counter
 
@@ -21,7 +23,7 @@ def now() -> float:
     return _clock()
 
 
-def side_by_side_medians(measurements, repeats):
+def side_by_side_medians(measurements: dict[Any, Callable], repeats: int) -> dict[Any, dict[str, float]]:
     """Median of every measurement over ``repeats`` rounds, after one warm-up round.
 
     ``measurements`` maps a name to a function that runs once and returns a dict of named
@@ -32,7 +34,7 @@ def side_by_side_medians(measurements, repeats):
     """
     for run in measurements.values():
         run()  # warm-up: first loads of libraries and modules, caches, lazy imports
-    samples = {name: [] for name in measurements}
+    samples: dict[str, list[dict[str, float]]] = {name: [] for name in measurements}
     for _ in range(repeats):
         for name, run in measurements.items():
             samples[name].append(run())
@@ -40,17 +42,17 @@ def side_by_side_medians(measurements, repeats):
             for name, runs in samples.items()}
 
 
-def per_step(short_run_s, long_run_s, short_steps, long_steps):
+def per_step(short_run_s: float, long_run_s: float, short_steps: int, long_steps: int) -> float:
     """Cost of one step in s: the slope between two run lengths, so the set-up cancels."""
     return (long_run_s - short_run_s) / (long_steps - short_steps)
 
 
-def set_up(short_run_s, per_step_s, short_steps):
+def set_up(short_run_s: float, per_step_s: float, short_steps: int) -> float:
     """Set-up cost in s (extraction, instantiation, ...): the intercept of the same line."""
     return short_run_s - per_step_s * short_steps
 
 
-def seconds_of(function, *args, **kwargs):
+def seconds_of(function: Callable, *args: Any, **kwargs: Any) -> float:
     """Wall time in s of one call of ``function``."""
     started = now()
     function(*args, **kwargs)

@@ -44,11 +44,20 @@ What libcosim does differently from our master and from fmpy, and how this modul
   level is process-wide, and ``run_libcosim`` sets WARNING unless told otherwise.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import math
 import os
 from numbers import Integral, Real
 
 import numpy as np
+from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from libcosimpy.CosimEnums import CosimVariableType
+    from numpy import ndarray
 
 NANOSECONDS_PER_SECOND = 1_000_000_000
 
@@ -60,14 +69,14 @@ class LibcosimError(RuntimeError):
     step; ``times``, ``values``: the samples recorded up to there (possibly empty).
     """
 
-    def __init__(self, message, time=None, times=None, values=None):
+    def __init__(self, message: str, time: float | None=None, times: ndarray | None=None, values: dict[str, ndarray] | None=None) -> None:
         super().__init__(message)
         self.time = time
         self.times = np.array([]) if times is None else times
         self.values = {} if values is None else values
 
 
-def step_nanoseconds(step):
+def step_nanoseconds(step: float) -> int:
     """Communication step in integer nanoseconds; ValueError unless a whole, positive number."""
     step = float(step)
     if not (math.isfinite(step) and step > 0.0):
@@ -79,7 +88,7 @@ def step_nanoseconds(step):
     return step_ns
 
 
-def step_count(step, stop_time):
+def step_count(step: float, stop_time: float) -> int:
     """Number of steps of ``step`` from 0 to ``stop_time``; ValueError unless whole."""
     step_ns = step_nanoseconds(step)
     stop = float(stop_time)
@@ -92,7 +101,7 @@ def step_count(step, stop_time):
     return count
 
 
-def communication_points(step, stop_time):
+def communication_points(step: float, stop_time: float) -> list[float]:
     """[t_0, ..., t_n] in seconds exactly as libcosim passes them to an FMU.
 
     t_k = k * step_ns / 1e9 (a correctly rounded division of the integer time point); the
@@ -114,7 +123,7 @@ def _libcosimpy():
             CosimObserver, CosimLocalSlave)
 
 
-def _checked(name, kind, value):
+def _checked(name: str, kind: CosimVariableType, value: float) -> float:
     """``value`` converted for a variable of libcosim type ``kind`` (a CosimVariableType)."""
     kind = kind.name
     if kind == "REAL" and isinstance(value, Real) and not isinstance(value, bool):
@@ -128,8 +137,8 @@ def _checked(name, kind, value):
     raise TypeError(f"{name} is {kind.capitalize()}, got {type(value).__name__} {value!r}")
 
 
-def run_libcosim(fmu_path, parameters=None, inputs=None, step=0.01, stop_time=1.0,
-                 outputs=None, instance="fmu", log_level="WARNING"):
+def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs: dict[str, Any] | None=None, step: float=0.01, stop_time: float=1.0,
+                 outputs: list[str] | None=None, instance: str="fmu", log_level: str="WARNING") -> tuple[ndarray, dict[str, ndarray]]:
     """Run the FMU at ``fmu_path`` alone under libcosim from t = 0 to ``stop_time``.
 
     parameters: {name: value} set as initial values (Real, Integer, Boolean or String).
@@ -165,7 +174,7 @@ def run_libcosim(fmu_path, parameters=None, inputs=None, step=0.01, stop_time=1.
         raise LibcosimError(f"libcosim cannot load {fmu_path}: {last_error()}")
     variables = {v.name.decode(): v for v in execution.slave_variables(index)}
 
-    def variable(name, causalities, role):
+    def variable(name: str, causalities: Any, role: Any):
         if name not in variables:
             raise ValueError(f"{fmu_path} has no variable {name!r}; its {role}s: "
                              + ", ".join(n for n, v in variables.items()
@@ -179,7 +188,7 @@ def run_libcosim(fmu_path, parameters=None, inputs=None, step=0.01, stop_time=1.
     setters = {"REAL": "real_initial_value", "INTEGER": "integer_initial_value",
                "BOOLEAN": "boolean_initial_value", "STRING": "string_initial_value"}
 
-    def set_initial(name, causalities, role, value):
+    def set_initial(name: str, causalities: Any, role: Any, value: Any):
         found, kind = variable(name, causalities, role)
         value = _checked(name, kind, value)
         if not getattr(execution, setters[kind.name])(index, found.reference, value):
@@ -221,7 +230,7 @@ def run_libcosim(fmu_path, parameters=None, inputs=None, step=0.01, stop_time=1.
     overriders = {"REAL": "slave_real_values", "INTEGER": "slave_integer_values",
                   "BOOLEAN": "slave_boolean_values", "STRING": "slave_string_values"}
 
-    def samples(steps_done):
+    def samples(steps_done: Any):
         """(times, values) of steps 0 .. steps_done, checked against the ns grid."""
         values = {}
         times_ns = None
@@ -247,7 +256,7 @@ def run_libcosim(fmu_path, parameters=None, inputs=None, step=0.01, stop_time=1.
         times = np.array([t / NANOSECONDS_PER_SECOND for t in (times_ns or [])])
         return times, values
 
-    def failure(what, steps_done):
+    def failure(what: str, steps_done: Any):
         message = (f"libcosim: {what} failed at t = {steps_done * step_ns / 1e9!r} s: "
                    f"{last_error().strip()} (the FMU's own message is in libcosim's log)")
         try:
@@ -278,6 +287,7 @@ def run_libcosim(fmu_path, parameters=None, inputs=None, step=0.01, stop_time=1.
                                         f"after step {k + 1}, expected {(k + 1) * step_ns} ns")
         return samples(count)
     finally:
-        # The execution owns the instance; destroy it first, then the objects it used.
-        del execution
-        del manipulator, observer, slave
+        # The execution owns the instance; destroy it first, then the objects it used (the
+        # names are rebound, not deleted: the closures above still refer to them).
+        execution = None
+        manipulator = observer = slave = None

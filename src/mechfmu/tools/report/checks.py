@@ -90,7 +90,7 @@ def write_report(run: CheckRun, folder: str | PathLike) -> Path:
     """Write ``folder``/index.html (every file's verdict line and failures table) and, for
     every failing value column, a PNG of the result, the reference, the tolerance band or
     tube and the first failure; all files atomically. Returns the index's path."""
-    folder = Path(output_folder(folder))
+    folder = Path(output_folder(Path(folder)))
     contents: dict[Path, str | bytes] = {}
     options = run.options
     body = [f"<h1>mechfmu check</h1><p>{html.escape(run.summary())}</p>",

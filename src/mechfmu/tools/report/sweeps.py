@@ -7,6 +7,7 @@ one plot; ``failures`` names what disagrees. Nothing here is typed in: the thres
 settings from their files and scenes.
 """
 
+from typing import Any
 import math
 from pathlib import Path
 
@@ -30,8 +31,8 @@ QUICK_VARY = {
 }
 
 
-def run_shipped(sweep_dir, out_dir, fmu_dir="fmus", jobs=None, quick=False, scheduler=None,
-                names=SHIPPED, progress=True):
+def run_shipped(sweep_dir: Any, out_dir: Any, fmu_dir: str="fmus", jobs: int | None=None, quick: bool=False, scheduler: Any=None,
+                names: Any=SHIPPED, progress: bool=True) -> Any:
     """Run the shipped sweeps into out_dir/<name>/; returns {name: summary}."""
     summaries = {}
     for name in names:
@@ -45,12 +46,12 @@ def run_shipped(sweep_dir, out_dir, fmu_dir="fmus", jobs=None, quick=False, sche
     return summaries
 
 
-def _rows(out_dir, name):
+def _rows(out_dir: Any, name: str):
     rows = sweep.read_sweep_csv(Path(out_dir) / name / "sweep.csv")
     return sorted(rows, key=lambda row: row["index"])
 
 
-def _suspension_settings(sweep_dir, name):
+def _suspension_settings(sweep_dir: Any, name: str):
     """(the Suspension's scene parameters, g of the load link load.final_value = g * mass)
     of a shipped suspension sweep, from its file and its scene."""
     settings = sweep.load_sweep_file(find_file(name, (sweep_dir,)))
@@ -59,7 +60,7 @@ def _suspension_settings(sweep_dir, name):
     return scene.components["suspension"].parameters, link.factor
 
 
-def snap_bracket(rows, parameter, metric):
+def snap_bracket(rows: Any, parameter: Any, metric: Any) -> Any:
     """(largest parameter value that stays on the near branch, smallest that ends on the far
     one) among the successful rows; ``metric`` is the final branch (0 near, 1 far)."""
     good = [row for row in rows if row["error"] is None]
@@ -72,7 +73,7 @@ def snap_bracket(rows, parameter, metric):
     return below, above
 
 
-def analyse_suspension(sweep_dir, out_dir):
+def analyse_suspension(sweep_dir: Any, out_dir: Any) -> Any:
     """The static and the sudden snap-through masses: the sweeps' brackets and the
     references', plus the static sweep's deflections against the closed form."""
     findings = {}
@@ -103,7 +104,7 @@ def analyse_suspension(sweep_dir, out_dir):
     return findings
 
 
-def analyse_gear(out_dir):
+def analyse_gear(out_dir: Any) -> Any:
     """Retraction times against the reference's; the lowest pressure that retracts."""
     rows = [row for row in _rows(out_dir, GEAR) if row["error"] is None]
     errors, disagree = [], []
@@ -129,7 +130,7 @@ def analyse_gear(out_dir):
                       for row in rows]}
 
 
-def analyse_valve(out_dir):
+def analyse_valve(out_dir: Any) -> Any:
     """Float speeds against the reference's (relative error)."""
     rows = [row for row in _rows(out_dir, VALVE) if row["error"] is None]
     errors = [abs(row["final:valve.float_camshaft_speed"]
@@ -140,12 +141,12 @@ def analyse_valve(out_dir):
                        for row in rows]}
 
 
-def analyse(sweep_dir, out_dir):
+def analyse(sweep_dir: Any, out_dir: Any) -> Any:
     return {"suspension": analyse_suspension(sweep_dir, out_dir),
             "gear": analyse_gear(out_dir), "valve": analyse_valve(out_dir)}
 
 
-def markdown(findings, summaries=None):
+def markdown(findings: Any, summaries: Any=None) -> Any:
     """The findings as the Markdown of summary.md."""
     lines = ["# Shipped sweeps", ""]
     if summaries:
@@ -181,7 +182,7 @@ def markdown(findings, summaries=None):
     return "\n".join(lines) + "\n"
 
 
-def plot_suspension(out_dir, findings):
+def plot_suspension(out_dir: Any, findings: Any) -> Any:
     """Deflection against mass, static (final) and sudden (largest), with the reference
     snap-through masses; returns the PNG's path."""
     import matplotlib
@@ -212,7 +213,7 @@ TOLERANCES = {"gear_max_error_s": 1e-6, "valve_max_relative_error": 1e-9,
               "static_deflection_m": 1e-9}
 
 
-def failures(findings):
+def failures(findings: Any) -> Any:
     """What disagrees with the references, as sentences (empty: all agree)."""
     found = []
     for name, suspension in findings["suspension"].items():
@@ -232,7 +233,7 @@ def failures(findings):
     return found
 
 
-def report(sweep_dir, out_dir, summaries=None):
+def report(sweep_dir: Any, out_dir: Any, summaries: Any=None) -> Any:
     """Analyse, write summary.md and the suspension plot; returns (findings, Markdown)."""
     findings = analyse(sweep_dir, out_dir)
     text = markdown(findings, summaries)

@@ -14,6 +14,10 @@ study.json          the sweep's definition, the machine and the study's own wall
 accuracy_cost.csv, and the plots and tables are written for every scene it holds.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import csv
 import json
 import math
@@ -22,19 +26,23 @@ import platform
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from ...cosim.files import atomic_write
 from ...cosim.master import Simulation
 from ...cosim.results import versions
+from ..progress import Progress
 from . import design, measure, report
+from argparse import Namespace
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     import pandas
 
+    from .design import StudyScene
 
-def _write_rows(path, rows):
-    def write(handle):
+
+
+def _write_rows(path: Any, rows: Any):
+    def write(handle: Any) -> None:
         writer = csv.DictWriter(handle, fieldnames=measure.COLUMNS, lineterminator="\n")
         writer.writeheader()
         for row in rows:
@@ -49,7 +57,7 @@ NUMBER_COLUMNS = ("tolerance", "max_substep", "step", "max_error", "rms_error",
 INTEGER_COLUMNS = ("repeats", "communication_steps", "substeps", "rhs_evaluations")
 
 
-def read_table(path: "str | os.PathLike") -> "pandas.DataFrame":
+def read_table(path: Path | str) -> pandas.DataFrame:
     """An accuracy_cost.csv as a pandas DataFrame (mechfmu.io.read_table): the counters
     int64, the errors (in the output's SI unit), tolerances and times (s) float64, the
     rest strings. ResultFileError (a ValueError) naming the file, line and column for a
@@ -60,9 +68,10 @@ def read_table(path: "str | os.PathLike") -> "pandas.DataFrame":
     return read(path, text=text, integers=INTEGER_COLUMNS, required=measure.COLUMNS)
 
 
-def read_rows(path: "str | os.PathLike") -> list[dict]:
+def read_rows(path: Path | str) -> list[dict[str, Any]]:
     """The rows of an accuracy_cost.csv as dicts, numbers as numbers (read_table's)."""
-    rows = read_table(path).to_dict("records")
+    rows: list[dict[str, Any]] = [{str(key): value for key, value in row.items()}
+                                  for row in read_table(path).to_dict("records")]
     for row in rows:
         for key, value in row.items():
             if value is None:
@@ -74,26 +83,21 @@ def read_rows(path: "str | os.PathLike") -> list[dict]:
     return rows
 
 
-def headline_unit(scene_dir, fmu_dir, study_scene):
+def headline_unit(scene_dir: Path, fmu_dir: Path, study_scene: StudyScene) -> str:
     """The unit of the scene's headline output, from its FMU's model description."""
     simulation = Simulation(design.load(scene_dir, study_scene), fmu_dir)
     units = {name: variable.unit or "1" for name, _, variable in simulation.recorded}
     return units[study_scene.headline]
 
 
-def pareto_markdown(rows, units):
+def pareto_markdown(rows: list[dict[str, float]], units: dict[str, str]) -> str:
     """pareto.md: for each studied scene in ``units`` (scene name -> its headline output's
     unit), in the design's order, a heading and its cheapest-setting table."""
     return "\n\n".join(f"#### {s.name}\n\n" + report.front_table(rows, s, units[s.name])
                         for s in design.SCENES if s.name in units) + "\n"
 
 
-def _progress(done, total, point):
-    if done == total or done % 25 == 0:
-        print(f"  {done}/{total} points ({point.scene}: {point.label()})", flush=True)
-
-
-def work_precision_command(args) -> int:
+def work_precision_command(args: Namespace) -> int:
     """``mechfmu study --work-precision``: write work_precision.csv and .md into args.out,
     print the summary; the exit status (1 if an error is not finite)."""
     from . import work_precision
@@ -112,7 +116,7 @@ def work_precision_command(args) -> int:
     return 0 if frame["error"].map(math.isfinite).all() else 1
 
 
-def command(args):
+def command(args: Namespace) -> Any:
     """``mechfmu study`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     if getattr(args, "work_precision", False):
@@ -142,8 +146,10 @@ def command(args):
         points += design.points(study_scene, design.couplings_of(scene), args.quick)
     print(f"running {len(points)} points on {args.workers} worker(s), "
           f"{args.repeats} repeat(s) each", flush=True)
+    meter = Progress(len(points), sys.stdout, label="study", unit="points")
     rows = measure.run_points(points, scenes, args.fmu_dir, args.repeats, args.workers,
-                              _progress)
+                              lambda done, total, point: meter.update(
+                                  done, note=f"{point.scene}: {point.label()}"))
     kept = [row for row in previous_rows if row["scene"] not in scenes]
     rows = kept + rows
     paths = [_write_rows(previous, rows)]

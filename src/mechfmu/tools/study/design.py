@@ -9,11 +9,19 @@ several FMUs. Every communication step is a whole multiple of the scene's finest
 runs share the reference's sample times.
 """
 
+from __future__ import annotations
+
+from typing import Any
+from typing import TYPE_CHECKING
 import copy
 import dataclasses
 from dataclasses import dataclass
 
 from ...cosim.scene import find_file, load_scene
+from pathlib import Path
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ...cosim.scene import Scene
 
 ADAPTIVE = ("dopri5", "radau")
 FIXED = ("euler", "rk4")
@@ -69,13 +77,13 @@ class Point:
     step: float           # s, communication step
     coupling: str         # gauss_seidel or jacobi
 
-    def label(self):
+    def label(self) -> str:
         knob = (f"tol {self.tolerance:g}" if self.integrator in ADAPTIVE
                 else f"h {self.max_substep:g} s")
         return f"{self.integrator} {knob}, step {self.step:g} s, {self.coupling}"
 
 
-def integrator_settings(study_scene, step):
+def integrator_settings(study_scene: StudyScene, step: float) -> list[tuple[str, float, float]]:
     """(integrator, tolerance, max_substep) tried at communication step ``step``."""
     settings = [(method, tolerance, step) for method in ADAPTIVE for tolerance in TOLERANCES]
     fixed = sorted({min(substep, step) for substep in study_scene.substeps}, reverse=True)
@@ -83,7 +91,7 @@ def integrator_settings(study_scene, step):
     return settings
 
 
-def points(study_scene, couplings, quick=False):
+def points(study_scene: StudyScene, couplings: tuple, quick: bool=False) -> list[Point]:
     """Every point of the sweep for ``study_scene``; ``quick`` keeps a small, cheap corner
     of it (the two coarsest steps, six settings).
 
@@ -107,17 +115,17 @@ def points(study_scene, couplings, quick=False):
     return chosen
 
 
-def couplings_of(scene):
+def couplings_of(scene: Scene) -> tuple:
     """Both couplings for a scene with connections; Gauss-Seidel alone otherwise."""
     return ("gauss_seidel", "jacobi") if scene.connections else ("gauss_seidel",)
 
 
-def counters(study_scene):
+def counters(study_scene: Any) -> Any:
     """The integrating component's work counters (recorded in every run of the study)."""
     return (f"{study_scene.component}.rhs_evaluations", f"{study_scene.component}.substeps")
 
 
-def configure(scene, study_scene, point):
+def configure(scene: Any, study_scene: Any, point: Any) -> Any:
     """The shipped ``scene`` with the point's settings and the work counters recorded."""
     components = copy.deepcopy(scene.components)
     parameters = components[study_scene.component].parameters
@@ -130,7 +138,7 @@ def configure(scene, study_scene, point):
                                coupling=point.coupling, record=record)
 
 
-def load(scene_dir, study_scene):
+def load(scene_dir: Path | str, study_scene: StudyScene) -> Scene:
     """The shipped scene, checked against the study's assumptions."""
     scene = load_scene(find_file(study_scene.name, (scene_dir,)))
     span = scene.stop_time - scene.start_time

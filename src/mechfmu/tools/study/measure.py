@@ -9,17 +9,24 @@ shares (the coarsest step's), so a coarse step is not flattered by being looked 
 often (``max_error``, ``rms_error``), and at every point of the run (``max_error_all``).
 """
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import dataclasses
 import math
 import statistics
-from concurrent.futures import ProcessPoolExecutor
-from multiprocessing import get_context
+from typing import Any
 
 import numpy as np
 
 from ...cosim.master import Simulation, SimulationError
+from ..parallel import LocalPool
 from ..scene_references import REFERENCES, sample_times
 from .design import configure, counters
+
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from ...cosim.scene import Scene
+    from .design import StudyScene
 
 SLOW_RUN = 1.0  # s: a run this long is timed once (its spread is small against its length)
 
@@ -30,7 +37,7 @@ COLUMNS = ("scene", "integrator", "tolerance", "max_substep", "step", "coupling"
            "substeps", "rhs_evaluations", "status")
 
 
-def reference(scene, study_scene):
+def reference(scene: Scene, study_scene: StudyScene) -> Any:
     """(times, {column: values}) of the scene's reference on the finest step's grid."""
     fine = dataclasses.replace(scene, step=study_scene.steps[0])
     columns = REFERENCES[scene.name](fine)
@@ -38,7 +45,7 @@ def reference(scene, study_scene):
                                 for name, values in columns.items()}
 
 
-def errors(times, columns, reference_times, reference_columns, common_step):
+def errors(times: Any, columns: Any, reference_times: Any, reference_columns: Any, common_step: Any) -> Any:
     """{output: (max |error|, RMS error, max |error| at all points, peak |reference|)}.
 
     The first two are taken at the run's points that fall on the ``common_step`` grid,
@@ -68,11 +75,14 @@ def errors(times, columns, reference_times, reference_columns, common_step):
     return measured
 
 
-def run_point(point, scene, study_scene, reference_data, fmu_dir, repeats):
+def run_point(point: Any, scene: Any, study_scene: Any, reference_data: tuple[Any, Any], fmu_dir: Any, repeats: int) -> Any:
     """The rows of one point: its errors per output, cost and work counters."""
     configured = configure(scene, study_scene, point)
     simulation = Simulation(configured, fmu_dir)  # checked and its FMUs described once
-    loop_times, wall_times, result, failure = [], [], None, ""
+    loop_times: list[float] = []
+    wall_times: list[float] = []
+    result: Any = None  # the last run's Result (repeats >= 1)
+    failure = ""
     for _ in range(repeats):
         try:
             result = simulation.run()
@@ -113,20 +123,20 @@ def run_point(point, scene, study_scene, reference_data, fmu_dir, repeats):
 
 # --- parallel execution -----------------------------------------------------------------
 
-_WORKER = {}  # per worker process: the scenes and references, sent once at start
+_WORKER: dict[str, Any] = {}  # per worker process: the scenes and references, sent once at start
 
 
-def _start_worker(payload):
+def _start_worker(payload: Any) -> None:
     _WORKER.update(payload)
 
 
-def _run_in_worker(point):
+def _run_in_worker(point: Any):
     scene, study_scene, reference_data = _WORKER["scenes"][point.scene]
     return run_point(point, scene, study_scene, reference_data, _WORKER["fmu_dir"],
                      _WORKER["repeats"])
 
 
-def run_points(points, scenes, fmu_dir, repeats, workers, progress=None):
+def run_points(points: Any, scenes: Any, fmu_dir: Any, repeats: int, workers: int, progress: Any=None) -> Any:
     """Rows of every point, run on ``workers`` processes (1: in this process).
 
     ``scenes`` maps a scene name to (scene, study scene, reference). Points are started
@@ -143,11 +153,12 @@ def run_points(points, scenes, fmu_dir, repeats, workers, progress=None):
                 progress(done, len(ordered), point)
         return rows
     # spawn: a fresh interpreter per worker, with no FMU loaded before it starts
-    with ProcessPoolExecutor(workers, mp_context=get_context("spawn"),
-                             initializer=_start_worker, initargs=(payload,)) as pool:
-        for done, (point, point_rows) in enumerate(
-                zip(ordered, pool.map(_run_in_worker, ordered)), 1):
+    pool = LocalPool(workers, _run_in_worker, _start_worker, (payload,), context="spawn")
+    try:
+        for done, (point, point_rows) in enumerate(zip(ordered, pool.map(ordered)), 1):
             rows.extend(point_rows)
             if progress:
                 progress(done, len(ordered), point)
+    finally:
+        pool.close()
     return rows

@@ -1,8 +1,12 @@
 """The study's report: the Pareto front, the plots and the Markdown tables."""
 
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
 import math
 
 import matplotlib
+from typing import Any
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -10,12 +14,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 from ...cosim.files import save_figure  # noqa: E402
 from .design import ADAPTIVE, TIGHTEST  # noqa: E402
 
+if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    from .design import StudyScene
+
 TARGETS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 COLORS = {"euler": "tab:red", "rk4": "tab:orange", "dopri5": "tab:blue", "radau": "tab:green"}
 MARKERS = {"gauss_seidel": "o", "jacobi": "x"}
 
 
-def pareto_front(costs, errors):
+def pareto_front(costs: list[Any], errors: list[Any]) -> list[Any]:
     """Indices of the points no other point beats in both cost and error, cheapest first.
 
     A point is on the front when every cheaper point (or equally cheap one listed before
@@ -31,13 +38,13 @@ def pareto_front(costs, errors):
     return front
 
 
-def headline_rows(rows, study_scene):
+def headline_rows(rows: list[dict[str, Any]], study_scene: StudyScene) -> list[dict[str, Any]]:
     """The rows of the scene's headline output, successful runs only."""
     return [r for r in rows if r["scene"] == study_scene.name
             and r["output"] == study_scene.headline and r["status"] == "ok"]
 
 
-def setting(row):
+def setting(row: dict[str, Any]) -> str:
     """How a row's point was set, in words for a table."""
     if row["integrator"] in ADAPTIVE:
         method = f"{row['integrator']}, rtol = atol = {row['tolerance']:g}"
@@ -46,13 +53,13 @@ def setting(row):
     return method
 
 
-def cheapest_for(rows, target):
+def cheapest_for(rows: list[dict[str, Any]], target: float) -> dict[str, Any] | None:
     """The cheapest row whose max error is at most ``target``, or None."""
     meeting = [r for r in rows if r["max_error"] <= target]
     return min(meeting, key=lambda r: r["ms_per_simulated_s"]) if meeting else None
 
 
-def front_table(rows, study_scene, unit):
+def front_table(rows: list[dict[str, Any]], study_scene: StudyScene, unit: str) -> str:
     """Markdown table: for each target error, the cheapest setting that meets it."""
     chosen = headline_rows(rows, study_scene)
     lines = [f"| max error on `{study_scene.headline}` | integrator | communication step | "
@@ -69,7 +76,7 @@ def front_table(rows, study_scene, unit):
     return "\n".join(lines)
 
 
-def plot_front(rows, study_scene, unit, path):
+def plot_front(rows: Any, study_scene: Any, unit: str, path: Any) -> Any:
     """Error against cost on log-log axes, every point, the Pareto front as a line."""
     chosen = [r for r in headline_rows(rows, study_scene) if r["max_error"] > 0]
     figure, axes = plt.subplots(figsize=(8, 5.5))
@@ -96,7 +103,7 @@ def plot_front(rows, study_scene, unit, path):
     return _save(path, figure)
 
 
-def plot_sources(rows, study_scene, unit, path):
+def plot_sources(rows: Any, study_scene: Any, unit: str, path: Any) -> Any:
     """Two panels: the coupling error alone and the integration error alone.
 
     Left: error against the communication step with each adaptive method at its tightest
@@ -137,7 +144,7 @@ def plot_sources(rows, study_scene, unit, path):
     return _save(path, figure)
 
 
-def _save(path, figure):
+def _save(path: Any, figure: Any):
     """Write the figure atomically and free it."""
     try:
         return save_figure(path, figure, dpi=110)

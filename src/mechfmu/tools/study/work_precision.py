@@ -28,6 +28,7 @@ Writes work_precision.csv (one row per run, a pandas DataFrame) and work_precisi
 (the evaluations each method needs at a few target errors, interpolated log-log).
 """
 
+from typing import Any
 import itertools
 import math
 import statistics
@@ -59,7 +60,7 @@ class Problem:
     """y' = rhs(t, y) from y0 over [t0, t1] s; ``substeps`` the fixed sub-steps (s) of
     rk4."""
 
-    def __init__(self, name, rhs, y0, t0, t1, substeps):
+    def __init__(self, name: str, rhs: Any, y0: Any, t0: float, t1: float, substeps: Any) -> None:
         self.name, self.rhs, self.y0, self.t0, self.t1 = name, rhs, list(y0), t0, t1
         self.substeps = substeps
 
@@ -108,19 +109,19 @@ class Counted:
     """The right-hand side with a call counter (lists in, lists out, as our integrators
     call it; scipy's arrays are accepted and an array returned)."""
 
-    def __init__(self, rhs):
+    def __init__(self, rhs: Any) -> None:
         self.rhs, self.calls = rhs, 0
 
-    def ours(self, t, y):
+    def ours(self, t: float, y: Any) -> Any:
         self.calls += 1
         return self.rhs(t, y)
 
-    def scipy(self, t, y):
+    def scipy(self, t: float, y: Any) -> Any:
         self.calls += 1
         return np.asarray(self.rhs(t, y.tolist()), dtype=float)
 
 
-def reference(problem: Problem):
+def reference(problem: Problem) -> Any:
     """(state at t1, per-component peak |y| on the span) from scipy at 1e-13."""
     y0 = np.asarray(problem.y0, dtype=float)
     scale = np.maximum(np.abs(y0), 1.0)
@@ -136,7 +137,7 @@ def reference(problem: Problem):
     return solution.y[:, -1] * scale, peak
 
 
-def _ours(problem, method, tolerance, substep):
+def _ours(problem: Any, method: Any, tolerance: float, substep: Any):
     counted = Counted(problem.rhs)
     integrator = make_integrator(method, tolerance, tolerance,
                                  substep if substep else math.inf)
@@ -145,7 +146,7 @@ def _ours(problem, method, tolerance, substep):
     return y, counted.calls, integrator.stats.substeps, time.perf_counter() - started
 
 
-def _scipy(problem, method, tolerance):
+def _scipy(problem: Any, method: Any, tolerance: float):
     counted = Counted(problem.rhs)
     started = time.perf_counter()
     solution = solve_ivp(counted.scipy, (problem.t0, problem.t1),
@@ -157,7 +158,7 @@ def _scipy(problem, method, tolerance):
     return solution.y[:, -1], counted.calls, len(solution.t) - 1, wall
 
 
-def runs(problem: Problem, tolerances, repeats: int) -> list:
+def runs(problem: Problem, tolerances: Any, repeats: int) -> list:
     """Rows (dicts of COLUMNS) of every method on ``problem``; wall time the median of
     ``repeats`` runs."""
     y_ref, peak = reference(problem)
@@ -182,13 +183,13 @@ def runs(problem: Problem, tolerances, repeats: int) -> list:
     return rows
 
 
-def table(problems=tuple(PROBLEMS), tolerances=TOLERANCES, repeats: int = 3) -> pd.DataFrame:
+def table(problems: Any=tuple(PROBLEMS), tolerances: Any=TOLERANCES, repeats: int = 3) -> pd.DataFrame:
     """The work-precision DataFrame (COLUMNS) of the named problems."""
     rows = [row for name in problems for row in runs(PROBLEMS[name](), tolerances, repeats)]
     return pd.DataFrame(rows, columns=list(COLUMNS))
 
 
-def evaluations_at(frame: pd.DataFrame, targets=TARGET_ERRORS,
+def evaluations_at(frame: pd.DataFrame, targets: Any=TARGET_ERRORS,
                    column: str = "rhs_evaluations") -> pd.DataFrame:
     """What each (problem, library, method) spends in ``column`` (right-hand-side
     evaluations, or wall_time_s) for each target error: log-log interpolation between its
