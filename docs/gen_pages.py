@@ -10,6 +10,7 @@
   committed reference CSV. A registered model without an interface marker on some page
   fails the build.
 - The accuracy study's committed plots (``data/study/*.png``) as ``study/*.png``.
+- The tube-versus-pointwise figure of checks.md (``plots/tube_vs_pointwise.png``).
 """
 
 import contextlib
@@ -106,6 +107,14 @@ def study_plots() -> None:
             handle.write(png.read_bytes())
 
 
+def check_plots() -> None:
+    """checks.md's tube-versus-pointwise figure, drawn by mechfmu's own comparison."""
+    from mechfmu.tools.report.checks import tube_example
+    with mkdocs_gen_files.open("plots/tube_vs_pointwise.png", "wb") as handle:
+        handle.write(tube_example())
+
+
 api_pages(Path(mechfmu.__file__).parent, mkdocs_gen_files.Nav())
 fill_markers(Path(mkdocs_gen_files.config["docs_dir"]))
 study_plots()
+check_plots()

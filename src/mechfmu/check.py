@@ -1,87 +1,184 @@
-"""Compare results with references: CSV against CSV within explicit tolerances, and the
-report of a scene run against its reference."""
+"""Regression checks: a result (file or folder of CSV files) against a reference, the report
+of a scene run against its reference, and what ``mechfmu check`` prints.
+
+``check_paths`` matches the CSV files of two folders by relative path (or takes two files)
+and compares each pair with ``mechfmu.compare``; every problem (a missing file, a malformed
+one, a missing or extra column, a different time grid, a value out of tolerance) becomes a
+failure naming the file, and the line, column and time where they apply.
+"""
 
 from __future__ import annotations
 
-from typing import Any
-from typing import TYPE_CHECKING
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from os import PathLike
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .cosim.results import read_csv
-from pathlib import Path
+from .comparison import Comparison, Tolerance
+from .comparison import compare as compare_frames
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .cosim.master import Result
 
 
+def compare(result_path: str | PathLike, reference_path: str | PathLike, rtol: float = 1e-9,
+            atol: float = 1e-12) -> Comparison:
+    """The check of ``mechfmu run --check``: the result CSV against a reference CSV.
+
+    The reference is interpolated linearly onto the result's times (which must start and end
+    where the reference's do); every column of the reference must be in the result, and the
+    result's other recorded columns are not compared. A sample passes when
+    ``|value - reference| <= atol + rtol * |reference|``. Raises mechfmu.io.ResultFileError
+    (a ValueError) naming the file for a malformed one.
+    """
+    return compare_frames(result_path, reference_path, rtol=rtol, atol=atol, interpolate=True,
+                          ignore_extra=True)
+
+
 @dataclass
-class Deviation:
-    column: str
-    time: float
-    value: float
-    reference: float
-    allowed: float
+class FileCheck:
+    """One file of a check: ``name`` (its relative path), the two paths, and either the
+    Comparison or the problem that prevented it (``kind``: "missing file", "malformed
+    file" or "no reference"; ``problem`` the one-line message)."""
+    name: str
+    result: Path | None
+    reference: Path | None
+    comparison: Comparison | None = None
+    kind: str | None = None
+    problem: str | None = None
 
     @property
-    def size(self) -> float:
-        return abs(self.value - self.reference)
+    def compared(self) -> bool:
+        return self.comparison is not None
 
-    def __str__(self) -> str:
-        return (f"{self.column} at t = {self.time!r} s: {self.value!r} vs reference "
-                f"{self.reference!r} (|difference| {self.size:.3e}, allowed {self.allowed:.3e})")
+    @property
+    def passed(self) -> bool:
+        """True when compared and matching, or when the result has no reference (which is
+        listed but not a failure)."""
+        if self.comparison is not None:
+            return self.comparison.passed
+        return self.kind == "no reference"
+
+    def line(self) -> str:
+        """The one-line summary ``mechfmu check`` prints for this file."""
+        if self.comparison is not None:
+            return f"{self.name}: {self.comparison}"
+        if self.kind == "missing file":
+            return f"{self.name}: MISMATCH: missing file: {self.problem}"
+        if self.kind == "no reference":
+            return f"{self.name}: not compared: {self.problem}"
+        return f"{self.name}: MISMATCH: malformed file: {self.problem}"
 
 
 @dataclass
-class Comparison:
-    ok: bool
-    columns: list       # compared column names
-    samples: int        # result samples inside the reference's time span
-    worst: Deviation | None  # largest deviation relative to its allowance (None if no samples)
+class CheckRun:
+    """Every FileCheck of one ``mechfmu check``, and the options it ran with."""
+    files: list[FileCheck]
+    options: dict[str, Any] = field(default_factory=dict)
+    error: str | None = None          # why nothing could be compared (exit 2)
 
-    def __str__(self) -> str:
-        verdict = "match" if self.ok else "MISMATCH"
-        worst = f"; worst: {self.worst}" if self.worst else ""
-        return f"{verdict}: {len(self.columns)} column(s), {self.samples} sample(s){worst}"
+    @property
+    def exit_code(self) -> int:
+        """0 every file matches, 1 any mismatch, 2 nothing comparable (no pair of files)."""
+        if self.error or not any(f.result and f.reference for f in self.files):
+            return 2
+        return 0 if all(f.passed for f in self.files) else 1
+
+    def summary(self) -> str:
+        """The last line ``mechfmu check`` prints."""
+        if self.error:
+            return f"check error: {self.error}"
+        matched = sum(1 for f in self.files if f.compared and f.passed)
+        failed = sum(1 for f in self.files if not f.passed)
+        skipped = sum(1 for f in self.files if f.kind == "no reference")
+        text = f"{len(self.files)} file(s): {matched} match, {failed} mismatch"
+        if skipped:
+            text += f", {skipped} without reference (not compared)"
+        if not any(f.result and f.reference for f in self.files):
+            text += "; nothing to compare"
+        return text
+
+    def unused_tolerances(self) -> list[str]:
+        """The ``tolerances`` keys that matched no compared column of any file."""
+        from fnmatch import fnmatchcase
+        columns = {c for f in self.files if f.comparison is not None
+                   for c in f.comparison.summary.index}
+        columns |= {c for f in self.files if f.comparison is not None
+                    for c in f.comparison.reference.columns}
+        return [key for key in self.options.get("tolerances") or {}
+                if not any(fnmatchcase(c, key) for c in columns)]
 
 
-def compare(result_path: Path, reference_path: Path, rtol: float=1e-9, atol: float=1e-12) -> Comparison:
-    """Interpolate the reference onto the result's times and compare shared columns.
+def _pairs(result: Path, reference: Path) -> tuple[list[tuple[str, Path | None, Path | None]],
+                                                    str | None]:
+    """(relative name, result file, reference file) for every CSV file, matched by relative
+    path; and an error when the arguments cannot be compared at all."""
+    for path, what in ((result, "result"), (reference, "reference")):
+        if not path.exists():
+            return [], f"{what} {path} does not exist"
+    if result.is_dir() != reference.is_dir():
+        if result.is_dir():
+            return [], (f"result {result} is a folder but reference {reference} is a file "
+                        f"(give two folders, two files, or a file and a folder)")
+        reference = reference / result.name  # a file against its namesake in a folder
+        return [(result.name, result, reference if reference.is_file() else None)], None
+    if not result.is_dir():
+        return [(result.name, result, reference)], None
+    found = {p.relative_to(result).as_posix(): p for p in result.rglob("*.csv") if p.is_file()}
+    wanted = {p.relative_to(reference).as_posix(): p for p in reference.rglob("*.csv")
+              if p.is_file()}
+    names = sorted(set(found) | set(wanted))
+    if not names:
+        return [], f"no CSV file in {result} nor in {reference}"
+    return [(name, found.get(name), wanted.get(name)) for name in names], None
 
-    A sample passes when |value - reference| <= atol + rtol * |reference|; NaN never passes.
-    Raises ValueError when the files share no column or no time span.
-    """
-    times, columns = read_csv(result_path)
-    ref_times, ref_columns = read_csv(reference_path)
-    shared = [name for name in columns if name in ref_columns]
-    if not shared:
-        raise ValueError(f"{result_path} and {reference_path} share no column besides time")
-    times, ref_times = np.asarray(times), np.asarray(ref_times)
-    span = (times >= ref_times[0] - 1e-12) & (times <= ref_times[-1] + 1e-12)
-    if not span.any():
-        raise ValueError(f"{result_path} has no time inside the reference's "
-                         f"[{ref_times[0]}, {ref_times[-1]}] s")
-    worst, worst_score = None, -1.0
-    for name in shared:
-        values = np.asarray(columns[name])[span]
-        reference = np.interp(times[span], ref_times, np.asarray(ref_columns[name]))
-        allowed = atol + rtol * np.abs(reference)
-        score = np.abs(values - reference) / allowed
-        score[~np.isfinite(values)] = np.inf
-        i = int(np.argmax(score))
-        if score[i] > worst_score:
-            worst_score = float(score[i])
-            worst = Deviation(name, float(times[span][i]), float(values[i]),
-                              float(reference[i]), float(allowed[i]))
-    return Comparison(worst_score <= 1.0, shared, int(span.sum()), worst)
+
+def check_paths(result: str | PathLike, reference: str | PathLike, *, rtol: float = 1e-9,
+                atol: float = 1e-12, method: str = "pointwise",
+                time_tolerance: float | None = None,
+                tolerances: Mapping[str, Tolerance] | None = None, interpolate: bool = False,
+                ignore_extra: bool = False) -> CheckRun:
+    """Compare ``result`` with ``reference``: two CSV files, two folders (their CSV files,
+    matched by relative path, in sub-folders too) or a file and the folder holding its
+    namesake. The options are ``mechfmu.compare``'s. A reference file without a result is a
+    "missing file" failure; a result without a reference is listed but not compared; a file
+    that cannot be read is a "malformed file" failure naming the line and column."""
+    from .io import ResultFileError, read_result
+    options = {"rtol": rtol, "atol": atol, "method": method, "time_tolerance": time_tolerance,
+               "tolerances": dict(tolerances or {}), "interpolate": interpolate,
+               "ignore_extra": ignore_extra}
+    pairs, error = _pairs(Path(result), Path(reference))
+    files = []
+    for name, result_file, reference_file in pairs:
+        check = FileCheck(name, result_file, reference_file)
+        files.append(check)
+        if result_file is None:
+            check.kind = "missing file"
+            check.problem = f"no {Path(result) / name} for reference {reference_file}"
+            continue
+        if reference_file is None:
+            check.kind, check.problem = "no reference", f"no reference file for {result_file}"
+            continue
+        try:
+            frames = read_result(result_file), read_result(reference_file)
+        except ResultFileError as problem:
+            check.kind, check.problem = "malformed file", str(problem)
+            continue
+        check.comparison = compare_frames(*frames, **options)  # type: ignore[arg-type]
+    return CheckRun(files, options, error)
 
 
 def worst_deviations(result: Any, reference_path: Any) -> Any:
     """Per recorded column that the reference CSV shares: (column, worst |difference|,
     unit, time of it in s, that difference as a fraction of the column's peak |reference|).
     The reference is interpolated onto the result's times; ``result`` is a cosim Result."""
-    ref_times, reference = read_csv(reference_path)
+    from .io import read_result
+    frame = read_result(reference_path)
+    ref_times = frame.index.to_numpy(dtype=float)
+    reference = {name: frame[name].to_numpy(dtype=float) for name in frame.columns}
     times = np.asarray(result.times)
     rows = []
     for name, values in result.columns.items():
@@ -101,8 +198,8 @@ def run_report(result: Result, paths: dict[str, Path], reference: Path | None=No
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
     verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,
     Comparison or None)."""
-    lines = [f"{result.scene.name}: {result.meta['steps']} steps of {result.scene.step} s in "
-             f"{result.meta['wall_time_s']:.3f} s wall time"]
+    lines = [(f"{result.scene.name}: {result.meta['steps']} steps of {result.scene.step} s "
+              f"in {result.meta['wall_time_s']:.3f} s wall time")]
     lines += [f"  [{entry['status']}] {entry['message']}" for entry in result.log
               if entry["status"] != "ok"]
     comparison = None

@@ -69,14 +69,64 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
+    from .cosim.scene import find_file
+    if args.all == (args.scene is not None):
+        print("mechfmu run: error: give a scene or --all (every shipped scene), not both",
+              file=sys.stderr)
+        return 2
+    if args.all and args.reference:
+        print("mechfmu run: error: --reference names one scene's reference; with --all use "
+              "--check (each scene against its own)", file=sys.stderr)
+        return 2
+    if args.all:
+        return _run_all(args, guard)
+    if args.reference:  # a bad --reference costs nothing: read before the run
+        from .io import read_result
+        try:
+            read_result(args.reference)
+        except ValueError as error:
+            print(f"check error: {error}", file=sys.stderr)
+            return 2
+    return _run_one(args, guard, find_file(args.scene))
+
+
+def _run_all(args: argparse.Namespace, guard: InterruptGuard) -> int:
+    """``mechfmu run --all``: every shipped scene into --out, in name order, one after the
+    other; a failing scene does not stop the others. Exit status: the worst of the scenes'
+    (0 all ran, and matched their references with --check; 1 a run failed or a check did not
+    match; 2 a scene or output error), or 130/143 at once when SIGINT/SIGTERM stops it."""
+    from .cosim.files import OutputError, output_folder
+    from .cosim.interrupt import exit_code
+    try:
+        output_folder(args.out)  # a bad --out costs nothing
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    scenes = sorted(SCENE_DIR.glob("*.toml"))
+    statuses = {}
+    for path in scenes:
+        statuses[path.stem] = status = _run_one(args, guard, path)
+        if status > 2:  # a signal stopped the run: the remaining scenes do not start
+            return status
+        if guard.requested:
+            return exit_code(guard.take())
+    failed = [name for name, status in statuses.items() if status]
+    print(f"ran {len(scenes)} shipped scene(s) into {args.out}: "
+          f"{len(scenes) - len(failed)} ok" + (f", {len(failed)} not: {', '.join(failed)}"
+                                               if failed else ""),
+          file=sys.stderr if failed else sys.stdout)
+    return max(statuses.values(), default=0)
+
+
+def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) -> int:
     from .check import run_report
     from .cosim.files import OutputError
     from .cosim.interrupt import exit_code, signal_name
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
-    from .cosim.scene import SceneError, find_file
+    from .cosim.scene import SceneError
     try:
-        result, paths = run_scene(find_file(args.scene), args.out, args.fmu_dir,
+        result, paths = run_scene(scene_path, args.out, args.fmu_dir,
                                   plot=not args.no_plot, guard=guard)
     except (SceneError, OutputError, SimulationError) as error:
         return _scene_failure(error, guard)
@@ -86,7 +136,13 @@ def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
               file=sys.stderr)
         return exit_code(guard.signum)
     reference = args.reference or (result.scene.reference if args.check else None)
-    lines, comparison = run_report(result, paths, reference, args.rtol, args.atol)
+    try:
+        lines, comparison = run_report(result, paths, reference, args.rtol, args.atol)
+    except ValueError as error:  # a malformed reference CSV (ResultFileError names it)
+        print(f"check error: {error}", file=sys.stderr)
+        for kind, path in paths.items():
+            print(f"  {kind}: {path}", file=sys.stderr)
+        return 2
     print("\n".join(lines))
     return 0 if comparison is None or comparison.ok else 1
 
@@ -140,15 +196,56 @@ def _export_fmu(args: Any):
     return 0
 
 
-def _check(args: Any):
-    from .check import compare
+def _check(args: Any) -> int:
+    from .check import check_paths
+    from .comparison import parse_tolerance
+    from .cosim.files import OutputError
     try:
-        comparison = compare(args.result, args.reference, args.rtol, args.atol)
-    except (OSError, ValueError) as error:
+        tolerances: dict[str, Any] = dict(parse_tolerance(text) for text in args.tol)
+        for name, value in (("--rtol", args.rtol), ("--atol", args.atol),
+                            ("--time-tolerance", args.time_tolerance)):
+            if value is not None and not value >= 0:
+                raise ValueError(f"{name} must be >= 0, got {value!r}")
+        if args.time_tolerance is not None and args.method != "tube":
+            raise ValueError("--time-tolerance is the tube's: give --method tube with it")
+    except ValueError as error:
         print(f"check error: {error}", file=sys.stderr)
         return 2
-    print(comparison)
-    return 0 if comparison.ok else 1
+    run = check_paths(args.result, args.reference, rtol=args.rtol, atol=args.atol,
+                      method=args.method, time_tolerance=args.time_tolerance,
+                      tolerances=tolerances, interpolate=args.interpolate,
+                      ignore_extra=args.ignore_extra)
+    for check in run.files:
+        print(check.line())
+    for key in run.unused_tolerances():
+        print(f"check warning: --tol {key} matches no column", file=sys.stderr)
+    print(run.summary(), file=sys.stderr if run.error else sys.stdout)
+    try:
+        if args.junit:
+            from .tools.report.checks import write_junit
+            print(f"junit: {write_junit(run, args.junit)}")
+        if args.report:
+            from .tools.report.checks import write_report
+            print(f"report: {write_report(run, args.report)}")
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    return run.exit_code
+
+
+def _baseline_update(args: argparse.Namespace) -> int:
+    from .baseline import BaselineError, summary, update_baselines
+    from .cosim.files import OutputError
+    try:
+        changes = update_baselines(args.results, args.baselines, prune=args.prune,
+                                   dry_run=args.dry_run)
+    except (BaselineError, OutputError) as error:
+        print(f"baseline error: {error}", file=sys.stderr)
+        return 2
+    for change in changes:
+        print(change.line())
+    print(summary(changes, args.baselines, args.dry_run))
+    return 0
 
 
 def _references(args: Any) -> int:
@@ -357,12 +454,16 @@ def parser() -> argparse.ArgumentParser:
                             "models import, so the FMUs run where no Python is installed")
     build.set_defaults(func=_build)
 
-    run = verbs.add_parser("run", help="run a scene and write CSV, JSON and PNG")
-    run.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    run = verbs.add_parser("run", help="run a scene (or every shipped scene) and write CSV, "
+                           "JSON and PNG")
+    run.add_argument("scene", nargs="?", help="scene TOML file, or the name of a shipped scene")
+    run.add_argument("--all", action="store_true",
+                     help="run every shipped scene into --out (a baseline tree for mechfmu "
+                          "check); a failing scene does not stop the others")
     _scene_options(run)
     run.add_argument("--check", action="store_true",
                      help="compare with the scene's reference CSV afterwards")
-    run.add_argument("--reference", help="compare with this CSV afterwards")
+    run.add_argument("--reference", help="compare with this CSV afterwards (one scene)")
     run.add_argument("--rtol", type=float, default=1e-9)
     run.add_argument("--atol", type=float, default=1e-12)
     run.set_defaults(func=_run)
@@ -389,12 +490,44 @@ def parser() -> argparse.ArgumentParser:
                                 "stepped before it; parallel: every link lags one step")
     container.set_defaults(func=_export_fmu)
 
-    check = verbs.add_parser("check", help="compare a result CSV with a reference CSV")
-    check.add_argument("result")
-    check.add_argument("reference")
+    check = verbs.add_parser(
+        "check", help="compare a result CSV (or a folder of them) with a reference CSV (or "
+        "folder, matched by relative path); exit 0 all match, 1 any mismatch, 2 nothing "
+        "comparable")
+    check.add_argument("result", help="result CSV file or folder")
+    check.add_argument("reference", help="reference CSV file or folder")
     check.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance")
     check.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance")
+    check.add_argument("--tol", action="append", default=[], metavar="COLUMN=RTOL[,ATOL]",
+                       help="tolerance of one column (or an fnmatch pattern such as 'gear.*'); "
+                            "repeatable, the last match wins")
+    check.add_argument("--method", choices=("pointwise", "tube"), default="pointwise",
+                       help="pointwise (default; the same time grid) or tube (the reference "
+                            "widened by --time-tolerance in time)")
+    check.add_argument("--time-tolerance", type=float, metavar="S",
+                       help="the tube's half width in time, s (default: the reference's "
+                            "largest step)")
+    check.add_argument("--interpolate", action="store_true",
+                       help="pointwise: interpolate the reference onto the result's times")
+    check.add_argument("--ignore-extra", action="store_true",
+                       help="result columns the reference lacks are not failures")
+    check.add_argument("--junit", metavar="FILE", help="write a JUnit XML file")
+    check.add_argument("--report", metavar="DIR",
+                       help="write DIR/index.html with a plot of every failing column")
     check.set_defaults(func=_check)
+
+    baseline = verbs.add_parser("baseline", help="accepted results (baselines) for mechfmu check")
+    baseline_verbs = baseline.add_subparsers(dest="baseline_verb", required=True)
+    update = baseline_verbs.add_parser(
+        "update", help="accept results as baselines: copy the new and changed CSV files (and "
+        "their JSON) and say what changed by how much")
+    update.add_argument("results", help="result CSV file or folder (e.g. of mechfmu run --all)")
+    update.add_argument("baselines", help="baseline folder (created if missing)")
+    update.add_argument("--prune", action="store_true",
+                        help="remove baselines that have no result")
+    update.add_argument("--dry-run", action="store_true",
+                        help="only say what would change")
+    update.set_defaults(func=_baseline_update)
 
     references = verbs.add_parser("references", help="regenerate the reference CSVs")
     references.add_argument("--scenes", default=str(SCENE_DIR),

@@ -36,17 +36,13 @@ def write_csv(path: Any, times: Any, columns: Any) -> Any:
     return atomic_write(path, csv_writer(times, columns))
 
 
-def read_csv(path: Path | str) -> tuple[Any, dict[str, Any]]:
-    """(times, columns) of a CSV written by write_csv (or any 'time,...' CSV)."""
-    with open(path, newline="", encoding="utf-8") as handle:
-        rows = list(csv.reader(handle))
-    if not rows or not rows[0] or rows[0][0] != "time":
-        raise ValueError(f"{path}: first column must be 'time'")
-    names = rows[0][1:]
-    data = [[float(x) for x in row] for row in rows[1:] if row]
-    times = [row[0] for row in data]
-    columns = {name: [row[i + 1] for row in data] for i, name in enumerate(names)}
-    return times, columns
+def read_csv(path: Path | str) -> tuple[list[float], dict[str, list[float]]]:
+    """(times, {column: values}) of a result CSV as lists of floats, read by
+    mechfmu.io.read_result (pandas; ResultFileError, a ValueError naming the file, line and
+    column, for a malformed file)."""
+    from ..io import read_result
+    table = read_result(path)
+    return table.index.tolist(), {name: table[name].tolist() for name in table.columns}
 
 
 def versions() -> dict[str, str | None]:

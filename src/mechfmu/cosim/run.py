@@ -9,7 +9,7 @@ from .files import OutputError, output_folder
 from .interrupt import InterruptGuard, signal_name
 from .master import Simulation, SimulationError, SimulationInterrupted, parameter_values
 from .results import move_aside_complete, write_result
-from .scene import Scene, load_scene
+from .scene import Scene, check_tables, load_scene
 from pathlib import Path
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
@@ -19,8 +19,8 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
 def run_scene(scene: Path | Scene, out_dir: Path | str, fmu_dir: Path | str | None=None, plot: bool=True, guard: InterruptGuard | None=None) -> tuple[Result, dict[str, Path]]:
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
-    The scene and the output folder (created if missing, OutputError if it cannot be
-    written) are checked before anything runs. Returns (Result, {kind: path}).
+    The scene, its table files (check_tables) and the output folder (created if missing,
+    OutputError if it cannot be written) are checked before anything runs. Returns (Result, {kind: path}).
 
     SIGINT and SIGTERM are taken between steps: ``guard`` is an InterruptGuard the caller
     has installed (the command line, for its whole duration), or None for one installed
@@ -33,6 +33,7 @@ def run_scene(scene: Path | Scene, out_dir: Path | str, fmu_dir: Path | str | No
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
+        check_tables(scene)
         simulation = Simulation(scene, fmu_dir)
         out_dir = output_folder(out_dir)
         setup = {"components": parameter_values(simulation), "order": simulation.order,

@@ -133,14 +133,10 @@ def _connection(text: str, where: str) -> Connection:
     return Connection(*split_name(left, where), *split_name(right, where))
 
 
-def parse_scene(data: dict[str, Any], path: Path) -> Scene:
-    """Build a Scene from parsed TOML ``data``; ``path`` locates relative files."""
-    path = Path(path)
-    where = str(path)
-    refuse_unknown_keys(data, _SCENE_KEYS, where)
-    start_time = _number(data, "start_time", where, 0.0)
-    stop_time = _number(data, "stop_time", where)
-    step = _number(data, "step", where)
+def check_times(where: str, start_time: float, stop_time: float, step: float
+                ) -> tuple[float, float, float]:
+    """(start_time, stop_time, step) in s, checked: step > 0, stop after start, a whole
+    number of communication steps between them; SceneError naming ``where`` otherwise."""
     if step <= 0.0:
         raise SceneError(f"{where}: step = {step!r} s must be > 0")
     if stop_time <= start_time:
@@ -150,6 +146,17 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise SceneError(f"{where}: (stop_time - start_time) / step = {ratio!r} is not a "
                          f"whole number of communication steps")
+    return start_time, stop_time, step
+
+
+def parse_scene(data: dict[str, Any], path: Path) -> Scene:
+    """Build a Scene from parsed TOML ``data``; ``path`` locates relative files."""
+    path = Path(path)
+    where = str(path)
+    refuse_unknown_keys(data, _SCENE_KEYS, where)
+    start_time, stop_time, step = check_times(
+        where, _number(data, "start_time", where, 0.0), _number(data, "stop_time", where),
+        _number(data, "step", where))
     components = {}
     raw_components = data.get("components")
     if not isinstance(raw_components, dict) or not raw_components:
@@ -233,3 +240,24 @@ def load_scene(path: Path | str, overrides: dict[str, Any] | None=None) -> Scene
     ``overrides``: top-level keys (stop_time, step, ...) replacing the file's."""
     path = Path(path)
     return parse_scene({**read_toml(path), **(overrides or {})}, path)
+
+
+def check_tables(scene: Scene) -> dict:
+    """Read every table file of ``scene`` on the host before it runs: each ``*_file``
+    parameter of a component whose ``shape`` is "table" (LoadProfile, RoadProfile), by
+    mechfmu.io.read_profile_table (pandas, the rules of the FMU's own reader). A missing or
+    malformed table raises SceneError naming the scene, the component, the file, the line
+    and the column, before any FMU is loaded. Returns {component.parameter: its DataFrame}."""
+    from ..io import ResultFileError, read_profile_table
+    tables = {}
+    for name, spec in scene.components.items():
+        if spec.parameters.get("shape") != "table":
+            continue
+        for key, value in spec.parameters.items():
+            if key.endswith("_file") and isinstance(value, str) and value:
+                try:
+                    tables[f"{name}.{key}"] = read_profile_table(value)
+                except ResultFileError as error:
+                    raise SceneError(f"{scene.path}: component {name!r}: {key}: {error}") \
+                        from None
+    return tables

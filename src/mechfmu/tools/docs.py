@@ -9,9 +9,10 @@ from typing import Any
 import importlib
 from pathlib import Path
 
-from ..cosim.results import read_csv, write_plot
+from ..cosim.results import write_plot
 from ..cosim.scene import load_scene
 from ..runtime.fmi.slave import MechSlave
+from ..io import read_result
 from ..runtime.models import MODELS
 
 TYPES = {float: "Real", int: "Integer", bool: "Boolean", str: "String"}
@@ -80,6 +81,6 @@ def reference_plot(scene_path: Any, out_path: Any) -> Path:
     scene = load_scene(scene_path)
     if scene.reference is None:
         raise ValueError(f"scene {scene.name} ({scene_path}) names no reference CSV")
-    times, columns = read_csv(scene.reference)
-    return write_plot(out_path, times, columns, declared_units(scene),
+    table = read_result(scene.reference)
+    return write_plot(out_path, table.index.to_numpy(), table, declared_units(scene),
                       f"{scene.name}: reference")

@@ -56,10 +56,11 @@ from typing import Any
 from collections.abc import Callable
 
 import numpy as np
+import pandas
 from scipy.stats import qmc
 
 from ..cosim.files import atomic_write, inside, save_figure
-from ..cosim.results import read_csv, write_json
+from ..cosim.results import write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
 from .parallel import LocalPool
 from .progress import Progress
@@ -357,16 +358,17 @@ def check_sweep(scene: Scene, varies: list[Vary], metrics: list[Metric], fmu_dir
             if scene.reference is None:
                 raise SweepError(f"--metrics {metric.text}: the scene has no reference CSV")
             if reference_data is None:
+                from ..io import read_result
                 try:
-                    reference_data = read_csv(scene.reference)
-                except (OSError, ValueError) as error:
-                    raise SweepError(f"--metrics {metric.text}: cannot read the reference "
-                                     f"{scene.reference}: {error}") from None
-            ref_times, ref_columns = reference_data
+                    reference_data = read_result(scene.reference)
+                except ValueError as error:  # ResultFileError names the file
+                    raise SweepError(f"--metrics {metric.text}: cannot read the reference: "
+                                     f"{error}") from None
+            ref_times, ref_columns = reference_data.index.to_numpy(), reference_data
             if metric.variable not in ref_columns:
                 raise SweepError(f"--metrics {metric.text}: the reference {scene.reference} "
                                  f"has no column {metric.variable}")
-            references[metric.text] = (ref_times, ref_columns[metric.variable])
+            references[metric.text] = (ref_times, ref_columns[metric.variable].to_numpy())
     return kinds, references
 
 
@@ -683,9 +685,9 @@ def _resumed_rows(csv_path: Any, json_path: Any, summary: Any, header: Any):
                          f"sweep.csv of a stopped sweep there")
     try:
         previous = json.loads(json_path.read_text(encoding="utf-8"))
-        with open(csv_path, newline="", encoding="utf-8") as handle:
-            lines = list(csv.reader(handle))
-    except (OSError, ValueError) as error:
+        lines = pandas.read_csv(csv_path, header=None, dtype=str, na_filter=False,
+                                on_bad_lines="skip", encoding="utf-8").to_numpy().tolist()
+    except (OSError, ValueError, pandas.errors.ParserError) as error:
         raise SweepError(f"cannot resume from {csv_path.parent}: {error}") from None
     current = json.loads(json.dumps(summary, default=str))
     differ = [key for key in RESUME_KEYS if previous.get(key) != current.get(key)]
@@ -693,10 +695,12 @@ def _resumed_rows(csv_path: Any, json_path: Any, summary: Any, header: Any):
         what = ", ".join(differ) or "CSV columns"
         raise SweepError(f"cannot resume the sweep in {csv_path.parent}: its {what} differ "
                          f"from this one's; run it without --resume, or into another --out")
+    # a finished point's row has its worker (the last column); a row cut short by a crash
+    # (pandas pads it with empty cells; longer ones are skipped) has not
     kept: dict[Any, Any] = {}
-    error_column = header.index("error")
+    error_column, worker_column = header.index("error"), header.index("worker")
     for line in lines[1:]:
-        if len(line) == len(header) and not line[error_column] and line[0].isdigit() \
+        if not line[error_column] and line[worker_column] and line[0].isdigit() \
                 and int(line[0]) < summary["points"]:
             kept.setdefault(int(line[0]), line)
     return list(kept.values())
@@ -860,19 +864,24 @@ def write_plots(out_dir: Path, rows: list[dict[str, Any]], names: list[str], met
     return paths
 
 
+TEXT_COLUMNS = ("error", "worker")  # sweep.csv's columns that hold text, not numbers
+
+
+def read_sweep_table(path: Path | str, missing: float | None = math.nan) -> pandas.DataFrame:
+    """A sweep.csv as a pandas DataFrame (mechfmu.io.read_table): ``index`` int64, ``error``
+    and ``worker`` strings (None when empty), every other column float64 with ``missing``
+    for an empty cell (a failed point's metrics). ResultFileError (a ValueError) naming the
+    file, line and column for a malformed file."""
+    from ..io import read_table
+    return read_table(path, text=TEXT_COLUMNS, integers=("index",),
+                      required=("index", *TEXT_COLUMNS), missing=missing)
+
+
 def read_sweep_csv(path: Path | str) -> list[dict[str, Any]]:
-    """Rows of a sweep.csv as dicts (numbers as floats, empty cells as None)."""
-    with open(path, newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
-    for row in rows:
-        for key, value in row.items():
-            if key in ("error", "worker"):
-                row[key] = value or None
-            elif key == "index":
-                row[key] = int(value)
-            else:
-                row[key] = float(value) if value != "" else None
-    return rows
+    """Rows of a sweep.csv as dicts (numbers as floats, empty cells as None), in file order."""
+    table = read_sweep_table(path, missing=None)
+    return [{str(key): (int(value) if key == "index" else value) for key, value in row.items()}
+            for row in table.to_dict("records")]
 
 
 # --- sweep files -------------------------------------------------------------------------------

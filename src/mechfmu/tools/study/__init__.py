@@ -35,6 +35,8 @@ from . import design, measure, report
 from argparse import Namespace
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
+    import pandas
+
     from .design import StudyScene
 
 
@@ -49,18 +51,35 @@ def _write_rows(path: Any, rows: Any):
     return atomic_write(path, write)
 
 
-def read_rows(path: Path) -> list[dict[str, Any]]:
-    """The rows of an accuracy_cost.csv, numbers as numbers."""
-    numbers = {"tolerance", "max_substep", "step", "max_error", "rms_error", "relative_error",
-               "max_error_all", "reference_peak", "loop_time_s", "wall_time_s", "ms_per_simulated_s"}
-    integers = {"repeats", "communication_steps", "substeps", "rhs_evaluations"}
-    with open(path, newline="", encoding="utf-8") as handle:
-        rows = list(csv.DictReader(handle))
+NUMBER_COLUMNS = ("tolerance", "max_substep", "step", "max_error", "rms_error",
+                  "relative_error", "max_error_all", "reference_peak", "loop_time_s",
+                  "wall_time_s", "ms_per_simulated_s")
+INTEGER_COLUMNS = ("repeats", "communication_steps", "substeps", "rhs_evaluations")
+
+
+def read_table(path: Path | str) -> pandas.DataFrame:
+    """An accuracy_cost.csv as a pandas DataFrame (mechfmu.io.read_table): the counters
+    int64, the errors (in the output's SI unit), tolerances and times (s) float64, the
+    rest strings. ResultFileError (a ValueError) naming the file, line and column for a
+    malformed file."""
+    from ...io import read_table as read
+    text = [name for name in measure.COLUMNS
+            if name not in NUMBER_COLUMNS and name not in INTEGER_COLUMNS]
+    return read(path, text=text, integers=INTEGER_COLUMNS, required=measure.COLUMNS)
+
+
+def read_rows(path: Path | str) -> list[dict[str, Any]]:
+    """The rows of an accuracy_cost.csv as dicts, numbers as numbers (read_table's)."""
+    rows: list[dict[str, Any]] = [{str(key): value for key, value in row.items()}
+                                  for row in read_table(path).to_dict("records")]
     for row in rows:
-        for key in numbers:
-            row[key] = float(row[key])
-        for key in integers:
-            row[key] = int(row[key])
+        for key, value in row.items():
+            if value is None:
+                row[key] = ""  # an empty text cell, as written
+            elif key in INTEGER_COLUMNS:
+                row[key] = int(value)
+            elif key in NUMBER_COLUMNS:
+                row[key] = float(value)
     return rows
 
 
@@ -111,6 +130,14 @@ def command(args: Namespace) -> Any:
         return 2
     started = time.perf_counter()
     out = Path(args.out)
+    # Studying some scenes again keeps the rows of the others from the previous study: read
+    # it first, so a malformed one costs nothing.
+    previous = out / "accuracy_cost.csv"
+    try:
+        previous_rows = read_rows(previous) if previous.is_file() else []
+    except ValueError as error:  # ResultFileError: the file, line and column
+        print(f"study error: {error}", file=sys.stderr)
+        return 2
     scenes, points = {}, []
     for study_scene in chosen:
         scene = design.load(args.scene_dir, study_scene)
@@ -123,10 +150,7 @@ def command(args: Namespace) -> Any:
     rows = measure.run_points(points, scenes, args.fmu_dir, args.repeats, args.workers,
                               lambda done, total, point: meter.update(
                                   done, note=f"{point.scene}: {point.label()}"))
-    # Studying some scenes again keeps the rows of the others from the previous study.
-    previous = out / "accuracy_cost.csv"
-    kept = [row for row in read_rows(previous) if row["scene"] not in scenes] \
-        if previous.is_file() else []
+    kept = [row for row in previous_rows if row["scene"] not in scenes]
     rows = kept + rows
     paths = [_write_rows(previous, rows)]
     reported = [s for s in design.SCENES if any(row["scene"] == s.name for row in rows)]

@@ -1,0 +1,353 @@
+"""The Python API: scenes run, their references and sweeps, each returned as a pandas
+DataFrame.
+
+``simulate`` runs a scene (a shipped scene's name, a scene TOML file or a parsed Scene) on
+the built FMUs and returns its recorded variables indexed by time; ``reference`` computes the
+closed-form (or scipy-integrated) reference of a shipped scene on the same grid; ``sweep``
+runs a parameter sweep and returns one row per point. Units are SI throughout (s, m, rad, N,
+Pa, ...); ``df.attrs["units"]`` names the unit of each column.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import tempfile
+from collections.abc import Iterable, Mapping, Sequence
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+import numpy
+import pandas
+
+from .cosim.interrupt import InterruptGuard
+from .cosim.master import (
+    Simulation,
+    SimulationInterrupted,
+    model_description,
+    parameter_values,
+    resolve_fmu,
+)
+from .cosim.results import versions
+from .cosim.scene import (
+    PACKAGE_ROOT,
+    SCENE_DIR,
+    Scene,
+    SceneError,
+    check_tables,
+    check_times,
+    find_file,
+    load_scene,
+)
+
+__all__ = ["reference", "simulate", "sweep"]
+
+SceneLike = str | PathLike | Scene
+StrPath = str | PathLike
+
+# fmus/ of the source checkout the package runs from (an editable install), if it is one
+CHECKOUT_FMU_DIR = PACKAGE_ROOT.parents[1] / "fmus" if PACKAGE_ROOT.parent.name == "src" \
+    else None
+
+
+def _scene(scene: SceneLike, start_time: float | None = None, stop_time: float | None = None,
+           step: float | None = None) -> Scene:
+    """The Scene ``scene`` names (a Scene, a path, or a shipped scene's name), with the given
+    times replacing its own (checked as in the scene file: a whole number of steps)."""
+    overrides = {key: value for key, value in (("start_time", start_time),
+                                               ("stop_time", stop_time), ("step", step))
+                 if value is not None}
+    if isinstance(scene, Scene):
+        chosen = copy.deepcopy(scene)
+        for key, value in overrides.items():
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(value):
+                raise SceneError(f"{key} = {value!r} must be a finite number")
+            setattr(chosen, key, float(value))
+        check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
+        return chosen
+    if not isinstance(scene, (str, PathLike)):
+        raise TypeError(f"scene must be a shipped scene's name, a scene file or a Scene, got "
+                        f"{type(scene).__name__}")
+    path = find_file(str(scene))
+    if not path.exists() and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
+        shipped = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
+        raise SceneError(f"no shipped scene named {str(scene)!r} and no such file; shipped "
+                         f"scenes: {', '.join(shipped)}")
+    return load_scene(path, overrides)
+
+
+def _fmu_folder(scene: Scene, fmu_dir: StrPath | None) -> Path:
+    """``fmu_dir``, or else the first of ./fmus and the source checkout's fmus/ that holds
+    every FMU the scene names by model; SceneError saying how to build them otherwise."""
+    if fmu_dir is not None:
+        return Path(fmu_dir)
+    models = sorted({spec.fmu for spec in scene.components.values()
+                     if not spec.fmu.endswith(".fmu")})
+    folders = [Path.cwd() / "fmus"]
+    if CHECKOUT_FMU_DIR is not None and CHECKOUT_FMU_DIR.resolve() != folders[0].resolve():
+        folders.append(CHECKOUT_FMU_DIR)
+    for folder in folders:
+        if all((folder / f"{model}.fmu").is_file() for model in models):
+            return folder
+    raise SceneError(f"scene {scene.name}: FMU(s) {', '.join(f'{m}.fmu' for m in models)} "
+                     f"not found in {' or '.join(str(f) for f in folders)}; build them with "
+                     f"'mechfmu build --out DIR' and pass fmu_dir=DIR")
+
+
+def _plain(value: Any) -> Any:
+    """A numpy scalar as the Python number it holds; anything else unchanged."""
+    return value.item() if isinstance(value, numpy.generic) else value
+
+
+def apply_parameters(scene: Scene, parameters: Mapping[str, Any] | None,
+                     fmu_dir: Path) -> None:
+    """Set ``parameters`` ({"component.parameter": value}) on ``scene``'s components, in
+    place. A name may also be a constant input the scene gives a value, or an effect (True
+    or False). SceneError naming the item for an unknown component or a name the
+    component's FMU has no parameter of; the value's type is checked with the scene."""
+    for name, value in (parameters or {}).items():
+        component, dot, variable = str(name).partition(".")
+        if not dot or not component or not variable:
+            raise SceneError(f"parameters: {name!r} is not of the form component.parameter")
+        spec = scene.components.get(component)
+        if spec is None:
+            raise SceneError(f"parameters: {name!r}: scene {scene.name} has no component "
+                             f"{component!r}; its components: {', '.join(scene.components)}")
+        value = _plain(value)
+        if variable in spec.inputs:
+            spec.inputs[variable] = value
+            continue
+        description = model_description(resolve_fmu(spec, scene, fmu_dir))
+        names = sorted(v.name for v in description.modelVariables
+                       if v.causality == "parameter")
+        if variable not in names:
+            raise SceneError(f"parameters: {name!r}: {component!r} "
+                             f"({description.modelName}) has no parameter {variable!r}; its "
+                             f"parameters: {', '.join(names)}")
+        if variable in spec.effects:
+            spec.effects.remove(variable)
+        spec.parameters[variable] = value
+
+
+def _fmu_versions(simulation: Simulation) -> dict[str, dict[str, Any]]:
+    return {name: {"file": str(component.path), "model": description.modelName,
+                   "fmi_version": description.fmiVersion, "guid": description.guid,
+                   "version": description.version,
+                   "generation_tool": description.generationTool,
+                   "generated": description.generationDateAndTime}
+            for name, component in simulation.components.items()
+            for description in [component.description]}
+
+
+def frame(times: Sequence[float] | numpy.ndarray, columns: Mapping[str, Sequence[float]],
+          units: Mapping[str, str | None] | None = None, **attrs: Any) -> pandas.DataFrame:
+    """A result DataFrame: index ``time`` (s, float64), one float64 column per entry of
+    ``columns`` in order, ``attrs["units"]`` and the other ``attrs``."""
+    table = pandas.DataFrame({name: numpy.asarray(values, dtype=float)
+                              for name, values in columns.items()},
+                             index=pandas.Index(numpy.asarray(times, dtype=float), name="time"))
+    table.attrs.update(attrs)
+    table.attrs["units"] = {name: (units or {}).get(name) for name in table.columns}
+    return table
+
+
+def simulate(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
+             start_time: float | None = None, stop_time: float | None = None,
+             step: float | None = None, fmu_dir: StrPath | None = None) -> pandas.DataFrame:
+    """Run ``scene`` and return its recorded variables as a DataFrame.
+
+    ``scene``: the name of a shipped scene (``"gear_retraction"``, found from any working
+    directory), a scene TOML file, or a parsed mechfmu.cosim.scene.Scene.
+    ``parameters``: {"component.parameter": value} replacing the scene's and the FMUs'
+    values (``{"actuator.stroke_time": 2.0}``, in SI units); a constant input the scene
+    sets may be given the same way. ``start_time``, ``stop_time`` and ``step`` (s) replace
+    the scene's. ``fmu_dir``: the folder of the built FMUs (default: ./fmus, else the
+    fmus/ of the source checkout mechfmu runs from).
+
+    Returns a DataFrame indexed by ``time`` (s), one float64 column per recorded variable
+    named ``component.variable`` as in the CSV of ``mechfmu run``, and in ``attrs``:
+    ``units`` (column -> SI unit), ``scene``, ``scene_file``, ``start_time``, ``stop_time``,
+    ``step``, ``coupling``, ``parameters`` (the overrides given), ``components`` (every
+    parameter as applied), ``fmus`` (per component: file, model, FMI version, GUID,
+    generation tool and date), ``versions`` (Python and packages), ``wall_time_s``,
+    ``steps`` and ``log`` (the FMUs' messages above ok).
+
+    Raises mechfmu.cosim.scene.SceneError (a ValueError) naming the file and the problem for
+    a scene that cannot run: a missing or malformed scene file or table file, an unknown
+    component or parameter, FMUs not built, a corrupt FMU (FmuError); and
+    mechfmu.cosim.master.SimulationError when a component fails during the run (its
+    ``result`` holds the rows computed before). Ctrl-C (SIGINT, in the main thread) stops
+    the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
+    """
+    chosen = _scene(scene, start_time, stop_time, step)
+    folder = _fmu_folder(chosen, fmu_dir)
+    apply_parameters(chosen, parameters, folder)
+    check_tables(chosen)
+    simulation = Simulation(chosen, folder)
+    with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
+        try:
+            result = simulation.run(stop=guard)
+        except SimulationInterrupted as stopped:
+            raise KeyboardInterrupt(str(stopped)) from None
+    return frame(result.times, result.columns, result.units,
+                 scene=chosen.name, scene_file=str(chosen.path),
+                 description=chosen.description, start_time=chosen.start_time,
+                 stop_time=chosen.stop_time, step=chosen.step, coupling=chosen.coupling,
+                 parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
+                 components=parameter_values(simulation), fmus=_fmu_versions(simulation),
+                 versions=versions(), wall_time_s=result.meta["wall_time_s"],
+                 loop_time_s=result.meta.get("loop_time_s"), steps=result.meta["steps"],
+                 log=[entry for entry in result.log if entry["status"] != "ok"])
+
+
+def reference(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
+              start_time: float | None = None, stop_time: float | None = None,
+              step: float | None = None) -> pandas.DataFrame:
+    """The reference of a shipped scene, computed now from the numpy closed forms (or by
+    scipy's solve_ivp at rtol = atol = 1e-12 for the dynamic scenes), as a DataFrame shaped
+    like simulate's: index ``time`` (s) at the scene's communication points, one column per
+    reference variable, ``attrs["units"]`` from the models' declarations.
+
+    ``scene`` is a shipped scene's name, a scene file or a Scene whose ``name`` is one of
+    the shipped scenes with a reference (mechfmu.tools.scene_references.REFERENCES);
+    ``parameters`` and the times change it as they change simulate's run, so
+    ``reference(s, parameters=p)`` is what ``simulate(s, parameters=p)`` should give. No
+    FMU is needed. SceneError for a scene without a reference, an unknown component or
+    a parameter the model does not declare.
+    """
+    from .tools.docs import declared_units, model_class
+    from .tools.scene_references import REFERENCES, sample_times
+    chosen = _scene(scene, start_time, stop_time, step)
+    build = REFERENCES.get(chosen.name)
+    if build is None:
+        raise SceneError(f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
+                         f"scenes with one: {', '.join(REFERENCES)}")
+    for name, value in (parameters or {}).items():
+        component, dot, variable = str(name).partition(".")
+        spec = chosen.components.get(component)
+        if not dot or spec is None:
+            raise SceneError(f"parameters: {name!r}: scene {chosen.name} has no component "
+                             f"{component!r}; its components: {', '.join(chosen.components)}")
+        if variable in spec.inputs:
+            spec.inputs[variable] = _plain(value)
+            continue
+        model: Any = model_class(Path(spec.fmu).stem)
+        declared = sorted(v.name for v in model.VARIABLES if v.causality == "parameter")
+        if variable not in declared:
+            raise SceneError(f"parameters: {name!r}: {component!r} ({Path(spec.fmu).stem}) "
+                             f"has no parameter {variable!r}; its parameters: "
+                             f"{', '.join(declared)}")
+        if variable in spec.effects:
+            spec.effects.remove(variable)
+        spec.parameters[variable] = _plain(value)
+    columns = build(chosen)
+    return frame(sample_times(chosen), columns, declared_units(chosen), scene=chosen.name,
+                 scene_file=str(chosen.path), start_time=chosen.start_time,
+                 stop_time=chosen.stop_time, step=chosen.step,
+                 parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
+                 kind="reference")
+
+
+def _varies(vary: Mapping[str, Sequence[float]] | Iterable[str]) -> list:
+    from .tools.sweep import SweepError, Vary, parse_vary
+    if isinstance(vary, str):
+        vary = [vary]
+    if isinstance(vary, Mapping):
+        varies = []
+        for name, bounds in vary.items():
+            component, dot, variable = str(name).partition(".")
+            values = list(bounds) if isinstance(bounds, (tuple, list)) else None
+            if not dot or values is None or len(values) not in (2, 3):
+                raise SweepError(f"vary: {name!r}: {bounds!r} must be (start, stop, count) "
+                                 f"or (start, stop) for sampling, keyed by "
+                                 f"component.parameter")
+            text = f"{name}=" + ":".join(str(_plain(v)) for v in values)
+            parsed = parse_vary(text)
+            varies.append(Vary(component, variable, parsed.start, parsed.stop, parsed.count))
+        return varies
+    return [parse_vary(text) for text in vary]
+
+
+def sweep(scene: StrPath, vary: Mapping[str, Sequence[float]] | Iterable[str] | None = None,
+          metrics: Iterable[str] | None = None, *, links: Iterable[str] = (),
+          samples: int | None = None, seed: int | None = None, method: str | None = None,
+          stop_time: float | None = None, step: float | None = None, jobs: int | None = None,
+          fmu_dir: StrPath | None = None, out_dir: StrPath | None = None,
+          scheduler: str | None = None) -> pandas.DataFrame:
+    """Run a parameter sweep (as ``mechfmu sweep``) and return one row per point.
+
+    ``scene``: a shipped sweep's or scene's name, a sweep or scene TOML file. ``vary``:
+    {"component.parameter": (start, stop, count)} for a grid (numpy.linspace per
+    parameter; ``(start, stop)`` with ``samples``), or the command line's strings
+    ``"component.parameter=START:STOP:COUNT"``; ``metrics``: the command line's metric
+    names (``"max:gear.gear_angle"``, ``"first_time_above:c.v:THRESHOLD"``, ...); ``links``:
+    ``"c.p=FACTOR*c.varied"``. A sweep file gives any of them that are not passed here.
+    ``samples``, ``seed``, ``method`` ("lhs" or "random"): sampling instead of the grid;
+    ``stop_time``, ``step`` (s) replace the scene's; ``jobs`` local processes (default:
+    the cores) or a Dask ``scheduler`` ("tcp://HOST:PORT"); ``out_dir`` keeps sweep.csv and
+    sweep.json (default: a temporary folder, removed).
+
+    Returns a DataFrame indexed by the point's ``index`` (in grid or sample order), with one
+    column per varied and linked parameter, one per metric (NaN when the event never
+    happens or the point failed), ``error`` (None, or the failed point's message),
+    ``wall_time_s`` and ``worker``; ``attrs`` holds the sweep's summary (sweep.json).
+    Raises mechfmu.tools.sweep.SweepError or SceneError (ValueErrors) for a sweep that
+    cannot start.
+    """
+    from .cosim.scene import read_toml
+    from .tools.sweep import (
+        SCENE_OVERRIDES,
+        SweepError,
+        is_sweep_file,
+        load_sweep_file,
+        locate,
+        parse_link,
+        parse_metric,
+        read_sweep_table,
+        run_sweep,
+    )
+    if not isinstance(scene, (str, PathLike)):
+        raise TypeError(f"sweep: scene must be a sweep or scene file or a shipped one's name, "
+                        f"got {type(scene).__name__}")
+    path = locate(str(scene))
+    try:
+        data = read_toml(path, SweepError)
+    except SweepError:
+        data = {}  # run_sweep reports it, as a scene file
+    if is_sweep_file(data):
+        chosen = load_sweep_file(path)
+        chosen.pop("description", None)
+    else:
+        chosen = {"scene_path": path, "varies": [], "links": [], "metrics": [],
+                  "samples": None, "seed": None, "method": "lhs", "overrides": {},
+                  "name": None}
+    if vary is not None:
+        chosen["varies"] = _varies(vary)
+    if metrics is not None:
+        chosen["metrics"] = [parse_metric(text) for text in
+                             ([metrics] if isinstance(metrics, str) else metrics)]
+    if links:
+        chosen["links"] = [parse_link(text) for text in
+                           ([links] if isinstance(links, str) else links)]
+    for key, value in (("samples", samples), ("seed", seed), ("method", method)):
+        if value is not None:
+            chosen[key] = value
+    chosen["overrides"] = {**chosen["overrides"],
+                           **{key: value for key, value in (("stop_time", stop_time),
+                                                            ("step", step))
+                              if value is not None and key in SCENE_OVERRIDES}}
+    folder = fmu_dir if fmu_dir is not None else _fmu_folder(
+        load_scene(chosen["scene_path"], chosen["overrides"]), None)
+    with tempfile.TemporaryDirectory(prefix="mechfmu-sweep-") as scratch:
+        summary = run_sweep(**chosen, out_dir=Path(out_dir or Path(scratch) / "sweep"),
+                            jobs=jobs, fmu_dir=str(folder), progress=False,
+                            scheduler=scheduler)
+        table = read_sweep_table(summary["csv"])
+    table = table.set_index("index").sort_index()
+    table.attrs.update(summary)
+    if out_dir is None:
+        table.attrs["csv"] = None
+    return table
+

@@ -1,0 +1,166 @@
+"""What ``mechfmu check`` writes besides its terminal lines: a JUnit XML file (``--junit``)
+for CI servers, and an HTML page with a plot of every failing column (``--report``).
+
+JUnit: one ``<testsuite name="mechfmu check">``; one ``<testcase>`` per file and column
+(``classname`` the file's relative path, ``name`` the column), failing with the first
+failure's line as its message and its kind as ``type``; a file that is missing or malformed
+is one testcase named ``(file)``, a different time grid one named ``(time grid)`` (its columns
+are then skipped: not compared), a result without a reference a skipped ``(file)``.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+import xml.etree.ElementTree as ET
+from os import PathLike
+from pathlib import Path
+
+from ...check import CheckRun, FileCheck
+from ...comparison import describe_failure, file_label
+from ...cosim.files import atomic_write, atomic_write_all, output_folder
+
+
+def _cases(check: FileCheck) -> list[tuple[str, str | None, str | None, str]]:
+    """(name, failure kind or None, message or None, skipped message or '') per testcase."""
+    if check.comparison is None:
+        if check.kind == "no reference":
+            return [("(file)", None, None, check.problem or "")]
+        return [("(file)", check.kind, check.problem, "")]
+    comparison = check.comparison
+    failures = {row["column"]: row for row in comparison.failures.to_dict("records")}
+    cases: list[tuple[str, str | None, str | None, str]] = []
+    grid = failures.pop("time", None)
+    if grid is not None:
+        cases.append(("(time grid)", "time grid", describe_failure(grid), ""))
+    names = list(comparison.reference.columns)
+    names += [c for c in comparison.result.columns if c not in comparison.reference.columns
+              and c in failures]
+    for name in names:
+        row = failures.get(name)
+        if row is not None:
+            cases.append((name, row["kind"], describe_failure(row), ""))
+        elif name not in comparison.summary.index:
+            cases.append((name, None, None, "not compared: the time grids differ"))
+        else:
+            cases.append((name, None, None, ""))
+    return cases
+
+
+def junit_xml(run: CheckRun) -> str:
+    """The JUnit XML text of a check (see the module docstring)."""
+    suite = ET.Element("testsuite", name="mechfmu check")
+    counts = {"tests": 0, "failures": 0, "errors": 0, "skipped": 0}
+    for check in run.files:
+        for name, kind, message, skipped in _cases(check):
+            case = ET.SubElement(suite, "testcase", classname=check.name, name=name, time="0")
+            counts["tests"] += 1
+            if kind is not None:
+                counts["failures"] += 1
+                failure = ET.SubElement(case, "failure", message=message or kind, type=kind)
+                failure.text = f"{check.name}: {message}"
+            elif skipped:
+                counts["skipped"] += 1
+                ET.SubElement(case, "skipped", message=skipped)
+    for key, value in counts.items():
+        suite.set(key, str(value))
+    root = ET.Element("testsuites", name="mechfmu check", tests=str(counts["tests"]),
+                      failures=str(counts["failures"]), errors="0")
+    root.append(suite)
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, "unicode") + "\n"
+
+
+def write_junit(run: CheckRun, path: str | PathLike) -> Path:
+    """Write junit_xml(run) to ``path`` atomically; returns the path."""
+    return atomic_write(Path(path), junit_xml(run))
+
+
+STYLE = """body{font-family:sans-serif;margin:1.5em;max-width:70em}
+table{border-collapse:collapse;margin:.5em 0}td,th{border:1px solid #ccc;padding:2px 6px;
+text-align:left;font-size:90%}.pass{color:#176317}.fail{color:#b00020}img{max-width:100%}"""
+
+
+def _number(value: float) -> str:
+    return "" if value is None or (isinstance(value, float) and math.isnan(value)) \
+        else f"{value:.9g}"
+
+
+def write_report(run: CheckRun, folder: str | PathLike) -> Path:
+    """Write ``folder``/index.html (every file's verdict line and failures table) and, for
+    every failing value column, a PNG of the result, the reference, the tolerance band or
+    tube and the first failure; all files atomically. Returns the index's path."""
+    folder = Path(output_folder(Path(folder)))
+    contents: dict[Path, str | bytes] = {}
+    options = run.options
+    body = [f"<h1>mechfmu check</h1><p>{html.escape(run.summary())}</p>",
+            f"<p>method {html.escape(str(options.get('method')))}, rtol "
+            f"{options.get('rtol')!r}, atol {options.get('atol')!r}"
+            + (f", time tolerance {options.get('time_tolerance')!r} s"
+               if options.get("method") == "tube" else "")
+            + (f", per column: {html.escape(str(options.get('tolerances')))}"
+               if options.get("tolerances") else "") + "</p>"]
+    for check in run.files:
+        verdict = "pass" if check.passed else "fail"
+        body.append(f'<h2 class="{verdict}">{html.escape(check.name)}</h2>'
+                    f'<p class="{verdict}">{html.escape(check.line())}</p>')
+        comparison = check.comparison
+        if comparison is None or comparison.failures.empty:
+            continue
+        rows = "".join(
+            "<tr>" + "".join(f"<td>{html.escape(cell)}</td>" for cell in
+                             (str(row["column"]), _number(row["time"]), _number(row["value"]),
+                              _number(row["reference"]), _number(row["allowed"]),
+                              str(row["kind"]))) + "</tr>"
+            for row in comparison.failures.to_dict("records"))
+        body.append("<table><tr><th>column</th><th>time [s]</th><th>value</th><th>reference"
+                    "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>")
+        for column in comparison.failures["column"]:
+            if column not in comparison.summary.index:
+                continue
+            figure = comparison.plot(column)
+            import io
+            buffer = io.BytesIO()
+            figure.savefig(buffer, format="png", dpi=90)
+            name = file_label(f"{check.name}__{column}") + ".png"
+            contents[folder / name] = buffer.getvalue()
+            body.append(f'<p><img src="{html.escape(name)}" alt="{html.escape(column)}"></p>')
+    index = folder / "index.html"
+    contents[index] = ("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>mechfmu "
+                       f"check</title><style>{STYLE}</style></head><body>\n"
+                       + "\n".join(body) + "\n</body></html>\n")
+    atomic_write_all(contents)
+    return index
+
+
+def tube_example() -> bytes:
+    """PNG of the docs' tube-versus-pointwise figure: the suspension's shipped load-ramp
+    reference and a result one step (10 ms) late, its snap-through at 3.11 s instead of
+    3.10 s; the deflection compared pointwise (fails at the snap) and in a 10 ms tube
+    (passes), both with atol 2 % of the deflection's range."""
+    import io
+
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from ...comparison import compare
+    from ...cosim.scene import REFERENCE_DIR
+    from ...io import read_result
+    reference = read_result(REFERENCE_DIR / "suspension_load_ramp.csv")[
+        ["suspension.deflection"]]
+    late = reference.copy()
+    late.iloc[1:, 0] = reference.iloc[:-1, 0].to_numpy()
+    atol = 0.02 * float(np.ptp(reference.iloc[:, 0].to_numpy()))
+    figure = Figure(figsize=(9, 3.4), layout="constrained")
+    axes = figure.subplots(1, 2, sharey=True)
+    for axis, method in zip(axes, ("pointwise", "tube")):
+        comparison = compare(late, reference, atol=atol, time_tolerance=0.01,
+                             method=method)  # type: ignore[arg-type]
+        comparison.draw(axis, "suspension.deflection", around=0.12, at=3.1)
+        verdict = "passes" if comparison.passed else "fails"
+        axis.set_title(f"{method}: {verdict}", fontsize=10)
+        axis.set_xlabel("time [s]")
+    axes[0].set_ylabel("suspension.deflection [m]")
+    buffer = io.BytesIO()
+    figure.savefig(buffer, format="png", dpi=90)
+    return buffer.getvalue()
