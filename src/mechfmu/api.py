@@ -15,6 +15,7 @@ import math
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from os import PathLike
+import os
 from pathlib import Path
 from typing import Any
 
@@ -79,13 +80,16 @@ def _scene(scene: SceneLike, start_time: float | None = None, stop_time: float |
 
 
 def _fmu_folder(scene: Scene, fmu_dir: StrPath | None) -> Path:
-    """``fmu_dir``, or else the first of ./fmus and the source checkout's fmus/ that holds
-    every FMU the scene names by model; SceneError saying how to build them otherwise."""
+    """``fmu_dir``, or else the first of $MECHFMU_FMU_DIR (when set), ./fmus and the source
+    checkout's fmus/ that holds every FMU the scene names by model; SceneError saying how to
+    build them otherwise."""
     if fmu_dir is not None:
         return Path(fmu_dir)
     models = sorted({spec.fmu for spec in scene.components.values()
                      if not spec.fmu.endswith(".fmu")})
     folders = [Path.cwd() / "fmus"]
+    if os.environ.get("MECHFMU_FMU_DIR"):  # the Makefile's folder for this interpreter
+        folders.insert(0, Path(os.environ["MECHFMU_FMU_DIR"]))
     if CHECKOUT_FMU_DIR is not None and CHECKOUT_FMU_DIR.resolve() != folders[0].resolve():
         folders.append(CHECKOUT_FMU_DIR)
     for folder in folders:
