@@ -210,8 +210,11 @@ def test_a_malformed_reference_given_to_run_is_one_line(fmu_dir, tmp_path):
     assert (tmp_path / "out" / "gear_retraction.csv").is_file()  # the run itself is kept
 
 
+# SIGINT's default handler first: a process started in the background by a shell without job
+# control inherits SIGINT ignored, and an ignored signal is left ignored (by Python and by us).
 INTERRUPTED = """
 import os, signal, threading, mechfmu
+signal.signal(signal.SIGINT, signal.default_int_handler)
 mechfmu.simulate("gear_retraction", fmu_dir={fmu_dir!r})  # imports and FMUs ready
 threading.Timer(0.5, os.kill, (os.getpid(), signal.SIGINT)).start()
 try:
