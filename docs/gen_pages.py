@@ -31,7 +31,7 @@ STUDY_PLOTS = Path("data/study")
 
 def mechfmu_command(*arguments: str) -> str:
     """What ``mechfmu ARGUMENTS`` prints; a non-zero exit fails the build with its message."""
-    main, = (point.load() for point in entry_points(group="console_scripts", name="mechfmu"))
+    (main,) = (point.load() for point in entry_points(group="console_scripts", name="mechfmu"))
     printed, errors = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(errors):
         status = main(list(arguments))
@@ -97,8 +97,10 @@ def fill_markers(docs_dir: Path) -> None:
                 handle.write(filled)
     missing = sorted(set(tables) - documented)
     if missing:
-        raise RuntimeError(f"models without a docs page (<!-- mechfmu:interface NAME --> "
-                           f"marker): {', '.join(missing)}")
+        raise RuntimeError(
+            f"models without a docs page (<!-- mechfmu:interface NAME --> "
+            f"marker): {', '.join(missing)}"
+        )
 
 
 def study_plots() -> None:
@@ -110,6 +112,7 @@ def study_plots() -> None:
 def check_plots() -> None:
     """checks.md's tube-versus-pointwise figure, drawn by mechfmu's own comparison."""
     from mechfmu.tools.report.checks import tube_example
+
     with mkdocs_gen_files.open("plots/tube_vs_pointwise.png", "wb") as handle:
         handle.write(tube_example())
 

@@ -16,19 +16,26 @@ from mechfmu.cosim.scene import SCENE_DIR
 from mechfmu.tools.bench.dynamic_scenes import step_accuracy
 
 ROOT = Path(__file__).resolve().parent.parent
-STEPS = {"valve_train_dynamic": (1e-5, 2e-5, 5e-5, 1e-4, 5e-4),
-         "valve_float_dynamic": (1e-5, 2e-5, 5e-5, 1e-4)}
+STEPS = {
+    "valve_train_dynamic": (1e-5, 2e-5, 5e-5, 1e-4, 5e-4),
+    "valve_float_dynamic": (1e-5, 2e-5, 5e-5, 1e-4),
+}
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--fmu-dir",
-                        default=os.environ.get("MECHFMU_FMU_DIR") or str(ROOT / "fmus"))
+    parser.add_argument(
+        "--fmu-dir", default=os.environ.get("MECHFMU_FMU_DIR") or str(ROOT / "fmus")
+    )
     args = parser.parse_args()
-    frame = pd.concat([step_accuracy(SCENE_DIR, args.fmu_dir, name, steps, args.repeats)
-                       for name, steps in STEPS.items()], ignore_index=True)
+    frame = pd.concat(
+        [
+            step_accuracy(SCENE_DIR, args.fmu_dir, name, steps, args.repeats)
+            for name, steps in STEPS.items()
+        ],
+        ignore_index=True,
+    )
     print("| " + " | ".join(frame.columns) + " |")
     print("|" + "---|" * len(frame.columns))
     for row in frame.itertuples(index=False):
-        print("| " + " | ".join(f"{v:.3g}" if isinstance(v, float) else str(v)
-                                for v in row) + " |")
+        print("| " + " | ".join(f"{v:.3g}" if isinstance(v, float) else str(v) for v in row) + " |")

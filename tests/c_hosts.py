@@ -31,33 +31,49 @@ TYPE_LETTER = {"Real": "r", "Float64": "r", "Integer": "i", "Int32": "i", "Boole
 # The Python installations a test may hide: pyenv's (the build Python's parent folder when it
 # is one of pyenv's) and the system's.
 PYENV_VERSIONS = Path(sys.base_prefix).parent
-SYSTEM_PYTHON_FILES = ("/usr/lib/x86_64-linux-gnu/libpython3*", "/usr/bin/python3*",
-                       "/usr/local/lib/libpython3*", "/usr/local/bin/python3*")
+SYSTEM_PYTHON_FILES = (
+    "/usr/lib/x86_64-linux-gnu/libpython3*",
+    "/usr/bin/python3*",
+    "/usr/local/lib/libpython3*",
+    "/usr/local/bin/python3*",
+)
 SYSTEM_PYTHON_FOLDERS = ("/usr/lib/python3*", "/usr/local/lib/python3*")
 
 # model -> (steps, step size, {input: (a, b, c, d, w)}): input = a + b t + c sin(w t) + d cos(w t).
 # Inputs not named keep their declared start values, and so do all parameters.
 CASES = {
-    "LandingGear": (250, 0.01, {"piston_extension": (0.381, 0.0762),
-                                "piston_speed": (0.0762,)}),
-    "HydraulicActuator": (200, 0.01, {"valve_command": (1.0,),
-                                      "piston_extension": (0.381, 0.05),
-                                      "piston_speed": (0.05,)}),
+    "LandingGear": (250, 0.01, {"piston_extension": (0.381, 0.0762), "piston_speed": (0.0762,)}),
+    "HydraulicActuator": (
+        200,
+        0.01,
+        {"valve_command": (1.0,), "piston_extension": (0.381, 0.05), "piston_speed": (0.05,)},
+    ),
     "PistonActuator": (300, 0.01, {}),
     "Suspension": (400, 0.01, {"load": (0.0, 1000.0)}),  # through the snap-through (3091 N)
     "LoadProfile": (200, 0.01, {}),
     "RoadProfile": (200, 0.01, {}),
     "CrankDrive": (200, 0.005, {}),
     "FourBar": (200, 0.005, {"crank_angle": (math.pi / 6, TWO_PI), "crank_speed": (TWO_PI,)}),
-    "SliderCrank": (200, 1e-4, {"crank_angle": (0.0, 100 * math.pi),
-                                "crank_speed": (100 * math.pi,)}),
+    "SliderCrank": (
+        200,
+        1e-4,
+        {"crank_angle": (0.0, 100 * math.pi), "crank_speed": (100 * math.pi,)},
+    ),
     "CamshaftDrive": (200, 1e-4, {}),
-    "ValveTrain": (400, 1e-4, {"camshaft_angle": (0.0, 50 * math.pi),
-                               "camshaft_speed": (50 * math.pi,)}),
-    "ValveSpring": (300, 1e-4, {
-        "rocker_lift": (VALVE_LIFT, 0.0, 0.0, -VALVE_LIFT, VALVE_OMEGA),
-        "rocker_velocity": (0.0, 0.0, VALVE_LIFT * VALVE_OMEGA, 0.0, VALVE_OMEGA),
-        "rocker_acceleration": (0.0, 0.0, 0.0, VALVE_LIFT * VALVE_OMEGA ** 2, VALVE_OMEGA)}),
+    "ValveTrain": (
+        400,
+        1e-4,
+        {"camshaft_angle": (0.0, 50 * math.pi), "camshaft_speed": (50 * math.pi,)},
+    ),
+    "ValveSpring": (
+        300,
+        1e-4,
+        {
+            "rocker_lift": (VALVE_LIFT, 0.0, 0.0, -VALVE_LIFT, VALVE_OMEGA),
+            "rocker_velocity": (0.0, 0.0, VALVE_LIFT * VALVE_OMEGA, 0.0, VALVE_OMEGA),
+            "rocker_acceleration": (0.0, 0.0, 0.0, VALVE_LIFT * VALVE_OMEGA**2, VALVE_OMEGA),
+        },
+    ),
 }
 
 
@@ -65,9 +81,23 @@ def compile_host(source, target):
     """Compile a C host (host.c or host3.c) with $CC or cc; return its path."""
     compiler = shlex.split(os.environ.get("CC") or "cc")
     assert shutil.which(compiler[0]), f"no C compiler {compiler[0]!r} for the C host"
-    done = subprocess.run([*compiler, "-O2", "-Wall", "-Wextra", "-ffp-contract=off",
-                           f"-I{build.fmi_headers()}", str(HOSTS / source), "-o", str(target),
-                           "-ldl", "-lm"], capture_output=True, text=True)
+    done = subprocess.run(
+        [
+            *compiler,
+            "-O2",
+            "-Wall",
+            "-Wextra",
+            "-ffp-contract=off",
+            f"-I{build.fmi_headers()}",
+            str(HOSTS / source),
+            "-o",
+            str(target),
+            "-ldl",
+            "-lm",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert done.returncode == 0 and done.stderr == "", done.stderr
     return target
 
@@ -107,11 +137,17 @@ def hiding(empty, keep_pyenv=(), system=True):
             commands.append(f"mount --bind {shlex.quote(str(empty))} {shlex.quote(str(folder))}")
     if system:
         for pattern in SYSTEM_PYTHON_FILES:
-            commands += [f"mount --bind /dev/null {shlex.quote(path)}"
-                         for path in sorted(glob.glob(pattern)) if os.path.isfile(path)]
+            commands += [
+                f"mount --bind /dev/null {shlex.quote(path)}"
+                for path in sorted(glob.glob(pattern))
+                if os.path.isfile(path)
+            ]
         for pattern in SYSTEM_PYTHON_FOLDERS:
-            commands += [f"mount --bind {shlex.quote(str(empty))} {shlex.quote(path)}"
-                         for path in sorted(glob.glob(pattern)) if os.path.isdir(path)]
+            commands += [
+                f"mount --bind {shlex.quote(str(empty))} {shlex.quote(path)}"
+                for path in sorted(glob.glob(pattern))
+                if os.path.isdir(path)
+            ]
     return commands
 
 
@@ -120,14 +156,25 @@ def host_command(description, host, folder, steps, step, inputs, outputs):
     variables = {v.name: v for v in description.modelVariables}
     specs = []
     for name, spec in inputs.items():
-        specs += ["-i", f"{variables[name].valueReference}="
-                        + ",".join(repr(float(x)) for x in coefficients(spec))]
+        specs += [
+            "-i",
+            f"{variables[name].valueReference}="
+            + ",".join(repr(float(x)) for x in coefficients(spec)),
+        ]
     for variable in outputs:
         specs += ["-o", f"{TYPE_LETTER[variable.type]}:{variable.valueReference}"]
     identifier = description.coSimulation.modelIdentifier
     if description.fmiVersion.startswith("3"):
-        return [str(host), str(steps), repr(step), "-f", str(folder), identifier,
-                description.guid, *specs]
+        return [
+            str(host),
+            str(steps),
+            repr(step),
+            "-f",
+            str(folder),
+            identifier,
+            description.guid,
+            *specs,
+        ]
     return [str(host), str(folder), identifier, description.guid, str(steps), repr(step), *specs]
 
 
@@ -138,12 +185,18 @@ def run_host(command, hide=(), timeout=120, labelled=False, **env):
     if hide:
         script = "; ".join([*hide, 'exec "$@"'])
         command = ["unshare", "-m", "sh", "-c", script, "host", *command]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=timeout,
-                          env={**clean_environment(), **env})
-    rows = [[float(x) for x in line.split(",")[1 if labelled else 0:]]
-            for line in done.stdout.splitlines()]
-    loaded = [line.split("loaded ", 1)[1] for line in done.stderr.splitlines()
-              if line.startswith(("host: loaded ", "host3: loaded "))]
+    done = subprocess.run(
+        command, capture_output=True, text=True, timeout=timeout, env={**clean_environment(), **env}
+    )
+    rows = [
+        [float(x) for x in line.split(",")[1 if labelled else 0 :]]
+        for line in done.stdout.splitlines()
+    ]
+    loaded = [
+        line.split("loaded ", 1)[1]
+        for line in done.stderr.splitlines()
+        if line.startswith(("host: loaded ", "host3: loaded "))
+    ]
     return done, rows, loaded
 
 
@@ -163,8 +216,9 @@ def run_fmpy(fmu, steps, step, inputs, outputs):
         rows = [[driven.time] + [float(driven.get(v.name)) for v in outputs]]
         for _ in range(steps):
             t = driven.time
-            result = driven.step(step, **{name: input_value(spec, t)
-                                          for name, spec in inputs.items()})
+            result = driven.step(
+                step, **{name: input_value(spec, t) for name, spec in inputs.items()}
+            )
             assert result is True, result
             rows.append([driven.time] + [float(driven.get(v.name)) for v in outputs])
     finally:

@@ -101,10 +101,21 @@ LAYERS = {
 # Whole files, then single tests (by name without parameters), that take more than a few
 # seconds each or many seconds together (measured with `pytest --durations=0`).
 SLOW_FILES = {
-    "test_docs.py", "test_interrupts.py", "test_robustness.py", "test_scenes.py",
-    "test_sweep.py", "test_sweep_faults.py", "test_study.py", "test_bench.py",
-    "test_validation.py", "test_shipped_sweeps.py", "test_ssp.py", "test_sweep_references.py",
-    "test_valve_spring.py", "test_suspension_dynamics.py", "test_work_precision.py",
+    "test_docs.py",
+    "test_interrupts.py",
+    "test_robustness.py",
+    "test_scenes.py",
+    "test_sweep.py",
+    "test_sweep_faults.py",
+    "test_study.py",
+    "test_bench.py",
+    "test_validation.py",
+    "test_shipped_sweeps.py",
+    "test_ssp.py",
+    "test_sweep_references.py",
+    "test_valve_spring.py",
+    "test_suspension_dynamics.py",
+    "test_work_precision.py",
 }
 SLOW_TESTS = {
     "test_both_solvers_give_the_same_verdict_on_boundary_linkages",

@@ -16,8 +16,14 @@ class _Fmi3Log:
         self.instance, self.messages = instance, []
 
     def __call__(self, environment, status, category, message):
-        self.messages.append({"instance": self.instance, "status": status,
-                              "category": category.decode(), "message": message.decode()})
+        self.messages.append(
+            {
+                "instance": self.instance,
+                "status": status,
+                "category": category.decode(),
+                "message": message.decode(),
+            }
+        )
 
     def last_problem(self, instance):
         problems = [m["message"] for m in self.messages if m["status"] > 1]
@@ -32,9 +38,12 @@ class Driven:
         self.description = read_model_description(str(path))
         self.variables = {v.name: v for v in self.description.modelVariables}
         self.folder = extract(str(path))
-        options = dict(guid=self.description.guid, unzipDirectory=self.folder,
-                       modelIdentifier=self.description.coSimulation.modelIdentifier,
-                       instanceName=instance)
+        options = dict(
+            guid=self.description.guid,
+            unzipDirectory=self.folder,
+            modelIdentifier=self.description.coSimulation.modelIdentifier,
+            instanceName=instance,
+        )
         if self.description.fmiVersion.startswith("3"):
             self.logbook = _Fmi3Log(instance)
             self.slave = FMU3Slave(**options)
@@ -72,8 +81,9 @@ class Driven:
         return True
 
     def messages(self, status=None):
-        return [m["message"] for m in self.logbook.messages
-                if status is None or m["status"] == status]
+        return [
+            m["message"] for m in self.logbook.messages if status is None or m["status"] == status
+        ]
 
     def close(self):
         try:

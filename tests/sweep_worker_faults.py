@@ -9,8 +9,8 @@ from mechfmu.tools import sweep
 
 REAL_RUN_POINT = sweep.run_point  # bound before the test replaces sweep.run_point
 
-ALWAYS = "MECHFMU_TEST_KILL_ALWAYS"    # comma-separated point indices: die on every attempt
-ONCE = "MECHFMU_TEST_KILL_ONCE"        # "index:marker file": die the first time only
+ALWAYS = "MECHFMU_TEST_KILL_ALWAYS"  # comma-separated point indices: die on every attempt
+ONCE = "MECHFMU_TEST_KILL_ONCE"  # "index:marker file": die the first time only
 
 
 def run_point_or_die(index, *arguments):

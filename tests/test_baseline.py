@@ -48,16 +48,20 @@ def test_changes_are_reported_per_column_with_size_and_time(results, tmp_path, c
     write_result(gear.drop(columns=["actuator.piston_speed"]), results / "gear_retraction.csv")
     (results / "valve" / "valve_train.csv").unlink()
     code, out, _ = update(capsys, results, baselines, "--dry-run")
-    assert code == 0 and out.splitlines()[-1] == \
-        f"would update {baselines}: 1 changed, 1 unchanged, 1 kept"
+    assert (
+        code == 0
+        and out.splitlines()[-1] == f"would update {baselines}: 1 changed, 1 unchanged, 1 kept"
+    )
     assert read_result(baselines / "gear_retraction.csv").shape == (301, 6)  # untouched
     code, out, _ = update(capsys, results, baselines)
     lines = out.splitlines()
     changed = next(line for line in lines if line.startswith("gear_retraction.csv: changed: "))
     assert "column actuator.piston_speed removed" in changed
     peak = read_result(REFERENCES / "gear_retraction.csv")["gear.gear_angle"].abs().max()
-    assert f"gear.gear_angle max |difference| 0.002 ({2e-3 / peak:.3g} of peak) at t = 1.2 s" \
+    assert (
+        f"gear.gear_angle max |difference| 0.002 ({2e-3 / peak:.3g} of peak) at t = 1.2 s"
         in changed
+    )
     assert "suspension_load_ramp.csv: unchanged" in lines
     assert "valve/valve_train.csv: kept: no result (--prune removes it)" in lines
     assert (baselines / "suspension_load_ramp.csv").stat().st_mtime_ns == before

@@ -18,28 +18,53 @@ from mechfmu.tools.bench import dynamic_scenes, growth, model_cost
 from mechfmu.tools.bench.report import CSV_COLUMNS, RATIO_UNIT, Row, ratio_parts
 from mechfmu.packaging.build import build_all
 
-MASTER_CASES = [f"{master}: {what}" for master in ("ours", "fmpy")
-                for what in ("wall per step", "set-up", "FMI calls per step",
-                             "overhead per step")]
+MASTER_CASES = [
+    f"{master}: {what}"
+    for master in ("ours", "fmpy")
+    for what in ("wall per step", "set-up", "FMI calls per step", "overhead per step")
+]
 MASTER_CASES += ["total per step, ours / fmpy", "overhead per step, ours / fmpy"]
 MASTER_CASES += [f"one FMU, {case}" for case in MASTER_CASES[:8]]
 MASTER_CASES += ["one FMU: total per step, ours / fmpy", "one FMU: overhead per step, ours / fmpy"]
 EXPECTED = {
     "master overhead": MASTER_CASES,
-    "model cost": [f"{case.label}: {what}" for case in model_cost.CASES
-                   for what in ("model", "null", "model / null")],
-    "effects": ["gear_retraction (kinematic, 2 FMUs)",
-                "gear_retraction_dynamic (six effects, radau)", "kinematic / dynamic"],
+    "model cost": [
+        f"{case.label}: {what}"
+        for case in model_cost.CASES
+        for what in ("model", "null", "model / null")
+    ],
+    "effects": [
+        "gear_retraction (kinematic, 2 FMUs)",
+        "gear_retraction_dynamic (six effects, radau)",
+        "kinematic / dynamic",
+    ],
     "floor": ["closed form (numpy)", "FMU run (master loop)", "FMU / closed form"],
-    "sweep": ["1 worker(s): wall time", "1 worker(s): throughput", "2 worker(s): wall time",
-              "2 worker(s): throughput", "speed-up, 2 workers over 1"],
-    "dynamic scenes": [f"{name}: wall / simulated" for name in (
-        "gear_extension_gravity", "gear_retraction_dynamic",
-        "gear_retraction_external_hydraulics", "suspension_road_bump",
-        "suspension_sudden_load", "valve_float_dynamic", "valve_train_dynamic")],
-    "growth": [*(f"{k}x stop time: loop" for k in growth.FACTORS),
-               *(f"{k}x / 1x stop time" for k in growth.FACTORS[1:]),
-               "1x stop time: per step", "8x stop time: per step", "per step, 8x / 1x"],
+    "sweep": [
+        "1 worker(s): wall time",
+        "1 worker(s): throughput",
+        "2 worker(s): wall time",
+        "2 worker(s): throughput",
+        "speed-up, 2 workers over 1",
+    ],
+    "dynamic scenes": [
+        f"{name}: wall / simulated"
+        for name in (
+            "gear_extension_gravity",
+            "gear_retraction_dynamic",
+            "gear_retraction_external_hydraulics",
+            "suspension_road_bump",
+            "suspension_sudden_load",
+            "valve_float_dynamic",
+            "valve_train_dynamic",
+        )
+    ],
+    "growth": [
+        *(f"{k}x stop time: loop" for k in growth.FACTORS),
+        *(f"{k}x / 1x stop time" for k in growth.FACTORS[1:]),
+        "1x stop time: per step",
+        "8x stop time: per step",
+        "per step, 8x / 1x",
+    ],
 }
 # Differences of two medians (wall - FMI time, intercept of the per-step line): on a busy
 # machine noise can push them to or below zero, so they are only required to be finite.
@@ -52,8 +77,20 @@ def bench(fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("bench")
     stdout = io.StringIO()
     with contextlib.redirect_stdout(stdout):
-        status = cli(["bench", "--quick", "--out", str(out), "--fmu-dir", str(fmu_dir),
-                      "--scenes", str(SCENES), "--sweeps", str(SWEEPS)])
+        status = cli(
+            [
+                "bench",
+                "--quick",
+                "--out",
+                str(out),
+                "--fmu-dir",
+                str(fmu_dir),
+                "--scenes",
+                str(SCENES),
+                "--sweeps",
+                str(SWEEPS),
+            ]
+        )
     with open(out / "bench.csv", newline="", encoding="utf-8") as handle:
         records = list(csv.DictReader(handle))
     return status, stdout.getvalue(), records, out
@@ -74,10 +111,20 @@ def test_every_expected_row_once(bench):
 
 def test_model_cost_covers_every_kinematic_configuration():
     labels = {case.label for case in model_cost.CASES}
-    assert labels == {"LandingGear (motion drive)", "PistonActuator", "Suspension (static)",
-                      "LoadProfile (ramp)", "RoadProfile (bump)", "CrankDrive", "CamshaftDrive",
-                      *(f"{model} ({solver})" for model in ("FourBar", "SliderCrank", "ValveTrain")
-                        for solver in ("closed_form", "constraint_solver"))}
+    assert labels == {
+        "LandingGear (motion drive)",
+        "PistonActuator",
+        "Suspension (static)",
+        "LoadProfile (ramp)",
+        "RoadProfile (bump)",
+        "CrankDrive",
+        "CamshaftDrive",
+        *(
+            f"{model} ({solver})"
+            for model in ("FourBar", "SliderCrank", "ValveTrain")
+            for solver in ("closed_form", "constraint_solver")
+        ),
+    }
 
 
 def test_times_finite_and_positive(bench):
@@ -99,22 +146,32 @@ def test_ratios_are_the_quotients_of_their_parts(bench):
     ratios = [r for r in records if r["unit"] == RATIO_UNIT]
     assert len(ratios) == 2 + 2 + len(model_cost.CASES) + 2 + 1 + len(growth.FACTORS)
     for record in ratios:
-        row = Row(record["benchmark"], record["case"], float(record["value"]), record["unit"],
-                  int(record["repeats"]), notes=record["notes"])
+        row = Row(
+            record["benchmark"],
+            record["case"],
+            float(record["value"]),
+            record["unit"],
+            int(record["repeats"]),
+            notes=record["notes"],
+        )
         numerator, denominator = (rows[(record["benchmark"], case)] for case in ratio_parts(row))
         assert numerator["unit"] == denominator["unit"]
         assert float(record["value"]) == pytest.approx(
-            float(numerator["value"]) / float(denominator["value"]), rel=1e-12)
+            float(numerator["value"]) / float(denominator["value"]), rel=1e-12
+        )
 
 
 def test_wall_time_is_fmi_time_plus_overhead(bench):
     _, _, records, _ = bench
     rows = _rows(records)
     for master in ("ours", "fmpy", "one FMU, ours", "one FMU, fmpy"):
+
         def value(what):
             return float(rows[("master overhead", f"{master}: {what}")]["value"])
+
         assert value("overhead per step") == pytest.approx(
-            value("wall per step") - value("FMI calls per step"), rel=1e-9, abs=1e-9)
+            value("wall per step") - value("FMI calls per step"), rel=1e-9, abs=1e-9
+        )
 
 
 def test_targets_reported_not_asserted(bench):
@@ -127,16 +184,24 @@ def test_targets_reported_not_asserted(bench):
     assert targets["one FMU: total per step, ours / fmpy"] == "<= 0.5"
     assert targets["per step, 8x / 1x"] == "<= 1.25"
     assert all(targets[case] == "<= 1" for case in EXPECTED["dynamic scenes"])
-    assert all(targets[f"{case.label}: model / null"]
-               == ("<= 6" if "constraint_solver" in case.label else "<= 1.3")
-               for case in model_cost.CASES)
+    assert all(
+        targets[f"{case.label}: model / null"]
+        == ("<= 6" if "constraint_solver" in case.label else "<= 1.3")
+        for case in model_cost.CASES
+    )
     for record in records:
         if record["target"]:
             if record["target"] == ">= 1.7":
                 assert record["meets_target"] == str(float(record["value"]) >= 1.7).lower()
                 continue
-            limit = {"<= 0.5": 0.5, "<= 1.3": 1.3, "<= 6": 6.0, "<= 1/3": 1.0 / 3.0,
-                     "<= 1": 1.0, "<= 1.25": 1.25}[record["target"]]
+            limit = {
+                "<= 0.5": 0.5,
+                "<= 1.3": 1.3,
+                "<= 6": 6.0,
+                "<= 1/3": 1.0 / 3.0,
+                "<= 1": 1.0,
+                "<= 1.25": 1.25,
+            }[record["target"]]
             assert record["meets_target"] == str(float(record["value"]) <= limit).lower()
         else:
             assert record["meets_target"] == ""
@@ -150,8 +215,16 @@ def test_markdown_and_machine_files(bench):
     assert "Machine: " in table and "fmpy 0.3" in table
     assert table.split("\n\n")[0] in stdout
     machine = json.loads((out / "machine.json").read_text(encoding="utf-8"))
-    assert set(machine) == {"cpu", "logical_cores", "os", "python", "numpy", "fmpy",
-                            "pythonfmu", "date"}
+    assert set(machine) == {
+        "cpu",
+        "logical_cores",
+        "os",
+        "python",
+        "numpy",
+        "fmpy",
+        "pythonfmu",
+        "date",
+    }
     assert machine["logical_cores"] >= 1 and machine["pythonfmu"] == "0.7.0"
     assert not list(out.glob(".*.tmp"))  # atomic writes leave no temporary files
 
@@ -171,21 +244,43 @@ def test_null_fmu_does_nothing_while_the_model_moves(fmu_dir, tmp_path):
 
 def test_dynamic_scenes_are_those_that_integrate():
     from mechfmu.cosim.scene import load_scene
+
     found = {scene.name for scene in dynamic_scenes.dynamic_scenes(SCENES)}
     assert found == {case.split(":")[0] for case in EXPECTED["dynamic scenes"]}
     assert not dynamic_scenes.is_dynamic(load_scene(SCENES / "gear_retraction.toml"))
 
 
 def test_missing_fmus_stop_with_the_build_command(tmp_path, capsys):
-    assert cli(["bench", "--quick", "--fmu-dir", str(tmp_path / "none"), "--out",
-                str(tmp_path / "out")]) == 2
+    assert (
+        cli(
+            [
+                "bench",
+                "--quick",
+                "--fmu-dir",
+                str(tmp_path / "none"),
+                "--out",
+                str(tmp_path / "out"),
+            ]
+        )
+        == 2
+    )
     assert "mechfmu build" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 
 
 def test_effects_script_runs_the_effects_benchmark(fmu_dir):
-    done = subprocess.run([sys.executable, str(ROOT / "sims" / "bench_effects.py"),
-                           "--fmu-dir", str(fmu_dir), "--repeats", "1"],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "sims" / "bench_effects.py"),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--repeats",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr
     assert "| effects | kinematic / dynamic |" in done.stdout

@@ -4,7 +4,13 @@ import zipfile
 
 import pytest
 
-from mechfmu.packaging.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset, patch_exit_finaliser
+from mechfmu.packaging.binary_patch import (
+    ENDBR64,
+    RET,
+    SYMBOL,
+    find_symbol_offset,
+    patch_exit_finaliser,
+)
 from mechfmu.packaging.build import pythonfmu_library_name
 from mechfmu.runtime.models import MODELS
 
@@ -20,7 +26,7 @@ def test_every_fmu_binary_has_the_exit_finaliser_disabled(fmu_dir, model):
     elf = _binary(fmu_dir, model)
     offset = find_symbol_offset(elf, SYMBOL)
     assert offset is not None
-    assert elf[offset:offset + 4] == ENDBR64 and elf[offset + 4] == RET
+    assert elf[offset : offset + 4] == ENDBR64 and elf[offset + 4] == RET
 
 
 def test_patch_changes_one_byte_and_is_idempotent(fmu_dir):

@@ -24,9 +24,20 @@ import pytest
 from fmpy import read_model_description
 
 from fmu_driver import Driven
-from c_hosts import (CASES, PYENV_VERSIONS, compile_host, extract, fmpy_rows, hiding,
-                     host_command, input_value, largest_relative_difference, run_fmpy,
-                     run_host, run_model)
+from c_hosts import (
+    CASES,
+    PYENV_VERSIONS,
+    compile_host,
+    extract,
+    fmpy_rows,
+    hiding,
+    host_command,
+    input_value,
+    largest_relative_difference,
+    run_fmpy,
+    run_host,
+    run_model,
+)
 from mechfmu.packaging import build
 from mechfmu.packaging.binary_patch import ENDBR64, RET, SYMBOL, find_symbol_offset
 from mechfmu.runtime.models import MODELS
@@ -44,8 +55,10 @@ def host(tmp_path_factory):
 
 def _pyenv_version(minor):
     """pyenv's folder of CPython 3.<minor> (the newest patch release there)."""
-    found = sorted((p for p in PYENV_VERSIONS.glob(f"3.{minor}.*") if p.name[len(f"3.{minor}."):].isdigit()),
-                   key=lambda p: int(p.name.rsplit(".", 1)[1]))
+    found = sorted(
+        (p for p in PYENV_VERSIONS.glob(f"3.{minor}.*") if p.name[len(f"3.{minor}.") :].isdigit()),
+        key=lambda p: int(p.name.rsplit(".", 1)[1]),
+    )
     assert found, f"no CPython 3.{minor} under {PYENV_VERSIONS} (pyenv install 3.{minor})"
     return found[-1]
 
@@ -65,7 +78,7 @@ def test_c_host_runs_the_fmu_like_fmpy(host, fmu_dir, tmp_path, model):
     inner = (binaries / build.pythonfmu_library_name(model)).read_bytes()
     assert b"_Py_NoneStruct" in inner
     offset = find_symbol_offset(inner, SYMBOL)  # and carries binary_patch's exit fix
-    assert inner[offset:offset + 5] == ENDBR64 + bytes([RET])
+    assert inner[offset : offset + 5] == ENDBR64 + bytes([RET])
 
     assert done.returncode == 0, done.stderr[-3000:]
     assert loaded == [str(Path(sys.base_prefix) / "lib" / f"libpython{BUILD_VERSION}.so.1.0")]
@@ -82,11 +95,15 @@ def test_c_host_landing_gear_matches_the_numpy_closed_form(host, fmu_dir, tmp_pa
     fmu = fmu_dir / "LandingGear.fmu"
     description = read_model_description(str(fmu))
     variables = {v.name: v for v in description.modelVariables}
-    outputs = [variables["gear_angle"], variables["gear_angular_velocity"],
-               variables["gear_angular_acceleration"]]
+    outputs = [
+        variables["gear_angle"],
+        variables["gear_angular_velocity"],
+        variables["gear_angular_acceleration"],
+    ]
     steps, step, inputs = CASES["LandingGear"]
-    command = host_command(description, host, extract(fmu, tmp_path / "gear"), steps, step,
-                           inputs, outputs)
+    command = host_command(
+        description, host, extract(fmu, tmp_path / "gear"), steps, step, inputs, outputs
+    )
     done, rows, _ = run_host(command)
     assert done.returncode == 0, done.stderr[-3000:]
     times = np.array([row[0] for row in rows])
@@ -94,9 +111,13 @@ def test_c_host_landing_gear_matches_the_numpy_closed_form(host, fmu_dir, tmp_pa
     input_times = np.concatenate([[0.0], times[:-1]])
     x = np.array([input_value(inputs["piston_extension"], t) for t in input_times])
     xdot = np.full_like(x, input_value(inputs["piston_speed"], 0.0))
-    theta, omega, alpha = gear_from_piston(x, xdot, 0.0 * x,
-                                           float(variables["attachment_distance"].start),
-                                           float(variables["pivot_height"].start))
+    theta, omega, alpha = gear_from_piston(
+        x,
+        xdot,
+        0.0 * x,
+        float(variables["attachment_distance"].start),
+        float(variables["pivot_height"].start),
+    )
     got = np.array([row[1:] for row in rows])
     assert theta[-1] - theta[0] > 1.0  # the gear turns through most of its 90 degrees
     # measured: 2.2e-16, 7.4e-16 relative and 7.2e-16 rad/s^2 (of up to 0.43) absolute
@@ -120,9 +141,9 @@ def test_loader_reports_a_missing_pythonfmu_library_through_the_logger(host, fmu
 
 # --- any CPython 3.10+ (issue 20) -----------------------------------------------------------
 
+
 @pytest.mark.parametrize("minor", OTHER_MINORS)
-def test_fmus_run_with_each_cpython_when_the_build_python_is_hidden(host, fmu_dir, tmp_path,
-                                                                    minor):
+def test_fmus_run_with_each_cpython_when_the_build_python_is_hidden(host, fmu_dir, tmp_path, minor):
     """Only pyenv's 3.<minor> left (the build's and the system's hidden): every model runs
     on it and gives fmpy's numbers (under the build Python) to 1e-12 (measured: identical)."""
     keep = _pyenv_version(minor)
@@ -142,17 +163,25 @@ def test_loader_takes_the_newest_python_after_the_build_s_own(host, fmu_dir, tmp
     """The build's version hidden, every other pyenv version left: the newest 3.x wins."""
     empty = tmp_path / "empty"
     empty.mkdir()
-    others = sorted((p for p in PYENV_VERSIONS.iterdir() if p.name.startswith("3.")
-                     and not p.name.startswith(f"{BUILD_VERSION}.")
-                     and p.name.split(".")[1].isdigit() and int(p.name.split(".")[1]) >= 10),
-                    key=lambda p: tuple(int(x) for x in p.name.split(".")[:2]))
+    others = sorted(
+        (
+            p
+            for p in PYENV_VERSIONS.iterdir()
+            if p.name.startswith("3.")
+            and not p.name.startswith(f"{BUILD_VERSION}.")
+            and p.name.split(".")[1].isdigit()
+            and int(p.name.split(".")[1]) >= 10
+        ),
+        key=lambda p: tuple(int(x) for x in p.name.split(".")[:2]),
+    )
     assert len(others) >= 2, others
     hide = hiding(empty, keep_pyenv=tuple(p.name for p in others))
     done, rows, loaded = run_model(host, fmu_dir / "CrankDrive.fmu", tmp_path / "crank", hide)
     assert done.returncode == 0, done.stderr[-3000:]
     newest = others[-1]
-    assert loaded == [str(newest / "lib" / f"libpython{'.'.join(newest.name.split('.')[:2])}"
-                                           ".so.1.0")]
+    assert loaded == [
+        str(newest / "lib" / f"libpython{'.'.join(newest.name.split('.')[:2])}.so.1.0")
+    ]
 
 
 def test_mechfmu_libpython_overrides_the_search(host, fmu_dir, tmp_path):
@@ -160,8 +189,9 @@ def test_mechfmu_libpython_overrides_the_search(host, fmu_dir, tmp_path):
     taken."""
     minor = OTHER_MINORS[0]
     library = _pyenv_version(minor) / "lib" / f"libpython3.{minor}.so.1.0"
-    done, rows, loaded = run_model(host, fmu_dir / "FourBar.fmu", tmp_path / "four_bar",
-                                   MECHFMU_LIBPYTHON=str(library))
+    done, rows, loaded = run_model(
+        host, fmu_dir / "FourBar.fmu", tmp_path / "four_bar", MECHFMU_LIBPYTHON=str(library)
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     assert loaded == [str(library)]
     assert largest_relative_difference(rows, fmpy_rows(str(fmu_dir / "FourBar.fmu"))) <= 1e-12
@@ -171,15 +201,16 @@ def _fake_libpython(folder, name, version):
     """A shared library that answers Py_GetVersion() with ``version`` (CPython's own words,
     Python/getversion.c) and is no Python at all: the loader must refuse it before use."""
     source = folder / f"{name}.c"
-    source.write_text('const char *Py_GetVersion(void) { return "%s"; }\n'
-                      "int Py_IsInitialized(void) { return 0; }\n" % version)
+    source.write_text(
+        'const char *Py_GetVersion(void) { return "%s"; }\n'
+        "int Py_IsInitialized(void) { return 0; }\n" % version
+    )
     target = folder / name
     subprocess.run(["cc", "-shared", "-fPIC", str(source), "-o", str(target)], check=True)
     return target
 
 
-def test_loader_refuses_free_threaded_and_old_pythons_and_names_every_path(host, fmu_dir,
-                                                                           tmp_path):
+def test_loader_refuses_free_threaded_and_old_pythons_and_names_every_path(host, fmu_dir, tmp_path):
     """Every Python hidden; a free-threaded 3.13t found on LD_LIBRARY_PATH and a 3.9 named by
     MECHFMU_LIBPYTHON: both refused with the reason, every path tried named through the FMI
     logger (status fmi2Fatal), no crash."""
@@ -187,12 +218,19 @@ def test_loader_refuses_free_threaded_and_old_pythons_and_names_every_path(host,
     empty.mkdir()
     fakes.mkdir()
     free_threaded = _fake_libpython(
-        fakes, "libpython3.13t.so.1.0",
-        "3.13.0 experimental free-threading build (main, Oct  7 2024) [GCC 12.2.0]")
+        fakes,
+        "libpython3.13t.so.1.0",
+        "3.13.0 experimental free-threading build (main, Oct  7 2024) [GCC 12.2.0]",
+    )
     old = _fake_libpython(fakes, "libpython3.9.so.1.0", "3.9.18 (main, May  9 2026) [GCC]")
-    done, rows, loaded = run_model(host, fmu_dir / "CrankDrive.fmu", tmp_path / "crank",
-                                   hiding(empty), MECHFMU_LIBPYTHON=str(old),
-                                   LD_LIBRARY_PATH=str(fakes))
+    done, rows, loaded = run_model(
+        host,
+        fmu_dir / "CrankDrive.fmu",
+        tmp_path / "crank",
+        hiding(empty),
+        MECHFMU_LIBPYTHON=str(old),
+        LD_LIBRARY_PATH=str(fakes),
+    )
     assert done.returncode == 2 and rows == [] and loaded == []
     message = done.stderr
     assert "status 4" in message and "fmi2Instantiate returned NULL" in message
@@ -201,16 +239,19 @@ def test_loader_refuses_free_threaded_and_old_pythons_and_names_every_path(host,
     assert f"{free_threaded}: refused, a free-threaded build" in message
     # the folders looked in, each named: the FMU's own, the build's LIBDIR, LD_LIBRARY_PATH,
     # the system's, pyenv's (hidden: none left)
-    for folder in (tmp_path / "crank" / "resources" / "python" / "lib",
-                   Path(sys.base_prefix) / "lib", fakes, "/usr/lib/x86_64-linux-gnu",
-                   "/usr/local/lib"):
+    for folder in (
+        tmp_path / "crank" / "resources" / "python" / "lib",
+        Path(sys.base_prefix) / "lib",
+        fakes,
+        "/usr/lib/x86_64-linux-gnu",
+        "/usr/local/lib",
+    ):
         assert f"\n  {folder}\n" in message, folder
     assert "x = %d, then 40 down to 10" % sys.version_info.minor in message
     assert "MECHFMU_LIBPYTHON" in message and "--embed-python" in message
 
 
-def test_build_without_a_c_compiler_keeps_the_plain_pythonfmu_binary(tmp_path, monkeypatch,
-                                                                     capsys):
+def test_build_without_a_c_compiler_keeps_the_plain_pythonfmu_binary(tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("CC", str(tmp_path / "no-such-cc"))
     (fmu,) = build.build_all(tmp_path / "out", ["CrankDrive"])
     printed = capsys.readouterr().out

@@ -43,7 +43,8 @@ def test_matching_trees_exit_0_with_one_line_per_file(trees, capsys):
     code, out, _ = run(capsys, *trees)
     assert code == 0
     assert line_of(out, "gear_retraction.csv").startswith(
-        "gear_retraction.csv: match: 6 column(s), 301 sample(s)")
+        "gear_retraction.csv: match: 6 column(s), 301 sample(s)"
+    )
     assert line_of(out, "valve/valve_train.csv").startswith("valve/valve_train.csv: match:")
     assert out.splitlines()[-1] == "3 file(s): 3 match, 0 mismatch"
 
@@ -66,11 +67,14 @@ def test_a_changed_value_names_file_column_and_time(trees, capsys):
     assert code == 1 and "--tol gear.gear_angel matches no column" in err
 
 
-@pytest.mark.parametrize("damage, expected", [
-    ("cut", "line 101, column 'actuator.piston_speed': empty field"),
-    ("text", "line 6, column 'gear.gear_angle': 'abc' is not a number"),
-    ("empty", "empty file"),
-])
+@pytest.mark.parametrize(
+    "damage, expected",
+    [
+        ("cut", "line 101, column 'actuator.piston_speed': empty field"),
+        ("text", "line 6, column 'gear.gear_angle': 'abc' is not a number"),
+        ("empty", "empty file"),
+    ],
+)
 def test_a_malformed_result_is_a_failure_naming_file_and_line(trees, capsys, damage, expected):
     results, references = trees
     path = results / "gear_retraction.csv"
@@ -101,17 +105,22 @@ def test_missing_file_and_result_without_reference(trees, capsys):
     assert code == 1
     line = line_of(out, "valve/valve_train.csv")
     assert "MISMATCH: missing file" in line and str(results / "valve" / "valve_train.csv") in line
-    assert line_of(out, "extra.csv") == \
-        f"extra.csv: not compared: no reference file for {results / 'extra.csv'}"
-    assert out.splitlines()[-1] == \
-        "4 file(s): 2 match, 1 mismatch, 1 without reference (not compared)"
+    assert (
+        line_of(out, "extra.csv")
+        == f"extra.csv: not compared: no reference file for {results / 'extra.csv'}"
+    )
+    assert (
+        out.splitlines()[-1] == "4 file(s): 2 match, 1 mismatch, 1 without reference (not compared)"
+    )
 
 
 def test_missing_and_extra_columns_and_time_grid(trees, capsys):
     results, references = trees
     gear = read_result(results / "gear_retraction.csv")
-    write_result(gear.drop(columns=["gear.gear_angle"]).assign(**{"gear.spare": 1.0}),
-                 results / "gear_retraction.csv")
+    write_result(
+        gear.drop(columns=["gear.gear_angle"]).assign(**{"gear.spare": 1.0}),
+        results / "gear_retraction.csv",
+    )
     ramp = read_result(results / "suspension_load_ramp.csv")
     write_result(ramp.iloc[:250], results / "suspension_load_ramp.csv")  # cut at 2.49 s
     junit = results.parent / "junit.xml"
@@ -121,8 +130,10 @@ def test_missing_and_extra_columns_and_time_grid(trees, capsys):
     assert "missing column gear.gear_angle" in line and "1 more failing column(s)" in line
     line = line_of(out, "suspension_load_ramp.csv")
     assert "time grid: the result has time none where the reference has 2.5 s" in line
-    cases = {(case.get("classname"), case.get("name")): case
-             for case in ET.parse(junit).getroot().iter("testcase")}
+    cases = {
+        (case.get("classname"), case.get("name")): case
+        for case in ET.parse(junit).getroot().iter("testcase")
+    }
     failure = cases["gear_retraction.csv", "gear.gear_angle"].find("failure")
     assert failure.get("type") == "missing column"
     failure = cases["gear_retraction.csv", "gear.spare"].find("failure")
@@ -147,10 +158,18 @@ def test_tube_accepts_a_late_snap_through_that_pointwise_rejects(tmp_path, capsy
     write_result(late, tmp_path / "late.csv")
     code, out, _ = run(capsys, tmp_path / "late.csv", tmp_path / "reference.csv")
     assert code == 1 and "suspension.branch at t = 3.1 s: " in out and "vs reference 1.0" in out
-    assert run(capsys, tmp_path / "late.csv", tmp_path / "reference.csv",
-               "--method", "tube")[0] == 0  # default tube: one step of the reference
-    code, out, _ = run(capsys, tmp_path / "late.csv", tmp_path / "reference.csv",
-                       "--method", "tube", "--time-tolerance", "0.004")
+    assert (
+        run(capsys, tmp_path / "late.csv", tmp_path / "reference.csv", "--method", "tube")[0] == 0
+    )  # default tube: one step of the reference
+    code, out, _ = run(
+        capsys,
+        tmp_path / "late.csv",
+        tmp_path / "reference.csv",
+        "--method",
+        "tube",
+        "--time-tolerance",
+        "0.004",
+    )
     assert code == 1 and "suspension.branch at t = 3.1 s" in out
 
 
@@ -190,10 +209,15 @@ def test_junit_has_one_testcase_per_file_and_column(trees, capsys, tmp_path):
     assert len(cases) == 6 + ramp_columns + 1
     assert suite.get("tests") == str(len(cases)) == root.get("tests")
     assert suite.get("failures") == "2" == root.get("failures")
-    failed = {(case.get("classname"), case.get("name")): case.find("failure")
-              for case in cases if case.find("failure") is not None}
-    assert set(failed) == {("gear_retraction.csv", "gear.gear_angle"),
-                           ("valve/valve_train.csv", "(file)")}
+    failed = {
+        (case.get("classname"), case.get("name")): case.find("failure")
+        for case in cases
+        if case.find("failure") is not None
+    }
+    assert set(failed) == {
+        ("gear_retraction.csv", "gear.gear_angle"),
+        ("valve/valve_train.csv", "(file)"),
+    }
     value = failed["gear_retraction.csv", "gear.gear_angle"]
     assert value.get("type") == "value" and "at t = 1.5 s" in value.get("message")
     malformed = failed["valve/valve_train.csv", "(file)"]
@@ -211,8 +235,10 @@ def test_report_has_a_plot_of_every_failing_column(trees, capsys, tmp_path):
     assert code == 1 and f"report: {report / 'index.html'}" in out
     page = (report / "index.html").read_text()
     pngs = sorted(path.name for path in report.glob("*.png"))
-    assert pngs == ["valve_valve_train.csv__valve.contact_force.png",
-                    "valve_valve_train.csv__valve.valve_lift.png"]
+    assert pngs == [
+        "valve_valve_train.csv__valve.contact_force.png",
+        "valve_valve_train.csv__valve.valve_lift.png",
+    ]
     for name in pngs:
         assert f'<img src="{name}"' in page
         assert (report / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -226,8 +252,9 @@ def test_a_malformed_reference_is_named_too(trees, capsys):
     path.write_text(path.read_text().replace("time,", "t,", 1))
     code, out, err = run(capsys, results, references)
     assert code == 1 and "Traceback" not in out + err
-    assert f"{path}: line 1: the first column must be 'time'" in \
-        line_of(out, "suspension_load_ramp.csv")
+    assert f"{path}: line 1: the first column must be 'time'" in line_of(
+        out, "suspension_load_ramp.csv"
+    )
     # one pair, a file against a folder without its namesake: nothing comparable
     code, out, _ = run(capsys, results / "gear_retraction.csv", references / "valve")
     assert code == 2 and "gear_retraction.csv: not compared: no reference file" in out

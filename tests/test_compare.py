@@ -25,8 +25,13 @@ def shifted(reference, delay):
     """``reference`` late by ``delay`` s, on its own time grid: the piecewise linear
     reference evaluated at t - delay (held at its first value before the start)."""
     times = reference.index.to_numpy()
-    return frame(times, **{name: np.interp(times - delay, times, reference[name].to_numpy())
-                           for name in reference.columns})
+    return frame(
+        times,
+        **{
+            name: np.interp(times - delay, times, reference[name].to_numpy())
+            for name in reference.columns
+        },
+    )
 
 
 def brute_tube(times, values, ref_times, ref_values, dt, rtol, atol):
@@ -44,15 +49,24 @@ def brute_tube(times, values, ref_times, ref_values, dt, rtol, atol):
 # (scene, columns, column whose jump is the event, per-column atol as a fraction of the
 # column's range): the step changes of the smooth parts are inside the atol, the events not.
 EVENTS = {
-    "valve float (contact lost)": ("valve_float_dynamic",
-                                   ["valve.contact_lost", "valve.float_events"],
-                                   "valve.contact_lost", 0.02),
-    "suspension snap-through": ("suspension_load_ramp",
-                                ["suspension.deflection", "suspension.branch",
-                                 "suspension.snap_through"], "suspension.branch", 0.02),
-    "gear stroke end": ("gear_extension_gravity",
-                        ["gear.gear_angle", "gear.extension_time"], "gear.extension_time",
-                        0.05),
+    "valve float (contact lost)": (
+        "valve_float_dynamic",
+        ["valve.contact_lost", "valve.float_events"],
+        "valve.contact_lost",
+        0.02,
+    ),
+    "suspension snap-through": (
+        "suspension_load_ramp",
+        ["suspension.deflection", "suspension.branch", "suspension.snap_through"],
+        "suspension.branch",
+        0.02,
+    ),
+    "gear stroke end": (
+        "gear_extension_gravity",
+        ["gear.gear_angle", "gear.extension_time"],
+        "gear.extension_time",
+        0.05,
+    ),
 }
 
 
@@ -75,20 +89,24 @@ def test_a_late_event_fails_pointwise_and_passes_the_tube(name, steps):
     assert not pointwise.passed
     # every failing column fails first at the event, the smooth parts are within the atol
     assert (pointwise.failures["kind"] == "value").all()
-    assert pointwise.failures["time"].tolist() == \
-        pytest.approx([event_time] * len(pointwise.failures), abs=1e-9)
+    assert pointwise.failures["time"].tolist() == pytest.approx(
+        [event_time] * len(pointwise.failures), abs=1e-9
+    )
     row = pointwise.failures.set_index("column").loc[event]
     assert row["value"] != row["reference"]
-    tube = mechfmu.compare(late, reference, tolerances=tolerances, method="tube",
-                           time_tolerance=steps * step * 1.0001)
+    tube = mechfmu.compare(
+        late, reference, tolerances=tolerances, method="tube", time_tolerance=steps * step * 1.0001
+    )
     assert tube.passed, tube.failures
     assert tube.failures.empty
     # and a tube narrower than the delay does not hide it
-    narrow = mechfmu.compare(late, reference, tolerances=tolerances, method="tube",
-                             time_tolerance=0.5 * steps * step)
+    narrow = mechfmu.compare(
+        late, reference, tolerances=tolerances, method="tube", time_tolerance=0.5 * steps * step
+    )
     assert not narrow.passed
-    assert narrow.failures.set_index("column").loc[event, "time"] == \
-        pytest.approx(event_time, abs=1e-9)
+    assert narrow.failures.set_index("column").loc[event, "time"] == pytest.approx(
+        event_time, abs=1e-9
+    )
 
 
 @pytest.mark.parametrize("name", list(EVENTS))
@@ -107,8 +125,9 @@ def test_a_changed_amplitude_fails_both_at_the_first_sample_outside(name):
     assert row["time"] == pytest.approx(expected_pointwise, abs=1e-12)
     assert row["value"] == pytest.approx(1.3 * row["reference"], rel=1e-12)
     assert row["allowed"] == pytest.approx(atol, rel=1e-12)
-    tube = mechfmu.compare(wrong, reference, tolerances=tolerances, method="tube",
-                           time_tolerance=step)
+    tube = mechfmu.compare(
+        wrong, reference, tolerances=tolerances, method="tube", time_tolerance=step
+    )
     assert not tube.passed
     inside = brute_tube(times, values, times, ref_values, step, rtol, atol)
     assert not inside.all()
@@ -128,11 +147,11 @@ def test_a_snap_through_run_late_passes_the_tube_only(fmu_dir, tmp_path):
     reference = read_result(REFERENCES / "suspension_load_ramp.csv")
     columns = ["suspension.branch", "suspension.snap_through", "suspension.stable"]
     pointwise = mechfmu.compare(late[columns], reference[columns], atol=1e-9)
-    assert list(pointwise.failures["column"]) == ["suspension.branch",
-                                                  "suspension.snap_through"]
+    assert list(pointwise.failures["column"]) == ["suspension.branch", "suspension.snap_through"]
     assert pointwise.failures["time"].tolist() == pytest.approx([3.1, 3.1], abs=1e-9)
-    tube = mechfmu.compare(late[columns], reference[columns], atol=1e-9, method="tube",
-                           time_tolerance=0.0125)
+    tube = mechfmu.compare(
+        late[columns], reference[columns], atol=1e-9, method="tube", time_tolerance=0.0125
+    )
     assert tube.passed, tube.failures
     # the deflection jumps from 0.27 m to 1.09 m a step late: pointwise that fails even at
     # rtol 1e-2 and atol 1e-3 m, the tube passes (its band covers the curvature of the fold, which the
@@ -141,8 +160,9 @@ def test_a_snap_through_run_late_passes_the_tube_only(fmu_dir, tmp_path):
     pointwise = mechfmu.compare(late[smooth], reference[smooth], rtol=1e-2, atol=1e-3)
     assert list(pointwise.failures["column"]) == ["suspension.deflection"]
     assert 3.0 <= pointwise.failures["time"].iloc[0] <= 3.1 + 1e-9  # the fold, then the snap
-    assert mechfmu.compare(late[smooth], reference[smooth], rtol=1e-2, atol=1e-3, method="tube",
-                           time_tolerance=0.0125).passed
+    assert mechfmu.compare(
+        late[smooth], reference[smooth], rtol=1e-2, atol=1e-3, method="tube", time_tolerance=0.0125
+    ).passed
 
 
 def test_tube_bounds_match_the_definition_on_random_curves():
@@ -151,8 +171,9 @@ def test_tube_bounds_match_the_definition_on_random_curves():
         ref_times = np.cumsum(rng.uniform(0.01, 0.2, 60))
         ref_values = np.cumsum(rng.normal(size=60)) * rng.choice([1.0, 1e3])
         ref_values[rng.integers(60)] += 50.0  # a spike
-        times = np.sort(np.concatenate((ref_times[[0, -1]],
-                                        rng.uniform(ref_times[0], ref_times[-1], 78))))
+        times = np.sort(
+            np.concatenate((ref_times[[0, -1]], rng.uniform(ref_times[0], ref_times[-1], 78)))
+        )
         dt = rng.uniform(0.0, 0.5)
         low, high, nan = tube_bounds(times, ref_times, ref_values, dt)
         assert not nan.any()
@@ -163,8 +184,14 @@ def test_tube_bounds_match_the_definition_on_random_curves():
             assert lo == pytest.approx(min(window), rel=1e-12, abs=1e-12)
             assert hi == pytest.approx(max(window), rel=1e-12, abs=1e-12)
         values = np.interp(times, ref_times, ref_values) + rng.normal(scale=0.3, size=80)
-        comparison = mechfmu.compare(frame(times, y=values), frame(ref_times, y=ref_values),
-                                     method="tube", time_tolerance=dt, rtol=1e-3, atol=0.1)
+        comparison = mechfmu.compare(
+            frame(times, y=values),
+            frame(ref_times, y=ref_values),
+            method="tube",
+            time_tolerance=dt,
+            rtol=1e-3,
+            atol=0.1,
+        )
         inside = brute_tube(times, values, ref_times, ref_values, dt, 1e-3, 0.1)
         assert comparison.summary.loc["y", "failing"] == int((~inside).sum())
         assert comparison.passed == bool(inside.all())
@@ -175,8 +202,14 @@ def test_identical_results_pass_with_a_summary_of_zeros():
     comparison = mechfmu.compare(reference, reference.copy())
     assert comparison.passed and comparison.ok
     assert comparison.failures.empty
-    assert list(comparison.failures.columns) == ["column", "time", "value", "reference",
-                                                 "allowed", "kind"]
+    assert list(comparison.failures.columns) == [
+        "column",
+        "time",
+        "value",
+        "reference",
+        "allowed",
+        "kind",
+    ]
     assert list(comparison.summary.index) == list(reference.columns)
     assert (comparison.summary["max_abs"] == 0.0).all()
     assert (comparison.summary["samples"] == 301).all()
@@ -206,8 +239,8 @@ def test_a_different_time_grid_is_a_failure_at_the_first_differing_time():
     reference = frame([0.0, 0.1, 0.2, 0.3], a=[0.0, 1.0, 2.0, 3.0])
     cases = {  # result times: (time, value, reference) of the failure
         (0.0, 0.1, 0.25, 0.3): (0.2, 0.25, 0.2),
-        (0.0, 0.1, 0.2): (0.3, math.nan, 0.3),               # ends early (cut short)
-        (0.0, 0.1, 0.2, 0.3, 0.4): (0.4, 0.4, math.nan),     # goes on
+        (0.0, 0.1, 0.2): (0.3, math.nan, 0.3),  # ends early (cut short)
+        (0.0, 0.1, 0.2, 0.3, 0.4): (0.4, 0.4, math.nan),  # goes on
     }
     for times, (time, value, expected) in cases.items():
         result = frame(times, a=np.arange(len(times), dtype=float))
@@ -240,17 +273,18 @@ def test_interpolation_accepts_another_grid_over_the_same_span():
 def test_the_tube_needs_the_span_within_its_time_tolerance():
     reference = frame([0.0, 1.0, 2.0], a=[0.0, 1.0, 2.0])
     early_end = frame([0.0, 1.0, 1.5], a=[0.0, 1.0, 1.5])
-    row = mechfmu.compare(early_end, reference, method="tube",
-                          time_tolerance=0.1).failures.iloc[0]
+    row = mechfmu.compare(early_end, reference, method="tube", time_tolerance=0.1).failures.iloc[0]
     assert row["kind"] == "time grid" and row["time"] == pytest.approx(2.0)
     assert mechfmu.compare(early_end, reference, method="tube", time_tolerance=0.6).passed
 
 
 def test_failures_are_ordered_by_time_one_row_per_column():
-    reference = frame([0.0, 1.0, 2.0, 3.0], a=[1.0, 1.0, 1.0, 1.0], b=[1.0, 1.0, 1.0, 1.0],
-                      c=[1.0, 1.0, 1.0, 1.0])
-    result = frame([0.0, 1.0, 2.0, 3.0], a=[1.0, 1.0, 1.0, 9.0], b=[1.0, 2.0, 3.0, 4.0],
-                   c=[1.0, 1.0, 7.0, 7.0])
+    reference = frame(
+        [0.0, 1.0, 2.0, 3.0], a=[1.0, 1.0, 1.0, 1.0], b=[1.0, 1.0, 1.0, 1.0], c=[1.0, 1.0, 1.0, 1.0]
+    )
+    result = frame(
+        [0.0, 1.0, 2.0, 3.0], a=[1.0, 1.0, 1.0, 9.0], b=[1.0, 2.0, 3.0, 4.0], c=[1.0, 1.0, 7.0, 7.0]
+    )
     failures = mechfmu.compare(result, reference).failures
     assert list(failures["column"]) == ["b", "c", "a"]
     assert list(failures["time"]) == [1.0, 2.0, 3.0]
@@ -258,12 +292,15 @@ def test_failures_are_ordered_by_time_one_row_per_column():
 
 
 def test_per_column_tolerances_and_patterns_last_match_wins():
-    reference = frame([0.0, 1.0], **{"gear.a": [1.0, 1.0], "gear.b": [1.0, 1.0],
-                                     "load.c": [1.0, 1.0]})
-    result = frame([0.0, 1.0], **{"gear.a": [1.0, 1.001], "gear.b": [1.0, 1.001],
-                                  "load.c": [1.0, 1.001]})
-    comparison = mechfmu.compare(result, reference,
-                                 tolerances={"gear.*": 1e-2, "gear.b": (1e-6, None)})
+    reference = frame(
+        [0.0, 1.0], **{"gear.a": [1.0, 1.0], "gear.b": [1.0, 1.0], "load.c": [1.0, 1.0]}
+    )
+    result = frame(
+        [0.0, 1.0], **{"gear.a": [1.0, 1.001], "gear.b": [1.0, 1.001], "load.c": [1.0, 1.001]}
+    )
+    comparison = mechfmu.compare(
+        result, reference, tolerances={"gear.*": 1e-2, "gear.b": (1e-6, None)}
+    )
     assert list(comparison.failures["column"]) == ["gear.b", "load.c"]
     assert comparison.summary.loc["gear.a", "rtol"] == pytest.approx(1e-2)
     assert comparison.summary.loc["gear.b", "rtol"] == pytest.approx(1e-6)
@@ -277,8 +314,9 @@ def test_nan_passes_only_against_nan():
     assert mechfmu.compare(frame([0.0, 1.0, 2.0], a=[1.0, math.nan, 3.0]), reference).passed
     row = mechfmu.compare(frame([0.0, 1.0, 2.0], a=[1.0, 2.0, 3.0]), reference).failures.iloc[0]
     assert (row["column"], row["time"]) == ("a", 1.0)
-    row = mechfmu.compare(frame([0.0, 1.0, 2.0], a=[math.nan, math.nan, 3.0]),
-                          reference).failures.iloc[0]
+    row = mechfmu.compare(
+        frame([0.0, 1.0, 2.0], a=[math.nan, math.nan, 3.0]), reference
+    ).failures.iloc[0]
     assert (row["column"], row["time"]) == ("a", 0.0)
 
 
@@ -298,8 +336,9 @@ def test_plot_shows_reference_result_band_and_the_first_failure():
     reference, tolerances, step, _, _ = event_case("suspension snap-through")
     late = shifted(reference, step)
     for method in ("pointwise", "tube"):
-        comparison = mechfmu.compare(late, reference, tolerances=tolerances, method=method,
-                                     time_tolerance=0.5 * step)
+        comparison = mechfmu.compare(
+            late, reference, tolerances=tolerances, method=method, time_tolerance=0.5 * step
+        )
         figure = comparison.plot()
         failing = list(comparison.failures["column"])
         axes = [axis for axis in figure.axes if axis.get_title(loc="left")]

@@ -53,9 +53,15 @@ def _worst_relative_to_scale(result, run, names):
 def four_bar(fmu_dir, tmp_path_factory):
     """The four-bar scene as a sequential and as a parallel container."""
     folder = tmp_path_factory.mktemp("containers")
-    return {mode: export_scene_fmu(SCENES / "four_bar_crank_rocker.toml",
-                                   folder / f"four_bar_{mode}.fmu", fmu_dir, mode == "sequential")
-            for mode in ("sequential", "parallel")}
+    return {
+        mode: export_scene_fmu(
+            SCENES / "four_bar_crank_rocker.toml",
+            folder / f"four_bar_{mode}.fmu",
+            fmu_dir,
+            mode == "sequential",
+        )
+        for mode in ("sequential", "parallel")
+    }
 
 
 def test_container_holds_the_scene(four_bar):
@@ -65,8 +71,11 @@ def test_container_holds_the_scene(four_bar):
     description = read_model_description(str(summary.path))
     outputs = [v.name for v in description.modelVariables if v.causality == "output"]
     assert outputs == list(load_scene(SCENES / "four_bar_crank_rocker.toml").record)
-    assert (description.defaultExperiment.startTime, description.defaultExperiment.stopTime,
-            description.defaultExperiment.stepSize) == ("0.0", "1.0", "0.005")
+    assert (
+        description.defaultExperiment.startTime,
+        description.defaultExperiment.stopTime,
+        description.defaultExperiment.stepSize,
+    ) == ("0.0", "1.0", "0.005")
 
 
 @pytest.mark.parametrize("mode", ["sequential", "parallel"])
@@ -96,15 +105,20 @@ def test_parallel_container_delays_every_link_by_one_step(four_bar, fmu_dir):
     crank, which has no input, agrees at every point."""
     gauss_seidel = _master("four_bar_crank_rocker", fmu_dir, "gauss_seidel")
     parallel = _container_run(four_bar["parallel"].path, "four_bar_crank_rocker")
-    for name in ("linkage.rocker_angle", "linkage.coupler_angle", "linkage.rocker_angular_velocity"):
+    for name in (
+        "linkage.rocker_angle",
+        "linkage.coupler_angle",
+        "linkage.rocker_angular_velocity",
+    ):
         expected = np.array(gauss_seidel.columns[name])
         scale = np.max(np.abs(expected))
         lagged = np.abs(parallel[name][1:] - expected[:-1]) / scale
         assert np.max(lagged) <= 1e-13, name  # measured: 2e-15 at most
         # unlagged they differ (measured: 0.016 rad in the rocker angle, one 5 ms step)
         assert np.max(np.abs(parallel[name][1:] - expected[1:])) > 1e-3, name
-    np.testing.assert_allclose(parallel["crank.crank_angle"],
-                               gauss_seidel.columns["crank.crank_angle"], rtol=1e-13)
+    np.testing.assert_allclose(
+        parallel["crank.crank_angle"], gauss_seidel.columns["crank.crank_angle"], rtol=1e-13
+    )
 
 
 def test_gear_container_runs_in_a_plain_c_host(fmu_dir, tmp_path):
@@ -115,8 +129,14 @@ def test_gear_container_runs_in_a_plain_c_host(fmu_dir, tmp_path):
     outputs = [v for v in description.modelVariables if v.causality == "output"]
     host = compile_host("host.c", tmp_path / "host")
     folder = extract(summary.path, tmp_path / "gear")
-    command = [str(host), str(folder), description.coSimulation.modelIdentifier,
-               description.guid, "300", "0.01"]
+    command = [
+        str(host),
+        str(folder),
+        description.coSimulation.modelIdentifier,
+        description.guid,
+        "300",
+        "0.01",
+    ]
     for variable in outputs:
         command += ["-o", f"r:{variable.valueReference}"]
     done, rows, loaded = run_host(command)
@@ -134,23 +154,44 @@ def test_gear_container_runs_in_a_plain_c_host(fmu_dir, tmp_path):
 
 def test_export_fmu_command(fmu_dir, tmp_path):
     out = tmp_path / "road.fmu"
-    done = subprocess.run([sys.executable, "-m", "mechfmu", "export-fmu", "suspension_road_bump",
-                           str(out), "--fmu-dir", str(fmu_dir), "--schedule", "parallel"],
-                          capture_output=True, text=True)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mechfmu",
+            "export-fmu",
+            "suspension_road_bump",
+            str(out),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--schedule",
+            "parallel",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert done.returncode == 0, done.stderr
     assert f"wrote {out}: 3 FMUs (load, road, suspension), parallel" in done.stdout
     assert "is not connected" not in done.stdout + done.stderr
-    bad = subprocess.run([sys.executable, "-m", "mechfmu", "export-fmu", "no_such_scene",
-                          str(tmp_path / "x.fmu")], capture_output=True, text=True)
+    bad = subprocess.run(
+        [sys.executable, "-m", "mechfmu", "export-fmu", "no_such_scene", str(tmp_path / "x.fmu")],
+        capture_output=True,
+        text=True,
+    )
     assert bad.returncode == 2 and "no_such_scene" in bad.stderr
 
 
 def test_gear_container_runs_in_libcosim(fmu_dir, tmp_path):
     """libcosim (a C++ host, through libcosimpy) runs the container like any FMI 2.0 FMU."""
     from mechfmu.tools.hosts.libcosim import run_libcosim
+
     summary = export_scene_fmu(SCENES / "gear_retraction.toml", tmp_path / "gear.fmu", fmu_dir)
-    times, values = run_libcosim(summary.path, step=0.01, stop_time=3.0,
-                                 outputs=["gear.gear_angle", "actuator.piston_extension"])
+    times, values = run_libcosim(
+        summary.path,
+        step=0.01,
+        stop_time=3.0,
+        outputs=["gear.gear_angle", "actuator.piston_extension"],
+    )
     master = _master("gear_retraction", fmu_dir, "gauss_seidel")
     assert len(times) == len(master.times) == 301
     for name in ("gear.gear_angle", "actuator.piston_extension"):

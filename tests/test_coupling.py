@@ -28,8 +28,12 @@ def test_jacobi_feeds_the_outputs_at_the_start_of_the_step(fmu_dir, tmp_path):
     _, gs = _run(seidel, fmu_dir)
     result, jc = _run(jacobi, fmu_dir)
     assert result.meta["coupling"] == "jacobi"
-    for name in ("gear.gear_angle", "gear.gear_angular_velocity",
-                 "gear.gear_angular_acceleration", "gear.piston_length"):
+    for name in (
+        "gear.gear_angle",
+        "gear.gear_angular_velocity",
+        "gear.gear_angular_acceleration",
+        "gear.piston_length",
+    ):
         assert np.array_equal(jc[name][1:], gs[name][:-1]), name
         assert np.ptp(gs[name]) > 0.0  # the signal moves, so the lag is visible
     assert np.array_equal(jc["actuator.piston_extension"], gs["actuator.piston_extension"])

@@ -32,18 +32,23 @@ def test_interface_table_lists_every_declared_variable_with_its_unit(name):
     assert [row[0] for row in rows] == [f"`{v.name}`" for v in variables]
     for row, variable in zip(rows, variables):
         _, causality, kind, unit, bounds, default, meaning = row
-        assert (causality, kind, unit) == (variable.causality, TYPES[variable.kind],
-                                           variable.unit or "")
+        assert (causality, kind, unit) == (
+            variable.causality,
+            TYPES[variable.kind],
+            variable.unit or "",
+        )
         if variable.kind is float:
             assert unit, f"{name}.{variable.name} is Real without a unit"
         if variable.kind is float and variable.causality != "output":
             assert float(default) == pytest.approx(variable.start, rel=1e-5, abs=1e-300)
         if variable.min is not None or variable.max is not None:
             low, high = (float(x) for x in bounds.strip("[]").split(", "))
-            assert low == pytest.approx(-math.inf if variable.min is None else variable.min,
-                                        rel=1e-5)
-            assert high == pytest.approx(math.inf if variable.max is None else variable.max,
-                                         rel=1e-5)
+            assert low == pytest.approx(
+                -math.inf if variable.min is None else variable.min, rel=1e-5
+            )
+            assert high == pytest.approx(
+                math.inf if variable.max is None else variable.max, rel=1e-5
+            )
         assert meaning.replace("\\|", "|") == variable.description
 
 
@@ -57,7 +62,7 @@ def test_reference_plots_label_every_real_column_with_its_declared_unit():
         for column in columns:
             component, variable = column.split(".", 1)
             model = model_class(Path(scene.components[component].fmu).stem)
-            kind, = (v.kind for v in model.VARIABLES if v.name == variable)
+            (kind,) = (v.kind for v in model.VARIABLES if v.name == variable)
             assert (column in units) == (kind is float), (scene.name, column)
     gear = declared_units(load_scene(SCENES / "gear_retraction.toml"))
     assert gear["gear.gear_angular_acceleration"] == "rad/s2"
@@ -67,19 +72,24 @@ def test_reference_plots_label_every_real_column_with_its_declared_unit():
 def test_docs_site_builds_strictly(tmp_path):
     site = tmp_path / "site"
     env = dict(os.environ, NO_MKDOCS_2_WARNING="1", DISABLE_MKDOCS_2_WARNING="true")
-    done = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir",
-                           str(site)], cwd=ROOT, capture_output=True, text=True, env=env,
-                          timeout=300)
+    done = subprocess.run(
+        [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(site)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     pages = {path: path.read_text(encoding="utf-8") for path in site.rglob("*.html")}
     for name in MODELS:
         # The generated table's heading and one code cell per variable, on exactly one page.
-        holding = [path for path, text in pages.items()
-                   if f'id="{name.lower()}fmu"' in text]
+        holding = [path for path, text in pages.items() if f'id="{name.lower()}fmu"' in text]
         assert len(holding) == 1, (name, holding)
         text = pages[holding[0]]
-        assert all(f"<td><code>{v.name}</code></td>" in text
-                   for v in model_class(name).VARIABLES), name
+        assert all(
+            f"<td><code>{v.name}</code></td>" in text for v in model_class(name).VARIABLES
+        ), name
     images = 0
     for path, text in pages.items():
         for source in re.findall(r'<img[^>]* src="([^"]+)"', text):

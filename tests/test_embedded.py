@@ -9,8 +9,17 @@ import zipfile
 import pytest
 from fmpy import read_model_description
 
-from c_hosts import (CASES, compile_host, extract, fmpy_rows, hiding, host_command,
-                     largest_relative_difference, run_host, run_model)
+from c_hosts import (
+    CASES,
+    compile_host,
+    extract,
+    fmpy_rows,
+    hiding,
+    host_command,
+    largest_relative_difference,
+    run_host,
+    run_model,
+)
 from mechfmu.packaging import build
 from mechfmu.packaging.embed import PREFIX, EmbeddedPython
 from mechfmu.runtime.models import MODELS
@@ -32,10 +41,10 @@ def no_python(tmp_path_factory):
 
 
 @pytest.mark.parametrize("model", list(MODELS))
-def test_embedded_fmu_runs_in_a_c_host_with_every_python_hidden(host, no_python, embedded_dir,
-                                                               fmu_dir, tmp_path, model):
-    done, rows, loaded = run_model(host, embedded_dir / f"{model}.fmu", tmp_path / model,
-                                   no_python)
+def test_embedded_fmu_runs_in_a_c_host_with_every_python_hidden(
+    host, no_python, embedded_dir, fmu_dir, tmp_path, model
+):
+    done, rows, loaded = run_model(host, embedded_dir / f"{model}.fmu", tmp_path / model, no_python)
     assert done.returncode == 0, done.stderr[-3000:]
     # the FMU's own runtime, nothing of the machine's
     assert loaded == [str(tmp_path / model / PREFIX / "lib" / SONAME)]
@@ -45,8 +54,7 @@ def test_embedded_fmu_runs_in_a_c_host_with_every_python_hidden(host, no_python,
     assert rows == expected  # measured: bit-identical (the same CPython, stripped)
 
 
-def test_without_its_runtime_the_same_fmu_finds_no_python(host, no_python, embedded_dir,
-                                                          tmp_path):
+def test_without_its_runtime_the_same_fmu_finds_no_python(host, no_python, embedded_dir, tmp_path):
     """The control: the embedded FMU with resources/python removed fails to load, so the
     runs above owe nothing to a Python left on the machine."""
     fmu = embedded_dir / "LandingGear.fmu"
@@ -81,12 +89,12 @@ def test_embedded_runtime_is_the_traced_standard_library_and_nothing_more(embedd
 
 def test_embedded_fmu_still_runs_in_a_python_host(embedded_dir, fmu_dir):
     """In fmpy the FMU finds the host's Python already there and uses it."""
-    assert fmpy_rows(str(embedded_dir / "ValveTrain.fmu")) == \
-        fmpy_rows(str(fmu_dir / "ValveTrain.fmu"))
+    assert fmpy_rows(str(embedded_dir / "ValveTrain.fmu")) == fmpy_rows(
+        str(fmu_dir / "ValveTrain.fmu")
+    )
 
 
-def test_embedded_fmi3_fmu_runs_in_the_fmi3_c_host_with_every_python_hidden(no_python,
-                                                                           tmp_path):
+def test_embedded_fmi3_fmu_runs_in_the_fmi3_c_host_with_every_python_hidden(no_python, tmp_path):
     host3 = compile_host("host3.c", tmp_path / "host3")
     (fmu,) = build.build_all(tmp_path / "out", ["Suspension"], fmi_version=3, embed_python=True)
     done, rows, loaded = run_model(host3, fmu, tmp_path / "suspension", no_python)

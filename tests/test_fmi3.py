@@ -19,8 +19,17 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
-from c_hosts import (CASES, PYENV_VERSIONS, compile_host, extract, fmpy_rows, hiding,
-                     largest_relative_difference, run_host, run_model)
+from c_hosts import (
+    CASES,
+    PYENV_VERSIONS,
+    compile_host,
+    extract,
+    fmpy_rows,
+    hiding,
+    largest_relative_difference,
+    run_host,
+    run_model,
+)
 from conftest import SCENES
 from fmu_checks import assert_fmutool_clean
 from fmu_driver import Driven
@@ -54,11 +63,21 @@ def test_fmi3_description_comes_from_the_fmi2_declarations(fmu_dir, fmu3_dir, mo
     kinds = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean", "String": "String"}
     *declared, time = three.modelVariables
     assert (time.name, time.causality, time.type, time.valueReference, time.unit) == (
-        "time", "independent", "Float64", len(two.modelVariables), "s")
+        "time",
+        "independent",
+        "Float64",
+        len(two.modelVariables),
+        "s",
+    )
     assert len(declared) == len(two.modelVariables)
     for old, new in zip(two.modelVariables, declared):
-        assert (new.name, new.valueReference, new.causality, new.variability, new.description) \
-            == (old.name, old.valueReference, old.causality, old.variability, old.description)
+        assert (new.name, new.valueReference, new.causality, new.variability, new.description) == (
+            old.name,
+            old.valueReference,
+            old.causality,
+            old.variability,
+            old.description,
+        )
         assert new.type == kinds[old.type], old.name
         assert (new.unit, new.min, new.max) == (old.unit, old.min, old.max), old.name
         if old.causality == "output":
@@ -66,8 +85,9 @@ def test_fmi3_description_comes_from_the_fmi2_declarations(fmu_dir, fmu3_dir, mo
         else:
             assert new.start == old.start, old.name  # both exact (repr of the declared value)
     depends = {u.variable.name: sorted(d.name for d in u.dependencies) for u in two.outputs}
-    assert {u.variable.name: sorted(d.name for d in u.dependencies) for u in three.outputs} \
-        == depends
+    assert {
+        u.variable.name: sorted(d.name for d in u.dependencies) for u in three.outputs
+    } == depends
     assert sorted(u.variable.name for u in three.initialUnknowns) == sorted(depends)
 
 
@@ -76,9 +96,12 @@ def _recorded_run(path, fmu_dir):
     of every component it runs; (Simulation, Result)."""
     scene = load_scene(path)
     scene.record = None  # every output, to find the components and their variables
-    names = [f"{name}.{v.name}" for name, component in Simulation(scene, fmu_dir).components.items()
-             for v in component.variables.values()
-             if v.causality in ("input", "output") and v.type != "String"]
+    names = [
+        f"{name}.{v.name}"
+        for name, component in Simulation(scene, fmu_dir).components.items()
+        for v in component.variables.values()
+        if v.causality in ("input", "output") and v.type != "String"
+    ]
     scene.record = names
     simulation = Simulation(scene, fmu_dir)
     return simulation, simulation.run()
@@ -92,15 +115,22 @@ def _replay(fmu, name, simulation, result):
     lagged = {c.input for c in simulation.lagged if c.target == name}
     column = {c.input: result.columns[f"{name}.{c.input}"] for c in fed}
     initial = {c.input: column[c.input][0] for c in fed if c.input not in lagged}
-    driven = Driven(fmu, {**spec.parameters, **{e: True for e in spec.effects}},
-                    {**spec.inputs, **initial}, start_time=result.times[0], instance=name)
+    driven = Driven(
+        fmu,
+        {**spec.parameters, **{e: True for e in spec.effects}},
+        {**spec.inputs, **initial},
+        start_time=result.times[0],
+        instance=name,
+    )
     outputs = [v.name for v in driven.description.modelVariables if v.causality == "output"]
     got = {output: [driven.get(output)] for output in outputs}
     try:
         for k in range(len(result.times) - 1):
             driven.time = result.times[k]  # the master's communication points, exactly
-            done = driven.step(result.times[k + 1] - result.times[k],
-                               **{input_: values[k + 1] for input_, values in column.items()})
+            done = driven.step(
+                result.times[k + 1] - result.times[k],
+                **{input_: values[k + 1] for input_, values in column.items()},
+            )
             assert done is True, (name, k, done)
             for output in outputs:
                 got[output].append(driven.get(output))
@@ -166,14 +196,34 @@ def test_fmi3_fmus_unload_and_reload_in_one_c_host(host3, fmu3_dir, tmp_path):
     the second FMU nor the reload loses its interpreter, and every row equals fmpy's."""
     crank = extract(fmu3_dir / "CrankDrive.fmu", tmp_path / "crank")
     gear = extract(fmu3_dir / "LandingGear.fmu", tmp_path / "gear")
-    variables = {v.name: v.valueReference
-                 for v in read_model_description(str(fmu3_dir / "LandingGear.fmu")).modelVariables}
-    command = [str(host3), "100", "0.01", "--release-first-after", "40", "--reload-first",
-               "-f", str(crank), "CrankDrive", _token(fmu3_dir / "CrankDrive.fmu"), "-o", "r:5",
-               "-f", str(gear), "LandingGear", _token(fmu3_dir / "LandingGear.fmu"),
-               "-i", f"{variables['piston_extension']}=0.381,0.0762",
-               "-i", f"{variables['piston_speed']}=0.0762",
-               "-o", f"r:{variables['gear_angle']}"]
+    variables = {
+        v.name: v.valueReference
+        for v in read_model_description(str(fmu3_dir / "LandingGear.fmu")).modelVariables
+    }
+    command = [
+        str(host3),
+        "100",
+        "0.01",
+        "--release-first-after",
+        "40",
+        "--reload-first",
+        "-f",
+        str(crank),
+        "CrankDrive",
+        _token(fmu3_dir / "CrankDrive.fmu"),
+        "-o",
+        "r:5",
+        "-f",
+        str(gear),
+        "LandingGear",
+        _token(fmu3_dir / "LandingGear.fmu"),
+        "-i",
+        f"{variables['piston_extension']}=0.381,0.0762",
+        "-i",
+        f"{variables['piston_speed']}=0.0762",
+        "-o",
+        f"r:{variables['gear_angle']}",
+    ]
     done, _, loaded = run_host(command, labelled=True)
     assert done.returncode == 0, done.stderr[-3000:]
     assert len(loaded) == 1  # one interpreter for both FMUs and the reload
@@ -198,12 +248,10 @@ def test_fmi3_fmu_runs_in_a_c_host_on_another_python(host3, fmu3_dir, tmp_path):
     minor = 13 if sys.version_info.minor != 13 else 12
     other = max(PYENV_VERSIONS.glob(f"3.{minor}.*"), key=lambda p: p.name)
     hide = hiding(empty, keep_pyenv=(other.name,))
-    done, rows, loaded = run_model(host3, fmu3_dir / "ValveSpring.fmu", tmp_path / "valve",
-                                   hide)
+    done, rows, loaded = run_model(host3, fmu3_dir / "ValveSpring.fmu", tmp_path / "valve", hide)
     assert done.returncode == 0, done.stderr[-3000:]
     assert loaded == [str(other / "lib" / f"libpython3.{minor}.so.1.0")]
-    assert largest_relative_difference(rows, fmpy_rows(str(fmu3_dir / "ValveSpring.fmu"))) \
-        <= 1e-12
+    assert largest_relative_difference(rows, fmpy_rows(str(fmu3_dir / "ValveSpring.fmu"))) <= 1e-12
 
 
 def test_fmi3_loader_exports_every_fmi3_function(fmu3_dir):
@@ -227,11 +275,16 @@ def test_fmi3_outputs_are_computed_in_initialisation_mode(fmu3_dir):
     from fmpy import extract
     from fmpy.fmi3 import FMU3Slave
     from mechfmu.references.landing_gear import gear_from_piston
+
     fmu = fmu3_dir / "LandingGear.fmu"
     description = read_model_description(str(fmu))
     refs = {v.name: v for v in description.modelVariables}
-    slave = FMU3Slave(guid=description.guid, unzipDirectory=extract(str(fmu)),
-                      modelIdentifier="LandingGear", instanceName="init")
+    slave = FMU3Slave(
+        guid=description.guid,
+        unzipDirectory=extract(str(fmu)),
+        modelIdentifier="LandingGear",
+        instanceName="init",
+    )
     slave.instantiate()
     try:
         slave.enterInitializationMode()
@@ -244,8 +297,12 @@ def test_fmi3_outputs_are_computed_in_initialisation_mode(fmu3_dir):
         slave.terminate()
         slave.freeInstance()
     for extension, angle in zip((0.45, 0.40), angles):
-        theta, _, _ = gear_from_piston(np.array([extension]), np.zeros(1), np.zeros(1),
-                                       float(refs["attachment_distance"].start),
-                                       float(refs["pivot_height"].start))
+        theta, _, _ = gear_from_piston(
+            np.array([extension]),
+            np.zeros(1),
+            np.zeros(1),
+            float(refs["attachment_distance"].start),
+            float(refs["pivot_height"].start),
+        )
         assert angle == pytest.approx(theta[0], rel=1e-14)
     assert angles[0] != angles[1]

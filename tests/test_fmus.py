@@ -43,9 +43,13 @@ def test_landing_gear_output_dependencies_follow_the_closed_form(fmu_dir):
     assert depends["gear_angle"] == ["piston_extension"]
     assert depends["gear_angular_velocity"] == ["piston_extension", "piston_speed"]
     # in the dynamics drive the acceleration also follows the piston force and the drag
-    assert depends["gear_angular_acceleration"] == ["piston_extension", "piston_speed",
-                                                    "piston_acceleration", "piston_force",
-                                                    "airspeed"]
+    assert depends["gear_angular_acceleration"] == [
+        "piston_extension",
+        "piston_speed",
+        "piston_acceleration",
+        "piston_force",
+        "airspeed",
+    ]
     assert depends["piston_work"] == []  # a state: no direct input dependency
 
 
@@ -61,8 +65,11 @@ def _imports(source):
 def test_code_inside_the_fmu_imports_only_the_standard_library(fmu_dir, model):
     allowed = set(sys.stdlib_module_names) | {"pythonfmu", "pythonfmu3", f"mechfmu_fmu_{model}"}
     with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
-        ours = [n for n in archive.namelist()
-                if n.endswith(".py") and not n.startswith("resources/pythonfmu/")]
+        ours = [
+            n
+            for n in archive.namelist()
+            if n.endswith(".py") and not n.startswith("resources/pythonfmu/")
+        ]
         assert any(n.startswith(f"resources/mechfmu_fmu_{model}/physics/") for n in ours)
         for name in ours:
             found = set(_imports(archive.read(name).decode()))
@@ -76,8 +83,11 @@ def test_the_fmu_carries_exactly_the_runtime_package(fmu_dir, model):
     expected = {path.relative_to(runtime).as_posix() for path in runtime.rglob("*.py")}
     prefix = f"resources/mechfmu_fmu_{model}/"
     with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
-        packed = {name[len(prefix):] for name in archive.namelist()
-                  if name.startswith(prefix) and not name.endswith("/")}
+        packed = {
+            name[len(prefix) :]
+            for name in archive.namelist()
+            if name.startswith(prefix) and not name.endswith("/")
+        }
     assert packed == expected
 
 
@@ -94,9 +104,11 @@ def test_fmu_runtime_runs_in_a_python_without_third_party_packages(fmu_dir, tmp_
         "slave.exit_initialization_mode()\n"
         "assert slave.do_step(0.0, 0.1)\n"
         "assert 'numpy' not in sys.modules\n"
-        "print(repr(slave.values['gear_angle']))\n")
-    done = subprocess.run([sys.executable, "-S", "-c", script], capture_output=True, text=True,
-                          cwd=tmp_path)
+        "print(repr(slave.values['gear_angle']))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-S", "-c", script], capture_output=True, text=True, cwd=tmp_path
+    )
     assert done.returncode == 0, done.stderr
     assert float(done.stdout) == pytest.approx(DEFAULT_GEOMETRY.start_angle, rel=1e-14)
 
@@ -104,8 +116,12 @@ def test_fmu_runtime_runs_in_a_python_without_third_party_packages(fmu_dir, tmp_
 def test_same_fmu_loads_repeatedly_in_one_process(fmu_dir):
     """pythonfmu 0.7 frees the entry module's namespace on each load; our entry keeps it."""
     for _ in range(4):
-        result = simulate_fmu(str(fmu_dir / "Suspension.fmu"), stop_time=0.2,
-                              output_interval=0.1, start_values={"load": 2069.91})
+        result = simulate_fmu(
+            str(fmu_dir / "Suspension.fmu"),
+            stop_time=0.2,
+            output_interval=0.1,
+            start_values={"load": 2069.91},
+        )
         assert result["deflection"][-1] == pytest.approx(0.1375, abs=5e-5)
 
 
@@ -113,10 +129,13 @@ def test_landing_gear_fmu_matches_closed_form_for_direct_inputs(fmu_dir):
     gear = Driven(fmu_dir / "LandingGear.fmu")
     try:
         for x, speed, accel in [(0.40, 0.1, 0.0), (0.5, -0.2, 0.3), (0.6, 0.05, -1.0)]:
-            assert gear.step(0.01, piston_extension=x, piston_speed=speed,
-                             piston_acceleration=accel) is True
-            exact = gear_motion(x, speed, accel, DEFAULT_GEOMETRY.attachment_distance,
-                                DEFAULT_GEOMETRY.pivot_height)
+            assert (
+                gear.step(0.01, piston_extension=x, piston_speed=speed, piston_acceleration=accel)
+                is True
+            )
+            exact = gear_motion(
+                x, speed, accel, DEFAULT_GEOMETRY.attachment_distance, DEFAULT_GEOMETRY.pivot_height
+            )
             assert gear.get("gear_angle") == exact.angle
             assert gear.get("gear_angular_velocity") == exact.angular_velocity
             assert gear.get("gear_angular_acceleration") == exact.angular_acceleration
@@ -160,17 +179,20 @@ def test_dead_centre_is_reported_as_singular(fmu_dir):
         gear.close()
 
 
-@pytest.mark.parametrize("model, parameters, words", [
-    ("Suspension", {"spring_base_offset": 0.6}, ["spring_base_offset = 0.6", "(0, 0.5)"]),
-    ("Suspension", {"spring_stiffness": -1.0}, ["spring_stiffness = -1.0", "positive"]),
-    ("Suspension", {"spring_free_length": 0.0}, ["spring_free_length = 0.0"]),
-    ("LandingGear", {"bar_length": 0.0}, ["bar_length = 0.0"]),
-    ("LandingGear", {"attachment_distance": -0.1}, ["attachment_distance = -0.1"]),
-    ("PistonActuator", {"stroke_time": 5.0}, ["stroke_time = 5.0", "(0, 4.0]", "under 4 s"]),
-    ("PistonActuator", {"profile": "jerky"}, ["profile = 'jerky'", "constant_speed"]),
-    ("LoadProfile", {"shape": "ramp", "duration": 0.0}, ["duration = 0.0"]),
-    ("LoadProfile", {"shape": "table", "table_file": "/nonexistent.csv"}, ["/nonexistent.csv"]),
-])
+@pytest.mark.parametrize(
+    "model, parameters, words",
+    [
+        ("Suspension", {"spring_base_offset": 0.6}, ["spring_base_offset = 0.6", "(0, 0.5)"]),
+        ("Suspension", {"spring_stiffness": -1.0}, ["spring_stiffness = -1.0", "positive"]),
+        ("Suspension", {"spring_free_length": 0.0}, ["spring_free_length = 0.0"]),
+        ("LandingGear", {"bar_length": 0.0}, ["bar_length = 0.0"]),
+        ("LandingGear", {"attachment_distance": -0.1}, ["attachment_distance = -0.1"]),
+        ("PistonActuator", {"stroke_time": 5.0}, ["stroke_time = 5.0", "(0, 4.0]", "under 4 s"]),
+        ("PistonActuator", {"profile": "jerky"}, ["profile = 'jerky'", "constant_speed"]),
+        ("LoadProfile", {"shape": "ramp", "duration": 0.0}, ["duration = 0.0"]),
+        ("LoadProfile", {"shape": "table", "table_file": "/nonexistent.csv"}, ["/nonexistent.csv"]),
+    ],
+)
 def test_invalid_parameters_are_refused_at_every_step(fmu_dir, model, parameters, words):
     fmu = Driven(fmu_dir / f"{model}.fmu", parameters=parameters)
     try:
@@ -249,8 +271,9 @@ def test_suspension_can_stop_at_the_limit_load_instead(fmu_dir):
 def test_load_profile_reads_a_csv_table(fmu_dir, tmp_path):
     table = tmp_path / "loads.csv"
     table.write_text("time,load\n0,0\n1,1000\n2,500\n")
-    source = Driven(fmu_dir / "LoadProfile.fmu",
-                    parameters={"shape": "table", "table_file": str(table)})
+    source = Driven(
+        fmu_dir / "LoadProfile.fmu", parameters={"shape": "table", "table_file": str(table)}
+    )
     try:
         assert source.step(0.5) is True
         assert source.get("load") == 500.0 and source.get("load_rate") == 1000.0

@@ -27,20 +27,32 @@ def test_static_holding_force_is_gravity_moment_over_moment_arm(fmu_dir):
         for x in np.linspace(0.39, 0.60, 15):
             assert gear.step(0.01, piston_extension=float(x)) is True
             angle = kinematics.gear_motion(x, 0.0, 0.0, D, H).angle
-            weight_moment = ((BODY.bar_mass * BODY.bar_length / 2 + BODY.wheel_mass * BODY.bar_length)
-                             * gd.STANDARD_GRAVITY * math.sin(angle - G.start_angle))
+            weight_moment = (
+                (BODY.bar_mass * BODY.bar_length / 2 + BODY.wheel_mass * BODY.bar_length)
+                * gd.STANDARD_GRAVITY
+                * math.sin(angle - G.start_angle)
+            )
             arm = D * H * math.sin(angle) / x
-            assert gear.get("piston_force_required") == pytest.approx(weight_moment / arm,
-                                                                      rel=1e-12)
+            assert gear.get("piston_force_required") == pytest.approx(
+                weight_moment / arm, rel=1e-12
+            )
     finally:
         gear.close()
 
 
 def test_piston_work_equals_kinetic_plus_potential_energy_change(fmu_dir):
-    gear = Driven(fmu_dir / "LandingGear.fmu",
-                  parameters={"drive": "dynamics", "inertia": True, "gravity": True,
-                              "integrator": "dopri5", "rtol": 1e-11, "atol": 1e-11},
-                  inputs={"piston_force": 800.0})
+    gear = Driven(
+        fmu_dir / "LandingGear.fmu",
+        parameters={
+            "drive": "dynamics",
+            "inertia": True,
+            "gravity": True,
+            "integrator": "dopri5",
+            "rtol": 1e-11,
+            "atol": 1e-11,
+        },
+        inputs={"piston_force": 800.0},
+    )
     try:
         start = gear.get("kinetic_energy") + gear.get("potential_energy")
         for _ in range(100):
@@ -65,7 +77,9 @@ def test_vanishing_inertia_with_a_stiff_servo_reproduces_the_kinematic_solution(
     def rhs(t, y):
         piston = kinematics.piston_motion(y[0], y[1], 0.0, D, H)
         target = reference(t)
-        force = stiffness * (target.value - piston.extension) + damping * (target.rate - piston.speed)
+        force = stiffness * (target.value - piston.extension) + damping * (
+            target.rate - piston.speed
+        )
         arm = D * H * math.sin(y[0]) / piston.extension
         return [y[1], force * arm / inertia]
 
@@ -80,8 +94,9 @@ def test_vanishing_inertia_with_a_stiff_servo_reproduces_the_kinematic_solution(
 
 
 def test_retraction_under_four_seconds_and_matches_its_reference(fmu_dir, tmp_path):
-    result, paths = run_scene(SCENES / "gear_retraction_dynamic.toml", tmp_path, fmu_dir,
-                              plot=False)
+    result, paths = run_scene(
+        SCENES / "gear_retraction_dynamic.toml", tmp_path, fmu_dir, plot=False
+    )
     retraction = result.columns["gear.retraction_time"][-1]
     assert 1.0 < retraction < 4.0
     comparison = compare(paths["csv"], result.scene.reference, rtol=1e-6, atol=1e-6)
@@ -90,8 +105,7 @@ def test_retraction_under_four_seconds_and_matches_its_reference(fmu_dir, tmp_pa
 
 
 def test_gravity_extension_matches_its_reference_and_reports_the_time(fmu_dir, tmp_path):
-    result, paths = run_scene(SCENES / "gear_extension_gravity.toml", tmp_path, fmu_dir,
-                              plot=False)
+    result, paths = run_scene(SCENES / "gear_extension_gravity.toml", tmp_path, fmu_dir, plot=False)
     assert 0.2 < result.columns["gear.extension_time"][-1] < 2.0
     assert abs(result.columns["gear.gear_angular_velocity"][-1]) < 1e-6  # at rest on the stop
     comparison = compare(paths["csv"], result.scene.reference, rtol=1e-6, atol=1e-6)
@@ -99,13 +113,14 @@ def test_gravity_extension_matches_its_reference_and_reports_the_time(fmu_dir, t
 
 
 def test_external_hydraulics_agree_with_built_in_up_to_the_coupling_error(fmu_dir, tmp_path):
-    built_in, _ = run_scene(SCENES / "gear_retraction_dynamic.toml", tmp_path, fmu_dir,
-                            plot=False)
-    external, paths = run_scene(SCENES / "gear_retraction_external_hydraulics.toml", tmp_path,
-                                fmu_dir, plot=False)
+    built_in, _ = run_scene(SCENES / "gear_retraction_dynamic.toml", tmp_path, fmu_dir, plot=False)
+    external, paths = run_scene(
+        SCENES / "gear_retraction_external_hydraulics.toml", tmp_path, fmu_dir, plot=False
+    )
     assert external.meta["lagged_connections"] == ["hydraulics.piston_force -> gear.piston_force"]
-    difference = abs(external.columns["gear.retraction_time"][-1]
-                     - built_in.columns["gear.retraction_time"][-1])
+    difference = abs(
+        external.columns["gear.retraction_time"][-1] - built_in.columns["gear.retraction_time"][-1]
+    )
     assert 0.0 < difference < 2e-3  # one lagged coupling at a 1 ms communication step
 
 
@@ -118,6 +133,7 @@ def _counting(monkeypatch, module, names, counts):
         def wrapper(*args, _name=name, _original=original, **kwargs):
             counts[_name] += 1
             return _original(*args, **kwargs)
+
         monkeypatch.setattr(module, name, wrapper)
 
 
@@ -131,12 +147,22 @@ def _run_model(parameters, inputs, steps=20):
     return model
 
 
-@pytest.mark.parametrize("enabled", [(), ("gravity",), ("aero_drag", "pivot_friction"),
-                                     ("gravity", "aero_drag", "pivot_friction", "end_stops",
-                                      "hydraulics")])
+@pytest.mark.parametrize(
+    "enabled",
+    [
+        (),
+        ("gravity",),
+        ("aero_drag", "pivot_friction"),
+        ("gravity", "aero_drag", "pivot_friction", "end_stops", "hydraulics"),
+    ],
+)
 def test_a_disabled_effect_is_never_evaluated(monkeypatch, enabled):
-    names = {"gravity": "gravity_moment", "aero_drag": "drag_moment",
-             "pivot_friction": "friction_moment", "end_stops": "stop_force"}
+    names = {
+        "gravity": "gravity_moment",
+        "aero_drag": "drag_moment",
+        "pivot_friction": "friction_moment",
+        "end_stops": "stop_force",
+    }
     counts = {}
     _counting(monkeypatch, gd, list(names.values()), counts)
     _counting(monkeypatch, hydraulics, ["pressure_rates"], counts)
@@ -158,10 +184,17 @@ def test_dynamics_drive_needs_inertia_and_says_so():
 
 
 def test_fmu_state_round_trip_in_the_dynamics_drive(fmu_dir):
-    gear = Driven(fmu_dir / "LandingGear.fmu",
-                  parameters={"drive": "dynamics", "inertia": True, "gravity": True,
-                              "hydraulics": True, "end_stops": True},
-                  inputs={"valve_command": 1.0})
+    gear = Driven(
+        fmu_dir / "LandingGear.fmu",
+        parameters={
+            "drive": "dynamics",
+            "inertia": True,
+            "gravity": True,
+            "hydraulics": True,
+            "end_stops": True,
+        },
+        inputs={"valve_command": 1.0},
+    )
     try:
         for _ in range(50):
             assert gear.step(0.01) is True
@@ -169,15 +202,17 @@ def test_fmu_state_round_trip_in_the_dynamics_drive(fmu_dir):
         first = []
         for _ in range(30):
             assert gear.step(0.01) is True
-            first.append((gear.get("gear_angle"), gear.get("cap_pressure"),
-                          gear.get("rhs_evaluations")))
+            first.append(
+                (gear.get("gear_angle"), gear.get("cap_pressure"), gear.get("rhs_evaluations"))
+            )
         gear.slave.setFMUstate(state)
         gear.time -= 0.3
         second = []
         for _ in range(30):
             assert gear.step(0.01) is True
-            second.append((gear.get("gear_angle"), gear.get("cap_pressure"),
-                           gear.get("rhs_evaluations")))
+            second.append(
+                (gear.get("gear_angle"), gear.get("cap_pressure"), gear.get("rhs_evaluations"))
+            )
         gear.slave.freeFMUstate(state)
         assert first == second
     finally:

@@ -32,17 +32,26 @@ from mechfmu.runtime.physics import landing_gear as lg
 from mechfmu.runtime.physics import slider_crank as sc
 from mechfmu.runtime.physics import suspension as sus
 from mechfmu.runtime.physics import valve_train as vt
-from mechfmu.runtime.errors import (IntegrationError, MechanismError, RangeError,
-                                    SingularConfiguration, SnapThrough)
+from mechfmu.runtime.errors import (
+    IntegrationError,
+    MechanismError,
+    RangeError,
+    SingularConfiguration,
+    SnapThrough,
+)
 from mechfmu.references import landing_gear as gear_reference
 from mechfmu.references import linkages as linkage_reference
 from mechfmu.references import valve_train as valve_reference
 
-EPS = 2.0 ** -52
+EPS = 2.0**-52
 
 # Derandomised, bounded and with a deadline: the file runs in well under a minute.
-HARD = settings(derandomize=True, max_examples=150, deadline=5000,
-                suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+HARD = settings(
+    derandomize=True,
+    max_examples=150,
+    deadline=5000,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
 
 
 # --- 60-digit arithmetic ----------------------------------------------------------------------
@@ -80,10 +89,11 @@ def relative(got, exact):
 
 def powers_of_ten(low, high):
     """Magnitudes m 10^k, k an integer in [low, high], m in [1, 10): every decade alike."""
-    return st.builds(lambda k, m: m * 10.0 ** k, st.integers(low, high), st.floats(1.0, 9.99))
+    return st.builds(lambda k, m: m * 10.0**k, st.integers(low, high), st.floats(1.0, 9.99))
 
 
 # --- landing gear: the dead centres from both sides, down to 1e-15 relative --------------------
+
 
 def _gear_exact(x, v, a, d, h):
     """(inside, distance to the nearer dead centre, omega, alpha) at float inputs, 60 digits.
@@ -108,11 +118,19 @@ def _gear_exact(x, v, a, d, h):
 
 
 @HARD
-@given(d=st.floats(0.01, 10.0), ratio=st.floats(0.05, 20.0), at_high=st.booleans(),
-       inside=st.booleans(), log_eps=st.floats(-16.0, -3.0),
-       speed=st.floats(1e-6, 10.0), backwards=st.booleans(), accel=st.floats(-100.0, 100.0))
-def test_gear_dead_centres_approached_from_both_sides(d, ratio, at_high, inside, log_eps,
-                                                      speed, backwards, accel):
+@given(
+    d=st.floats(0.01, 10.0),
+    ratio=st.floats(0.05, 20.0),
+    at_high=st.booleans(),
+    inside=st.booleans(),
+    log_eps=st.floats(-16.0, -3.0),
+    speed=st.floats(1e-6, 10.0),
+    backwards=st.booleans(),
+    accel=st.floats(-100.0, 100.0),
+)
+def test_gear_dead_centres_approached_from_both_sides(
+    d, ratio, at_high, inside, log_eps, speed, backwards, accel
+):
     """x -> h + d and x -> |h - d| (sin theta -> 0) from inside and outside, 1e-3 .. 1e-16
     relative: finite omega and alpha within 1e-12 of the 60-digit closed form inside; at a
     dead centre (within DEAD_CENTRE_ULPS) SingularConfiguration "dead centre"; outside
@@ -121,7 +139,7 @@ def test_gear_dead_centres_approached_from_both_sides(d, ratio, at_high, inside,
     speed = -speed if backwards else speed
     h = d * ratio
     low, high = lg.assembly_range(d, h)
-    eps = 10.0 ** log_eps
+    eps = 10.0**log_eps
     sign = 1.0 if inside else -1.0
     x = high * (1.0 - sign * eps) if at_high else low * (1.0 + sign * eps)
     is_inside, distance, omega, alpha = _gear_exact(x, speed, accel, d, h)
@@ -135,7 +153,7 @@ def test_gear_dead_centres_approached_from_both_sides(d, ratio, at_high, inside,
     except RangeError as error:
         event("outside")
         assert error.name == "piston_extension" and "assembly range" in str(error)
-        assert not low <= x <= high            # refused only outside the float interval
+        assert not low <= x <= high  # refused only outside the float interval
         assert not is_inside or float(distance) <= band
     else:
         event("finite")
@@ -165,27 +183,39 @@ def _gear_run(drive, steps, stray=None):
     """An in-process LandingGear stepped ``steps`` times from rest (dynamics: a constant
     800 N piston force); ``stray`` inputs of the other driver set from the second step on.
     Returns (outputs after every step, warnings logged)."""
-    model = _gear_slave(drive, **({"piston_extension": 0.5, "piston_speed": 0.1}
-                                  if drive == "motion" else {"piston_force": 800.0}))
+    model = _gear_slave(
+        drive,
+        **(
+            {"piston_extension": 0.5, "piston_speed": 0.1}
+            if drive == "motion"
+            else {"piston_force": 800.0}
+        ),
+    )
     rows = []
     for k in range(steps):
         if stray and k == 1:
             model.values.update(stray)
         assert model.do_step(0.01 * k, 0.01), model.log_queue[-1].msg
-        rows.append(tuple(model.values[name] for name in
-                          ("gear_angle", "gear_angular_velocity", "gear_angular_acceleration")))
+        rows.append(
+            tuple(
+                model.values[name]
+                for name in ("gear_angle", "gear_angular_velocity", "gear_angular_acceleration")
+            )
+        )
     warnings = [entry.msg for entry in model.log_queue if "both drivers given" in entry.msg]
     return rows, warnings
 
 
-@pytest.mark.parametrize("drive, stray, other", [
-    ("motion", {"piston_force": 500.0}, "dynamics"),
-    ("motion", {"valve_command": 0.5, "piston_force": -3.0}, "dynamics"),
-    ("dynamics", {"piston_extension": 0.5}, "motion"),
-    ("dynamics", {"piston_speed": 0.1, "piston_acceleration": 2.0}, "motion"),
-])
-def test_landing_gear_both_drivers_given_the_drive_parameter_takes_precedence(drive, stray,
-                                                                             other):
+@pytest.mark.parametrize(
+    "drive, stray, other",
+    [
+        ("motion", {"piston_force": 500.0}, "dynamics"),
+        ("motion", {"valve_command": 0.5, "piston_force": -3.0}, "dynamics"),
+        ("dynamics", {"piston_extension": 0.5}, "motion"),
+        ("dynamics", {"piston_speed": 0.1, "piston_acceleration": 2.0}, "motion"),
+    ],
+)
+def test_landing_gear_both_drivers_given_the_drive_parameter_takes_precedence(drive, stray, other):
     """Both drivers at once (the piston motion and the piston force or valve command): the
     ``drive`` parameter selects the driver and takes precedence; the other driver's inputs
     are ignored, bit for bit (the same outputs as without them), and never silently: a
@@ -220,13 +250,13 @@ def test_landing_gear_fmu_warns_of_both_drivers_through_fmpy(fmu_dir):
 
 def test_landing_gear_motion_drive_with_consistent_inputs_is_exact():
     """The check does not disturb the motion drive: the closed form, bit for bit."""
-    model = _gear_slave("motion", piston_extension=0.5, piston_speed=-0.2,
-                        piston_acceleration=0.3)
+    model = _gear_slave("motion", piston_extension=0.5, piston_speed=-0.2, piston_acceleration=0.3)
     assert model.do_step(0.0, 0.01)
     d, h = lg.DEFAULT_GEOMETRY.attachment_distance, lg.DEFAULT_GEOMETRY.pivot_height
-    assert tuple(model.values[name] for name in ("gear_angle", "gear_angular_velocity",
-                                                 "gear_angular_acceleration")) == \
-        tuple(lg.gear_motion(0.5, -0.2, 0.3, d, h))
+    assert tuple(
+        model.values[name]
+        for name in ("gear_angle", "gear_angular_velocity", "gear_angular_acceleration")
+    ) == tuple(lg.gear_motion(0.5, -0.2, 0.3, d, h))
 
 
 def test_gear_with_the_coursework_rounded_constants():
@@ -234,7 +264,7 @@ def test_gear_with_the_coursework_rounded_constants():
     h^2 + d^2 = 2.3911, 2 d h = 1.8098, theta_1 = 1.0953 (data/seed_report.md): finite, equal
     to the numpy reference with the same constants, and off the exact design by the
     documented amounts (piston 1.250044 .. 2.000033 ft instead of 1.25 .. 2 ft)."""
-    exact_d, exact_h, theta_1 = lg.design_geometry(1.25, 2.0)   # feet
+    exact_d, exact_h, theta_1 = lg.design_geometry(1.25, 2.0)  # feet
     d, h = 0.64361, 1.4060
     stroke = np.linspace(1.25, 2.0, 301)
     for x in stroke:
@@ -249,9 +279,10 @@ def test_gear_with_the_coursework_rounded_constants():
         # terms below 0.1 % of it): dtheta = -(g_d dd + g_h dh) / g_theta
         exact = lg.gear_motion(float(x), 0.25, 0.0, exact_d, exact_h).angle
         c, s_ = math.cos(exact), math.sin(exact)
-        first_order = -((2 * exact_d - 2 * exact_h * c) * (d - exact_d)
-                        + (2 * exact_h - 2 * exact_d * c) * (h - exact_h)) \
-            / (2 * exact_d * exact_h * s_)
+        first_order = -(
+            (2 * exact_d - 2 * exact_h * c) * (d - exact_d)
+            + (2 * exact_h - 2 * exact_d * c) * (h - exact_h)
+        ) / (2 * exact_d * exact_h * s_)
         assert abs((motion.angle - exact) - first_order) <= 1e-3 * abs(first_order) + 1e-13
         assert abs(first_order) < 2e-4
     # The script's constants: x = sqrt(2.3911 - 1.8098 cos(theta)) with theta_1 = 1.0953.
@@ -261,8 +292,10 @@ def test_gear_with_the_coursework_rounded_constants():
         s = (Decimal("2.3911") + Decimal("1.8098")).sqrt()
         t = (Decimal("2.3911") - Decimal("1.8098")).sqrt()
     script_h, script_d = float((s + t) / 2), float((s - t) / 2)
-    for angle, documented, design in ((1.0953, 1.250044, 1.25),
-                                      (1.0953 + math.pi / 2, 2.000033, 2.0)):
+    for angle, documented, design in (
+        (1.0953, 1.250044, 1.25),
+        (1.0953 + math.pi / 2, 2.000033, 2.0),
+    ):
         x = lg.piston_motion(angle, 0.0, 0.0, script_d, script_h).extension
         with localcontext() as ctx:
             ctx.prec = PREC
@@ -272,6 +305,7 @@ def test_gear_with_the_coursework_rounded_constants():
 
 
 # --- suspension: the limit load, the merging equilibria, tiny deflections ---------------------
+
 
 def _spring_decimal(spring):
     L, k, d = (D(v) for v in spring)
@@ -292,7 +326,7 @@ def _limit_decimal(spring):
     s_star = (L * d * d) ** (Decimal(1) / 3)
     v_star = (s_star * s_star - d * d).sqrt()
     f_star = 2 * k * (L - s_star) * v_star / s_star
-    curvature = 6 * k * L * d * d * v_star / s_star ** 5
+    curvature = 6 * k * L * d * d * v_star / s_star**5
     return h - v_star, f_star, curvature
 
 
@@ -320,8 +354,11 @@ def _unstable_root_decimal(load, spring, u_star):
 
 
 springs = st.builds(
-    lambda length, ratio, log_k: sus.make_spring(length, 10.0 ** log_k, ratio * length),
-    st.floats(0.05, 5.0), st.floats(0.05, 0.95), st.floats(1.0, 8.0))
+    lambda length, ratio, log_k: sus.make_spring(length, 10.0**log_k, ratio * length),
+    st.floats(0.05, 5.0),
+    st.floats(0.05, 0.95),
+    st.floats(1.0, 8.0),
+)
 
 
 @HARD
@@ -332,12 +369,12 @@ def test_loads_next_to_the_limit_load(spring, side, log_delta):
     it, with a residual at rounding level and within the conditioning of the 60-digit root;
     above: SnapThrough naming the limit load, and the continuation lands on the far branch."""
     limit = sus.limit_point(spring)
-    load = limit.load * (1.0 + side * 10.0 ** log_delta)
+    load = limit.load * (1.0 + side * 10.0**log_delta)
     with localcontext() as ctx:
         ctx.prec = PREC
         u_star, f_star, curvature = _limit_decimal(spring)
-        assert relative(limit.load, f_star) <= 1e-13   # the float limit load itself
-        force_scale = 16 * EPS * float(f_star)           # rounding of F near F*
+        assert relative(limit.load, f_star) <= 1e-13  # the float limit load itself
+        force_scale = 16 * EPS * float(f_star)  # rounding of F near F*
         # within LIMIT_LOAD_RTOL of F* the load is the limit load: its equilibrium is the
         # limit point (marginal), whatever the last bits of W and F* are
         within = abs(load - limit.load) <= sus.LIMIT_LOAD_RTOL * limit.load
@@ -366,8 +403,9 @@ def test_loads_next_to_the_limit_load(spring, side, log_delta):
         u = eq.deflection
         assert not snapped and eq.branch == sus.NEAR and math.isfinite(u)
         # backward: the exact force at the returned deflection balances the load
-        assert float(abs(_force_decimal(u, spring) - D(load))) <= \
-            force_scale + max(eq.tangent_stiffness, 0.0) * 2e-13 * max(1.0, abs(u))
+        assert float(abs(_force_decimal(u, spring) - D(load))) <= force_scale + max(
+            eq.tangent_stiffness, 0.0
+        ) * 2e-13 * max(1.0, abs(u))
         # on the stable side of the limit point (up to the flatness of F there)
         band = math.sqrt(2.0 * force_scale / float(curvature))
         assert u <= float(u_star) + band
@@ -380,33 +418,38 @@ def test_loads_next_to_the_limit_load(spring, side, log_delta):
             slope = float(curvature * (u_star - root))
             allowed = min(force_scale / slope if slope > 0 else math.inf, 2.0 * band)
             assert abs(u - float(root)) <= 2.0 * allowed + 4 * EPS * abs(u)
-            if float(other - root) > 8.0 * allowed:   # distinguishable: not the unstable one
+            if float(other - root) > 8.0 * allowed:  # distinguishable: not the unstable one
                 event("two equilibria told apart")
                 assert abs(u - float(other)) > 2.0 * allowed
                 assert eq.stable and eq.tangent_stiffness > 0.0
 
 
 @HARD
-@given(spring=springs, magnitude=st.floats(-300.0, -12.0), sign=st.sampled_from([-1.0, 1.0]),
-       subnormal=st.booleans())
-def test_secant_stiffness_at_tiny_deflections_is_its_exact_limit(spring, magnitude, sign,
-                                                                 subnormal):
+@given(
+    spring=springs,
+    magnitude=st.floats(-300.0, -12.0),
+    sign=st.sampled_from([-1.0, 1.0]),
+    subnormal=st.booleans(),
+)
+def test_secant_stiffness_at_tiny_deflections_is_its_exact_limit(
+    spring, magnitude, sign, subnormal
+):
     """F(u)/u for |u| down to 1e-300 m (and subnormal) against its exact limit
     2 k h^2 / L^2 = 2 k (L^2 - d^2) / L^2, a rational function of the float parameters
     evaluated in Fractions, plus the first term of its series, -3 d^2 / (2 h L^2) u:
     within 1e-12 relative, and F(u) / u too where F(u) does not underflow."""
-    u = sign * (5e-324 * 2.0 ** int(-magnitude / 6.0) if subnormal else 10.0 ** magnitude)
+    u = sign * (5e-324 * 2.0 ** int(-magnitude / 6.0) if subnormal else 10.0**magnitude)
     L, k, d = (Fraction(v) for v in spring)
     limit = 2 * k * (L * L - d * d) / (L * L)
     h = sus.rest_height(spring)
-    slope = -float(limit) * 3.0 * spring.base_offset ** 2 / (2.0 * h * spring.free_length ** 2)
+    slope = -float(limit) * 3.0 * spring.base_offset**2 / (2.0 * h * spring.free_length**2)
     expected = Fraction(float(limit)) + Fraction(slope) * Fraction(u)
     values = [sus.secant_stiffness(u, spring)]
     if abs(u) * float(limit) > 1e-290:  # F(u) itself a normal float, not a rounded subnormal
         values.append(sus.spring_force(u, spring) / u)
     for value in values:
         assert math.isfinite(value)
-        assert abs(Fraction(value) - expected) <= Fraction(1, 10 ** 12) * limit
+        assert abs(Fraction(value) - expected) <= Fraction(1, 10**12) * limit
     assert sus.secant_stiffness(0.0, spring) == pytest.approx(float(limit), rel=4 * EPS)
 
 
@@ -423,15 +466,16 @@ def test_rounded_rest_height_shifts_every_equilibrium():
         ctx.prec = PREC
         v = Decimal("0.4583")
         s = (Decimal("0.2") ** 2 + v * v).sqrt()
-        preload = 2 * Decimal(10000) * (Decimal("0.5") - s) * v / s   # rounded model at u = 0
-    physics = sus.spring_force(-shift, spring)                  # exact model, shifted
+        preload = 2 * Decimal(10000) * (Decimal("0.5") - s) * v / s  # rounded model at u = 0
+    physics = sus.spring_force(-shift, spring)  # exact model, shifted
     assert math.isfinite(physics) and round(physics, 4) == -0.7128
-    assert relative(physics, preload) <= 1e-9                   # the shift is a float
+    assert relative(physics, preload) <= 1e-9  # the shift is a float
     u1 = sus.solve_on_branch(211 * 9.81, sus.NEAR, spring) + shift
     assert round(u1, 7) == 0.1374990
 
 
 # --- four-bar: the non-Grashof crank limits, approached to 1e-15 rad -------------------------
+
 
 def _cross(u, v):
     return u[0] * v[1] - u[1] * v[0]
@@ -486,12 +530,18 @@ def triple_rockers(draw):
 
 
 @HARD
-@given(lengths=triple_rockers(), circuit=st.sampled_from([0, 1]), upper=st.booleans(),
-       side=st.sampled_from(["inside", "inside", "at", "outside"]),
-       delta=powers_of_ten(-15, -1), speed=st.floats(-20.0, 20.0),
-       accel=st.floats(-100.0, 100.0))
-def test_non_grashof_crank_limits_approached_to_1e_15(lengths, circuit, upper, side, delta,
-                                                      speed, accel):
+@given(
+    lengths=triple_rockers(),
+    circuit=st.sampled_from([0, 1]),
+    upper=st.booleans(),
+    side=st.sampled_from(["inside", "inside", "at", "outside"]),
+    delta=powers_of_ten(-15, -1),
+    speed=st.floats(-20.0, 20.0),
+    accel=st.floats(-100.0, 100.0),
+)
+def test_non_grashof_crank_limits_approached_to_1e_15(
+    lengths, circuit, upper, side, delta, speed, accel
+):
     """A triple-rocker's crank driven to its limit angle (coupler and rocker collinear)
     from inside by 1e-15 .. 0.1 rad, at it and beyond: inside, finite and within the
     conditioning of the 60-digit loop; at the toggle, SingularConfiguration "toggle" with
@@ -533,8 +583,10 @@ def test_non_grashof_crank_limits_approached_to_1e_15(lengths, circuit, upper, s
             s3, c3 = dsin_cos(motion.coupler_angle)
             s4, c4 = dsin_cos(motion.rocker_angle)
             s2, c2 = dsin_cos(t2)
-            closure = max(abs(D(a) * c2 + D(b) * c3 - D(c) * c4 - D(d)),
-                          abs(D(a) * s2 + D(b) * s3 - D(c) * s4))
+            closure = max(
+                abs(D(a) * c2 + D(b) * c3 - D(c) * c4 - D(d)),
+                abs(D(a) * s2 + D(b) * s3 - D(c) * s4),
+            )
             assert float(closure) <= 64 * EPS * (a + b + c + d)
             # the same circuit as the exact one: the angles within their conditioning
             tolerance = 4 * EPS * (a + b + c + d) / margin
@@ -542,19 +594,26 @@ def test_non_grashof_crank_limits_approached_to_1e_15(lengths, circuit, upper, s
             assert abs(float(_cross((c4, s4), e4))) <= math.sqrt(tolerance) + 1e-12
             # the rates, ~ 1/sqrt(margin): relative error ~ eps (b + c) / margin
             # (plus 1e-300 rad/s: subnormal rates carry no relative precision)
-            for got, want in ((motion.coupler_angular_velocity, w3),
-                              (motion.rocker_angular_velocity, w4)):
-                assert float(abs(D(got) - want)) <= (tolerance + 1e-12) * (
-                    float(abs(want)) + abs(speed)) + 1e-300
-            for got, want in ((motion.coupler_angular_acceleration, al3),
-                              (motion.rocker_angular_acceleration, al4)):
-                assert float(abs(D(got) - want)) <= \
-                    3 * (tolerance + 1e-12) * float(al_scale) + 1e-300
+            for got, want in (
+                (motion.coupler_angular_velocity, w3),
+                (motion.rocker_angular_velocity, w4),
+            ):
+                assert (
+                    float(abs(D(got) - want))
+                    <= (tolerance + 1e-12) * (float(abs(want)) + abs(speed)) + 1e-300
+                )
+            for got, want in (
+                (motion.coupler_angular_acceleration, al3),
+                (motion.rocker_angular_acceleration, al4),
+            ):
+                assert (
+                    float(abs(D(got) - want)) <= 3 * (tolerance + 1e-12) * float(al_scale) + 1e-300
+                )
     if exact is not None and margin > 4 * allowance:
-        fb.motion(*lengths, circuit, t2, speed, accel)   # inside: never refused
+        fb.motion(*lengths, circuit, t2, speed, accel)  # inside: never refused
 
 
-NON_GRASHOF = (4.0, 3.0, 2.0, 2.5)   # ground, crank, coupler, rocker: the crank stops at 1.3716
+NON_GRASHOF = (4.0, 3.0, 2.0, 2.5)  # ground, crank, coupler, rocker: the crank stops at 1.3716
 
 
 @pytest.mark.parametrize("circuit", [0, 1])
@@ -568,10 +627,11 @@ def test_constraint_solver_approaches_a_toggle_to_1e_14_then_reports_it(circuit)
     follower = planar.BranchFollower(constraint_models.four_bar(*lengths))
     t = 0.5
     t3, t4 = fb.position(*lengths, t, circuit)
-    follower.assemble(constraint_models.four_bar_guess(lengths[0], lengths[1], t, t3, t4),
-                      [(t, 1.0, 0.3)])
+    follower.assemble(
+        constraint_models.four_bar_guess(lengths[0], lengths[1], t, t3, t4), [(t, 1.0, 0.3)]
+    )
     for k in range(1, 15):
-        target = limit - 10.0 ** -k
+        target = limit - 10.0**-k
         solution = follower.follow([(target, 1.0, 0.3)], target - t)
         t = target
         with localcontext() as ctx:
@@ -590,33 +650,44 @@ def test_constraint_solver_approaches_a_toggle_to_1e_14_then_reports_it(circuit)
             follower.follow([(limit + past, 1.0, 0.3)], past + 1e-14)
         text = str(raised.value)
         assert "toggle position: coupler and rocker collinear at crank angle 1.3715642" in text
-        assert ("condition number" in text and ("singular position" in text
-                                                or "no assembly" in text)), text
+        assert "condition number" in text and (
+            "singular position" in text or "no assembly" in text
+        ), text
 
 
 def _branch_distance(lengths, t2, circuit, q):
     """Largest angle difference between the solver's coupler/rocker and the closed form's."""
     t3, t4 = fb.position(*lengths, t2, circuit)
-    return max(abs(math.remainder(q[5] - t3, 2 * math.pi)),
-               abs(math.remainder(q[8] - t4, 2 * math.pi)))
+    return max(
+        abs(math.remainder(q[5] - t3, 2 * math.pi)), abs(math.remainder(q[8] - t4, 2 * math.pi))
+    )
 
 
 CHANGE_POINT_LINKAGES = {
-    "parallelogram": lambda a, d: (d, a, d, a),   # ground, crank, coupler, rocker
+    "parallelogram": lambda a, d: (d, a, d, a),  # ground, crank, coupler, rocker
     "kite": lambda a, d: (d, a, a, d),
 }
 
 
 @settings(HARD, max_examples=80)
-@given(kind=st.sampled_from(sorted(CHANGE_POINT_LINKAGES)), a=st.floats(0.2, 0.9),
-       circuit=st.sampled_from([0, 1]), at_pi=st.booleans(), direction=st.sampled_from([-1, 1]),
-       log_step=st.floats(-3.5, -0.6), before=st.integers(1, 6),
-       miss=st.one_of(st.just(0.0), st.builds(lambda sign, log: sign * 10.0 ** log,
-                                               st.sampled_from([-1.0, 1.0]),
-                                               st.floats(-16.0, -1.0))))
-def test_change_point_is_reported_never_a_silent_branch_switch(kind, a, circuit, at_pi,
-                                                               direction, log_step, before,
-                                                               miss):
+@given(
+    kind=st.sampled_from(sorted(CHANGE_POINT_LINKAGES)),
+    a=st.floats(0.2, 0.9),
+    circuit=st.sampled_from([0, 1]),
+    at_pi=st.booleans(),
+    direction=st.sampled_from([-1, 1]),
+    log_step=st.floats(-3.5, -0.6),
+    before=st.integers(1, 6),
+    miss=st.one_of(
+        st.just(0.0),
+        st.builds(
+            lambda sign, log: sign * 10.0**log, st.sampled_from([-1.0, 1.0]), st.floats(-16.0, -1.0)
+        ),
+    ),
+)
+def test_change_point_is_reported_never_a_silent_branch_switch(
+    kind, a, circuit, at_pi, direction, log_step, before, miss
+):
     """Parallelogram and kite linkages (S + L = P + Q) driven through a change point (all four
     links collinear at crank angle 0 or pi) by the constraint solver, in steps of 3e-4 ..
     0.25 rad, one of them landing on the change point or 1e-16 .. 0.1 rad beside it: every
@@ -626,29 +697,30 @@ def test_change_point_is_reported_never_a_silent_branch_switch(kind, a, circuit,
     lengths = CHANGE_POINT_LINKAGES[kind](a, 1.0)
     assert fb.grashof_class(*lengths) == 6
     centre = math.pi if at_pi else 0.0
-    step = 10.0 ** log_step
+    step = 10.0**log_step
     landing = centre + direction * miss
 
-    def angle(k):   # the k-th drive value, exact at k = before (no accumulated rounding)
+    def angle(k):  # the k-th drive value, exact at k = before (no accumulated rounding)
         return landing + direction * (k - before) * step
 
-    def side(t):    # > 0 past the change point in the drive's direction
+    def side(t):  # > 0 past the change point in the drive's direction
         return direction * math.remainder(t - centre, 2 * math.pi)
 
-    assume(abs(side(angle(0))) > 1e-6)   # start on a branch, not on the crossing
+    assume(abs(side(angle(0))) > 1e-6)  # start on a branch, not on the crossing
     start_side = side(angle(0)) > 0
     follower = planar.BranchFollower(constraint_models.four_bar(*lengths))
     t = angle(0)
     t3, t4 = fb.position(*lengths, t, circuit)
-    follower.assemble(constraint_models.four_bar_guess(lengths[0], lengths[1], t, t3, t4),
-                      [(t, direction, 0.0)])
+    follower.assemble(
+        constraint_models.four_bar_guess(lengths[0], lengths[1], t, t3, t4), [(t, direction, 0.0)]
+    )
     try:
         for k in range(1, before + 8):
             t = angle(k)
             solution = follower.follow([(t, direction, 0.0)], step)
             assert all(math.isfinite(v) for v in solution.q + solution.qdot + solution.qddot)
             if abs(side(t)) < 1e-6:
-                continue   # the two branches are not yet apart
+                continue  # the two branches are not yet apart
             # the starting branch's label: it flips where the branch passes the change point
             label = circuit if (side(t) > 0) == start_side else 1 - circuit
             mine = _branch_distance(lengths, t, label, solution.q)
@@ -672,13 +744,12 @@ def test_closed_form_at_and_next_to_a_change_point(kind, centre):
     physical branch to the other at the change point: the rates differ on the two sides."""
     lengths = CHANGE_POINT_LINKAGES[kind](0.6, 1.0)
     for circuit in (0, 1):
-        with pytest.raises(SingularConfiguration, match="change point: all four links "
-                                                        "collinear"):
+        with pytest.raises(SingularConfiguration, match="change point: all four links collinear"):
             fb.motion(*lengths, circuit, centre, 1.0, 0.0)
         for k in range(3, 12):
             rates = []
             for sign in (-1.0, 1.0):
-                t2 = centre + sign * 10.0 ** -k
+                t2 = centre + sign * 10.0**-k
                 try:
                     motion = fb.motion(*lengths, circuit, t2, 1.0, 0.0)
                 except SingularConfiguration as error:
@@ -700,15 +771,22 @@ def test_closed_form_at_and_next_to_a_change_point(kind, centre):
                     assert abs(motion.rocker_angular_velocity - float(w4)) <= tolerance * scale
                 rates.append(motion.rocker_angular_velocity)
             if len(rates) == 2:
-                assert abs(rates[0] - rates[1]) > 0.1   # the label changed branch
+                assert abs(rates[0] - rates[1]) > 0.1  # the label changed branch
 
 
 # --- slider-crank: dead centres and limit positions ------------------------------------------
 
+
 @HARD
-@given(a=st.floats(0.01, 2.0), ratio=st.floats(1.2, 6.0), offset=st.floats(-0.95, 0.95),
-       circuit=st.sampled_from([0, 1]), folded=st.booleans(),
-       speed=st.floats(-500.0, 500.0), accel=st.floats(-1e4, 1e4))
+@given(
+    a=st.floats(0.01, 2.0),
+    ratio=st.floats(1.2, 6.0),
+    offset=st.floats(-0.95, 0.95),
+    circuit=st.sampled_from([0, 1]),
+    folded=st.booleans(),
+    speed=st.floats(-500.0, 500.0),
+    accel=st.floats(-1e4, 1e4),
+)
 def test_slider_crank_dead_centres_are_regular(a, ratio, offset, circuit, folded, speed, accel):
     """At the dead centres (crank and coupler collinear, the slider at the end of its
     stroke) of an offset slider-crank whose crank turns fully, nothing is singular: the slider
@@ -716,7 +794,7 @@ def test_slider_crank_dead_centres_are_regular(a, ratio, offset, circuit, folded
     the numpy reference, for the closed form and for the constraint solver stepping onto the
     dead centre exactly."""
     b = ratio * a
-    e = offset * (b - a)                       # |e| < b - a: the crank turns fully
+    e = offset * (b - a)  # |e| < b - a: the crank turns fully
     assert sc.crank_angle_range(a, b, e) is None
     reach = (b - a) if folded else (a + b)
     run = math.sqrt((reach - e) * (reach + e)) * (1.0 if circuit == 0 else -1.0)
@@ -724,30 +802,36 @@ def test_slider_crank_dead_centres_are_regular(a, ratio, offset, circuit, folded
     motion = sc.motion(a, b, e, circuit, t2, speed, accel)
     assert all(math.isfinite(v) for v in motion)
     expected = linkage_reference.slider_crank(a, b, e, circuit, np.array([t2]), speed, accel)
-    scales = {"slider_position": a + b, "slider_speed": a * abs(speed),
-              "slider_acceleration": a * (speed * speed + abs(accel)),
-              "coupler_angular_velocity": abs(speed),
-              "coupler_angular_acceleration": speed * speed + abs(accel)}
+    scales = {
+        "slider_position": a + b,
+        "slider_speed": a * abs(speed),
+        "slider_acceleration": a * (speed * speed + abs(accel)),
+        "coupler_angular_velocity": abs(speed),
+        "coupler_angular_acceleration": speed * speed + abs(accel),
+    }
     # the dead centre: the slider stands still (a w times the rounding of the crank angle)
-    assert abs(motion.slider_speed) <= \
-        64 * EPS * (a + b) * abs(speed) * b / (b - abs(e)) + 1e-300
+    assert abs(motion.slider_speed) <= 64 * EPS * (a + b) * abs(speed) * b / (b - abs(e)) + 1e-300
     for key, scale in scales.items():
-        assert abs(getattr(motion, key) - float(expected[key][0])) <= \
-            1e-12 * (abs(float(expected[key][0])) + scale) + 1e-300, key
+        assert (
+            abs(getattr(motion, key) - float(expected[key][0]))
+            <= 1e-12 * (abs(float(expected[key][0])) + scale) + 1e-300
+        ), key
     # the solver, stepping onto the dead centre from 0.3 rad before it
     follower = planar.BranchFollower(constraint_models.slider_crank(a, b, e))
     before = t2 - 0.3
     t3, s = sc.position(a, b, e, before, circuit)
-    follower.assemble(constraint_models.slider_crank_guess(a, e, before, t3, s),
-                      [(before, speed, accel)])
+    follower.assemble(
+        constraint_models.slider_crank_guess(a, e, before, t3, s), [(before, speed, accel)]
+    )
     for fraction in (0.5, 0.9, 1.0):
         solution = follower.follow([(before + 0.3 * fraction, speed, accel)], 0.15)
     assert abs(solution.q[6] - motion.slider_position) <= 1e-12 * (a + b)
     # the solver's positions meet a residual tolerance of 1e-12 (scaled): rates to ~1e-11
-    assert abs(solution.qdot[6] - motion.slider_speed) <= 1e-10 * scales["slider_speed"] + \
-        1e-300
-    assert abs(solution.qddot[6] - motion.slider_acceleration) <= \
-        1e-10 * scales["slider_acceleration"] + 1e-300
+    assert abs(solution.qdot[6] - motion.slider_speed) <= 1e-10 * scales["slider_speed"] + 1e-300
+    assert (
+        abs(solution.qddot[6] - motion.slider_acceleration)
+        <= 1e-10 * scales["slider_acceleration"] + 1e-300
+    )
 
 
 def _slider_exact(a, b, e, circuit, t2, w2, al2):
@@ -768,12 +852,18 @@ def _slider_exact(a, b, e, circuit, t2, w2, al2):
 
 
 @HARD
-@given(a=st.floats(0.5, 2.0), b=st.floats(0.2, 1.5), offset=st.floats(-0.5, 0.5),
-       circuit=st.sampled_from([0, 1]), which=st.integers(0, 3),
-       side=st.sampled_from(["inside", "inside", "at", "outside"]),
-       delta=powers_of_ten(-16, -2))
-def test_slider_crank_limit_positions_approached_to_1e_16(a, b, offset, circuit, which, side,
-                                                         delta):
+@given(
+    a=st.floats(0.5, 2.0),
+    b=st.floats(0.2, 1.5),
+    offset=st.floats(-0.5, 0.5),
+    circuit=st.sampled_from([0, 1]),
+    which=st.integers(0, 3),
+    side=st.sampled_from(["inside", "inside", "at", "outside"]),
+    delta=powers_of_ten(-16, -2),
+)
+def test_slider_crank_limit_positions_approached_to_1e_16(
+    a, b, offset, circuit, which, side, delta
+):
     """A slider-crank whose crank cannot turn fully (the coupler reaches the slider axis only
     for some crank angles) driven to a limit position (coupler perpendicular to the slider
     axis) from inside by 1e-16 .. 0.1 rad, at it and beyond: inside finite and within the
@@ -783,10 +873,14 @@ def test_slider_crank_limit_positions_approached_to_1e_16(a, b, offset, circuit,
     interval = sc.crank_angle_range(a, b, e)
     assume(interval is not None)
     low, high = interval
-    ends = [(math.asin(low), 1.0), (math.asin(high), -1.0),
-            (math.pi - math.asin(high), 1.0), (math.pi - math.asin(low), -1.0)]
+    ends = [
+        (math.asin(low), 1.0),
+        (math.asin(high), -1.0),
+        (math.pi - math.asin(high), 1.0),
+        (math.pi - math.asin(low), -1.0),
+    ]
     limit, inward = ends[which]
-    assume(-1.0 < (low if which in (0, 3) else high) < 1.0)   # a limit, not sin = +-1
+    assume(-1.0 < (low if which in (0, 3) else high) < 1.0)  # a limit, not sin = +-1
     t2 = {"inside": limit + inward * delta, "at": limit, "outside": limit - inward * delta}[side]
     allowance = (sc.SINGULAR_ULPS + 8) * EPS * (a + b + abs(e))
     with localcontext() as ctx:
@@ -810,14 +904,15 @@ def test_slider_crank_limit_positions_approached_to_1e_16(a, b, offset, circuit,
         speed, acceleration, w3, al3 = exact
         tolerance = 4 * EPS * (a + b + abs(e)) / margin + 1e-12
         assert abs(motion.coupler_angular_velocity - float(w3)) <= tolerance * (
-            float(abs(w3)) + 3.0)
-        assert abs(motion.slider_speed - float(speed)) <= tolerance * (
-            float(abs(speed)) + 3.0 * a)
+            float(abs(w3)) + 3.0
+        )
+        assert abs(motion.slider_speed - float(speed)) <= tolerance * (float(abs(speed)) + 3.0 * a)
         # s'' = -a al2 sin - a w2^2 cos - al3 rise - w3^2 run: the terms' sizes
         assert abs(motion.slider_acceleration - float(acceleration)) <= 3 * tolerance * (
-            float(abs(acceleration)) + float(abs(al3) + w3 * w3) * b + 11.0 * a)
+            float(abs(acceleration)) + float(abs(al3) + w3 * w3) * b + 11.0 * a
+        )
     if exact is not None and margin > 4 * allowance:
-        sc.motion(a, b, e, circuit, t2, 3.0, -2.0)   # inside: never refused
+        sc.motion(a, b, e, circuit, t2, 3.0, -2.0)  # inside: never refused
 
 
 # --- valve train: the rocker's dead centres on the tappet side --------------------------------
@@ -830,21 +925,27 @@ def _tappet_side_exact(g, lift, velocity, phi):
     at a float tappet lift, 60 digits: omega = e_y v / (e . t1) with e = T - P and
     t1 = perp(T - O); T is the circle intersection nearer to the one the float angle ``phi``
     gives. margin = the smallest of the triangle inequalities' slacks (m)."""
-    a, b, lt, length = D(g.rocker_pivot_x), D(g.rocker_pivot_y), D(g.tappet_arm), \
-        D(g.pushrod_length)
+    a, b, lt, length = (
+        D(g.rocker_pivot_x),
+        D(g.rocker_pivot_y),
+        D(g.tappet_arm),
+        D(g.pushrod_length),
+    )
     y1 = D(g.cam_base_radius) + D(lift)
     w = b - y1
     distance = (a * a + w * w).sqrt()
     margin = min(length + lt - distance, distance + lt - length, distance + length - lt)
     if margin <= 0:
         return margin, None
-    u = (a / distance, w / distance)                   # from P towards the pivot O
+    u = (a / distance, w / distance)  # from P towards the pivot O
     along = (length * length - lt * lt + distance * distance) / (2 * distance)
     height = (length * length - along * along).sqrt()
     sin_phi, cos_phi = dsin_cos(phi)
     guess = (a - lt * cos_phi, b - lt * sin_phi)
-    candidates = [(along * u[0] - sign * height * u[1], y1 + along * u[1] + sign * height * u[0])
-                  for sign in (1, -1)]
+    candidates = [
+        (along * u[0] - sign * height * u[1], y1 + along * u[1] + sign * height * u[0])
+        for sign in (1, -1)
+    ]
     top = min(candidates, key=lambda p: (p[0] - guess[0]) ** 2 + (p[1] - guess[1]) ** 2)
     e = (top[0], top[1] - y1)
     t1 = (-(top[1] - b), top[0] - a)
@@ -852,11 +953,16 @@ def _tappet_side_exact(g, lift, velocity, phi):
 
 
 @HARD
-@given(high_end=st.booleans(), side=st.sampled_from(["inside", "inside", "at", "outside"]),
-       delta=powers_of_ten(-17, -3), velocity=st.floats(1e-3, 5.0),
-       sign=st.sampled_from([-1.0, 1.0]))
-def test_valve_train_tappet_dead_centres_approached_to_1e_17_m(high_end, side, delta,
-                                                               velocity, sign):
+@given(
+    high_end=st.booleans(),
+    side=st.sampled_from(["inside", "inside", "at", "outside"]),
+    delta=powers_of_ten(-17, -3),
+    velocity=st.floats(1e-3, 5.0),
+    sign=st.sampled_from([-1.0, 1.0]),
+)
+def test_valve_train_tappet_dead_centres_approached_to_1e_17_m(
+    high_end, side, delta, velocity, sign
+):
     """The tappet lift driven to the ends of tappet_lift_range, where the pushrod and the
     rocker's tappet arm come in line (folded at the top, stretched at the bottom), from inside
     by 1e-17 .. 1e-3 m, at them and beyond: inside finite, the rocker rate within the
@@ -907,40 +1013,48 @@ def test_cam_laws_at_high_speed_jump_where_the_law_says(law):
     other laws (to 1e-12 of its peak)."""
     profile = cam_laws.DEFAULT_CAM_PROFILE._replace(law=law)
     lift, beta = profile.lift, profile.rise_angle
-    peak = cam_laws.peak_coefficients(law).acceleration * lift / beta ** 2
-    boundaries = [(0.0, ("rise", 0.0), None), (1.2, ("rise", 1.0), (lift, 0.0, 0.0, 0.0)),
-                  (1.3, None, ("return", 0.0)), (2.5, ("return", 1.0), (0.0, 0.0, 0.0, 0.0))]
+    peak = cam_laws.peak_coefficients(law).acceleration * lift / beta**2
+    boundaries = [
+        (0.0, ("rise", 0.0), None),
+        (1.2, ("rise", 1.0), (lift, 0.0, 0.0, 0.0)),
+        (1.3, None, ("return", 0.0)),
+        (2.5, ("return", 1.0), (0.0, 0.0, 0.0, 0.0)),
+    ]
     angles = np.linspace(0.0, 2.0 * math.pi, 2001)[:-1]
     for speed in (1e2, 1e3, 1e4, 1e5):
         # a whole revolution against the numpy reference (constant speed)
         s, s1, s2 = valve_reference.cam_lift(*profile, angles)
-        expected = valve_reference.forward(GEOMETRY_DICT, s, s1 * speed, s2 * speed ** 2)
+        expected = valve_reference.forward(GEOMETRY_DICT, s, s1 * speed, s2 * speed**2)
         for i, angle in enumerate(angles):
             motion = vt.forward(G, *cam_laws.follower_motion(profile, float(angle), speed, 0.0))
             assert all(math.isfinite(v) for v in motion)
-            assert abs(motion.valve_acceleration - expected["valve_acceleration"][i]) <= \
-                1e-11 * 1.6 * peak * speed ** 2
+            assert (
+                abs(motion.valve_acceleration - expected["valve_acceleration"][i])
+                <= 1e-11 * 1.6 * peak * speed**2
+            )
         # the jumps at the segment boundaries
         for angle, left_segment, right in boundaries:
-            if left_segment is None:     # the high dwell ends: left is the dwell itself
+            if left_segment is None:  # the high dwell ends: left is the dwell itself
                 left = cam_laws.CamLift(lift, 0.0, 0.0, 0.0)
             elif left_segment[0] == "rise" and left_segment[1] == 0.0:
-                left = cam_laws.CamLift(0.0, 0.0, 0.0, 0.0)     # the low dwell before the rise
+                left = cam_laws.CamLift(0.0, 0.0, 0.0, 0.0)  # the low dwell before the rise
             else:
                 left = cam_laws.segment_lift(profile, *left_segment)
-            right = cam_laws.cam_lift(profile, angle)         # segments are closed on the left
-            before = vt.forward(G, left.s, left.s1 * speed, left.s2 * speed ** 2)
-            after = vt.forward(G, right.s, right.s1 * speed, right.s2 * speed ** 2)
+            right = cam_laws.cam_lift(profile, angle)  # segments are closed on the left
+            before = vt.forward(G, left.s, left.s1 * speed, left.s2 * speed**2)
+            after = vt.forward(G, right.s, right.s1 * speed, right.s2 * speed**2)
             assert left.s == right.s and left.s1 == right.s1 == 0.0
             jump = after.valve_acceleration - before.valve_acceleration
-            ratio = float(valve_reference.forward(GEOMETRY_DICT, right.s, 1.0, 0.0)
-                          ["valve_velocity"])
-            law_jump = (right.s2 - left.s2) * speed ** 2
+            ratio = float(
+                valve_reference.forward(GEOMETRY_DICT, right.s, 1.0, 0.0)["valve_velocity"]
+            )
+            law_jump = (right.s2 - left.s2) * speed**2
             if cam_laws.CONTINUITY[law].acceleration:
-                assert abs(jump) <= 1e-12 * 1.6 * peak * speed ** 2, (angle, speed)
+                assert abs(jump) <= 1e-12 * 1.6 * peak * speed**2, (angle, speed)
             else:
                 assert abs(right.s2 - left.s2) == pytest.approx(
-                    lift * math.pi ** 2 / (2.0 * beta ** 2), rel=1e-14)
+                    lift * math.pi**2 / (2.0 * beta**2), rel=1e-14
+                )
                 assert jump == pytest.approx(ratio * law_jump, rel=1e-12)
 
 
@@ -954,21 +1068,25 @@ def test_valve_train_solver_at_high_speed_across_the_harmonic_jumps():
     follower = planar.BranchFollower(constraint_models.valve_train(G))
     closed = vt.rest_position(G)[1]
     dt = 2.0 * math.pi / speed / steps
-    angles = [1.2 * k / 10 for k in range(11)] + [1.3, 2.5] + \
-        [2.0 * math.pi * k / steps for k in range(steps + 1)]
+    angles = (
+        [1.2 * k / 10 for k in range(11)]
+        + [1.3, 2.5]
+        + [2.0 * math.pi * k / steps for k in range(steps + 1)]
+    )
     for k, angle in enumerate(sorted(angles)):
         law = cam_laws.follower_motion(profile, angle, speed, 0.0)
         drive = [(G.cam_base_radius + law.lift, law.velocity, law.acceleration)]
-        solution = (follower.assemble(constraint_models.valve_train_guess(G), drive) if k == 0
-                    else follower.follow(drive, dt))
+        solution = (
+            follower.assemble(constraint_models.valve_train_guess(G), drive)
+            if k == 0
+            else follower.follow(drive, dt)
+        )
         exact = vt.forward(G, *law)
         valve = 3 * constraint_models.VALVE + 1
         assert all(math.isfinite(v) for v in solution.q + solution.qdot + solution.qddot)
         assert closed - solution.q[valve] == pytest.approx(exact.valve_lift, abs=1e-15)
-        assert -solution.qdot[valve] == pytest.approx(exact.valve_velocity, rel=1e-10,
-                                                      abs=1e-12)
-        assert -solution.qddot[valve] == pytest.approx(exact.valve_acceleration, rel=1e-9,
-                                                       abs=1e-6)
+        assert -solution.qdot[valve] == pytest.approx(exact.valve_velocity, rel=1e-10, abs=1e-12)
+        assert -solution.qddot[valve] == pytest.approx(exact.valve_acceleration, rel=1e-9, abs=1e-6)
 
 
 def test_valve_train_fmu_far_past_float_reports_it(fmu_dir):
@@ -980,8 +1098,11 @@ def test_valve_train_fmu_far_past_float_reports_it(fmu_dir):
     predicted = vt.float_speed(G, profile, 0.1, 50e3, 300.0).camshaft_speed
     speed, steps = 5.0 * predicted, 200
     dt = 2.0 * math.pi / speed / steps
-    fmu = Driven(fmu_dir / "ValveTrain.fmu", {"cam_law": "harmonic", "valve_spring": True},
-                 {"camshaft_angle": 0.0, "camshaft_speed": speed})
+    fmu = Driven(
+        fmu_dir / "ValveTrain.fmu",
+        {"cam_law": "harmonic", "valve_spring": True},
+        {"camshaft_angle": 0.0, "camshaft_speed": speed},
+    )
     try:
         lost, forces = [], []
         for k in range(1, steps + 1):
@@ -993,8 +1114,9 @@ def test_valve_train_fmu_far_past_float_reports_it(fmu_dir):
                 assert math.isfinite(value)
                 assert value == pytest.approx(getattr(exact, name), rel=1e-9, abs=1e-9)
             force = fmu.get("contact_force")
-            assert force == pytest.approx(0.1 * exact.valve_acceleration
-                                          + 50e3 * exact.valve_lift + 300.0, rel=1e-9, abs=1e-6)
+            assert force == pytest.approx(
+                0.1 * exact.valve_acceleration + 50e3 * exact.valve_lift + 300.0, rel=1e-9, abs=1e-6
+            )
             lost.append(bool(fmu.get("contact_lost")))
             forces.append(force)
         assert fmu.get("float_camshaft_speed") == predicted
@@ -1021,7 +1143,7 @@ def test_huge_loads_are_solved_or_refused_by_name(stiffness):
     spring = sus.make_spring(0.5, stiffness, 0.2)
     bound = 2.0 * stiffness * sus.MAX_DEFLECTION
     for exponent in range(3, 301, 7):
-        for branch, load in ((sus.NEAR, -10.0 ** exponent), (sus.FAR, 10.0 ** exponent)):
+        for branch, load in ((sus.NEAR, -(10.0**exponent)), (sus.FAR, 10.0**exponent)):
             if abs(load) > bound:
                 with pytest.raises(RangeError) as raised:
                     sus.solve_on_branch(load, branch, spring)
@@ -1057,7 +1179,7 @@ def test_newton_on_the_constraint_solver_is_bounded():
     the bound; and at a drive exactly on a change point, where Newton only converges
     linearly, it follows the corrections until the conditioning shows the singular position
     instead of accepting a point beside it."""
-    lengths = (1.0, 0.6, 1.0, 0.6)      # a parallelogram, change points at 0 and pi
+    lengths = (1.0, 0.6, 1.0, 0.6)  # a parallelogram, change points at 0 and pi
     mechanism = constraint_models.four_bar(*lengths)
     guess = constraint_models.four_bar_guess(1.0, 0.6, 0.7, 0.3, 1.1)
     with pytest.raises(planar.NoConvergence) as raised:
@@ -1065,9 +1187,9 @@ def test_newton_on_the_constraint_solver_is_bounded():
     assert "did not converge in 2 iterations" in str(raised.value)
     assert isinstance(raised.value, MechanismError)
     q, iterations, residual = planar.solve_position(
-        mechanism, constraint_models.four_bar_guess(1.0, 0.6, 0.0, 0.01, 0.02),
-        [(0.0, 0.0, 0.0)])
-    assert iterations > 10 and residual <= planar.DEFAULT_TOLERANCE   # linear convergence
+        mechanism, constraint_models.four_bar_guess(1.0, 0.6, 0.0, 0.01, 0.02), [(0.0, 0.0, 0.0)]
+    )
+    assert iterations > 10 and residual <= planar.DEFAULT_TOLERANCE  # linear convergence
     with pytest.raises(SingularConfiguration, match="change point: all four links collinear"):
         planar.analyse(mechanism, q, [(0.0, 1.0, 0.0)])
 
@@ -1085,6 +1207,13 @@ def test_events_per_step_are_bounded():
     calls = []
     event = Event("contact", lambda t, y: y[0], 0)
     with pytest.raises(IntegrationError, match="more than 1000 events"):
-        stepping.advance_through_events(Chattering(), lambda t, y: [0.0], 0.0, [1.0], 1.0,
-                                        [event], lambda e, t, y: calls.append(t) or y)
+        stepping.advance_through_events(
+            Chattering(),
+            lambda t, y: [0.0],
+            0.0,
+            [1.0],
+            1.0,
+            [event],
+            lambda e, t, y: calls.append(t) or y,
+        )
     assert len(calls) == stepping.MAX_EVENTS_PER_STEP

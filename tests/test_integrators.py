@@ -36,8 +36,9 @@ def stiff(lam):
 
 def stiff_exact(lam, t):
     """y' = -lam (y - cos t), y(0) = 1."""
-    return ((lam * lam * math.cos(t) + lam * math.sin(t)) / (lam * lam + 1)
-            + math.exp(-lam * t) / (lam * lam + 1))
+    return (lam * lam * math.cos(t) + lam * math.sin(t)) / (lam * lam + 1) + math.exp(-lam * t) / (
+        lam * lam + 1
+    )
 
 
 PROBLEMS = {
@@ -68,6 +69,7 @@ def global_error(method, problem, t_end=5.0, **options):
 
 # --- convergence orders --------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("problem", PROBLEMS)
 @pytest.mark.parametrize("method, order, h", [("euler", 1, 0.01), ("rk4", 4, 0.1)])
 def test_observed_order_of_fixed_step_methods(method, order, h, problem):
@@ -79,6 +81,7 @@ def test_observed_order_of_fixed_step_methods(method, order, h, problem):
 
 
 # --- adaptive methods meet their tolerance -------------------------------------------------
+
 
 @pytest.mark.parametrize("problem", PROBLEMS)
 @pytest.mark.parametrize("method", ADAPTIVE)
@@ -134,6 +137,7 @@ def test_adaptive_methods_honour_max_substep(method):
 
 # --- exact right-hand-side counts ------------------------------------------------------------
 
+
 @pytest.mark.parametrize("method, per_step", [("euler", 1), ("rk4", 4)])
 def test_fixed_step_rhs_counts(method, per_step):
     integrator = make_integrator(method, max_substep=0.01)
@@ -186,8 +190,10 @@ def test_radau_counts_every_evaluation(problem):
     assert counted.calls == stats.rhs_evaluations
     assert stats.jacobians >= 1
     # at least f(t0) + the starting heuristic + one Newton sweep (3 stages) per attempt
-    assert stats.rhs_evaluations >= 2 + 3 * (stats.substeps + stats.rejected) \
-        + len(y0) * stats.jacobians
+    assert (
+        stats.rhs_evaluations
+        >= 2 + 3 * (stats.substeps + stats.rejected) + len(y0) * stats.jacobians
+    )
 
 
 # --- events --------------------------------------------------------------------------------
@@ -297,6 +303,7 @@ def test_event_location_counts_rhs_evaluations():
 
 # --- stiffness -----------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("lam", [1e6, 1e8])
 def test_radau_is_stable_and_accurate_on_stiff_problem(lam):
     integrator = make_integrator("radau")
@@ -349,6 +356,7 @@ def test_dopri5_on_stiff_problem_is_finite_or_raises(lam, t_end):
 
 # --- step size memory ------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("method", ADAPTIVE)
 def test_step_size_carries_over_between_calls(method):
     warm = make_integrator(method)
@@ -371,6 +379,7 @@ def test_step_size_carries_over_between_calls(method):
 
 # --- arguments and failures ------------------------------------------------------------------
 
+
 def test_unknown_method_names_the_choices():
     with pytest.raises(MechanismError) as info:
         make_integrator("rk45")
@@ -388,8 +397,16 @@ def test_non_positive_interval_is_rejected(method, t_end):
     assert isinstance(info.value, IntegrationError)
 
 
-@pytest.mark.parametrize("options", [dict(rtol=-1.0), dict(atol=math.nan), dict(rtol=0.0),
-                                     dict(max_substep=0.0), dict(max_substep=math.nan)])
+@pytest.mark.parametrize(
+    "options",
+    [
+        dict(rtol=-1.0),
+        dict(atol=math.nan),
+        dict(rtol=0.0),
+        dict(max_substep=0.0),
+        dict(max_substep=math.nan),
+    ],
+)
 def test_bad_parameters_are_rejected(options):
     with pytest.raises(MechanismError):
         make_integrator("dopri5", **options)
@@ -418,8 +435,9 @@ def test_derivative_blowing_up_in_finite_time_raises(method):
 
 def test_dense_solver_with_partial_pivoting():
     n = 10
-    a = [[1.0 / (i + j + 1) + (3.0 if i == (j + 3) % n else 0.0) for j in range(n)]
-         for i in range(n)]
+    a = [
+        [1.0 / (i + j + 1) + (3.0 if i == (j + 3) % n else 0.0) for j in range(n)] for i in range(n)
+    ]
     a[0][0] = 0.0  # needs pivoting
     x = [math.sin(i + 1) for i in range(n)]
     b = [sum(a[i][j] * x[j] for j in range(n)) for i in range(n)]
@@ -438,7 +456,10 @@ def test_module_imports_only_the_standard_library():
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
             if node.level > 0:
-                assert node.module in ("errors", "linalg")  # runtime modules, themselves stdlib-only
+                assert node.module in (
+                    "errors",
+                    "linalg",
+                )  # runtime modules, themselves stdlib-only
                 continue
             names = [node.module]
         else:

@@ -25,7 +25,9 @@ def valve_scene(folder, stop_time):
     ``stop_time`` s at its 1e-5 s step."""
     text = (SCENES / "valve_train_dynamic.toml").read_text()
     text = text.replace("stop_time = 0.02", f"stop_time = {stop_time!r}")
-    text = text.replace('reference = "reference/', f'reference = "{(SCENES / "reference").as_posix()}/')
+    text = text.replace(
+        'reference = "reference/', f'reference = "{(SCENES / "reference").as_posix()}/'
+    )
     path = Path(folder) / f"valve_{stop_time}.toml"
     path.write_text(text)
     return path
@@ -40,10 +42,25 @@ def _default_signals():
 
 def start(scene, out, fmu_dir, temporary):
     environment = dict(os.environ, TMPDIR=str(temporary), PYTHONPATH=str(ROOT / "src"))
-    return subprocess.Popen([sys.executable, "-m", "mechfmu", "run", str(scene), "--out",
-                             str(out), "--fmu-dir", str(fmu_dir), "--no-plot"],
-                            env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, preexec_fn=_default_signals)
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "mechfmu",
+            "run",
+            str(scene),
+            "--out",
+            str(out),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--no-plot",
+        ],
+        env=environment,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_default_signals,
+    )
 
 
 def unpacked_fmus(temporary):
@@ -51,8 +68,7 @@ def unpacked_fmus(temporary):
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
-def test_a_signal_in_the_middle_of_a_run_keeps_the_rows_and_marks_them(fmu_dir, tmp_path,
-                                                                       signum):
+def test_a_signal_in_the_middle_of_a_run_keeps_the_rows_and_marks_them(fmu_dir, tmp_path, signum):
     temporary = tmp_path / "tmp"
     temporary.mkdir()
     out = tmp_path / "out"
@@ -87,9 +103,15 @@ def _interrupt_once(scene, fmu_dir, folder, delay, signum):
     stdout, stderr = process.communicate(timeout=120)
     files = sorted(p.name for p in out.iterdir()) if out.is_dir() else []
     partial = out / "valve_train_dynamic.partial.json"
-    return {"code": process.returncode, "stderr": stderr, "files": files,
-            "meta": json.loads(partial.read_text()) if partial.is_file() else None,
-            "left": unpacked_fmus(temporary), "signal": signum, "delay": delay}
+    return {
+        "code": process.returncode,
+        "stderr": stderr,
+        "files": files,
+        "meta": json.loads(partial.read_text()) if partial.is_file() else None,
+        "left": unpacked_fmus(temporary),
+        "signal": signum,
+        "delay": delay,
+    }
 
 
 def _judge(outcome):
@@ -106,8 +128,9 @@ def _judge(outcome):
         if "Traceback" in stderr:
             problems.append("a traceback")
         if outcome["meta"] is not None:
-            if not (outcome["meta"]["interrupted"] is True
-                    and outcome["meta"]["signal"] == signum.name):
+            if not (
+                outcome["meta"]["interrupted"] is True and outcome["meta"]["signal"] == signum.name
+            ):
                 problems.append(f"partial JSON not marked: {outcome['meta']}")
         elif "the results are complete" not in stderr:
             problems.append("interrupted without partial results or a complete result")
@@ -116,8 +139,12 @@ def _judge(outcome):
             problems.append(f"a complete run wrote {files}")
     elif code == -signum:  # before mechfmu took the signals (interpreter start-up)
         pass
-    elif not (signum == signal.SIGINT and code == 1 and stderr.rstrip().endswith("KeyboardInterrupt")
-              and not files):
+    elif not (
+        signum == signal.SIGINT
+        and code == 1
+        and stderr.rstrip().endswith("KeyboardInterrupt")
+        and not files
+    ):
         # 1 with a KeyboardInterrupt and nothing written is SIGINT during the imports before
         # mechfmu's handler (``python -m`` reports an uncaught KeyboardInterrupt as exit 1)
         problems.append(f"exit code {code}")
@@ -138,14 +165,22 @@ def test_a_hundred_interrupts_at_random_times_never_crash(fmu_dir, tmp_path):
     duration = time.monotonic() - started
     assert process.returncode == 0, stderr  # the run must work before its interruptions count
     generator = random.Random(20261125)
-    plans = [(generator.uniform(0.0, duration + 0.05),
-              generator.choice([signal.SIGINT, signal.SIGTERM])) for _ in range(100)]
+    plans = [
+        (generator.uniform(0.0, duration + 0.05), generator.choice([signal.SIGINT, signal.SIGTERM]))
+        for _ in range(100)
+    ]
     with ThreadPoolExecutor(max_workers=2) as pool:
-        outcomes = list(pool.map(
-            lambda item: _interrupt_once(scene, fmu_dir, tmp_path / f"run{item[0]}",
-                                         *item[1]), enumerate(plans)))
-    problems = [(o["delay"], o["signal"].name, o["code"], problem, o["stderr"][-400:])
-                for o in outcomes for problem in _judge(o)]
+        outcomes = list(
+            pool.map(
+                lambda item: _interrupt_once(scene, fmu_dir, tmp_path / f"run{item[0]}", *item[1]),
+                enumerate(plans),
+            )
+        )
+    problems = [
+        (o["delay"], o["signal"].name, o["code"], problem, o["stderr"][-400:])
+        for o in outcomes
+        for problem in _judge(o)
+    ]
     assert problems == []
     taken = sum(o["code"] in EXIT_CODES.values() for o in outcomes)
     assert taken >= 50, [o["code"] for o in outcomes]

@@ -15,15 +15,21 @@ import pytest
 
 if sys.version_info < (3, 11):
     # the lock installs libcosimpy only where a wheel exists (pyproject's marker)
-    pytest.skip(f"libcosimpy 0.0.6, which these tests need, has no wheel for CPython "
-                f"{sys.version_info[0]}.{sys.version_info[1]} (3.11 and later only)",
-                allow_module_level=True)
+    pytest.skip(
+        f"libcosimpy 0.0.6, which these tests need, has no wheel for CPython "
+        f"{sys.version_info[0]}.{sys.version_info[1]} (3.11 and later only)",
+        allow_module_level=True,
+    )
 
 from fmpy import read_model_description
 
 from fmu_driver import Driven
-from mechfmu.tools.hosts.libcosim import (LibcosimError, communication_points, run_libcosim,
-                                    step_nanoseconds)
+from mechfmu.tools.hosts.libcosim import (
+    LibcosimError,
+    communication_points,
+    run_libcosim,
+    step_nanoseconds,
+)
 from mechfmu.runtime.models import MODELS
 
 
@@ -45,76 +51,204 @@ def _cosine_lift(peak, duration):
 
     def acceleration(t):
         return peak * w * w * math.cos(w * t) / 2.0 if t < duration else 0.0
+
     return lift, velocity, acceleration
 
 
 VALVE_LIFT, VALVE_VELOCITY, VALVE_ACCELERATION = _cosine_lift(0.0105, 0.008)
-CAMSHAFT_SPEED = 157.07963267948966      # 3000 engine rpm
-ENGINE_CRANK_SPEED = 314.1592653589793   # 3000 rpm
+CAMSHAFT_SPEED = 157.07963267948966  # 3000 engine rpm
+ENGINE_CRANK_SPEED = 314.1592653589793  # 3000 rpm
 
 # id, model, parameters, inputs (value or f(t)), step, stop time, outputs that must move
 CASES = [
-    ("gear_motion_effects", "LandingGear",
-     {"inertia": True, "gravity": True, "aero_drag": True, "pivot_friction": True},
-     {"piston_extension": lambda t: 0.381 + 0.0762 * t, "piston_speed": 0.0762,
-      "piston_acceleration": 0.0, "airspeed": lambda t: 40.0 + 10.0 * t,
-      "piston_force": 0.0, "valve_command": 0.0},
-     0.01, 2.0, ["gear_angle", "gear_angular_velocity", "piston_force_required", "wheel_speed"]),
-    ("gear_dynamics_hydraulics", "LandingGear",
-     {"drive": "dynamics", "inertia": True, "gravity": True, "aero_drag": True,
-      "pivot_friction": True, "end_stops": True, "hydraulics": True, "integrator": "radau",
-      "rtol": 1e-9, "atol": 1e-9, "max_substep": 0.01},
-     {"valve_command": 1.0, "airspeed": 40.0},
-     0.01, 1.0, ["gear_angle", "gear_angular_velocity", "cap_pressure", "piston_length"]),
-    ("hydraulic_actuator", "HydraulicActuator", {},
-     {"valve_command": lambda t: math.sin(TWO_PI * t),
-      "piston_extension": lambda t: 0.45 + 0.02 * math.sin(math.pi * t),
-      "piston_speed": lambda t: 0.02 * math.pi * math.cos(math.pi * t)},
-     0.01, 1.0, ["piston_force", "cap_pressure", "rod_pressure", "cap_flow"]),
-    ("piston_cycloidal", "PistonActuator",
-     {"profile": "cycloidal", "stroke_time": 2.0, "start_time": 0.25}, {},
-     0.01, 2.5, ["piston_extension", "piston_speed", "piston_acceleration"]),
-    ("suspension_static_ramp", "Suspension", {},
-     {"load": lambda t: 1000.0 * t, "road_height": 0.0, "road_rate": 0.0},
-     0.02, 4.0, ["deflection", "spring_force", "secant_stiffness", "tangent_stiffness"]),
-    ("suspension_sudden_load", "Suspension",
-     {"dynamics": True, "damping": True, "damping_coefficient": 200.0,
-      "input_interpolation": "hold"},
-     {"load": 2500.0, "road_height": 0.0, "road_rate": 0.0},
-     0.01, 1.5, ["deflection", "velocity", "acceleration", "kinetic_energy"]),
-    ("load_ramp", "LoadProfile",
-     {"shape": "ramp", "initial_value": 100.0, "final_value": 2000.0, "start_time": 0.2,
-      "duration": 1.0}, {},
-     0.01, 1.5, ["load"]),
-    ("road_sine", "RoadProfile",
-     {"shape": "sine", "amplitude": 0.01, "frequency": 2.0, "start_time": 0.1}, {},
-     0.01, 1.0, ["road_height", "road_rate"]),
-    ("crank_ramp", "CrankDrive",
-     {"initial_angle": 0.3, "initial_speed": 2.0, "speed": 10.0, "ramp_time": 1.0,
-      "start_time": 0.2}, {},
-     0.01, 1.5, ["crank_angle", "crank_speed"]),
-    ("four_bar_solver", "FourBar", {"solver": "constraint_solver"},
-     {"crank_angle": lambda t: math.pi / 6.0 + TWO_PI * t, "crank_speed": TWO_PI,
-      "crank_acceleration": 0.0},
-     0.005, 1.0, ["coupler_angle", "rocker_angle", "rocker_angular_velocity",
-                  "coupler_angular_acceleration", "transmission_angle"]),
-    ("slider_crank_offset", "SliderCrank", {"offset": 0.01},
-     {"crank_angle": lambda t: ENGINE_CRANK_SPEED * t, "crank_speed": ENGINE_CRANK_SPEED,
-      "crank_acceleration": 0.0},
-     0.0001, 0.02, ["slider_position", "slider_speed", "slider_acceleration", "coupler_angle"]),
-    ("camshaft_ramp", "CamshaftDrive",
-     {"initial_speed": 0.0, "speed": ENGINE_CRANK_SPEED, "ramp_time": 0.01}, {},
-     0.0001, 0.02, ["camshaft_angle", "camshaft_speed"]),
-    ("valve_train_spring", "ValveTrain", {"valve_spring": True, "cam_law": "polynomial_345"},
-     {"camshaft_angle": lambda t: CAMSHAFT_SPEED * t, "camshaft_speed": CAMSHAFT_SPEED,
-      "camshaft_acceleration": 0.0},
-     0.0002, 0.04, ["tappet_lift", "rocker_angle", "valve_lift", "valve_acceleration",
-                    "contact_force"]),
-    ("valve_spring_opening", "ValveSpring", {},
-     {"rocker_lift": VALVE_LIFT, "rocker_velocity": VALVE_VELOCITY,
-      "rocker_acceleration": VALVE_ACCELERATION},
-     0.00005, 0.01, ["valve_lift", "valve_velocity", "contact_force", "seat_force",
-                     "spring_force"]),
+    (
+        "gear_motion_effects",
+        "LandingGear",
+        {"inertia": True, "gravity": True, "aero_drag": True, "pivot_friction": True},
+        {
+            "piston_extension": lambda t: 0.381 + 0.0762 * t,
+            "piston_speed": 0.0762,
+            "piston_acceleration": 0.0,
+            "airspeed": lambda t: 40.0 + 10.0 * t,
+            "piston_force": 0.0,
+            "valve_command": 0.0,
+        },
+        0.01,
+        2.0,
+        ["gear_angle", "gear_angular_velocity", "piston_force_required", "wheel_speed"],
+    ),
+    (
+        "gear_dynamics_hydraulics",
+        "LandingGear",
+        {
+            "drive": "dynamics",
+            "inertia": True,
+            "gravity": True,
+            "aero_drag": True,
+            "pivot_friction": True,
+            "end_stops": True,
+            "hydraulics": True,
+            "integrator": "radau",
+            "rtol": 1e-9,
+            "atol": 1e-9,
+            "max_substep": 0.01,
+        },
+        {"valve_command": 1.0, "airspeed": 40.0},
+        0.01,
+        1.0,
+        ["gear_angle", "gear_angular_velocity", "cap_pressure", "piston_length"],
+    ),
+    (
+        "hydraulic_actuator",
+        "HydraulicActuator",
+        {},
+        {
+            "valve_command": lambda t: math.sin(TWO_PI * t),
+            "piston_extension": lambda t: 0.45 + 0.02 * math.sin(math.pi * t),
+            "piston_speed": lambda t: 0.02 * math.pi * math.cos(math.pi * t),
+        },
+        0.01,
+        1.0,
+        ["piston_force", "cap_pressure", "rod_pressure", "cap_flow"],
+    ),
+    (
+        "piston_cycloidal",
+        "PistonActuator",
+        {"profile": "cycloidal", "stroke_time": 2.0, "start_time": 0.25},
+        {},
+        0.01,
+        2.5,
+        ["piston_extension", "piston_speed", "piston_acceleration"],
+    ),
+    (
+        "suspension_static_ramp",
+        "Suspension",
+        {},
+        {"load": lambda t: 1000.0 * t, "road_height": 0.0, "road_rate": 0.0},
+        0.02,
+        4.0,
+        ["deflection", "spring_force", "secant_stiffness", "tangent_stiffness"],
+    ),
+    (
+        "suspension_sudden_load",
+        "Suspension",
+        {
+            "dynamics": True,
+            "damping": True,
+            "damping_coefficient": 200.0,
+            "input_interpolation": "hold",
+        },
+        {"load": 2500.0, "road_height": 0.0, "road_rate": 0.0},
+        0.01,
+        1.5,
+        ["deflection", "velocity", "acceleration", "kinetic_energy"],
+    ),
+    (
+        "load_ramp",
+        "LoadProfile",
+        {
+            "shape": "ramp",
+            "initial_value": 100.0,
+            "final_value": 2000.0,
+            "start_time": 0.2,
+            "duration": 1.0,
+        },
+        {},
+        0.01,
+        1.5,
+        ["load"],
+    ),
+    (
+        "road_sine",
+        "RoadProfile",
+        {"shape": "sine", "amplitude": 0.01, "frequency": 2.0, "start_time": 0.1},
+        {},
+        0.01,
+        1.0,
+        ["road_height", "road_rate"],
+    ),
+    (
+        "crank_ramp",
+        "CrankDrive",
+        {
+            "initial_angle": 0.3,
+            "initial_speed": 2.0,
+            "speed": 10.0,
+            "ramp_time": 1.0,
+            "start_time": 0.2,
+        },
+        {},
+        0.01,
+        1.5,
+        ["crank_angle", "crank_speed"],
+    ),
+    (
+        "four_bar_solver",
+        "FourBar",
+        {"solver": "constraint_solver"},
+        {
+            "crank_angle": lambda t: math.pi / 6.0 + TWO_PI * t,
+            "crank_speed": TWO_PI,
+            "crank_acceleration": 0.0,
+        },
+        0.005,
+        1.0,
+        [
+            "coupler_angle",
+            "rocker_angle",
+            "rocker_angular_velocity",
+            "coupler_angular_acceleration",
+            "transmission_angle",
+        ],
+    ),
+    (
+        "slider_crank_offset",
+        "SliderCrank",
+        {"offset": 0.01},
+        {
+            "crank_angle": lambda t: ENGINE_CRANK_SPEED * t,
+            "crank_speed": ENGINE_CRANK_SPEED,
+            "crank_acceleration": 0.0,
+        },
+        0.0001,
+        0.02,
+        ["slider_position", "slider_speed", "slider_acceleration", "coupler_angle"],
+    ),
+    (
+        "camshaft_ramp",
+        "CamshaftDrive",
+        {"initial_speed": 0.0, "speed": ENGINE_CRANK_SPEED, "ramp_time": 0.01},
+        {},
+        0.0001,
+        0.02,
+        ["camshaft_angle", "camshaft_speed"],
+    ),
+    (
+        "valve_train_spring",
+        "ValveTrain",
+        {"valve_spring": True, "cam_law": "polynomial_345"},
+        {
+            "camshaft_angle": lambda t: CAMSHAFT_SPEED * t,
+            "camshaft_speed": CAMSHAFT_SPEED,
+            "camshaft_acceleration": 0.0,
+        },
+        0.0002,
+        0.04,
+        ["tappet_lift", "rocker_angle", "valve_lift", "valve_acceleration", "contact_force"],
+    ),
+    (
+        "valve_spring_opening",
+        "ValveSpring",
+        {},
+        {
+            "rocker_lift": VALVE_LIFT,
+            "rocker_velocity": VALVE_VELOCITY,
+            "rocker_acceleration": VALVE_ACCELERATION,
+        },
+        0.00005,
+        0.01,
+        ["valve_lift", "valve_velocity", "contact_force", "seat_force", "spring_force"],
+    ),
 ]
 
 
@@ -136,8 +270,10 @@ def run_fmpy(path, parameters, inputs, step, stop_time, outputs):
         times = [driven.time]
         for start, end in zip(points, points[1:]):
             driven.time = start
-            status = driven.step(end - start, **{name: value(end) for name, value in
-                                                 inputs.items() if callable(value)})
+            status = driven.step(
+                end - start,
+                **{name: value(end) for name, value in inputs.items() if callable(value)},
+            )
             assert status is True, f"fmpy: step from t = {start} s refused: {status}"
             times.append(driven.time)
             for name in outputs:
@@ -166,14 +302,18 @@ def test_libcosim_agrees_with_fmpy(case, fmus):
     assert 100 <= steps <= 300
 
     times, values = run_libcosim(fmus[model], parameters, inputs, step, stop_time)
-    declared = {v.name: v.type for v in read_model_description(str(fmus[model])).modelVariables
-                if v.causality == "output"}
+    declared = {
+        v.name: v.type
+        for v in read_model_description(str(fmus[model])).modelVariables
+        if v.causality == "output"
+    }
     reals = [name for name, kind in declared.items() if kind == "Real"]
     integers = [name for name, kind in declared.items() if kind == "Integer"]
     assert sorted(values) == sorted(reals + integers)  # every Real and Integer output
 
-    fmpy_times, fmpy_values = run_fmpy(fmus[model], parameters, inputs, step, stop_time,
-                                       reals + integers)
+    fmpy_times, fmpy_values = run_fmpy(
+        fmus[model], parameters, inputs, step, stop_time, reals + integers
+    )
 
     nominal = np.arange(steps + 1) * step
     assert times.shape == fmpy_times.shape == (steps + 1,)
@@ -185,8 +325,10 @@ def test_libcosim_agrees_with_fmpy(case, fmus):
         a, b = values[name], fmpy_values[name]
         assert np.all(np.isfinite(a)), name
         bad = np.flatnonzero(np.abs(a - b) > RTOL * np.maximum(np.abs(a), np.abs(b)) + FLOOR)
-        assert bad.size == 0, (f"{name}: {bad.size} sample(s) differ, first at t = "
-                               f"{times[bad[0]]!r} s: libcosim {a[bad[0]]!r}, fmpy {b[bad[0]]!r}")
+        assert bad.size == 0, (
+            f"{name}: {bad.size} sample(s) differ, first at t = "
+            f"{times[bad[0]]!r} s: libcosim {a[bad[0]]!r}, fmpy {b[bad[0]]!r}"
+        )
         assert relative_difference(a, b) <= RTOL
     for name in integers:
         assert np.array_equal(values[name], fmpy_values[name]), name
@@ -205,8 +347,9 @@ def test_inputs_as_callables_step_like_simulate_until(fmus):
     parameters = {"drive": "dynamics", "inertia": True, "gravity": True, "end_stops": True}
     held = {"piston_force": 1500.0}
     _, at_once = run_libcosim(fmus["LandingGear"], parameters, held, 0.01, 1.0)
-    _, stepped = run_libcosim(fmus["LandingGear"], parameters,
-                              {"piston_force": lambda t: 1500.0}, 0.01, 1.0)
+    _, stepped = run_libcosim(
+        fmus["LandingGear"], parameters, {"piston_force": lambda t: 1500.0}, 0.01, 1.0
+    )
     assert np.ptp(at_once["gear_angle"]) > 0.01
     for name in at_once:
         assert np.array_equal(at_once[name], stepped[name]), name
@@ -271,8 +414,14 @@ def test_a_discarded_step_is_a_libcosim_failure(fmus, capfd):
     assert "Step not complete" in str(error) and "refused" in str(error)
     assert error.time == pytest.approx(0.02, abs=1e-12)
     assert list(error.times) == pytest.approx([0.0, 0.01, 0.02], abs=1e-12)
-    _, good = run_libcosim(path, {}, {"crank_angle": lambda t: 0.5 + TWO_PI * t,
-                                      "crank_speed": TWO_PI}, 0.01, 0.02, ["rocker_angle"])
+    _, good = run_libcosim(
+        path,
+        {},
+        {"crank_angle": lambda t: 0.5 + TWO_PI * t, "crank_speed": TWO_PI},
+        0.01,
+        0.02,
+        ["rocker_angle"],
+    )
     assert np.array_equal(error.values["rocker_angle"], good["rocker_angle"])
     log = capfd.readouterr()
     assert "refused at t = 0.03 s: crank_angle = nan rad is outside the valid range" in log.out
@@ -287,8 +436,13 @@ def test_a_discarded_step_is_a_libcosim_failure(fmus, capfd):
 def test_a_discard_stops_simulate_until_where_it_happened(fmus, capfd):
     """A refusal in the middle of simulate_until (a dynamic snap-through with
     stop_on_snap_through, in the step from 0.59 s): False, the time, the samples before it."""
-    parameters = {"dynamics": True, "damping": True, "damping_coefficient": 200.0,
-                  "input_interpolation": "hold", "stop_on_snap_through": True}
+    parameters = {
+        "dynamics": True,
+        "damping": True,
+        "damping_coefficient": 200.0,
+        "input_interpolation": "hold",
+        "stop_on_snap_through": True,
+    }
     inputs = {"load": 2500.0, "road_height": 0.0, "road_rate": 0.0}
     capfd.readouterr()
     with pytest.raises(LibcosimError, match=r"simulate_until.*Step not complete") as caught:
@@ -304,8 +458,9 @@ def test_a_discard_stops_simulate_until_where_it_happened(fmus, capfd):
 def test_an_invalid_parameter_fails_simulate_until(fmus, capfd):
     capfd.readouterr()
     with pytest.raises(LibcosimError) as caught:
-        run_libcosim(fmus["PistonActuator"], {"stroke_time": 5.0}, {}, 0.01, 0.5,
-                     instance="too_slow")
+        run_libcosim(
+            fmus["PistonActuator"], {"stroke_time": 5.0}, {}, 0.01, 0.5, instance="too_slow"
+        )
     assert "simulate_until" in str(caught.value) and "Step not complete" in str(caught.value)
     assert caught.value.time == 0.0
     assert "stroke_time = 5.0 s is outside the valid range" in capfd.readouterr().out

@@ -21,42 +21,64 @@ from test_robustness import _FAILING_SCENE
 
 PAST_THE_STROKE = 2.1 * 0.3048  # m: test_robustness's scene leaves the gear's assembly range
 
-STROKE_END = 2.0 * 0.3048   # m: the coursework's stroke, retracts within the scene
+STROKE_END = 2.0 * 0.3048  # m: the coursework's stroke, retracts within the scene
 
 
-def write_scene(folder, name="same", stop_time=1.0, end_extension=STROKE_END,
-                file_name="scene.toml"):
+def write_scene(
+    folder, name="same", stop_time=1.0, end_extension=STROKE_END, file_name="scene.toml"
+):
     """test_robustness's gear scene, which fails past the stroke (end_extension 2.1 ft, near
     t = 2.8 s), renamed and with its stop time and stroke end replaced."""
-    text = (_FAILING_SCENE.replace('name = "failing"', f"name = {json.dumps(name)}")
-            .replace("stop_time = 3.0", f"stop_time = {stop_time!r}")
-            .replace(f"end_extension = {PAST_THE_STROKE!r}", f"end_extension = {end_extension!r}"))
+    text = (
+        _FAILING_SCENE.replace('name = "failing"', f"name = {json.dumps(name)}")
+        .replace("stop_time = 3.0", f"stop_time = {stop_time!r}")
+        .replace(f"end_extension = {PAST_THE_STROKE!r}", f"end_extension = {end_extension!r}")
+    )
     path = Path(folder) / file_name
     path.write_text(text)
     return path
 
 
 def run(scene, out, fmu_dir, capsys):
-    code = cli_main(["run", str(scene), "--out", str(out), "--fmu-dir", str(fmu_dir),
-                     "--no-plot"])
+    code = cli_main(["run", str(scene), "--out", str(out), "--fmu-dir", str(fmu_dir), "--no-plot"])
     captured = capsys.readouterr()
     return code, captured.out, captured.err
 
 
 def no_simulation(monkeypatch):
     """Make any simulation fail the test: the checks must come first."""
+
     def refuse(*arguments, **keywords):
         raise AssertionError("a simulation ran although the output folder is unusable")
+
     monkeypatch.setattr(Simulation, "run", refuse)
 
 
 # --- scene names --------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", ["../escaped", "/tmp/absolute", "", ".", "..", ".hidden",
-                                  "sub/dir", "back\\slash", "line\nbreak", "x" * 201])
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "../escaped",
+        "/tmp/absolute",
+        "",
+        ".",
+        "..",
+        ".hidden",
+        "sub/dir",
+        "back\\slash",
+        "line\nbreak",
+        "x" * 201,
+    ],
+)
 def test_a_scene_name_must_be_a_plain_file_name(tmp_path, name):
-    data = {"name": name, "stop_time": 1.0, "step": 0.1,
-            "components": {"actuator": {"fmu": "PistonActuator"}}}
+    data = {
+        "name": name,
+        "stop_time": 1.0,
+        "step": 0.1,
+        "components": {"actuator": {"fmu": "PistonActuator"}},
+    }
     with pytest.raises(SceneError, match="name = .* must be a plain file name"):
         parse_scene(data, tmp_path / "scene.toml")
 
@@ -72,8 +94,15 @@ def test_a_scene_named_outside_the_output_folder_writes_nothing(fmu_dir, tmp_pat
 
 def test_the_writer_refuses_a_file_outside_the_output_folder(tmp_path):
     """The second line of defence: a Scene built in Python without parse_scene."""
-    scene = parse_scene({"name": "fine", "stop_time": 1.0, "step": 0.1,
-                         "components": {"a": {"fmu": "PistonActuator"}}}, tmp_path / "s.toml")
+    scene = parse_scene(
+        {
+            "name": "fine",
+            "stop_time": 1.0,
+            "step": 0.1,
+            "components": {"a": {"fmu": "PistonActuator"}},
+        },
+        tmp_path / "s.toml",
+    )
     scene.name = "../outside"
     result = Result(scene=scene, times=[0.0], columns={"a.x": [1.0]}, units={"a.x": "m"})
     out = tmp_path / "out"
@@ -86,14 +115,18 @@ def test_the_writer_refuses_a_file_outside_the_output_folder(tmp_path):
 
 # --- the output folder, checked first ------------------------------------------------------------
 
-def test_out_that_is_a_regular_file_stops_before_the_simulation(fmu_dir, tmp_path, capsys,
-                                                                 monkeypatch):
+
+def test_out_that_is_a_regular_file_stops_before_the_simulation(
+    fmu_dir, tmp_path, capsys, monkeypatch
+):
     no_simulation(monkeypatch)
     out = tmp_path / "out"
     out.write_text("not a folder")
     code, _, err = run(write_scene(tmp_path), out, fmu_dir, capsys)
     assert code == 2, err
-    assert err.strip().splitlines() == [f"output error: output folder {out} is not a directory"], err
+    assert err.strip().splitlines() == [f"output error: output folder {out} is not a directory"], (
+        err
+    )
     assert out.read_text() == "not a folder"
 
 
@@ -116,6 +149,7 @@ def _deny_writes_below(folder, monkeypatch):
         if Path(path).parent == folder and flags & os.O_CREAT:
             raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
         return original(path, flags, *arguments, **keywords)
+
     monkeypatch.setattr(os, "open", refusing)
     return lambda: folder.chmod(0o755)
 
@@ -131,8 +165,9 @@ def test_read_only_out_stops_before_the_simulation(fmu_dir, tmp_path, capsys, mo
         restore()
     assert code == 2, err
     lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith(f"output error: output folder {out} is not "
-                                                   f"writable:"), err
+    assert len(lines) == 1 and lines[0].startswith(
+        f"output error: output folder {out} is not writable:"
+    ), err
     assert list(out.iterdir()) == []
 
 
@@ -144,6 +179,7 @@ def test_a_missing_out_is_created_with_its_parents(fmu_dir, tmp_path, capsys):
 
 
 # --- how the files are written ----------------------------------------------------------------
+
 
 @pytest.mark.parametrize("umask, mode", [(0o022, 0o644), (0o027, 0o640), (0o002, 0o664)])
 def test_files_get_the_permissions_the_umask_gives(fmu_dir, tmp_path, capsys, umask, mode):
@@ -166,6 +202,7 @@ def test_a_group_is_written_all_or_none(tmp_path):
     def failing(handle):
         handle.write("half")
         raise RuntimeError("the JSON cannot be made")
+
     with pytest.raises(RuntimeError, match="cannot be made"):
         files.atomic_write_all({first: "new csv\n", second: failing})
     assert first.read_text() == "old csv\n" and second.read_text() == "old json\n"
@@ -183,12 +220,12 @@ def _disk_full_after(budget, monkeypatch):
             raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
         left[0] -= len(data)
         return original(fd, data)
+
     monkeypatch.setattr(os, "write", write)
 
 
 @pytest.mark.parametrize("budget", [0, 2000])  # nothing fits; the CSV fits, the JSON not
-def test_a_full_disk_writes_neither_csv_nor_json(fmu_dir, tmp_path, capsys, monkeypatch,
-                                                 budget):
+def test_a_full_disk_writes_neither_csv_nor_json(fmu_dir, tmp_path, capsys, monkeypatch, budget):
     out = tmp_path / "out"
     out.mkdir()
     scene = write_scene(tmp_path)
@@ -207,17 +244,24 @@ def test_a_failed_run_moves_an_older_complete_result_aside(fmu_dir, tmp_path, ca
     good = write_scene(tmp_path, stop_time=1.0)
     assert run(good, out, fmu_dir, capsys)[0] == 0
     complete = (out / "same.csv").read_text()
-    failing = write_scene(tmp_path, stop_time=3.0, end_extension=PAST_THE_STROKE,
-                          file_name="failing.toml")
+    failing = write_scene(
+        tmp_path, stop_time=3.0, end_extension=PAST_THE_STROKE, file_name="failing.toml"
+    )
     code, _, err = run(failing, out, fmu_dir, capsys)
     assert code == 1, err
     assert sorted(p.name for p in out.iterdir()) == [
-        "same.partial.csv", "same.partial.json", "same.previous.csv", "same.previous.json"]
+        "same.partial.csv",
+        "same.partial.json",
+        "same.previous.csv",
+        "same.previous.json",
+    ]
     assert (out / "same.previous.csv").read_text() == complete
     assert f"older complete result moved aside: {out / 'same.previous.csv'}" in err
     meta = json.loads((out / "same.partial.json").read_text())
     assert meta["partial"] is True and meta["moved_aside"] == [
-        str(out / "same.previous.csv"), str(out / "same.previous.json")]
+        str(out / "same.previous.csv"),
+        str(out / "same.previous.json"),
+    ]
     # a complete run again: the current result is back under its own name
     assert run(good, out, fmu_dir, capsys)[0] == 0
     assert (out / "same.csv").read_text() == complete

@@ -31,8 +31,8 @@ R_B, L1, A, B, LT, LV, C, L3 = G
 
 # Ends of f, f1, f2, f3 at x = 0 and x = 1 (from the formulas by hand).
 END_VALUES = {
-    "harmonic": ((0.0, 0.0, math.pi ** 2 / 2, 0.0), (1.0, 0.0, -math.pi ** 2 / 2, 0.0)),
-    "cycloidal": ((0.0, 0.0, 0.0, 4 * math.pi ** 2), (1.0, 0.0, 0.0, 4 * math.pi ** 2)),
+    "harmonic": ((0.0, 0.0, math.pi**2 / 2, 0.0), (1.0, 0.0, -(math.pi**2) / 2, 0.0)),
+    "cycloidal": ((0.0, 0.0, 0.0, 4 * math.pi**2), (1.0, 0.0, 0.0, 4 * math.pi**2)),
     "polynomial_345": ((0.0, 0.0, 0.0, 60.0), (1.0, 0.0, 0.0, 60.0)),
     "polynomial_4567": ((0.0, 0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0)),
 }
@@ -41,18 +41,32 @@ END_VALUES = {
 def textbook(law, x):
     """The laws exactly as written in the brief (expanded), with hand derivatives."""
     if law == "harmonic":
-        return ((1 - math.cos(math.pi * x)) / 2, math.pi / 2 * math.sin(math.pi * x),
-                math.pi ** 2 / 2 * math.cos(math.pi * x), -math.pi ** 3 / 2 * math.sin(math.pi * x))
+        return (
+            (1 - math.cos(math.pi * x)) / 2,
+            math.pi / 2 * math.sin(math.pi * x),
+            math.pi**2 / 2 * math.cos(math.pi * x),
+            -(math.pi**3) / 2 * math.sin(math.pi * x),
+        )
     if law == "cycloidal":
-        return (x - math.sin(TAU * x) / TAU, 1 - math.cos(TAU * x), TAU * math.sin(TAU * x),
-                TAU ** 2 * math.cos(TAU * x))
+        return (
+            x - math.sin(TAU * x) / TAU,
+            1 - math.cos(TAU * x),
+            TAU * math.sin(TAU * x),
+            TAU**2 * math.cos(TAU * x),
+        )
     if law == "polynomial_345":
-        return (10 * x ** 3 - 15 * x ** 4 + 6 * x ** 5, 30 * x ** 2 - 60 * x ** 3 + 30 * x ** 4,
-                60 * x - 180 * x ** 2 + 120 * x ** 3, 60 - 360 * x + 360 * x ** 2)
-    return (35 * x ** 4 - 84 * x ** 5 + 70 * x ** 6 - 20 * x ** 7,
-            140 * x ** 3 - 420 * x ** 4 + 420 * x ** 5 - 140 * x ** 6,
-            420 * x ** 2 - 1680 * x ** 3 + 2100 * x ** 4 - 840 * x ** 5,
-            840 * x - 5040 * x ** 2 + 8400 * x ** 3 - 4200 * x ** 4)
+        return (
+            10 * x**3 - 15 * x**4 + 6 * x**5,
+            30 * x**2 - 60 * x**3 + 30 * x**4,
+            60 * x - 180 * x**2 + 120 * x**3,
+            60 - 360 * x + 360 * x**2,
+        )
+    return (
+        35 * x**4 - 84 * x**5 + 70 * x**6 - 20 * x**7,
+        140 * x**3 - 420 * x**4 + 420 * x**5 - 140 * x**6,
+        420 * x**2 - 1680 * x**3 + 2100 * x**4 - 840 * x**5,
+        840 * x - 5040 * x**2 + 8400 * x**3 - 4200 * x**4,
+    )
 
 
 def golden_max(function, low, high):
@@ -78,6 +92,7 @@ def scaled_close(got, expected, rtol, scale):
 
 
 # --- normalized laws --------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("law", cl.CAM_LAWS)
 def test_end_values_are_exact(law):
@@ -146,24 +161,27 @@ def test_peak_coefficients_equal_numerical_maxima(law):
         dense = values[i]
         assert dense <= closed * (1 + 1e-14)
         assert dense == pytest.approx(closed, rel=1e-7)
-        refined = golden_max(lambda x: abs(cl.normalized(law, x)[k]),
-                             grid[max(i - 1, 0)], grid[min(i + 1, n)])
+        refined = golden_max(
+            lambda x: abs(cl.normalized(law, x)[k]), grid[max(i - 1, 0)], grid[min(i + 1, n)]
+        )
         assert abs(refined - closed) <= 1e-12 * closed, (law, k, refined, closed)
 
 
 def test_peak_coefficients_closed_forms():
-    assert cl.peak_coefficients("harmonic") == (math.pi / 2, math.pi ** 2 / 2, math.pi ** 3 / 2)
-    assert cl.peak_coefficients("cycloidal") == (2.0, TAU, 4 * math.pi ** 2)
+    assert cl.peak_coefficients("harmonic") == (math.pi / 2, math.pi**2 / 2, math.pi**3 / 2)
+    assert cl.peak_coefficients("cycloidal") == (2.0, TAU, 4 * math.pi**2)
     p345 = cl.peak_coefficients("polynomial_345")
     assert p345.velocity == 1.875 and p345.jerk == 60.0
     assert p345.acceleration == pytest.approx(10 / math.sqrt(3), rel=1e-15)
-    assert cl.normalized("polynomial_345", (3 - math.sqrt(3)) / 6).f2 == \
-        pytest.approx(p345.acceleration, rel=1e-14)
+    assert cl.normalized("polynomial_345", (3 - math.sqrt(3)) / 6).f2 == pytest.approx(
+        p345.acceleration, rel=1e-14
+    )
     p4567 = cl.peak_coefficients("polynomial_4567")
     assert p4567.velocity == 35 / 16 and p4567.jerk == 52.5
     x_star = (5 - math.sqrt(5)) / 10
-    assert p4567.acceleration == pytest.approx(cl.normalized("polynomial_4567", x_star).f2,
-                                               rel=1e-14)
+    assert p4567.acceleration == pytest.approx(
+        cl.normalized("polynomial_4567", x_star).f2, rel=1e-14
+    )
     assert p4567.acceleration == pytest.approx(84 * math.sqrt(5) / 25, rel=1e-15)
     assert round(p4567.acceleration, 4) == 7.5132
 
@@ -181,18 +199,21 @@ def test_unknown_law_and_phase_out_of_range():
 
 # --- continuity at the segment ends -----------------------------------------------------------
 
-BOUNDARY_PROFILE = dict(lift=0.008, rise_start=0.0, rise_angle=1.0, high_dwell_angle=0.5,
-                        return_angle=1.0)  # boundaries at 0, 1, 1.5 and 2.5 rad, all exact
+BOUNDARY_PROFILE = dict(
+    lift=0.008, rise_start=0.0, rise_angle=1.0, high_dwell_angle=0.5, return_angle=1.0
+)  # boundaries at 0, 1, 1.5 and 2.5 rad, all exact
 
 
 def _jumps(profile):
     """Largest |right - left| of (s, s1, s2, s3) over the four segment boundaries."""
     dwell_high = (profile.lift, 0.0, 0.0, 0.0)
     dwell_low = (0.0, 0.0, 0.0, 0.0)
-    pairs = [(dwell_low, cl.segment_lift(profile, "rise", 0.0)),
-             (cl.segment_lift(profile, "rise", 1.0), dwell_high),
-             (dwell_high, cl.segment_lift(profile, "return", 0.0)),
-             (cl.segment_lift(profile, "return", 1.0), dwell_low)]
+    pairs = [
+        (dwell_low, cl.segment_lift(profile, "rise", 0.0)),
+        (cl.segment_lift(profile, "rise", 1.0), dwell_high),
+        (dwell_high, cl.segment_lift(profile, "return", 0.0)),
+        (cl.segment_lift(profile, "return", 1.0), dwell_low),
+    ]
     return [max(abs(right[k] - left[k]) for left, right in pairs) for k in range(4)]
 
 
@@ -204,8 +225,7 @@ def test_continuity_table_matches_the_jumps(law):
     continuous = [jumps[k] <= 1e-12 * scale[k - 1] for k in (1, 2, 3)]
     assert jumps[0] == 0.0  # the lift itself is always continuous
     # a derivative is continuous only if every lower one is (a jump makes an impulse above it)
-    expected = cl.Continuity(continuous[0], continuous[0] and continuous[1],
-                             all(continuous))
+    expected = cl.Continuity(continuous[0], continuous[0] and continuous[1], all(continuous))
     assert cl.CONTINUITY[law] == expected
     assert cl.CONTINUITY[law].velocity
 
@@ -214,10 +234,12 @@ def test_continuity_table_matches_the_jumps(law):
 def test_cam_lift_shows_the_jumps_and_is_left_closed(law):
     profile = cl.check_profile(law, **BOUNDARY_PROFILE)
     lift = profile.lift
-    for boundary, right in [(0.0, cl.segment_lift(profile, "rise", 0.0)),
-                            (1.0, (lift, 0.0, 0.0, 0.0)),
-                            (1.5, cl.segment_lift(profile, "return", 0.0)),
-                            (2.5, (0.0, 0.0, 0.0, 0.0))]:
+    for boundary, right in [
+        (0.0, cl.segment_lift(profile, "rise", 0.0)),
+        (1.0, (lift, 0.0, 0.0, 0.0)),
+        (1.5, cl.segment_lift(profile, "return", 0.0)),
+        (2.5, (0.0, 0.0, 0.0, 0.0)),
+    ]:
         at = cl.cam_lift(profile, boundary)
         assert tuple(at) == pytest.approx(tuple(right), abs=1e-15)  # closed on the left
         before = cl.cam_lift(profile, boundary - 1e-9)
@@ -226,14 +248,16 @@ def test_cam_lift_shows_the_jumps_and_is_left_closed(law):
             if smooth:
                 assert abs(after[k] - before[k]) <= 1e-6 * lift, (boundary, k)
     if law == "harmonic":  # acceleration jumps by lift pi^2 / (2 beta^2) at the rise start
-        assert cl.cam_lift(profile, 0.0).s2 == pytest.approx(0.008 * math.pi ** 2 / 2, rel=1e-15)
+        assert cl.cam_lift(profile, 0.0).s2 == pytest.approx(0.008 * math.pi**2 / 2, rel=1e-15)
         assert cl.cam_lift(profile, -1e-12).s2 == 0.0
         assert cl.cam_lift(profile, 1.0).s2 == 0.0
-        assert cl.cam_lift(profile, 1.0 - 1e-12).s2 == pytest.approx(-0.008 * math.pi ** 2 / 2,
-                                                                    rel=1e-9)
+        assert cl.cam_lift(profile, 1.0 - 1e-12).s2 == pytest.approx(
+            -0.008 * math.pi**2 / 2, rel=1e-9
+        )
 
 
 # --- profiles ---------------------------------------------------------------------------------
+
 
 def test_check_profile_returns_floats():
     profile = cl.check_profile("cycloidal", 7e-3, -1, 1, 0, 2)
@@ -244,15 +268,28 @@ def test_check_profile_returns_floats():
     assert full.rise_angle + full.high_dwell_angle + full.return_angle <= TAU
 
 
-@pytest.mark.parametrize("changes, name", [
-    (dict(lift=0.0), "lift"), (dict(lift=-0.001), "lift"), (dict(lift=math.nan), "lift"),
-    (dict(rise_start=math.inf), "rise_start"), (dict(rise_angle=0.0), "rise_angle"),
-    (dict(return_angle=-0.2), "return_angle"), (dict(high_dwell_angle=-0.1), "high_dwell_angle"),
-    (dict(rise_angle="steep"), "rise_angle"),
-])
+@pytest.mark.parametrize(
+    "changes, name",
+    [
+        (dict(lift=0.0), "lift"),
+        (dict(lift=-0.001), "lift"),
+        (dict(lift=math.nan), "lift"),
+        (dict(rise_start=math.inf), "rise_start"),
+        (dict(rise_angle=0.0), "rise_angle"),
+        (dict(return_angle=-0.2), "return_angle"),
+        (dict(high_dwell_angle=-0.1), "high_dwell_angle"),
+        (dict(rise_angle="steep"), "rise_angle"),
+    ],
+)
 def test_check_profile_rejects_bad_values(changes, name):
-    values = dict(law="harmonic", lift=0.007, rise_start=0.0, rise_angle=1.2,
-                  high_dwell_angle=0.1, return_angle=1.2)
+    values = dict(
+        law="harmonic",
+        lift=0.007,
+        rise_start=0.0,
+        rise_angle=1.2,
+        high_dwell_angle=0.1,
+        return_angle=1.2,
+    )
     values.update(changes)
     with pytest.raises(RangeError) as info:
         cl.check_profile(**values)
@@ -301,16 +338,16 @@ def test_lift_derivatives_match_finite_differences(law):
         lo, hi = cl.cam_lift(profile, angle - step), cl.cam_lift(profile, angle + step)
         here = cl.cam_lift(profile, angle)
         for k in (1, 2, 3):
-            scale = 0.007 * peaks[k - 1] / 1.2 ** k
+            scale = 0.007 * peaks[k - 1] / 1.2**k
             assert abs(here[k] - (hi[k - 1] - lo[k - 1]) / (2 * step)) <= 1e-6 * scale, (angle, k)
 
 
 def test_return_end_keeps_relative_accuracy():
     profile = cl.check_profile("polynomial_345", 0.007, 0.0, 1.0, 0.0, 1.0)
     # 1 - f(x) = f(1 - x) near the closing: lift * f(1e-6) with f(y) ~ 10 y^3
-    y = 2.0 ** -20
+    y = 2.0**-20
     s = cl.segment_lift(profile, "return", 1.0 - y).s
-    assert s == pytest.approx(0.007 * (10 * y ** 3 - 15 * y ** 4 + 6 * y ** 5), rel=1e-14)
+    assert s == pytest.approx(0.007 * (10 * y**3 - 15 * y**4 + 6 * y**5), rel=1e-14)
 
 
 def test_periodicity_over_revolutions():
@@ -329,8 +366,8 @@ def test_angle_reduction_after_a_million_revolutions():
     origin = profile._replace(rise_start=0.0)
     pi = Fraction(Decimal("3.14159265358979323846264338327950288419716939937510582097494"))
     s1_max = 0.007 * 2.0 / 1.2
-    s2_max = 0.007 * TAU / 1.2 ** 2
-    for revolutions in (10, 1000, 10 ** 6, 10 ** 8):
+    s2_max = 0.007 * TAU / 1.2**2
+    for revolutions in (10, 1000, 10**6, 10**8):
         for offset in (0.1, 0.5, 0.9, 1.27, 2.0):
             angle = offset + revolutions * TAU  # a float: its exact value is the input
             exact = (Fraction(angle) - Fraction(0.37)) % (2 * pi)
@@ -364,6 +401,7 @@ def test_follower_motion_is_the_time_derivative():
 
 
 # --- valve-train geometry ---------------------------------------------------------------------
+
 
 def test_default_geometry_figures():
     assert vt.check_geometry(G) == G
@@ -420,14 +458,22 @@ def test_position_round_trips():
         assert vt.rocker_from_valve(G, y3) == pytest.approx(phi, abs=1e-13)
 
 
-@pytest.mark.parametrize("field, value, name", [
-    ("cam_base_radius", 0.0, "cam_base_radius"), ("pushrod_length", 0.1, "pushrod_length"),
-    ("pushrod_length", 0.3, "pushrod_length"), ("pushrod_length", -1.0, "pushrod_length"),
-    ("rocker_pivot_x", -0.01, "rocker_pivot_x"), ("rocker_pivot_y", 0.01, "rocker_pivot_y"),
-    ("tappet_arm", 0.0, "tappet_arm"), ("valve_arm", math.nan, "valve_arm"),
-    ("valve_axis_x", 0.02, "valve_axis_x"), ("valve_link_length", 1e-4, "valve_link_length"),
-    ("valve_link_length", math.inf, "valve_link_length"),
-])
+@pytest.mark.parametrize(
+    "field, value, name",
+    [
+        ("cam_base_radius", 0.0, "cam_base_radius"),
+        ("pushrod_length", 0.1, "pushrod_length"),
+        ("pushrod_length", 0.3, "pushrod_length"),
+        ("pushrod_length", -1.0, "pushrod_length"),
+        ("rocker_pivot_x", -0.01, "rocker_pivot_x"),
+        ("rocker_pivot_y", 0.01, "rocker_pivot_y"),
+        ("tappet_arm", 0.0, "tappet_arm"),
+        ("valve_arm", math.nan, "valve_arm"),
+        ("valve_axis_x", 0.02, "valve_axis_x"),
+        ("valve_link_length", 1e-4, "valve_link_length"),
+        ("valve_link_length", math.inf, "valve_link_length"),
+    ],
+)
 def test_check_geometry_names_the_parameter(field, value, name):
     with pytest.raises(RangeError) as info:
         vt.check_geometry(G._replace(**{field: value}))
@@ -502,6 +548,7 @@ def test_tappet_from_rocker_singular_when_pushrod_horizontal():
 
 # --- rates --------------------------------------------------------------------------------------
 
+
 def _tappet_path(t):
     return 0.004 + 0.003 * math.sin(t), 0.003 * math.cos(t), -0.003 * math.sin(t)
 
@@ -530,11 +577,17 @@ def test_inverse_rates_match_finite_differences():
         m = vt.inverse(G, *path(t))
         lo, hi = vt.inverse(G, *path(t - step)), vt.inverse(G, *path(t + step))
         assert abs(m.tappet_velocity - (hi.tappet_lift - lo.tappet_lift) / (2 * step)) <= 1e-11
-        assert abs(m.tappet_acceleration
-                   - (hi.tappet_velocity - lo.tappet_velocity) / (2 * step)) <= 1e-11
-        assert abs(m.rocker_angular_acceleration
-                   - (hi.rocker_angular_velocity - lo.rocker_angular_velocity) / (2 * step)) \
+        assert (
+            abs(m.tappet_acceleration - (hi.tappet_velocity - lo.tappet_velocity) / (2 * step))
+            <= 1e-11
+        )
+        assert (
+            abs(
+                m.rocker_angular_acceleration
+                - (hi.rocker_angular_velocity - lo.rocker_angular_velocity) / (2 * step)
+            )
             <= 1e-9
+        )
 
 
 def test_forward_inverse_round_trip():
@@ -545,15 +598,18 @@ def test_forward_inverse_round_trip():
         back = vt.inverse(G, m.valve_lift, m.valve_velocity, m.valve_acceleration)
         assert abs(back.tappet_lift - lift) <= 1e-12 * 0.03
         assert back.tappet_velocity == pytest.approx(m.tappet_velocity, rel=1e-12, abs=1e-15)
-        assert back.tappet_acceleration == pytest.approx(m.tappet_acceleration, rel=1e-12,
-                                                         abs=1e-12)
+        assert back.tappet_acceleration == pytest.approx(
+            m.tappet_acceleration, rel=1e-12, abs=1e-12
+        )
         for k in (3, 4, 5):
             assert back[k] == pytest.approx(m[k], rel=1e-12, abs=1e-14)
 
 
 def test_non_finite_rates_are_refused():
-    for args, name in [((0.001, math.nan, 0.0), "tappet_velocity"),
-                       ((0.001, 0.0, math.inf), "tappet_acceleration")]:
+    for args, name in [
+        ((0.001, math.nan, 0.0), "tappet_velocity"),
+        ((0.001, 0.0, math.inf), "tappet_acceleration"),
+    ]:
         with pytest.raises(RangeError) as info:
             vt.forward(G, *args)
         assert info.value.name == name
@@ -563,6 +619,7 @@ def test_non_finite_rates_are_refused():
 
 
 # --- stdlib against numpy -------------------------------------------------------------------
+
 
 def _close_columns(got, want, rtol):
     for key in ref.MOTION_FIELDS:
@@ -578,14 +635,15 @@ def test_stdlib_matches_numpy_over_revolutions(law):
     angles = -0.8 + TAU * (np.arange(1440) + 0.3) / 1440 + np.repeat([0.0, 5 * TAU], 720)
     for speed, accel in ((300.0, 0.0), (-80.0, 1500.0)):
         s, s1, s2 = ref.cam_lift(*args, angles)
-        numpy_tappet = (s, s1 * speed, s2 * speed ** 2 + s1 * accel)
+        numpy_tappet = (s, s1 * speed, s2 * speed**2 + s1 * accel)
         rows = [vt.forward(G, *cl.follower_motion(profile, a, speed, accel)) for a in angles]
         mine = {key: np.array([r[k] for r in rows]) for k, key in enumerate(ref.MOTION_FIELDS)}
         _close_columns(mine, ref.forward(GD, *numpy_tappet), 1e-12)
         back = [vt.inverse(G, r.valve_lift, r.valve_velocity, r.valve_acceleration) for r in rows]
         mine_back = {key: np.array([r[k] for r in back]) for k, key in enumerate(ref.MOTION_FIELDS)}
-        numpy_back = ref.inverse(GD, mine["valve_lift"], mine["valve_velocity"],
-                                 mine["valve_acceleration"])
+        numpy_back = ref.inverse(
+            GD, mine["valve_lift"], mine["valve_velocity"], mine["valve_acceleration"]
+        )
         _close_columns(mine_back, numpy_back, 1e-12)
         _close_columns(mine_back, mine, 1e-12)
 
@@ -596,8 +654,9 @@ def test_numpy_revolution_helper_and_cam_law_agree():
     for i, angle in enumerate([0.3, 1.25, 2.0, 4.0]):
         m = vt.forward(G, *cl.follower_motion(profile, angle, 100.0, 0.0))
         assert cols["valve_lift"][i] == pytest.approx(m.valve_lift, rel=1e-12, abs=1e-16)
-        assert cols["valve_acceleration"][i] == pytest.approx(m.valve_acceleration, rel=1e-12,
-                                                              abs=1e-10)
+        assert cols["valve_acceleration"][i] == pytest.approx(
+            m.valve_acceleration, rel=1e-12, abs=1e-10
+        )
 
 
 # --- contact force and float speed ------------------------------------------------------------
@@ -607,11 +666,14 @@ MASS, STIFFNESS, PRELOAD = 0.1, 50e3, 300.0
 
 def test_contact_force_is_m_a_plus_k_x_plus_f0():
     assert vt.contact_force(0.1, 50e3, 300.0, 0.01, -2000.0) == pytest.approx(
-        0.1 * -2000.0 + 50e3 * 0.01 + 300.0, rel=1e-15)
-    for args, name in [((0.0, 1.0, 1.0, 0.0, 0.0), "valve_mass"),
-                       ((0.1, -1.0, 1.0, 0.0, 0.0), "spring_stiffness"),
-                       ((0.1, 1.0, -5.0, 0.0, 0.0), "spring_preload"),
-                       ((0.1, 1.0, 1.0, math.nan, 0.0), "valve_lift")]:
+        0.1 * -2000.0 + 50e3 * 0.01 + 300.0, rel=1e-15
+    )
+    for args, name in [
+        ((0.0, 1.0, 1.0, 0.0, 0.0), "valve_mass"),
+        ((0.1, -1.0, 1.0, 0.0, 0.0), "spring_stiffness"),
+        ((0.1, 1.0, -5.0, 0.0, 0.0), "spring_preload"),
+        ((0.1, 1.0, 1.0, math.nan, 0.0), "valve_lift"),
+    ]:
         with pytest.raises(RangeError) as info:
             vt.contact_force(*args)
         assert info.value.name == name
@@ -623,14 +685,16 @@ def _min_contact_force(profile, speed, n=6000):
     for i in range(n):
         angle = profile.rise_start + TAU * i / n
         m = vt.forward(G, *cl.follower_motion(profile, angle, speed, 0.0))
-        forces.append(vt.contact_force(MASS, STIFFNESS, PRELOAD, m.valve_lift,
-                                       m.valve_acceleration))
+        forces.append(
+            vt.contact_force(MASS, STIFFNESS, PRELOAD, m.valve_lift, m.valve_acceleration)
+        )
     for segment in cl.SEGMENTS:
         for x in (0.0, 1.0):
             s, s1, s2, _ = cl.segment_lift(profile, segment, x)
-            m = vt.forward(G, s, s1 * speed, s2 * speed ** 2)
-            forces.append(vt.contact_force(MASS, STIFFNESS, PRELOAD, m.valve_lift,
-                                           m.valve_acceleration))
+            m = vt.forward(G, s, s1 * speed, s2 * speed**2)
+            forces.append(
+                vt.contact_force(MASS, STIFFNESS, PRELOAD, m.valve_lift, m.valve_acceleration)
+            )
     return min(forces)
 
 
@@ -646,7 +710,7 @@ def test_float_speed_separates_contact_from_float(law):
     local = where - 0.2
     segment, x = ("rise", local / 1.2) if local <= 1.2 else ("return", (local - 1.3) / 1.2)
     s, s1, s2, _ = cl.segment_lift(profile, segment, x)
-    m = vt.forward(G, s, s1 * speed, s2 * speed ** 2)
+    m = vt.forward(G, s, s1 * speed, s2 * speed**2)
     force = vt.contact_force(MASS, STIFFNESS, PRELOAD, m.valve_lift, m.valve_acceleration)
     assert abs(force) <= 1e-9 * PRELOAD
 
@@ -677,12 +741,12 @@ def test_float_speed_of_a_cam_law_driving_the_valve_directly(law):
     profile = cl.check_profile(law, 0.007, 0.0, 1.2, 0.1, 1.2)
     speed, where = vt.float_speed(G, profile, MASS, 0.0, PRELOAD, valve_law=True)
     peak = cl.peak_coefficients(law).acceleration
-    assert speed == pytest.approx(math.sqrt(PRELOAD * 1.2 ** 2 / (MASS * 0.007 * peak)),
-                                  rel=1e-12)
+    assert speed == pytest.approx(math.sqrt(PRELOAD * 1.2**2 / (MASS * 0.007 * peak)), rel=1e-12)
     # the harmonic law's peak is the one-sided limit at the end of the rise (or the return start)
-    s, s1, s2, _ = cl.segment_lift(profile, "rise", 1.0) if where == 1.2 else \
-        cl.cam_lift(profile, where)
-    assert s2 == pytest.approx(-0.007 * peak / 1.2 ** 2, rel=1e-9)
+    s, s1, s2, _ = (
+        cl.segment_lift(profile, "rise", 1.0) if where == 1.2 else cl.cam_lift(profile, where)
+    )
+    assert s2 == pytest.approx(-0.007 * peak / 1.2**2, rel=1e-9)
     # with the spring stiffness the rocker geometry no longer matters either
     direct = vt.float_speed(G, profile, MASS, STIFFNESS, PRELOAD, valve_law=True)
     other = G._replace(valve_arm=0.056)
@@ -695,20 +759,27 @@ def test_float_speed_is_the_dense_minimum():
     s, s1, s2 = ref.cam_lift(*profile, np.linspace(0.0, 2.5, 200001))
     cols = ref.forward(GD, s, s1, s2)
     decel = cols["valve_acceleration"] < 0.0
-    dense = np.sqrt((STIFFNESS * cols["valve_lift"][decel] + PRELOAD)
-                    / (MASS * -cols["valve_acceleration"][decel]))
+    dense = np.sqrt(
+        (STIFFNESS * cols["valve_lift"][decel] + PRELOAD)
+        / (MASS * -cols["valve_acceleration"][decel])
+    )
     assert speed <= dense.min() * (1 + 1e-12)
     assert speed == pytest.approx(dense.min(), rel=1e-9)
 
 
 # --- properties ---------------------------------------------------------------------------------
 
+
 @st.composite
 def profiles(draw):
-    return cl.check_profile(draw(st.sampled_from(cl.CAM_LAWS)),
-                            draw(st.floats(1e-3, 0.012)), draw(st.floats(-50.0, 50.0)),
-                            draw(st.floats(0.2, 2.5)), draw(st.floats(0.0, 1.2)),
-                            draw(st.floats(0.2, 2.5)))
+    return cl.check_profile(
+        draw(st.sampled_from(cl.CAM_LAWS)),
+        draw(st.floats(1e-3, 0.012)),
+        draw(st.floats(-50.0, 50.0)),
+        draw(st.floats(0.2, 2.5)),
+        draw(st.floats(0.0, 1.2)),
+        draw(st.floats(0.2, 2.5)),
+    )
 
 
 @PROPERTY
@@ -718,15 +789,18 @@ def test_property_lift_bounded_periodic_and_equal_to_numpy(profile, phase, turns
     s = cl.cam_lift(profile, angle)
     assert 0.0 <= s.s <= profile.lift
     shifted = cl.cam_lift(profile, angle + turns * TAU)
-    s1_max = profile.lift * cl.peak_coefficients(profile.law).velocity / min(
-        profile.rise_angle, profile.return_angle)
+    s1_max = (
+        profile.lift
+        * cl.peak_coefficients(profile.law).velocity
+        / min(profile.rise_angle, profile.return_angle)
+    )
     assert abs(shifted.s - s.s) <= s1_max * 1e-15 * (abs(angle) + abs(turns) * TAU) + 1e-18
     n_s, n_s1, n_s2 = ref.cam_lift(*profile, angle)
     peaks = cl.peak_coefficients(profile.law)
     beta = min(profile.rise_angle, profile.return_angle)
     assert abs(float(n_s) - s.s) <= 1e-12 * profile.lift
     assert abs(float(n_s1) - s.s1) <= 1e-12 * profile.lift * peaks.velocity / beta
-    assert abs(float(n_s2) - s.s2) <= 1e-12 * profile.lift * peaks.acceleration / beta ** 2
+    assert abs(float(n_s2) - s.s2) <= 1e-12 * profile.lift * peaks.acceleration / beta**2
 
 
 @PROPERTY
@@ -740,18 +814,16 @@ def test_property_valve_train_round_trip_and_numpy(profile, phase, speed, accel)
     assert abs(back.tappet_lift - tappet.lift) <= 1e-12 * profile.lift
     v_scale = abs(tappet.velocity) + 1e-12
     assert abs(back.tappet_velocity - tappet.velocity) <= 1e-12 * v_scale
-    a_scale = abs(tappet.acceleration) + tappet.velocity ** 2 / 0.028 + 1e-12
+    a_scale = abs(tappet.acceleration) + tappet.velocity**2 / 0.028 + 1e-12
     assert abs(back.tappet_acceleration - tappet.acceleration) <= 1e-12 * a_scale
     numpy_m = ref.forward(GD, *tappet)
     assert abs(float(numpy_m["valve_lift"]) - m.valve_lift) <= 1e-12 * profile.lift
     assert abs(float(numpy_m["valve_velocity"]) - m.valve_velocity) <= 1e-12 * 1.6 * v_scale
-    assert abs(float(numpy_m["valve_acceleration"]) - m.valve_acceleration) <= \
-        1e-12 * 1.6 * a_scale
+    assert abs(float(numpy_m["valve_acceleration"]) - m.valve_acceleration) <= 1e-12 * 1.6 * a_scale
 
 
 @PROPERTY
-@given(st.sampled_from(cl.CAM_LAWS), st.floats(2.1, 3.1), st.floats(0.0, 2.0),
-       st.floats(2.1, 3.1))
+@given(st.sampled_from(cl.CAM_LAWS), st.floats(2.1, 3.1), st.floats(0.0, 2.0), st.floats(2.1, 3.1))
 def test_property_over_long_profiles_are_refused(law, rise, dwell, ret):
     total = rise + dwell + ret
     if total <= TAU:
@@ -772,7 +844,7 @@ def test_contact_lost_needs_a_force_below_rounding_of_its_terms():
         force = vt.contact_force(MASS, STIFFNESS, PRELOAD, lift, accel)
         assert abs(force) <= 1e-12 * scale
         assert not vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, accel)
-    pulled = balance * (1.0 + 1e-6)   # the rocker would have to pull by ~1e-6 of the terms
+    pulled = balance * (1.0 + 1e-6)  # the rocker would have to pull by ~1e-6 of the terms
     assert vt.contact_force(MASS, STIFFNESS, PRELOAD, lift, pulled) < -1e-7 * scale
     assert vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, pulled)
     assert not vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, balance * (1.0 - 1e-6))

@@ -31,6 +31,7 @@ def relative_error(got, expected):
 
 # --- coursework design --------------------------------------------------------------------
 
+
 def test_foot_is_exact():
     assert lg.FOOT == FOOT
     assert lg.COURSEWORK_RETRACTED_LENGTH == X_RETRACTED
@@ -52,7 +53,7 @@ def test_design_geometry_solves_the_coursework_quadratic():
     # d^2 + 1.25 d - 1.21875 = 0 (feet), the coursework's design equation
     assert abs(d_ft * d_ft + 1.25 * d_ft - 1.21875) < 1e-14
     # h^2 = d^2 + x_r^2 (piston perpendicular to d when retracted)
-    assert relative_error(H * H, D * D + X_RETRACTED ** 2) < 1e-15
+    assert relative_error(H * H, D * D + X_RETRACTED**2) < 1e-15
     # theta_1 = atan(x_r / d), not the coursework's arcsin(1.25 / 0.64361) (argument > 1)
     assert relative_error(THETA_1, math.atan(X_RETRACTED / D)) < 1e-15
     assert 1.25 / 0.64361 > 1.0
@@ -79,14 +80,17 @@ def test_constant_piston_speed_reaches_dead_centre_shortly_after_3_s():
     assert round((H + D) / FOOT, 4) == 2.0496
 
 
-@pytest.mark.parametrize("retracted, extended, name", [
-    (0.0, 0.6, "retracted_length"),
-    (-0.3, 0.6, "retracted_length"),
-    (math.nan, 0.6, "retracted_length"),
-    (0.3, math.inf, "extended_length"),
-    (0.3, 0.3, "extended_length"),
-    (0.6, 0.3, "extended_length"),
-])
+@pytest.mark.parametrize(
+    "retracted, extended, name",
+    [
+        (0.0, 0.6, "retracted_length"),
+        (-0.3, 0.6, "retracted_length"),
+        (math.nan, 0.6, "retracted_length"),
+        (0.3, math.inf, "extended_length"),
+        (0.3, 0.3, "extended_length"),
+        (0.6, 0.3, "extended_length"),
+    ],
+)
 def test_design_geometry_rejects_invalid_lengths(retracted, extended, name):
     with pytest.raises(RangeError) as info:
         lg.design_geometry(retracted, extended)
@@ -96,8 +100,12 @@ def test_design_geometry_rejects_invalid_lengths(retracted, extended, name):
 
 def test_check_geometry():
     assert lg.check_geometry(D, H) == (D, H)
-    for d, h, name in [(0.0, H, "attachment_distance"), (D, -1.0, "pivot_height"),
-                       (math.nan, H, "attachment_distance"), (0.3, 0.3, "attachment_distance")]:
+    for d, h, name in [
+        (0.0, H, "attachment_distance"),
+        (D, -1.0, "pivot_height"),
+        (math.nan, H, "attachment_distance"),
+        (0.3, 0.3, "attachment_distance"),
+    ]:
         with pytest.raises(RangeError) as info:
             lg.check_geometry(d, h)
         assert info.value.name == name
@@ -105,6 +113,7 @@ def test_check_geometry():
 
 
 # --- derivatives against finite differences ------------------------------------------------
+
 
 def _piston_path(t):
     """Smooth piston motion inside the assembly range: x0 + a sin(t)."""
@@ -126,8 +135,10 @@ def test_omega_and_alpha_are_derivatives_of_the_angle():
     for t in times:
         motion = _gear_along_path(t)
         d_angle = (_gear_along_path(t + step).angle - _gear_along_path(t - step).angle) / (2 * step)
-        d_omega = ((_gear_along_path(t + step).angular_velocity
-                    - _gear_along_path(t - step).angular_velocity) / (2 * step))
+        d_omega = (
+            _gear_along_path(t + step).angular_velocity
+            - _gear_along_path(t - step).angular_velocity
+        ) / (2 * step)
         assert abs(motion.angular_velocity - d_angle) <= 1e-8 * omega_scale, t
         assert abs(motion.angular_acceleration - d_omega) <= 1e-8 * alpha_scale, t
 
@@ -137,16 +148,18 @@ def test_angle_follows_law_of_cosines_in_the_middle():
         x = LOW + (HIGH - LOW) * i / 50
         theta = lg.gear_motion(x, 0.0, 0.0, D, H).angle
         assert 0.0 < theta < math.pi
-        assert theta == pytest.approx(math.acos((H * H + D * D - x * x) / (2 * D * H)),
-                                      rel=1e-13, abs=1e-13)
+        assert theta == pytest.approx(
+            math.acos((H * H + D * D - x * x) / (2 * D * H)), rel=1e-13, abs=1e-13
+        )
 
 
 def test_piston_motion_is_derivative_of_extension():
     step = 1e-5
 
     def path(t):
-        return lg.piston_motion(1.0 + 0.9 * math.sin(t), 0.9 * math.cos(t),
-                                -0.9 * math.sin(t), D, H)
+        return lg.piston_motion(
+            1.0 + 0.9 * math.sin(t), 0.9 * math.cos(t), -0.9 * math.sin(t), D, H
+        )
 
     for i in range(60):
         t = 0.1 * i
@@ -158,6 +171,7 @@ def test_piston_motion_is_derivative_of_extension():
 
 
 # --- round trips ---------------------------------------------------------------------------
+
 
 def test_round_trip_gear_then_piston_reproduces_piston_motion():
     for i in range(1, 100):
@@ -183,12 +197,14 @@ def test_constant_piston_speed_law_has_the_coursework_omega():
     # omega = x xdot / (d h sin theta); at x_r the piston is perpendicular to d: sin = x_r / h
     speed = 0.25 * FOOT
     g = lg.gear_motion(X_RETRACTED, speed, 0.0, D, H)
-    assert relative_error(g.angular_velocity, X_RETRACTED * speed / (D * H * X_RETRACTED / H)) \
-        < 1e-13
+    assert (
+        relative_error(g.angular_velocity, X_RETRACTED * speed / (D * H * X_RETRACTED / H)) < 1e-13
+    )
     assert relative_error(g.angular_velocity, speed / D) < 1e-13
 
 
 # --- errors --------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("x", [LOW * (1 - 1e-12), HIGH * (1 + 1e-12), 0.0, -HIGH, 10.0])
 def test_outside_assembly_range_raises_range_error(x):
@@ -250,6 +266,7 @@ def test_moment_arm_is_zero_at_dead_centres():
 
 # --- moment arm ----------------------------------------------------------------------------
 
+
 def test_piston_moment_arm_is_dh_sin_theta_over_x():
     for i in range(1, 40):
         x = LOW + (HIGH - LOW) * i / 40
@@ -273,6 +290,7 @@ def test_moment_arm_is_virtual_work_ratio():
 
 # --- property tests ------------------------------------------------------------------------
 
+
 def _signed(low, high):
     """0, or a magnitude in [low, high] of either sign (no subnormal rates)."""
     magnitude = st.floats(low, high)
@@ -280,8 +298,8 @@ def _signed(low, high):
 
 
 geometry_values = st.tuples(
-    st.floats(0.01, 10.0),            # d
-    st.floats(0.05, 20.0),            # h / d
+    st.floats(0.01, 10.0),  # d
+    st.floats(0.05, 20.0),  # h / d
 )
 
 
@@ -322,7 +340,7 @@ def test_property_round_trip(geometry, fraction, speed, accel):
     assert abs(back.extension - x) <= 1e-12 * x
     # scales of the terms that make up xdot and xddot (cancellation is legitimate)
     speed_scale = abs(speed)
-    accel_scale = abs(accel) + speed * speed / x + d * h * g.angular_velocity ** 2 / x
+    accel_scale = abs(accel) + speed * speed / x + d * h * g.angular_velocity**2 / x
     assert abs(back.speed - speed) <= 1e-12 * speed_scale
     assert abs(back.acceleration - accel) <= 1e-12 * accel_scale
 
@@ -420,7 +438,7 @@ def test_property_near_dead_centres_finite_and_backward_accurate(geometry, log_e
     assume(abs(ratio - 1.0) > 1e-2)
     h = d * ratio
     low, high = lg.assembly_range(d, h)
-    eps = 10.0 ** log_eps
+    eps = 10.0**log_eps
     x = high * (1 - eps) if at_high else low * (1 + eps)
     assume(low < x < high)
     g = lg.gear_motion(x, 1.0, 1.0, d, h)

@@ -24,10 +24,10 @@ PROPERTY = settings(derandomize=True, max_examples=200, deadline=None)
 
 # (ground, crank, coupler, rocker)
 COURSEWORK = (6.0 * INCH, 2.0 * INCH, 7.0 * INCH, 9.0 * INCH)
-NORTON_4_1 = (100.0, 40.0, 120.0, 80.0)       # Norton example 4-1 numbers (mm)
-DOUBLE_CRANK = (1.0, 3.0, 3.5, 2.5)            # ground shortest
-TRIPLE_ROCKER = (8.0, 4.0, 5.0, 6.0)           # 4, 5, 6, 8: S + L = 12 > 11
-TOGGLE = (4.0, 3.0, 2.0, 3.0)                  # f = 5 = b + c at crank angle pi/2
+NORTON_4_1 = (100.0, 40.0, 120.0, 80.0)  # Norton example 4-1 numbers (mm)
+DOUBLE_CRANK = (1.0, 3.0, 3.5, 2.5)  # ground shortest
+TRIPLE_ROCKER = (8.0, 4.0, 5.0, 6.0)  # 4, 5, 6, 8: S + L = 12 > 11
+TOGGLE = (4.0, 3.0, 2.0, 3.0)  # f = 5 = b + c at crank angle pi/2
 FULL_TURN = [-math.pi + 2.0 * math.pi * (i + 0.5) / 720 for i in range(720)]
 
 FOUR_BAR_CASES = [
@@ -39,16 +39,21 @@ FOUR_BAR_CASES = [
     pytest.param(DOUBLE_CRANK, 1, id="double-crank-crossed"),
 ]
 
-SLIDER_CASES = [
-    pytest.param(tuple(sc.DEFAULT_SLIDER_CRANK), circuit, id=f"default-{circuit}")
-    for circuit in (0, 1)
-] + [
-    pytest.param((0.05, 0.15, offset), circuit, id=f"offset{offset:+}-{circuit}")
-    for offset in (0.02, -0.03) for circuit in (0, 1)
-] + [
-    pytest.param((2.0, 1.5, 0.3), circuit, id=f"partial-{circuit}")  # crank cannot turn fully
-    for circuit in (0, 1)
-]
+SLIDER_CASES = (
+    [
+        pytest.param(tuple(sc.DEFAULT_SLIDER_CRANK), circuit, id=f"default-{circuit}")
+        for circuit in (0, 1)
+    ]
+    + [
+        pytest.param((0.05, 0.15, offset), circuit, id=f"offset{offset:+}-{circuit}")
+        for offset in (0.02, -0.03)
+        for circuit in (0, 1)
+    ]
+    + [
+        pytest.param((2.0, 1.5, 0.3), circuit, id=f"partial-{circuit}")  # crank cannot turn fully
+        for circuit in (0, 1)
+    ]
+)
 
 
 def angle_difference(x, y):
@@ -59,8 +64,12 @@ def angle_difference(x, y):
 def closure(lengths, crank_angle, coupler_angle, rocker_angle):
     """|a e^(i t2) + b e^(i t3) - c e^(i t4) - d|."""
     d, a, b, c = lengths
-    return abs(a * cmath.exp(1j * crank_angle) + b * cmath.exp(1j * coupler_angle)
-               - c * cmath.exp(1j * rocker_angle) - d)
+    return abs(
+        a * cmath.exp(1j * crank_angle)
+        + b * cmath.exp(1j * coupler_angle)
+        - c * cmath.exp(1j * rocker_angle)
+        - d
+    )
 
 
 def joints(lengths, crank_angle, circuit):
@@ -77,8 +86,10 @@ def _cross(o, p, q):
 
 
 def _segments_cross(p1, p2, q1, q2):
-    return (_cross(p1, p2, q1) * _cross(p1, p2, q2) < 0.0
-            and _cross(q1, q2, p1) * _cross(q1, q2, p2) < 0.0)
+    return (
+        _cross(p1, p2, q1) * _cross(p1, p2, q2) < 0.0
+        and _cross(q1, q2, p1) * _cross(q1, q2, p2) < 0.0
+    )
 
 
 def loop_crosses_itself(lengths, crank_angle, circuit):
@@ -87,6 +98,7 @@ def loop_crosses_itself(lengths, crank_angle, circuit):
 
 
 # --- constants and classes -----------------------------------------------------------------
+
 
 def test_coursework_constants():
     assert fb.INCH == INCH
@@ -100,39 +112,50 @@ def test_coursework_constants():
 def test_grashof_class_table():
     assert [entry.code for entry in fb.GRASHOF_CLASSES] == [1, 2, 3, 4, 5, 6]
     assert [entry.name for entry in fb.GRASHOF_CLASSES] == [
-        "crank-rocker", "double-crank", "double-rocker", "rocker-crank", "triple-rocker",
-        "change-point"]
+        "crank-rocker",
+        "double-crank",
+        "double-rocker",
+        "rocker-crank",
+        "triple-rocker",
+        "change-point",
+    ]
 
 
-@pytest.mark.parametrize("lengths, code", [
-    ((6, 2, 7, 9), 1),                  # coursework: crank shortest
-    (COURSEWORK, 1),                    # same in metres (rounded products)
-    (NORTON_4_1, 1),
-    ((2, 7, 9, 6), 2),                  # ground shortest
-    (DOUBLE_CRANK, 2),
-    ((6, 7, 2, 9), 3),                  # coupler shortest
-    ((6, 7, 9, 2), 4),                  # rocker shortest
-    ((8, 4, 5, 6), 5),                  # 4 + 8 > 5 + 6
-    ((4, 5, 6, 8), 5),
-    ((5, 8, 4, 6), 5),
-    ((5, 2, 5, 2), 6),                  # parallelogram 2, 5, 2, 5
-    ((2, 2, 5, 5), 6),                  # deltoid
-    ((5 * INCH, 2 * INCH, 5 * INCH, 2 * INCH), 6),   # inexact in binary, within 1e-12 L
-    ((10.0, 4.0, 7.0, 7.0 + 1e-9), 1),  # just Grashof: 4 + 10 < 7 + 7.000000001
-    ((10.0, 4.0, 7.0, 7.0 - 1e-9), 5),  # just not
-])
+@pytest.mark.parametrize(
+    "lengths, code",
+    [
+        ((6, 2, 7, 9), 1),  # coursework: crank shortest
+        (COURSEWORK, 1),  # same in metres (rounded products)
+        (NORTON_4_1, 1),
+        ((2, 7, 9, 6), 2),  # ground shortest
+        (DOUBLE_CRANK, 2),
+        ((6, 7, 2, 9), 3),  # coupler shortest
+        ((6, 7, 9, 2), 4),  # rocker shortest
+        ((8, 4, 5, 6), 5),  # 4 + 8 > 5 + 6
+        ((4, 5, 6, 8), 5),
+        ((5, 8, 4, 6), 5),
+        ((5, 2, 5, 2), 6),  # parallelogram 2, 5, 2, 5
+        ((2, 2, 5, 5), 6),  # deltoid
+        ((5 * INCH, 2 * INCH, 5 * INCH, 2 * INCH), 6),  # inexact in binary, within 1e-12 L
+        ((10.0, 4.0, 7.0, 7.0 + 1e-9), 1),  # just Grashof: 4 + 10 < 7 + 7.000000001
+        ((10.0, 4.0, 7.0, 7.0 - 1e-9), 5),  # just not
+    ],
+)
 def test_grashof_class(lengths, code):
     assert fb.grashof_class(*lengths) == code
 
 
-@pytest.mark.parametrize("lengths, name", [
-    ((0.0, 2, 7, 9), "ground"),
-    ((6, -2, 7, 9), "crank"),
-    ((6, 2, math.nan, 9), "coupler"),
-    ((6, 2, 7, math.inf), "rocker"),
-    ((1, 1, 1, 3), "rocker"),           # longest = sum of the others: no loop
-    ((20, 2, 7, 9), "ground"),
-])
+@pytest.mark.parametrize(
+    "lengths, name",
+    [
+        ((0.0, 2, 7, 9), "ground"),
+        ((6, -2, 7, 9), "crank"),
+        ((6, 2, math.nan, 9), "coupler"),
+        ((6, 2, 7, math.inf), "rocker"),
+        ((1, 1, 1, 3), "rocker"),  # longest = sum of the others: no loop
+        ((20, 2, 7, 9), "ground"),
+    ],
+)
 def test_check_four_bar_rejects(lengths, name):
     with pytest.raises(RangeError) as info:
         fb.check_four_bar(*lengths)
@@ -161,6 +184,7 @@ def test_crank_angle_range():
 
 
 # --- coursework and Norton's example -------------------------------------------------------
+
 
 def test_coursework_example_both_circuits():
     t2 = fb.COURSEWORK_CRANK_ANGLE
@@ -199,8 +223,8 @@ def norton_textbook(lengths, t2, circuit):
     big_e = -2 * math.sin(t2)
     big_f = k1 + (k4 - 1) * math.cos(t2) + k5
     sign = -1 if circuit == 0 else 1
-    t4 = 2 * math.atan((-big_b + sign * math.sqrt(big_b ** 2 - 4 * big_a * big_c)) / (2 * big_a))
-    t3 = 2 * math.atan((-big_e + sign * math.sqrt(big_e ** 2 - 4 * big_d * big_f)) / (2 * big_d))
+    t4 = 2 * math.atan((-big_b + sign * math.sqrt(big_b**2 - 4 * big_a * big_c)) / (2 * big_a))
+    t3 = 2 * math.atan((-big_e + sign * math.sqrt(big_e**2 - 4 * big_d * big_f)) / (2 * big_d))
     return t3, t4
 
 
@@ -210,7 +234,7 @@ def test_position_matches_nortons_printed_equations(lengths):
         for circuit in (0, 1):
             try:
                 expected = norton_textbook(lengths, t2, circuit)
-            except ValueError:          # sqrt of a negative: no assembly
+            except ValueError:  # sqrt of a negative: no assembly
                 with pytest.raises(RangeError):
                     fb.position(*lengths, t2, circuit)
                 continue
@@ -227,6 +251,7 @@ def test_position_is_scale_invariant():
 
 
 # --- loop closure and circuits -------------------------------------------------------------
+
 
 @pytest.mark.parametrize("lengths, circuit", FOUR_BAR_CASES)
 def test_loop_closes_and_circuit_is_consistent(lengths, circuit):
@@ -319,8 +344,9 @@ def test_toggle_on_the_ground_line_returns_an_accurate_position():
 
 
 def test_slider_crank_closure_and_circuits():
-    for geometry, circuit in [(g, c) for g in ((0.05, 0.15, 0.0), (0.05, 0.15, 0.02),
-                                               (0.05, 0.15, -0.03)) for c in (0, 1)]:
+    for geometry, circuit in [
+        (g, c) for g in ((0.05, 0.15, 0.0), (0.05, 0.15, 0.02), (0.05, 0.15, -0.03)) for c in (0, 1)
+    ]:
         a, b, e = geometry
         for t2 in FULL_TURN:
             t3, s = sc.position(*geometry, t2, circuit)
@@ -334,10 +360,10 @@ def test_slider_crank_closure_and_circuits():
 def test_in_line_slider_crank_dead_centres():
     a, b, e = sc.DEFAULT_SLIDER_CRANK
     assert sc.position(a, b, e, 0.0, 0) == (0.0, a + b)
-    bottom = sc.position(a, b, e, math.pi, 0)   # sin(float pi) = 1.2e-16, not 0
+    bottom = sc.position(a, b, e, math.pi, 0)  # sin(float pi) = 1.2e-16, not 0
     assert abs(bottom.coupler_angle) < 1e-16 and bottom.slider_position == pytest.approx(b - a)
     assert sc.position(a, b, e, 0.0, 1) == (math.pi, a - b)
-    assert sc.position(a, b, e, -0.0, 1).coupler_angle == math.pi   # -0.0 sine, still +pi
+    assert sc.position(a, b, e, -0.0, 1).coupler_angle == math.pi  # -0.0 sine, still +pi
     m = sc.motion(a, b, e, 0, 0.0, 100.0, 0.0)
     assert m.slider_speed == pytest.approx(0.0, abs=1e-18)
     # top dead centre: s'' = -a w^2 (1 + a/b)
@@ -345,6 +371,7 @@ def test_in_line_slider_crank_dead_centres():
 
 
 # --- agreement with the numpy reference ----------------------------------------------------
+
 
 def assert_four_bar_matches_reference(lengths, circuit, angles, speed, accel):
     expected = ref.four_bar(*lengths, circuit, np.array(angles), speed, accel)
@@ -392,11 +419,13 @@ def test_slider_crank_matches_reference(geometry, circuit):
     for i, t2 in enumerate(angles):
         got = sc.motion(*geometry, circuit, t2, speed, accel)
         assert angle_difference(got.coupler_angle, expected["coupler_angle"][i]) <= 1e-12
-        for key, scale in (("slider_position", a + b),
-                           ("slider_speed", (a + b) * speed),
-                           ("slider_acceleration", (a + b) * (speed * speed + abs(accel))),
-                           ("coupler_angular_velocity", speed),
-                           ("coupler_angular_acceleration", speed * speed + abs(accel))):
+        for key, scale in (
+            ("slider_position", a + b),
+            ("slider_speed", (a + b) * speed),
+            ("slider_acceleration", (a + b) * (speed * speed + abs(accel))),
+            ("coupler_angular_velocity", speed),
+            ("coupler_angular_acceleration", speed * speed + abs(accel)),
+        ):
             value = expected[key][i]
             assert abs(getattr(got, key) - value) <= 1e-12 * (abs(value) + scale), key
 
@@ -411,6 +440,7 @@ def test_reference_returns_the_namedtuple_fields():
 
 
 # --- rates against central finite differences ----------------------------------------------
+
 
 def _crank_path(t):
     """A non-uniform crank motion: angle, speed and acceleration at time t."""
@@ -427,19 +457,24 @@ def _along_crank_path(at):
 @pytest.mark.parametrize("lengths, circuit", FOUR_BAR_CASES)
 def test_four_bar_rates_are_derivatives(lengths, circuit):
     step, at, times, motions = _along_crank_path(
-        lambda t: fb.motion(*lengths, circuit, *_crank_path(t)))
-    w_scale = max(max(abs(m.coupler_angular_velocity), abs(m.rocker_angular_velocity))
-                  for m in motions)
-    al_scale = max(max(abs(m.coupler_angular_acceleration),
-                       abs(m.rocker_angular_acceleration)) for m in motions)
+        lambda t: fb.motion(*lengths, circuit, *_crank_path(t))
+    )
+    w_scale = max(
+        max(abs(m.coupler_angular_velocity), abs(m.rocker_angular_velocity)) for m in motions
+    )
+    al_scale = max(
+        max(abs(m.coupler_angular_acceleration), abs(m.rocker_angular_acceleration))
+        for m in motions
+    )
     for t, m in zip(times, motions):
         ahead, behind = at(t + step), at(t - step)
-        for angle, rate, accel in (("coupler_angle", "coupler_angular_velocity",
-                                    "coupler_angular_acceleration"),
-                                   ("rocker_angle", "rocker_angular_velocity",
-                                    "rocker_angular_acceleration")):
-            d_angle = math.remainder(getattr(ahead, angle) - getattr(behind, angle),
-                                     2 * math.pi) / (2 * step)
+        for angle, rate, accel in (
+            ("coupler_angle", "coupler_angular_velocity", "coupler_angular_acceleration"),
+            ("rocker_angle", "rocker_angular_velocity", "rocker_angular_acceleration"),
+        ):
+            d_angle = math.remainder(
+                getattr(ahead, angle) - getattr(behind, angle), 2 * math.pi
+            ) / (2 * step)
             d_rate = (getattr(ahead, rate) - getattr(behind, rate)) / (2 * step)
             assert abs(getattr(m, rate) - d_angle) <= 1e-8 * w_scale, (t, rate)
             assert abs(getattr(m, accel) - d_rate) <= 1e-8 * al_scale, (t, accel)
@@ -448,19 +483,26 @@ def test_four_bar_rates_are_derivatives(lengths, circuit):
 @pytest.mark.parametrize("geometry, circuit", SLIDER_CASES[:6])
 def test_slider_crank_rates_are_derivatives(geometry, circuit):
     step, at, times, motions = _along_crank_path(
-        lambda t: sc.motion(*geometry, circuit, *_crank_path(t)))
-    scales = {key: max(abs(getattr(m, key)) for m in motions)
-              for key in sc.SliderCrankMotion._fields}
+        lambda t: sc.motion(*geometry, circuit, *_crank_path(t))
+    )
+    scales = {
+        key: max(abs(getattr(m, key)) for m in motions) for key in sc.SliderCrankMotion._fields
+    }
     for t, m in zip(times, motions):
         ahead, behind = at(t + step), at(t - step)
-        pairs = (("slider_position", "slider_speed"), ("slider_speed", "slider_acceleration"),
-                 ("coupler_angular_velocity", "coupler_angular_acceleration"))
+        pairs = (
+            ("slider_position", "slider_speed"),
+            ("slider_speed", "slider_acceleration"),
+            ("coupler_angular_velocity", "coupler_angular_acceleration"),
+        )
         for value, rate in pairs:
             derivative = (getattr(ahead, value) - getattr(behind, value)) / (2 * step)
             assert abs(getattr(m, rate) - derivative) <= 1e-8 * scales[rate], (t, rate)
         d_angle = math.remainder(ahead.coupler_angle - behind.coupler_angle, 2 * math.pi)
-        assert abs(m.coupler_angular_velocity - d_angle / (2 * step)) <= \
-            1e-8 * scales["coupler_angular_velocity"]
+        assert (
+            abs(m.coupler_angular_velocity - d_angle / (2 * step))
+            <= 1e-8 * scales["coupler_angular_velocity"]
+        )
 
 
 def test_velocity_formulas_agree_with_instant_centre_ratio():
@@ -472,12 +514,15 @@ def test_velocity_formulas_agree_with_instant_centre_ratio():
     unit = fb.motion(*COURSEWORK, 0, 0.4, 1.0, 0.0)
     pure = fb.motion(*COURSEWORK, 0, 0.4, 0.0, 3.0)
     assert pure.rocker_angular_acceleration == pytest.approx(
-        3.0 * unit.rocker_angular_velocity, rel=1e-14)
+        3.0 * unit.rocker_angular_velocity, rel=1e-14
+    )
     assert pure.coupler_angular_acceleration == pytest.approx(
-        3.0 * unit.coupler_angular_velocity, rel=1e-14)
+        3.0 * unit.coupler_angular_velocity, rel=1e-14
+    )
 
 
 # --- errors --------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("t2", [math.pi, -2.5, 2.3, 2.2661083, 4.0])
 def test_triple_rocker_outside_its_range_raises(t2):
@@ -487,10 +532,10 @@ def test_triple_rocker_outside_its_range_raises(t2):
     assert error.name == "crank_angle" and error.value == t2
     text = str(error)
     assert repr(t2) in text
-    assert "[-0.640625, 1.0]" in text                       # cos(crank_angle) interval
-    assert repr(math.acos(-0.640625)) in text                # the angle limit
+    assert "[-0.640625, 1.0]" in text  # cos(crank_angle) interval
+    assert repr(math.acos(-0.640625)) in text  # the angle limit
     assert "no assembly" in text
-    assert "[1.0, 11.0]" in text                             # [|b - c|, b + c]
+    assert "[1.0, 11.0]" in text  # [|b - c|, b + c]
     assert isinstance(error, MechanismError)
     with pytest.raises(RangeError):
         fb.position(*TRIPLE_ROCKER, t2, 1)
@@ -541,8 +586,9 @@ def test_circuit_must_be_0_or_1(circuit):
         sc.motion(0.05, 0.15, 0.0, circuit, 0.1, 1.0, 0.0)
 
 
-@pytest.mark.parametrize("index, name", [(5, "crank_angle"), (6, "crank_speed"),
-                                         (7, "crank_acceleration")])
+@pytest.mark.parametrize(
+    "index, name", [(5, "crank_angle"), (6, "crank_speed"), (7, "crank_acceleration")]
+)
 def test_non_finite_four_bar_inputs(index, name):
     args = [*COURSEWORK, 0, 0.1, 1.0, 0.0]
     args[index] = math.nan
@@ -561,19 +607,25 @@ def test_slider_crank_errors():
     assert "[-0.6, 0.9]" in text and "no assembly" in text and repr(-math.pi / 2) in text
     # coupler perpendicular to the slider axis: |0 - 2 sin(pi/6)| = 1 = b
     for circuit in (0, 1):
-        assert sc.position(2.0, 1.0, 0.0, math.pi / 6, circuit).coupler_angle == \
-            pytest.approx(-math.pi / 2)
+        assert sc.position(2.0, 1.0, 0.0, math.pi / 6, circuit).coupler_angle == pytest.approx(
+            -math.pi / 2
+        )
         with pytest.raises(SingularConfiguration) as info:
             sc.motion(2.0, 1.0, 0.0, circuit, math.pi / 6, 1.0, 0.0)
         assert repr(math.pi / 6) in str(info.value)
-    for args, name in (((0.0, 1.0, 0.0), "crank"), ((1.0, -1.0, 0.0), "coupler"),
-                       ((1.0, 1.0, math.inf), "offset"), ((1.0, 1.0, -2.0), "offset")):
+    for args, name in (
+        ((0.0, 1.0, 0.0), "crank"),
+        ((1.0, -1.0, 0.0), "coupler"),
+        ((1.0, 1.0, math.inf), "offset"),
+        ((1.0, 1.0, -2.0), "offset"),
+    ):
         with pytest.raises(RangeError) as info:
             sc.check_slider_crank(*args)
         assert info.value.name == name
 
 
 # --- property tests ------------------------------------------------------------------------
+
 
 @st.composite
 def crank_rockers(draw):
@@ -592,8 +644,13 @@ def _signed(low, high):
 
 
 @PROPERTY
-@given(crank_rockers(), st.sampled_from([0, 1]), st.floats(-math.pi, math.pi),
-       _signed(1e-3, 50.0), _signed(1e-3, 100.0))
+@given(
+    crank_rockers(),
+    st.sampled_from([0, 1]),
+    st.floats(-math.pi, math.pi),
+    _signed(1e-3, 50.0),
+    _signed(1e-3, 100.0),
+)
 def test_property_crank_rocker_closure_and_reference(lengths, circuit, start, speed, accel):
     assert fb.grashof_class(*lengths) == 1
     assert fb.crank_angle_range(lengths) is None
@@ -609,8 +666,13 @@ def test_property_crank_rocker_closure_and_reference(lengths, circuit, start, sp
 
 
 @PROPERTY
-@given(st.floats(0.01, 1.0), st.floats(1.05, 6.0), st.floats(-0.9, 0.9),
-       st.sampled_from([0, 1]), st.floats(-math.pi, math.pi))
+@given(
+    st.floats(0.01, 1.0),
+    st.floats(1.05, 6.0),
+    st.floats(-0.9, 0.9),
+    st.sampled_from([0, 1]),
+    st.floats(-math.pi, math.pi),
+)
 def test_property_full_turn_slider_crank_matches_reference(a, ratio, offset_ratio, circuit, t2):
     # b > a + |offset|: the crank turns fully
     b = a * ratio
@@ -620,8 +682,12 @@ def test_property_full_turn_slider_crank_matches_reference(a, ratio, offset_rati
     expected = ref.slider_crank(a, b, offset, circuit, np.array([t2]), 7.0, 3.0)
     assert angle_difference(got.coupler_angle, expected["coupler_angle"][0]) <= 1e-12
     assert abs(got.slider_position - expected["slider_position"][0]) <= 1e-14 * (a + b)
-    for key in ("slider_speed", "slider_acceleration", "coupler_angular_velocity",
-                "coupler_angular_acceleration"):
+    for key in (
+        "slider_speed",
+        "slider_acceleration",
+        "coupler_angular_velocity",
+        "coupler_angular_acceleration",
+    ):
         value = expected[key][0]
         scale = 50.0 * (a + b) if key.startswith("slider") else 50.0
         assert abs(getattr(got, key) - value) <= 1e-12 * (abs(value) + scale), key

@@ -11,8 +11,13 @@ FOOT = 0.3048
 X_RETRACTED, X_EXTENDED = 1.25 * FOOT, 2.0 * FOOT
 
 # (start, end) pairs within a factor 2 of each other (the coursework stroke both ways and more)
-STROKES = [(X_RETRACTED, X_EXTENDED), (X_EXTENDED, X_RETRACTED), (0.3, 0.5), (0.5, 0.3),
-           (1.0, 1.75)]
+STROKES = [
+    (X_RETRACTED, X_EXTENDED),
+    (X_EXTENDED, X_RETRACTED),
+    (0.3, 0.5),
+    (0.5, 0.3),
+    (1.0, 1.75),
+]
 PROFILES = ["constant_speed", "cycloidal"]
 
 
@@ -21,6 +26,7 @@ def sample(t, start, end, duration, profile, start_time=0.0):
 
 
 # --- stroke: endpoints and holds -----------------------------------------------------------
+
 
 @pytest.mark.parametrize("profile", PROFILES)
 @pytest.mark.parametrize("start, end", STROKES)
@@ -70,6 +76,7 @@ def test_cycloidal_midpoint_and_peak_speed():
 
 # --- stroke: derivatives -------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("profile", PROFILES)
 @pytest.mark.parametrize("start, end", STROKES)
 def test_stroke_rates_are_derivatives(profile, start, end):
@@ -78,18 +85,22 @@ def test_stroke_rates_are_derivatives(profile, start, end):
     for i in range(1, 100):
         t = duration * i / 100
         s = sample(t, start, end, duration, profile)
-        dv = (sample(t + step, start, end, duration, profile).value
-              - sample(t - step, start, end, duration, profile).value) / (2 * step)
-        dr = (sample(t + step, start, end, duration, profile).rate
-              - sample(t - step, start, end, duration, profile).rate) / (2 * step)
+        dv = (
+            sample(t + step, start, end, duration, profile).value
+            - sample(t - step, start, end, duration, profile).value
+        ) / (2 * step)
+        dr = (
+            sample(t + step, start, end, duration, profile).rate
+            - sample(t - step, start, end, duration, profile).rate
+        ) / (2 * step)
         assert abs(s.rate - dv) <= 1e-7 * travel / duration, t
-        assert abs(s.rate2 - dr) <= 1e-7 * travel / duration ** 2, t
+        assert abs(s.rate2 - dr) <= 1e-7 * travel / duration**2, t
 
 
 @pytest.mark.parametrize("start, end", STROKES)
 def test_cycloidal_speed_and_acceleration_vanish_at_both_ends(start, end):
     duration = 3.0
-    peak_acceleration = 2 * math.pi * abs(end - start) / duration ** 2
+    peak_acceleration = 2 * math.pi * abs(end - start) / duration**2
     for t in (0.0, duration):
         s = sample(t, start, end, duration, "cycloidal")
         assert s.rate == 0.0
@@ -111,6 +122,7 @@ def test_cycloidal_is_monotonic():
 
 # --- stroke: time snapping at the end ------------------------------------------------------
 
+
 @pytest.mark.parametrize("profile", PROFILES)
 @pytest.mark.parametrize("start_time, duration", [(0.0, 3.0), (0.0, 4.0), (2.0, 1.0)])
 def test_times_within_1e_9_of_stroke_end_count_as_end(profile, start_time, duration):
@@ -124,12 +136,14 @@ def test_times_within_1e_9_of_stroke_end_count_as_end(profile, start_time, durat
     t = start_time + sum([duration / 10] * 10)
     assert sample(t, X_RETRACTED, X_EXTENDED, duration, profile, start_time) == at_end
     # well past the tolerance the profile is genuinely before / after the end
-    before = sample(start_time + duration * (1 - 1e-6), X_RETRACTED, X_EXTENDED, duration,
-                    profile, start_time)
+    before = sample(
+        start_time + duration * (1 - 1e-6), X_RETRACTED, X_EXTENDED, duration, profile, start_time
+    )
     assert before.value <= X_EXTENDED
     assert before.rate > 0.0 and before != at_end
-    after = sample(start_time + duration * (1 + 1e-6), X_RETRACTED, X_EXTENDED, duration,
-                   profile, start_time)
+    after = sample(
+        start_time + duration * (1 + 1e-6), X_RETRACTED, X_EXTENDED, duration, profile, start_time
+    )
     assert after == (X_EXTENDED, 0.0, 0.0)
 
 
@@ -140,6 +154,7 @@ def test_times_within_1e_9_of_stroke_start_count_as_start(profile):
 
 
 # --- check_stroke --------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("profile", PROFILES)
 def test_check_stroke_accepts_valid(profile):
@@ -165,11 +180,14 @@ def test_check_stroke_rejects_non_positive_or_non_finite_time(stroke_time):
     assert "stroke_time" in str(info.value)
 
 
-@pytest.mark.parametrize("name, args", [
-    ("start_extension", (math.nan, X_EXTENDED, 3.0, "cycloidal")),
-    ("end_extension", (X_RETRACTED, math.inf, 3.0, "cycloidal")),
-    ("start_time", (X_RETRACTED, X_EXTENDED, 3.0, "cycloidal", math.nan)),
-])
+@pytest.mark.parametrize(
+    "name, args",
+    [
+        ("start_extension", (math.nan, X_EXTENDED, 3.0, "cycloidal")),
+        ("end_extension", (X_RETRACTED, math.inf, 3.0, "cycloidal")),
+        ("start_time", (X_RETRACTED, X_EXTENDED, 3.0, "cycloidal", math.nan)),
+    ],
+)
 def test_check_stroke_rejects_non_finite_parameters(name, args):
     with pytest.raises(RangeError) as info:
         pr.check_stroke(*args)
@@ -185,6 +203,7 @@ def test_check_stroke_rejects_unknown_profile(profile):
 
 
 # --- load shapes ---------------------------------------------------------------------------
+
 
 def test_constant_load():
     for t in (-5.0, 0.0, 1.0, 1e9):
@@ -242,6 +261,7 @@ def test_check_load():
 
 # --- read_table and interpolate ------------------------------------------------------------
 
+
 def test_read_table_with_header(tmp_path):
     path = tmp_path / "t.csv"
     path.write_text("time,value\n0.0,1.5\n0.5,2.5\n2.0,-1.0\n")
@@ -263,11 +283,14 @@ def test_read_table_single_row(tmp_path):
     assert pr.interpolate(table, 9.0) == (7.0, 0.0, 0.0)
 
 
-@pytest.mark.parametrize("text, line", [
-    ("0,1\n1,2\n1,3\n", 3),          # repeated time
-    ("0,1\n2,2\n1,3\n", 3),          # decreasing time
-    ("time,value\n0,1\n0,2\n", 3),
-])
+@pytest.mark.parametrize(
+    "text, line",
+    [
+        ("0,1\n1,2\n1,3\n", 3),  # repeated time
+        ("0,1\n2,2\n1,3\n", 3),  # decreasing time
+        ("time,value\n0,1\n0,2\n", 3),
+    ],
+)
 def test_read_table_rejects_non_increasing_times(tmp_path, text, line):
     path = tmp_path / "t.csv"
     path.write_text(text)
@@ -277,13 +300,16 @@ def test_read_table_rejects_non_increasing_times(tmp_path, text, line):
     assert "increase" in str(info.value)
 
 
-@pytest.mark.parametrize("text, line", [
-    ("0,1\nabc,2\n", 2),
-    ("0,1\n1\n", 2),                 # missing value
-    ("time,value\n0,1\n1,x\n", 3),
-    ("0,1\n1,nan\n", 2),
-    ("0,1\ninf,2\n", 2),
-])
+@pytest.mark.parametrize(
+    "text, line",
+    [
+        ("0,1\nabc,2\n", 2),
+        ("0,1\n1\n", 2),  # missing value
+        ("time,value\n0,1\n1,x\n", 3),
+        ("0,1\n1,nan\n", 2),
+        ("0,1\ninf,2\n", 2),
+    ],
+)
 def test_read_table_rejects_bad_rows_naming_the_line(tmp_path, text, line):
     path = tmp_path / "bad.csv"
     path.write_text(text)

@@ -32,8 +32,9 @@ def decimal_secant(u, spring, digits=50):
     """F(u)/u from the textbook form 2 k (L - s)(h - u) / (s u) at ``digits`` digits."""
     with localcontext() as ctx:
         ctx.prec = digits
-        Ld, kd, dd, ud = (Decimal(v) for v in (spring.free_length, spring.stiffness,
-                                                spring.base_offset, u))
+        Ld, kd, dd, ud = (
+            Decimal(v) for v in (spring.free_length, spring.stiffness, spring.base_offset, u)
+        )
         h = (Ld * Ld - dd * dd).sqrt()
         v = h - ud
         s = (dd * dd + v * v).sqrt()
@@ -54,26 +55,30 @@ def bisect_root(f, low, high, iterations=200):
 
 # --- validation ----------------------------------------------------------------------------
 
+
 def test_make_spring_returns_validated_floats():
     spring = sus.make_spring(0.5, 10000, 0.2)
     assert spring == (0.5, 1.0e4, 0.2)
     assert all(type(v) is float for v in spring)
 
 
-@pytest.mark.parametrize("args, name", [
-    ((0.0, K, DB), "spring_free_length"),
-    ((-0.5, K, DB), "spring_free_length"),
-    ((math.nan, K, DB), "spring_free_length"),
-    ((math.inf, K, DB), "spring_free_length"),
-    ((L, 0.0, DB), "spring_stiffness"),
-    ((L, -1.0, DB), "spring_stiffness"),
-    ((L, math.nan, DB), "spring_stiffness"),
-    ((L, K, 0.0), "spring_base_offset"),
-    ((L, K, -0.1), "spring_base_offset"),
-    ((L, K, L), "spring_base_offset"),
-    ((L, K, 0.7), "spring_base_offset"),
-    ((L, K, math.nan), "spring_base_offset"),
-])
+@pytest.mark.parametrize(
+    "args, name",
+    [
+        ((0.0, K, DB), "spring_free_length"),
+        ((-0.5, K, DB), "spring_free_length"),
+        ((math.nan, K, DB), "spring_free_length"),
+        ((math.inf, K, DB), "spring_free_length"),
+        ((L, 0.0, DB), "spring_stiffness"),
+        ((L, -1.0, DB), "spring_stiffness"),
+        ((L, math.nan, DB), "spring_stiffness"),
+        ((L, K, 0.0), "spring_base_offset"),
+        ((L, K, -0.1), "spring_base_offset"),
+        ((L, K, L), "spring_base_offset"),
+        ((L, K, 0.7), "spring_base_offset"),
+        ((L, K, math.nan), "spring_base_offset"),
+    ],
+)
 def test_make_spring_rejects_invalid_parameters(args, name):
     with pytest.raises(RangeError) as info:
         sus.make_spring(*args)
@@ -84,6 +89,7 @@ def test_make_spring_rejects_invalid_parameters(args, name):
 
 # --- basic closed forms --------------------------------------------------------------------
 
+
 def test_rest_height_and_zero_force_at_rest():
     assert relative_error(H, math.sqrt(0.21)) < 1e-15
     assert round(H, 4) == 0.4583
@@ -92,8 +98,9 @@ def test_rest_height_and_zero_force_at_rest():
 
 
 def test_secant_limit_at_zero_is_2kh2_over_L2():
-    assert relative_error(sus.secant_stiffness(0.0, SPRING), 2 * K * (L * L - DB * DB) / L ** 2) \
-        < 1e-15
+    assert (
+        relative_error(sus.secant_stiffness(0.0, SPRING), 2 * K * (L * L - DB * DB) / L**2) < 1e-15
+    )
     assert relative_error(sus.secant_stiffness(0.0, SPRING), 16800.0) < 1e-15
 
 
@@ -112,10 +119,12 @@ def test_force_is_antisymmetric_about_h():
     for i in range(1, 30):
         u = 0.03 * i
         assert sus.spring_force(2 * H - u, SPRING) == pytest.approx(
-            -sus.spring_force(u, SPRING), rel=1e-12, abs=1e-9)
+            -sus.spring_force(u, SPRING), rel=1e-12, abs=1e-9
+        )
 
 
 # --- coursework equilibria -----------------------------------------------------------------
+
 
 def test_coursework_near_root_and_secant_stiffness():
     eq, snapped = sus.follow_load(W_COURSEWORK, sus.NEAR, SPRING)
@@ -156,27 +165,29 @@ def test_all_coursework_equilibria_including_outside_0_to_half_metre():
 
 # --- tangent stiffness ---------------------------------------------------------------------
 
+
 def test_tangent_stiffness_is_derivative_of_force():
     step = 1e-5
     for i in range(-40, 81):
         u = 0.0123 + 0.025 * i
-        central = (sus.spring_force(u + step, SPRING) - sus.spring_force(u - step, SPRING)) \
-            / (2 * step)
+        central = (sus.spring_force(u + step, SPRING) - sus.spring_force(u - step, SPRING)) / (
+            2 * step
+        )
         assert abs(sus.tangent_stiffness(u, SPRING) - central) <= 1e-7 * 2 * K, u
 
 
 def test_tangent_stiffness_closed_form_values():
-    assert relative_error(sus.tangent_stiffness(0.0, SPRING), 2 * K * (1 - DB * DB / L ** 2)) \
-        < 1e-14
+    assert relative_error(sus.tangent_stiffness(0.0, SPRING), 2 * K * (1 - DB * DB / L**2)) < 1e-14
     # at u = h the springs are horizontal: s = d
     assert relative_error(sus.tangent_stiffness(H, SPRING), 2 * K * (1 - L / DB)) < 1e-14
 
 
 # --- secant stiffness near zero ------------------------------------------------------------
 
+
 @pytest.mark.parametrize("u", [1e-15, -1e-15, 5e-16, 1e-14])
 def test_secant_stiffness_near_zero_equals_limit(u):
-    limit = 2 * K * H * H / L ** 2
+    limit = 2 * K * H * H / L**2
     assert relative_error(sus.secant_stiffness(u, SPRING), limit) <= 1e-12
     assert relative_error(sus.spring_force(u, SPRING) / u, limit) <= 1e-12
 
@@ -195,6 +206,7 @@ def test_secant_stiffness_against_50_digit_reference(u):
 
 
 # --- limit point ---------------------------------------------------------------------------
+
 
 def test_limit_point_is_a_force_maximum_with_zero_tangent():
     u_star, f_star = LIMIT
@@ -223,6 +235,7 @@ def test_limit_point_closed_form():
 
 
 # --- continuation and snap-through ---------------------------------------------------------
+
 
 def _ramp(start, stop, count):
     return [start + (stop - start) * i / (count - 1) for i in range(count)]
@@ -269,8 +282,9 @@ def test_unloading_from_far_branch_snaps_back_once():
             assert eq.deflection < 0.0  # springs stretched upward
         if snapped:
             snaps.append(load)
-        assert abs(sus.spring_force(eq.deflection, SPRING) - load) \
-            <= 1e-9 * max(abs(load), K * L * 1e-6)
+        assert abs(sus.spring_force(eq.deflection, SPRING) - load) <= 1e-9 * max(
+            abs(load), K * L * 1e-6
+        )
         branch, guess = eq.branch, eq.deflection
     assert len(snaps) == 1 and snaps[0] < -f_star
 
@@ -315,6 +329,7 @@ def test_non_finite_loads_raise_range_error(bad):
 
 # --- stiff springs -------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("k", [1e6, 1e7, 1e8])
 def test_stiff_springs_converge(k):
     spring = sus.make_spring(L, k, DB)
@@ -325,14 +340,17 @@ def test_stiff_springs_converge(k):
         assert eq.stable
     near = sus.solve_on_branch(W_COURSEWORK, sus.NEAR, spring)
     # small-deflection limit: u ~ W / (2 k h^2 / L^2)
-    assert relative_error(near, W_COURSEWORK / (2 * k * H * H / L ** 2)) < 100 * W_COURSEWORK / k
+    assert relative_error(near, W_COURSEWORK / (2 * k * H * H / L**2)) < 100 * W_COURSEWORK / k
 
 
 # --- property tests ------------------------------------------------------------------------
 
 springs = st.builds(
-    lambda length, ratio, log_k: sus.make_spring(length, 10.0 ** log_k, ratio * length),
-    st.floats(0.05, 5.0), st.floats(0.02, 0.98), st.floats(1.0, 8.0))
+    lambda length, ratio, log_k: sus.make_spring(length, 10.0**log_k, ratio * length),
+    st.floats(0.05, 5.0),
+    st.floats(0.02, 0.98),
+    st.floats(1.0, 8.0),
+)
 
 
 def _check_solution(spring, load, branch):

@@ -15,17 +15,29 @@ from hypothesis import strategies as st
 
 from mechfmu.runtime.numerics import linalg
 from mechfmu.runtime.errors import SingularConfiguration
-from mechfmu.runtime.physics.planar import (GROUND, PHI, X, BranchFollower, Driver, Mechanism,
-                                    NoConvergence, PointOnLine, Revolute, analyse,
-                                    solve_position, translational)
+from mechfmu.runtime.physics.planar import (
+    GROUND,
+    PHI,
+    X,
+    BranchFollower,
+    Driver,
+    Mechanism,
+    NoConvergence,
+    PointOnLine,
+    Revolute,
+    analyse,
+    solve_position,
+    translational,
+)
 
 PROPERTY = settings(derandomize=True, max_examples=100, deadline=None)
 
 
 # --- linear algebra -------------------------------------------------------------------------
 
+
 def test_lu_solve_and_determinant_sign():
-    matrix = [[0.0, 2.0, 1.0], [1.0, 1.0, 0.0], [3.0, 0.0, 1.0]]   # det = -5
+    matrix = [[0.0, 2.0, 1.0], [1.0, 1.0, 0.0], [3.0, 0.0, 1.0]]  # det = -5
     factored = linalg.lu_factor(matrix)
     x = linalg.lu_solve(factored, [4.5, 3.0, 6.0])
     assert x == pytest.approx([1.5, 1.5, 1.5], rel=1e-15)
@@ -43,13 +55,16 @@ def test_condition_number():
 
 # --- mechanisms built from joints -------------------------------------------------------------
 
+
 def four_bar(a, b, c, d):
     """Crank (0), coupler (1), rocker (2); each frame at its first pin, x along the link."""
-    joints = [Revolute("crank pivot", 0, (0, 0), GROUND, (0, 0)),
-              Revolute("crank pin", 0, (a, 0), 1, (0, 0)),
-              Revolute("coupler pin", 1, (b, 0), 2, (c, 0)),
-              Revolute("rocker pivot", 2, (0, 0), GROUND, (d, 0)),
-              Driver("crank angle", ((0, PHI, 1.0),))]
+    joints = [
+        Revolute("crank pivot", 0, (0, 0), GROUND, (0, 0)),
+        Revolute("crank pin", 0, (a, 0), 1, (0, 0)),
+        Revolute("coupler pin", 1, (b, 0), 2, (c, 0)),
+        Revolute("rocker pivot", 2, (0, 0), GROUND, (d, 0)),
+        Driver("crank angle", ((0, PHI, 1.0),)),
+    ]
     return Mechanism("four-bar", ("crank", "coupler", "rocker"), joints, (a + b + c + d) / 4)
 
 
@@ -60,20 +75,24 @@ def four_bar_guess(a, d, crank, coupler, rocker):
 def slot_mechanism(d):
     """Inverted slider-crank: the crank pin A slides in a slot of a rocker pivoted at
     (0, -d). Closed form: rocker angle = atan2(a sin t + d, a cos t)."""
-    joints = [Revolute("crank pivot", 0, (0, 0), GROUND, (0, 0)),
-              Revolute("rocker pivot", 1, (0, 0), GROUND, (0, -d)),
-              PointOnLine("slot", 0, (1.0, 0), 1, (0, 0), (1, 0)),
-              Driver("crank angle", ((0, PHI, 1.0),))]
+    joints = [
+        Revolute("crank pivot", 0, (0, 0), GROUND, (0, 0)),
+        Revolute("rocker pivot", 1, (0, 0), GROUND, (0, -d)),
+        PointOnLine("slot", 0, (1.0, 0), 1, (0, 0), (1, 0)),
+        Driver("crank angle", ((0, PHI, 1.0),)),
+    ]
     return Mechanism("slot", ("crank", "rocker"), joints, d)
 
 
 def slider_crank(a, b, e):
     """Crank (0), coupler (1), slider block (2) on the line y = e along x."""
-    joints = [Revolute("crank pivot", 0, (0, 0), GROUND, (0, 0)),
-              Revolute("crank pin", 0, (a, 0), 1, (0, 0)),
-              Revolute("slider pin", 1, (b, 0), 2, (0, 0)),
-              *translational("slider", 2, (0, 0), GROUND, (0, e), (1, 0)),
-              Driver("crank angle", ((0, PHI, 1.0),))]
+    joints = [
+        Revolute("crank pivot", 0, (0, 0), GROUND, (0, 0)),
+        Revolute("crank pin", 0, (a, 0), 1, (0, 0)),
+        Revolute("slider pin", 1, (b, 0), 2, (0, 0)),
+        *translational("slider", 2, (0, 0), GROUND, (0, e), (1, 0)),
+        Driver("crank angle", ((0, PHI, 1.0),)),
+    ]
     return Mechanism("slider-crank", ("crank", "coupler", "slider"), joints, a + b)
 
 
@@ -107,9 +126,11 @@ def test_coursework_four_bar_closes_and_stays_on_its_circuit():
 def finite_difference_check(mechanism, guess, angle, speed, acceleration, h=1e-4):
     """q', q'' from the solver against central differences of positions along
     crank(t) = angle + speed t + acceleration t^2 / 2 at t = 0."""
+
     def position(t):
         drive = [(angle + speed * t + 0.5 * acceleration * t * t, 0.0, 0.0)]
         return solve_position(mechanism, guess, drive)[0]
+
     q0 = position(0.0)
     qdot, qddot, _, _ = analyse(mechanism, q0, [(angle, speed, acceleration)])
     plus, minus = position(h), position(-h)
@@ -122,18 +143,25 @@ def finite_difference_check(mechanism, guess, angle, speed, acceleration, h=1e-4
     return q0, qdot, qddot
 
 
-@pytest.mark.parametrize("mechanism, guess", [
-    (four_bar(2.0, 7.0, 9.0, 6.0), four_bar_guess(2.0, 6.0, 1.0, 1.5, 2.0)),
-    (slot_mechanism(0.3), [0.0, 0.0, 1.0, 0.0, -0.3, 1.2]),
-    (slider_crank(0.05, 0.15, 0.02), [0, 0, 1.0, 0.027, 0.042, -0.15, 0.18, 0.02, 0.0]),
-])
+@pytest.mark.parametrize(
+    "mechanism, guess",
+    [
+        (four_bar(2.0, 7.0, 9.0, 6.0), four_bar_guess(2.0, 6.0, 1.0, 1.5, 2.0)),
+        (slot_mechanism(0.3), [0.0, 0.0, 1.0, 0.0, -0.3, 1.2]),
+        (slider_crank(0.05, 0.15, 0.02), [0, 0, 1.0, 0.027, 0.042, -0.15, 0.18, 0.02, 0.0]),
+    ],
+)
 def test_velocity_and_acceleration_against_finite_differences(mechanism, guess):
     finite_difference_check(mechanism, guess, 1.0, 3.0, -7.0)
 
 
 @PROPERTY
-@given(st.floats(-math.pi, math.pi), st.floats(-50.0, 50.0), st.floats(-500.0, 500.0),
-       st.floats(0.15, 3.0))
+@given(
+    st.floats(-math.pi, math.pi),
+    st.floats(-50.0, 50.0),
+    st.floats(-500.0, 500.0),
+    st.floats(0.15, 3.0),
+)
 def test_slot_against_its_closed_form(angle, speed, acceleration, d):
     """Pin at radius 1 in the slot of a rocker pivoted at distance d > 1 below the crank:
     rocker angle psi = atan2(sin t + d, cos t), rates by differentiating tan(psi)."""
@@ -147,7 +175,7 @@ def test_slot_against_its_closed_form(angle, speed, acceleration, d):
     # psi' = w (1 + d sin t) / r^2 with r^2 = 1 + d^2 + 2 d sin t (pin distance squared)
     r2 = 1 + d * d + 2 * d * math.sin(angle)
     g = (1 + d * math.sin(angle)) / r2
-    dg = (d * math.cos(angle) * r2 - (1 + d * math.sin(angle)) * 2 * d * math.cos(angle)) / r2 ** 2
+    dg = (d * math.cos(angle) * r2 - (1 + d * math.sin(angle)) * 2 * d * math.cos(angle)) / r2**2
     assert qdot[5] == pytest.approx(speed * g, rel=1e-10, abs=1e-12)
     assert qddot[5] == pytest.approx(acceleration * g + speed * speed * dg, rel=1e-9, abs=1e-9)
 
@@ -178,9 +206,10 @@ def test_big_drive_changes_are_followed_by_continuation():
     assert closure(solution.q, a, b, c, d) < 1e-14
     assert follower.sign == sign
     reference = BranchFollower(four_bar(a, b, c, d))
-    direct = reference.assemble(four_bar_guess(a, d, start + math.pi, 1.5, 2.0),
-                                [(start + math.pi, 1.0, 0.0)])
-    assert reference.sign == sign   # same circuit as the guess-assembled configuration
+    direct = reference.assemble(
+        four_bar_guess(a, d, start + math.pi, 1.5, 2.0), [(start + math.pi, 1.0, 0.0)]
+    )
+    assert reference.sign == sign  # same circuit as the guess-assembled configuration
     assert math.remainder(solution.q[8] - direct.q[8], 2 * math.pi) == pytest.approx(0, abs=1e-12)
 
 
@@ -209,5 +238,9 @@ def test_toggle_position_is_reported_with_the_configuration():
 
 def test_equation_count_must_match_coordinates():
     with pytest.raises(ValueError, match="3 constraint equations for 6 coordinates"):
-        Mechanism("short", ("a", "b"), [Revolute("r", 0, (0, 0), GROUND, (0, 0)),
-                                        Driver("d", ((0, X, 1.0),))], 1.0)
+        Mechanism(
+            "short",
+            ("a", "b"),
+            [Revolute("r", 0, (0, 0), GROUND, (0, 0)), Driver("d", ((0, X, 1.0),))],
+            1.0,
+        )

@@ -19,15 +19,24 @@ def mechanisms():
     ground, crank, _, _ = fb.COURSEWORK_FOUR_BAR
     start = 0.3
     coupler, rocker = fb.position(*fb.COURSEWORK_FOUR_BAR, start, 0)
-    yield (four_bar, constraint_models.four_bar_guess(ground, crank, start, coupler, rocker),
-           [[(start + 0.05 * k, 2.0 + 0.1 * k, -1.5)] for k in range(60)])
+    yield (
+        four_bar,
+        constraint_models.four_bar_guess(ground, crank, start, coupler, rocker),
+        [[(start + 0.05 * k, 2.0 + 0.1 * k, -1.5)] for k in range(60)],
+    )
     slider = constraint_models.slider_crank(0.05, 0.2, 0.01)
-    yield (slider, constraint_models.slider_crank_guess(0.05, 0.01, 0.0, 0.0, 0.25 - 0.0),
-           [[(0.07 * k, 100.0, 3.0)] for k in range(60)])
+    yield (
+        slider,
+        constraint_models.slider_crank_guess(0.05, 0.01, 0.0, 0.0, 0.25 - 0.0),
+        [[(0.07 * k, 100.0, 3.0)] for k in range(60)],
+    )
     geometry = vt.DEFAULT_VALVE_GEOMETRY
     valve = constraint_models.valve_train(geometry)
-    yield (valve, constraint_models.valve_train_guess(geometry),
-           [[(geometry.cam_base_radius + 0.0002 * k, 0.5, 20.0)] for k in range(40)])
+    yield (
+        valve,
+        constraint_models.valve_train_guess(geometry),
+        [[(geometry.cam_base_radius + 0.0002 * k, 0.5, 20.0)] for k in range(40)],
+    )
 
 
 def relative(a, b):
@@ -48,13 +57,15 @@ def test_kernels_match_the_generic_assembly_and_solves(case):
         assert relative(kernel.residual(q, drive), mechanism.residual(q, drive)) < 1e-14
         dense = kernel.dense(kernel.jacobian(q))
         generic = mechanism.jacobian(q)
-        assert relative([v for row in dense for v in row],
-                        [v for row in generic for v in row]) < 1e-14
+        assert (
+            relative([v for row in dense for v in row], [v for row in generic for v in row]) < 1e-14
+        )
         residual, values = kernel.residual_jacobian(q, drive)
         assert values == kernel.jacobian(q) and residual == kernel.residual(q, drive)
         assert relative(kernel.gamma(q, qdot, drive), mechanism.gamma(q, qdot, drive)) < 1e-13
-        assert kernel.one_norm(kernel.jacobian(q)) == pytest.approx(linalg.one_norm(generic),
-                                                                    rel=1e-14)
+        assert kernel.one_norm(kernel.jacobian(q)) == pytest.approx(
+            linalg.one_norm(generic), rel=1e-14
+        )
         factored = linalg.lu_factor(generic)
         lu = kernel.lu(tuple(factored[1]))
         factors = lu.factor(kernel.jacobian(q))
@@ -62,8 +73,10 @@ def test_kernels_match_the_generic_assembly_and_solves(case):
         b = [rng.uniform(-1.0, 1.0) for _ in q]
         assert relative(lu.solve(factors, b), linalg.lu_solve(factored, b)) < 1e-12
         transposed = [list(column) for column in zip(*generic)]
-        assert relative(lu.solve_t(factors, b),
-                        linalg.lu_solve(linalg.lu_factor(transposed), b)) < 1e-12
+        assert (
+            relative(lu.solve_t(factors, b), linalg.lu_solve(linalg.lu_factor(transposed), b))
+            < 1e-12
+        )
         assert lu.sign(factors) == linalg.determinant_sign(factored)
         # Hager's estimate: a lower bound of ||A^-1||_1; from (1/n, ..., 1/n), as LAPACK
         # starts, within 10 % here; from a unit vector a lower bound still.

@@ -37,8 +37,9 @@ def test_late_force_in_the_tube(mechfmu_regression):
 
 
 def write(pytester, amplitude=1.0, method="tube", delay=0.0):
-    pytester.makepyfile(test_valve=TEST_FILE.format(amplitude=amplitude, method=method,
-                                                    delay=delay))
+    pytester.makepyfile(
+        test_valve=TEST_FILE.format(amplitude=amplitude, method=method, delay=delay)
+    )
 
 
 def test_the_plugin_is_loaded_by_its_entry_point(pytester):
@@ -52,8 +53,9 @@ def test_first_run_writes_baselines_and_fails_then_passes(pytester):
     write(pytester)
     result = pytester.runpytest("-p", "no:cacheprovider")
     result.assert_outcomes(failed=2)
-    result.stdout.fnmatch_lines([("*mechfmu_regression: no baseline yet; wrote *"
-                                 "test_valve*test_lift_a_b.csv*")])
+    result.stdout.fnmatch_lines(
+        [("*mechfmu_regression: no baseline yet; wrote *test_valve*test_lift_a_b.csv*")]
+    )
     baseline = pytester.path / "test_valve" / "test_lift_a_b.csv"
     stored = read_result(baseline)
     assert list(stored.columns) == ["valve.valve_lift", "valve.contact_force"]
@@ -70,19 +72,29 @@ def test_a_change_fails_naming_column_and_time_and_regen_accepts_it(pytester):
     write(pytester, amplitude=1.01)
     result = pytester.runpytest("-p", "no:cacheprovider")
     result.assert_outcomes(failed=1, passed=1)
-    result.stdout.fnmatch_lines(["*differs from the baseline*test_lift_a_b.csv*",
-                                 "*column*time*value*reference*allowed*kind*",
-                                 "*valve.valve_lift*0.01*value*",
-                                 "obtained: * (mechfmu check * --report DIR plots it)",
-                                 "*--mechfmu-regen accepts the new values*"])
+    result.stdout.fnmatch_lines(
+        [
+            "*differs from the baseline*test_lift_a_b.csv*",
+            "*column*time*value*reference*allowed*kind*",
+            "*valve.valve_lift*0.01*value*",
+            "obtained: * (mechfmu check * --report DIR plots it)",
+            "*--mechfmu-regen accepts the new values*",
+        ]
+    )
     obtained = next(line for line in result.outlines if line.startswith("obtained: "))
     obtained = obtained.split()[1]
     assert read_result(obtained)["valve.valve_lift"].max() == pytest.approx(1.01)
     assert read_result(baseline)["valve.valve_lift"].max() == pytest.approx(1.0)
     result = pytester.runpytest("-p", "no:cacheprovider", "--mechfmu-regen")
     result.assert_outcomes(failed=1, passed=1)
-    result.stdout.fnmatch_lines([("*--mechfmu-regen: the baseline differed (valve.valve_lift "
-                                 "at t = 0.01 s*; wrote *test_lift_a_b.csv*")])
+    result.stdout.fnmatch_lines(
+        [
+            (
+                "*--mechfmu-regen: the baseline differed (valve.valve_lift "
+                "at t = 0.01 s*; wrote *test_lift_a_b.csv*"
+            )
+        ]
+    )
     assert read_result(baseline)["valve.valve_lift"].max() == pytest.approx(1.01)
     pytester.runpytest("-p", "no:cacheprovider").assert_outcomes(passed=2)
 
@@ -104,6 +116,12 @@ def test_an_unreadable_baseline_is_one_line(pytester):
     (pytester.path / "test_valve" / "force.csv").write_text("time,valve.contact_force\n0.0,x\n")
     result = pytester.runpytest("-p", "no:cacheprovider", "-k", "late")
     result.assert_outcomes(failed=1)
-    result.stdout.fnmatch_lines([("*force.csv: line 2, column 'valve.contact_force': 'x' is not "
-                                 "a number (--mechfmu-regen rewrites it)*")])
+    result.stdout.fnmatch_lines(
+        [
+            (
+                "*force.csv: line 2, column 'valve.contact_force': 'x' is not "
+                "a number (--mechfmu-regen rewrites it)*"
+            )
+        ]
+    )
     assert "Traceback" not in result.stdout.str()

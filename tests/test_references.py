@@ -58,17 +58,25 @@ def interior_lengths(d, h, n, rng, margin=0.05):
 
 # ---------------------------------------------------------------- landing gear
 
-@pytest.mark.parametrize("x_r, x_e", [(1.25, 2.0), (plg.COURSEWORK_RETRACTED_LENGTH,
-                                                    plg.COURSEWORK_EXTENDED_LENGTH),
-                                      (0.1, 0.35), (3.0, 3.1), (1.0, 10.0)])
+
+@pytest.mark.parametrize(
+    "x_r, x_e",
+    [
+        (1.25, 2.0),
+        (plg.COURSEWORK_RETRACTED_LENGTH, plg.COURSEWORK_EXTENDED_LENGTH),
+        (0.1, 0.35),
+        (3.0, 3.1),
+        (1.0, 10.0),
+    ],
+)
 def test_design_geometry_matches_physics(x_r, x_e):
     ref = lg.design_geometry(x_r, x_e)
     phys = plg.design_geometry(x_r, x_e)
     for a, b in zip(ref, phys):
         assert math.isclose(a, b, rel_tol=RTOL)
     d, h, theta_1 = ref
-    residual = d * d + x_r * d + 0.5 * (x_r ** 2 - x_e ** 2)
-    assert residual == pytest.approx(0.0, abs=1e-14 * x_e ** 2)
+    residual = d * d + x_r * d + 0.5 * (x_r**2 - x_e**2)
+    assert residual == pytest.approx(0.0, abs=1e-14 * x_e**2)
     # The design conditions: retracted piston perpendicular to d, quarter turn at x_e.
     theta_end = lg.gear_from_piston(x_e, 0.0, 0.0, d, h)[0]
     assert math.isclose(float(theta_end), theta_1 + math.pi / 2, rel_tol=1e-12)
@@ -133,8 +141,9 @@ def _stroke_times(start_time, stroke_time, rng):
 
 
 @pytest.mark.parametrize("profile", lg.STROKE_PROFILES)
-@pytest.mark.parametrize("x0, x1, T, start", [(0.381, 0.6096, 3.0, 0.0), (2.0, 1.25, 1.5, 0.5),
-                                              (0.1, 0.4, 4.0, -1.0)])
+@pytest.mark.parametrize(
+    "x0, x1, T, start", [(0.381, 0.6096, 3.0, 0.0), (2.0, 1.25, 1.5, 0.5), (0.1, 0.4, 4.0, -1.0)]
+)
 def test_stroke_matches_physics(profile, x0, x1, T, start):
     t = _stroke_times(start, T, np.random.default_rng(3))
     ref = lg.stroke(t, x0, x1, T, profile, start_time=start)
@@ -164,8 +173,14 @@ def test_retraction_columns(profile):
     d, h, theta_1 = lg.design_geometry(1.25, 2.0)
     t = np.linspace(0.0, 3.0, 61)
     table = lg.retraction(t, d, h, 1.25, 2.0, 3.0, profile)
-    assert list(table) == ["piston_extension", "piston_speed", "piston_acceleration",
-                           "gear_angle", "gear_angular_velocity", "gear_angular_acceleration"]
+    assert list(table) == [
+        "piston_extension",
+        "piston_speed",
+        "piston_acceleration",
+        "gear_angle",
+        "gear_angular_velocity",
+        "gear_angular_acceleration",
+    ]
     assert all(column.shape == t.shape for column in table.values())
     assert table["gear_angle"][0] == pytest.approx(theta_1, rel=1e-14)
     assert table["gear_angle"][-1] == pytest.approx(theta_1 + math.pi / 2, rel=1e-14)
@@ -177,6 +192,7 @@ def test_retraction_columns(profile):
 
 
 # ---------------------------------------------------------------- suspension
+
 
 @pytest.mark.parametrize("L, k, d", SPRINGS)
 def test_suspension_closed_forms_match_physics(L, k, d):
@@ -201,14 +217,14 @@ def test_suspension_closed_forms_match_physics(L, k, d):
 
 def test_secant_stiffness_limit_at_zero():
     h = float(sp.rest_height(L0, D0))
-    assert sp.secant_stiffness(0.0, L0, K0, D0) == pytest.approx(2 * K0 * h * h / L0 ** 2,
-                                                                   rel=1e-15)
+    assert sp.secant_stiffness(0.0, L0, K0, D0) == pytest.approx(2 * K0 * h * h / L0**2, rel=1e-15)
     assert sp.spring_force(0.0, L0, K0, D0) == 0.0
     # Continuous through u = 0 at full precision (the naive F/u is not).
     for u in (1e-8, 1e-12, 1e-15):
         slope = float(sp.tangent_stiffness(0.0, L0, K0, D0))
         assert float(sp.secant_stiffness(u, L0, K0, D0)) == pytest.approx(
-            2 * K0 * h * h / L0 ** 2, abs=abs(slope) * u * 10)
+            2 * K0 * h * h / L0**2, abs=abs(slope) * u * 10
+        )
 
 
 @pytest.mark.parametrize("L, k, d", SPRINGS)
@@ -219,8 +235,9 @@ def test_equilibria_match_physics_branches(L, k, d):
         W = fraction * F_star
         roots = sp.equilibria(W, L, k, d)
         assert np.all(np.diff(roots) > 0.0)
-        assert close(sp.spring_force(roots, L, k, d), np.full(roots.size, W), rtol=1e-12,
-                     scale=F_star)
+        assert close(
+            sp.spring_force(roots, L, k, d), np.full(roots.size, W), rtol=1e-12, scale=F_star
+        )
         if abs(fraction) < 0.98:
             assert roots.size == 3
             mid = roots[1]
@@ -269,8 +286,16 @@ def test_follow_load_snaps_once_on_ramp():
     _, F_star = sp.limit_point(L0, K0, D0)
     loads = np.linspace(0.0, 1.5 * F_star, 301)
     path = sp.follow_load(loads, L0, K0, D0)
-    assert set(path) == {"deflection", "spring_force", "secant_stiffness", "tangent_stiffness",
-                         "stable", "marginal", "branch", "snap_through"}
+    assert set(path) == {
+        "deflection",
+        "spring_force",
+        "secant_stiffness",
+        "tangent_stiffness",
+        "stable",
+        "marginal",
+        "branch",
+        "snap_through",
+    }
     # Sample 200 is the limit load to within rounding (200 * step vs F*, which differ in the
     # last bits, either way, depending on the CPU): it is the limit point, marginal, not a
     # snap-through; the snap happens at the next sample.
@@ -353,8 +378,9 @@ def test_follow_load_matches_physics_continuation():
         assert path["snap_through"][i] == float(snapped)
         # At the limit load the deflection is a double root: only ~sqrt(eps) conditioned.
         tolerance = 1e-7 if abs(abs(W) - F_star) < 0.01 * F_star else RTOL
-        assert math.isclose(path["deflection"][i], state.deflection, rel_tol=tolerance,
-                            abs_tol=tolerance * L0)
+        assert math.isclose(
+            path["deflection"][i], state.deflection, rel_tol=tolerance, abs_tol=tolerance * L0
+        )
         if abs(abs(W) - F_star) >= 0.01 * F_star:
             assert path["stable"][i] == float(state.stable)
         assert path["marginal"][i] == float(state.marginal)
@@ -364,14 +390,16 @@ def test_follow_load_matches_physics_continuation():
 def test_follow_load_at_the_limit_load_stays_near():
     u_star, F_star = sp.limit_point(L0, K0, D0)
     # One ulp above F* is still the limit load (within LIMIT_LOAD_RTOL); 1e-9 F* above is past.
-    path = sp.follow_load([0.0, F_star, np.nextafter(F_star, np.inf), F_star * (1 + 1e-9)],
-                          L0, K0, D0)
+    path = sp.follow_load(
+        [0.0, F_star, np.nextafter(F_star, np.inf), F_star * (1 + 1e-9)], L0, K0, D0
+    )
     assert list(path["snap_through"]) == [0.0, 0.0, 0.0, 1.0]
     assert list(path["marginal"]) == [0.0, 1.0, 1.0, 0.0]
     assert path["deflection"][1] == pytest.approx(u_star, abs=1e-7)
 
 
 # ---------------------------------------------------------------- report
+
 
 def test_seed_report_is_up_to_date():
     committed = (REPO_ROOT / "data" / "seed_report.md").read_text(encoding="utf-8")
@@ -385,26 +413,43 @@ def test_references_use_the_physics_never_the_models():
     for path in sorted(package.glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.ImportFrom):
-                base = importlib.util.resolve_name("." * node.level + (node.module or ""),
-                                                   "mechfmu.references") if node.level else \
-                    node.module
+                base = (
+                    importlib.util.resolve_name(
+                        "." * node.level + (node.module or ""), "mechfmu.references"
+                    )
+                    if node.level
+                    else node.module
+                )
                 names = [f"{base}.{alias.name}" for alias in node.names]
             elif isinstance(node, ast.Import):
                 names = [alias.name for alias in node.names]
             else:
                 continue
             for name in names:
-                assert not name.startswith(("mechfmu.runtime.models", "mechfmu.runtime.fmi")), \
+                assert not name.startswith(("mechfmu.runtime.models", "mechfmu.runtime.fmi")), (
                     f"{path.name} imports {name}"
+                )
 
 
 def test_every_sample_belongs_to_exactly_one_piece_whatever_the_event_times_round_to():
     from mechfmu.references.breakpoints import piece_of_samples
+
     event = 0.632  # an event time that a sample falls on, and just either side of it
     starts = [0.0, event, event + 1e-9, 1.5]
     ends = [event, event + 1e-9, 1.5, 2.0]
-    times = np.array([0.0, np.nextafter(event, 0.0), event, np.nextafter(event, 1.0),
-                      event + 1e-9, 1.0, 1.5, 2.0, np.nextafter(2.0, 3.0)])
+    times = np.array(
+        [
+            0.0,
+            np.nextafter(event, 0.0),
+            event,
+            np.nextafter(event, 1.0),
+            event + 1e-9,
+            1.0,
+            1.5,
+            2.0,
+            np.nextafter(2.0, 3.0),
+        ]
+    )
     owner = piece_of_samples(starts, ends, times)
     assert list(owner) == [0, 0, 1, 1, 2, 2, 3, 3, 3]
     # a rounding error before the first start still belongs to the first piece

@@ -23,8 +23,9 @@ SEQUENCES = 1000
 
 
 def _has_real_inputs(model):
-    return any(v.causality == "input" and v.kind is float
-               for v in fuzz.declarations(model).values())
+    return any(
+        v.causality == "input" and v.kind is float for v in fuzz.declarations(model).values()
+    )
 
 
 DRIVEN = [m for m in MODELS if _has_real_inputs(m)]
@@ -86,6 +87,7 @@ PROBE = textwrap.dedent('''
 @pytest.fixture(scope="module")
 def probe_dir(tmp_path_factory):
     from pythonfmu import FmuBuilder
+
     folder = tmp_path_factory.mktemp("probe")
     script = folder / "probe_entry.py"
     script.write_text(PROBE)
@@ -94,15 +96,19 @@ def probe_dir(tmp_path_factory):
     return folder
 
 
-@pytest.mark.parametrize("mode, words", [
-    ("none", None),
-    ("nan", ["outputs are not finite: y = nan"]),
-    ("silent", ["discarded without an error message"]),
-    ("raise", ["ended abnormally", "re-run with --only"]),  # fmi2Fatal, then a segfault
-    ("abort", ["ended abnormally (killed by signal 6)", "re-run with --only"]),
-])
-def test_the_fuzz_harness_catches_crashes_nan_and_silent_discards(probe_dir, tmp_path,
-                                                                  monkeypatch, mode, words):
+@pytest.mark.parametrize(
+    "mode, words",
+    [
+        ("none", None),
+        ("nan", ["outputs are not finite: y = nan"]),
+        ("silent", ["discarded without an error message"]),
+        ("raise", ["ended abnormally", "re-run with --only"]),  # fmi2Fatal, then a segfault
+        ("abort", ["ended abnormally (killed by signal 6)", "re-run with --only"]),
+    ],
+)
+def test_the_fuzz_harness_catches_crashes_nan_and_silent_discards(
+    probe_dir, tmp_path, monkeypatch, mode, words
+):
     monkeypatch.setenv("PROBE_MODE", mode)
     result = fuzz.fuzz_model("Probe", probe_dir, 40, seed=1, work_dir=tmp_path)
     if words is None:
@@ -114,9 +120,24 @@ def test_the_fuzz_harness_catches_crashes_nan_and_silent_discards(probe_dir, tmp
 
 
 def test_fuzz_command_reproduces_one_sequence(fmu_dir, tmp_path):
-    out = subprocess.run([sys.executable, "-m", "mechfmu", "fuzz", "CrankDrive", "--only", "7",
-                          "--fmus", str(fmu_dir), "--out", str(tmp_path)],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mechfmu",
+            "fuzz",
+            "CrankDrive",
+            "--only",
+            "7",
+            "--fmus",
+            str(fmu_dir),
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stdout + out.stderr
     assert "ok   CrankDrive: 1 sequences" in out.stdout
     lines = (tmp_path / "CrankDrive.jsonl").read_text().splitlines()
@@ -124,6 +145,7 @@ def test_fuzz_command_reproduces_one_sequence(fmu_dir, tmp_path):
 
 
 # --- reset, several instances, FMU state ------------------------------------------------------
+
 
 def _plausible_plan(model, index, steps=8):
     """A reproducible sequence of plausible inputs and ordinary step sizes."""
@@ -133,8 +155,10 @@ def _plausible_plan(model, index, steps=8):
     inputs = {n: v.start for n, v in variables.items() if v.causality == "input"}
     plan = []
     for _ in range(steps):
-        inputs = {n: fuzz.plausible(rng, variables[n], value) if isinstance(value, float)
-                  else value for n, value in inputs.items()}
+        inputs = {
+            n: fuzz.plausible(rng, variables[n], value) if isinstance(value, float) else value
+            for n, value in inputs.items()
+        }
         plan.append((typical * rng.uniform(0.5, 5.0), dict(inputs)))
     return {"parameters": {}, "inputs": {}, "steps": plan, "rollback": None}
 
@@ -165,9 +189,11 @@ def test_reset_returns_the_instance_to_its_initial_state(fmu_dir, model):
 
 def _changed_parameters(model):
     """Every Real parameter that has a nonzero start moved by 10 %."""
-    return {n: v.start * 1.1 for n, v in fuzz.declarations(model).items()
-            if v.causality == "parameter" and v.kind is float and v.start
-            and n != "max_wall_time"}
+    return {
+        n: v.start * 1.1
+        for n, v in fuzz.declarations(model).items()
+        if v.causality == "parameter" and v.kind is float and v.start and n != "max_wall_time"
+    }
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -208,6 +234,7 @@ def test_fmu_state_round_trip_covers_every_internal_state(fmu_dir, model):
 
 # --- discarded steps and bounds ---------------------------------------------------------------
 
+
 @pytest.mark.parametrize("model", DRIVEN)
 def test_a_discarded_step_leaves_the_instance_as_before(fmu_dir, model):
     """A step refused half-way (a NaN input) must not advance anything: the run that
@@ -216,8 +243,9 @@ def test_a_discarded_step_leaves_the_instance_as_before(fmu_dir, model):
     clean = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
     expected = _outputs_along(clean, plan)
     clean.close()
-    name = sorted(n for n, v in fuzz.declarations(model).items()
-                  if v.causality == "input" and v.kind is float)
+    name = sorted(
+        n for n, v in fuzz.declarations(model).items() if v.causality == "input" and v.kind is float
+    )
     fuzzed = fuzz.Fuzzed(fmu_dir / f"{model}.fmu")
     fuzzed.start(plan)
     now, trace = 0.0, [fuzzed.read_outputs()]
@@ -247,12 +275,16 @@ def test_do_step_before_initialisation_is_refused(fmu_dir):
     from fmpy.fmi2 import FMU2Slave
 
     from mechfmu.cosim.master import LogBook
+
     path = fmu_dir / "LandingGear.fmu"
     description = read_model_description(str(path))
     logbook = LogBook()
-    slave = FMU2Slave(guid=description.guid, unzipDirectory=extract(str(path)),
-                      modelIdentifier=description.coSimulation.modelIdentifier,
-                      instanceName="early")
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=extract(str(path)),
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName="early",
+    )
     slave.instantiate(callbacks=logbook.callbacks, loggingOn=True)
     with pytest.raises(FMICallException, match="discard"):
         slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=0.1)
@@ -266,8 +298,11 @@ def test_do_step_before_initialisation_is_refused(fmu_dir):
 
 
 def test_a_step_past_its_wall_clock_bound_is_discarded_and_the_instance_goes_on(fmu_dir):
-    driven = Driven(fmu_dir / "ValveSpring.fmu", parameters={"max_wall_time": 0.05},
-                    inputs={"rocker_lift": 1e-3})
+    driven = Driven(
+        fmu_dir / "ValveSpring.fmu",
+        parameters={"max_wall_time": 0.05},
+        inputs={"rocker_lift": 1e-3},
+    )
     before = driven.get("valve_lift")
     started = time.perf_counter()
     message = driven.step(1.0)  # 50 000 sub-steps of 2e-5 s: far more than 0.05 s of work
@@ -279,8 +314,10 @@ def test_a_step_past_its_wall_clock_bound_is_discarded_and_the_instance_goes_on(
 
 
 def test_a_step_needing_more_sub_steps_than_the_bound_is_refused_at_once(fmu_dir):
-    driven = Driven(fmu_dir / "Suspension.fmu",
-                    parameters={"dynamics": True, "integrator": "rk4", "max_substep": 1e-6})
+    driven = Driven(
+        fmu_dir / "Suspension.fmu",
+        parameters={"dynamics": True, "integrator": "rk4", "max_substep": 1e-6},
+    )
     started = time.perf_counter()
     message = driven.step(10.0)
     assert "needs at least 1e+07 sub-steps" in message, message
@@ -313,9 +350,23 @@ _FAILING_SCENE = textwrap.dedent(f"""
 def test_a_failed_run_exits_non_zero_naming_component_time_and_message(fmu_dir, tmp_path):
     scene = tmp_path / "failing.toml"
     scene.write_text(_FAILING_SCENE)
-    out = subprocess.run([sys.executable, "-m", "mechfmu", "run", str(scene), "--out",
-                          str(tmp_path), "--fmu-dir", str(fmu_dir), "--no-plot"],
-                         capture_output=True, text=True, timeout=120)
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mechfmu",
+            "run",
+            str(scene),
+            "--out",
+            str(tmp_path),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--no-plot",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 1, out.stdout + out.stderr
     assert "simulation failed: component 'gear' failed at t = 2." in out.stderr, out.stderr
     assert "piston_extension" in out.stderr and "assembly range" in out.stderr
@@ -323,7 +374,10 @@ def test_a_failed_run_exits_non_zero_naming_component_time_and_message(fmu_dir, 
     meta = json.loads((tmp_path / "failing.partial.json").read_text())
     assert meta["partial"] is True and meta["failed_component"] == "gear"
     assert sorted(p.name for p in tmp_path.iterdir()) == [
-        "failing.partial.csv", "failing.partial.json", "failing.toml"]
+        "failing.partial.csv",
+        "failing.partial.json",
+        "failing.toml",
+    ]
 
 
 def test_a_failed_run_frees_every_instance(fmu_dir, tmp_path, monkeypatch):
@@ -331,6 +385,7 @@ def test_a_failed_run_frees_every_instance(fmu_dir, tmp_path, monkeypatch):
 
     from mechfmu.cosim.master import SimulationError
     from mechfmu.cosim.run import run_scene
+
     freed = []
     original = FMU2Slave.freeInstance
 
@@ -348,22 +403,26 @@ def test_a_failed_run_frees_every_instance(fmu_dir, tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("value", [0.0, -1.0, math.nan])
 def test_an_invalid_wall_clock_bound_is_named(fmu_dir, value):
-    driven = Driven(fmu_dir / "Suspension.fmu", parameters={"dynamics": True,
-                                                             "max_wall_time": value})
+    driven = Driven(
+        fmu_dir / "Suspension.fmu", parameters={"dynamics": True, "max_wall_time": value}
+    )
     message = driven.step(0.01)
     assert f"max_wall_time = {value!r} s is outside the valid range (0, inf] s" in message
     driven.close()
 
 
 def test_an_integrating_fmu_refuses_a_step_that_does_not_continue_its_time(fmu_dir):
-    driven = Driven(fmu_dir / "Suspension.fmu", parameters={"dynamics": True},
-                    inputs={"load": 1000.0})
+    driven = Driven(
+        fmu_dir / "Suspension.fmu", parameters={"dynamics": True}, inputs={"load": 1000.0}
+    )
     assert driven.step(0.01) is True
     before = driven.get("deflection")
     driven.time = 0.02  # the host skips 10 ms
     message = driven.step(0.01)
-    assert ("doStep from t = 0.02 s, but this instance's state is at t = 0.01 s" in message
-            and driven.get("deflection") == before), message
+    assert (
+        "doStep from t = 0.02 s, but this instance's state is at t = 0.01 s" in message
+        and driven.get("deflection") == before
+    ), message
     driven.time = 0.01
     assert driven.step(0.01) is True
     driven.close()

@@ -19,33 +19,44 @@ from mechfmu.tools.scene_references import INTEGRATED, REFERENCES as GENERATED, 
 
 def gear_scene(**changes):
     data = {
-        "name": "inline_gear", "stop_time": 0.5, "step": 0.1,
-        "connections": ["actuator.piston_extension -> gear.piston_extension",
-                        "actuator.piston_speed -> gear.piston_speed",
-                        "actuator.piston_acceleration -> gear.piston_acceleration"],
-        "components": {"actuator": {"fmu": "PistonActuator"},
-                       "gear": {"fmu": "LandingGear", "inputs": {
-                           "piston_force": 0.0, "valve_command": 0.0, "airspeed": 0.0}}},
+        "name": "inline_gear",
+        "stop_time": 0.5,
+        "step": 0.1,
+        "connections": [
+            "actuator.piston_extension -> gear.piston_extension",
+            "actuator.piston_speed -> gear.piston_speed",
+            "actuator.piston_acceleration -> gear.piston_acceleration",
+        ],
+        "components": {
+            "actuator": {"fmu": "PistonActuator"},
+            "gear": {
+                "fmu": "LandingGear",
+                "inputs": {"piston_force": 0.0, "valve_command": 0.0, "airspeed": 0.0},
+            },
+        },
     }
     data.update(changes)
     return data
 
 
-@pytest.mark.parametrize("scene_name, rtol, atol", [
-    ("gear_retraction", 1e-9, 1e-12),
-    ("gear_retraction_cycloidal", 1e-9, 1e-12),
-    ("suspension_load_ramp", 1e-9, 1e-9),
-    ("four_bar_crank_rocker", 1e-10, 1e-10),
-    ("four_bar_solver_crossed", 1e-10, 1e-10),
-    ("slider_crank_offset", 1e-10, 1e-9),
-    ("valve_train", 1e-9, 1e-9),
-    ("valve_train_inverse", 1e-9, 1e-9),
-    ("valve_float", 1e-9, 1e-9),
-    # the valve's dynamics, integrated: SI units, one atol for all columns (measured in the
-    # scene files: at worst 6.5 % and 34 % of these allowances)
-    ("valve_train_dynamic", 1e-6, 1e-3),
-    ("valve_float_dynamic", 1e-5, 1e-3),
-])
+@pytest.mark.parametrize(
+    "scene_name, rtol, atol",
+    [
+        ("gear_retraction", 1e-9, 1e-12),
+        ("gear_retraction_cycloidal", 1e-9, 1e-12),
+        ("suspension_load_ramp", 1e-9, 1e-9),
+        ("four_bar_crank_rocker", 1e-10, 1e-10),
+        ("four_bar_solver_crossed", 1e-10, 1e-10),
+        ("slider_crank_offset", 1e-10, 1e-9),
+        ("valve_train", 1e-9, 1e-9),
+        ("valve_train_inverse", 1e-9, 1e-9),
+        ("valve_float", 1e-9, 1e-9),
+        # the valve's dynamics, integrated: SI units, one atol for all columns (measured in the
+        # scene files: at worst 6.5 % and 34 % of these allowances)
+        ("valve_train_dynamic", 1e-6, 1e-3),
+        ("valve_float_dynamic", 1e-5, 1e-3),
+    ],
+)
 def test_shipped_scene_matches_its_reference(fmu_dir, tmp_path, scene_name, rtol, atol):
     result, paths = run_scene(SCENES / f"{scene_name}.toml", tmp_path, fmu_dir)
     comparison = compare(paths["csv"], result.scene.reference, rtol, atol)
@@ -60,8 +71,7 @@ def test_shipped_scene_matches_its_reference(fmu_dir, tmp_path, scene_name, rtol
 
 
 def test_gear_columns_and_snap_through_in_the_suspension_run(fmu_dir, tmp_path):
-    result, paths = run_scene(SCENES / "suspension_load_ramp.toml", tmp_path, fmu_dir,
-                              plot=False)
+    result, paths = run_scene(SCENES / "suspension_load_ramp.toml", tmp_path, fmu_dir, plot=False)
     times, columns = read_csv(paths["csv"])
     assert list(columns)[0] == "load.load" and len(times) == 401
     snaps = np.flatnonzero(columns["suspension.snap_through"])
@@ -90,26 +100,43 @@ def test_failed_run_keeps_the_rows_computed_before_as_partial(fmu_dir, tmp_path)
     assert not (tmp_path / "inline_gear.csv").exists()
 
 
-@pytest.mark.parametrize("change, words", [
-    (lambda d: d["components"].update(extra={"fmu": "NoSuchModel"}),
-     ["NoSuchModel.fmu not found", "mechfmu build"]),
-    (lambda d: d["connections"].append("ghost.x -> gear.piston_speed"),
-     ["unknown component 'ghost'"]),
-    (lambda d: d["connections"].__setitem__(0, "actuator.piston_extension -> gear.gear_anglez"),
-     ["has no variable 'gear_anglez'", "gear_angle"]),
-    (lambda d: d["connections"].__setitem__(0, "actuator.piston_speed -> gear.piston_speed"),
-     ["connected twice"]),
-    (lambda d: d["connections"].pop(), ["piston_acceleration", "neither connected"]),
-    (lambda d: d["components"]["gear"].update(parameters={"bar_length": "long"}),
-     ["gear.bar_length is Real", "str 'long'"]),
-    (lambda d: d["components"]["gear"].update(parameters={"gear_angle": 1.0}),
-     ["gear.gear_angle is a output, expected parameter"]),
-    (lambda d: d.update(record=["gear.nothing"]), ["has no variable 'nothing'"]),
-    (lambda d: d.update(step=0.3), ["not a whole number of communication steps"]),
-    (lambda d: d.update(stop_time=-1.0), ["stop_time = -1.0 s must exceed"]),
-    (lambda d: d.update(colour="red"), ["unknown key(s) colour"]),
-    (lambda d: d["connections"].append("gear piston"), ["component.output -> component.input"]),
-])
+@pytest.mark.parametrize(
+    "change, words",
+    [
+        (
+            lambda d: d["components"].update(extra={"fmu": "NoSuchModel"}),
+            ["NoSuchModel.fmu not found", "mechfmu build"],
+        ),
+        (
+            lambda d: d["connections"].append("ghost.x -> gear.piston_speed"),
+            ["unknown component 'ghost'"],
+        ),
+        (
+            lambda d: d["connections"].__setitem__(
+                0, "actuator.piston_extension -> gear.gear_anglez"
+            ),
+            ["has no variable 'gear_anglez'", "gear_angle"],
+        ),
+        (
+            lambda d: d["connections"].__setitem__(0, "actuator.piston_speed -> gear.piston_speed"),
+            ["connected twice"],
+        ),
+        (lambda d: d["connections"].pop(), ["piston_acceleration", "neither connected"]),
+        (
+            lambda d: d["components"]["gear"].update(parameters={"bar_length": "long"}),
+            ["gear.bar_length is Real", "str 'long'"],
+        ),
+        (
+            lambda d: d["components"]["gear"].update(parameters={"gear_angle": 1.0}),
+            ["gear.gear_angle is a output, expected parameter"],
+        ),
+        (lambda d: d.update(record=["gear.nothing"]), ["has no variable 'nothing'"]),
+        (lambda d: d.update(step=0.3), ["not a whole number of communication steps"]),
+        (lambda d: d.update(stop_time=-1.0), ["stop_time = -1.0 s must exceed"]),
+        (lambda d: d.update(colour="red"), ["unknown key(s) colour"]),
+        (lambda d: d["connections"].append("gear piston"), ["component.output -> component.input"]),
+    ],
+)
 def test_scene_errors_name_the_problem(fmu_dir, tmp_path, change, words):
     data = gear_scene()
     change(data)
@@ -120,8 +147,11 @@ def test_scene_errors_name_the_problem(fmu_dir, tmp_path, change, words):
 
 
 def test_algebraic_loop_is_named():
-    connections = [Connection("a", "y", "b", "u"), Connection("b", "y", "c", "u"),
-                   Connection("c", "y", "b", "v")]
+    connections = [
+        Connection("a", "y", "b", "u"),
+        Connection("b", "y", "c", "u"),
+        Connection("c", "y", "b", "v"),
+    ]
     with pytest.raises(SceneError, match=r"algebraic loop.*b -> c -> b"):
         order_components(["a", "b", "c"], connections)
     assert order_components(["b", "a"], connections[:1]) == (["a", "b"], [])
@@ -129,10 +159,14 @@ def test_algebraic_loop_is_named():
 
 def test_a_loop_through_a_state_output_lags_that_connection():
     # c.y depends on no input (a state): the loop b -> c -> b is not algebraic
-    connections = [Connection("a", "y", "b", "u"), Connection("b", "y", "c", "u"),
-                   Connection("c", "y", "b", "v")]
-    order, lagged = order_components(["a", "b", "c"], connections,
-                                     lambda connection: connection.source != "c")
+    connections = [
+        Connection("a", "y", "b", "u"),
+        Connection("b", "y", "c", "u"),
+        Connection("c", "y", "b", "v"),
+    ]
+    order, lagged = order_components(
+        ["a", "b", "c"], connections, lambda connection: connection.source != "c"
+    )
     assert order == ["a", "b", "c"] and lagged == [connections[2]]
 
 
@@ -162,8 +196,9 @@ def test_committed_references_equal_freshly_generated_ones(tmp_path):
         for name in columns:
             fresh, stored = np.asarray(columns[name]), np.asarray(committed[name])
             atol = tolerance * float(np.max(np.abs(stored), initial=0.0)) + 1e-300
-            np.testing.assert_allclose(fresh, stored, rtol=tolerance, atol=atol,
-                                       err_msg=f"{path.name}: {name}")
+            np.testing.assert_allclose(
+                fresh, stored, rtol=tolerance, atol=atol, err_msg=f"{path.name}: {name}"
+            )
 
 
 def test_check_command_exit_codes_and_worst_deviation(tmp_path, capsys):
@@ -172,6 +207,7 @@ def test_check_command_exit_codes_and_worst_deviation(tmp_path, capsys):
     assert cli(["check", str(reference), str(reference)]) == 0
     columns["gear.gear_angle"][150] *= 1 + 1e-6
     from mechfmu.cosim.results import write_csv
+
     tampered = write_csv(tmp_path / "tampered.csv", times, columns)
     capsys.readouterr()
     assert cli(["check", str(tampered), str(reference)]) == 1
@@ -182,8 +218,18 @@ def test_check_command_exit_codes_and_worst_deviation(tmp_path, capsys):
 
 
 def test_cli_run_writes_outputs_and_checks_against_the_reference(fmu_dir, tmp_path, capsys):
-    code = cli(["run", str(SCENES / "gear_retraction.toml"), "--out", str(tmp_path),
-                "--fmu-dir", str(fmu_dir), "--check", "--no-plot"])
+    code = cli(
+        [
+            "run",
+            str(SCENES / "gear_retraction.toml"),
+            "--out",
+            str(tmp_path),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--check",
+            "--no-plot",
+        ]
+    )
     out = capsys.readouterr().out
     assert code == 0, out
     assert "match: 6 column(s), 301 sample(s)" in out
@@ -193,25 +239,41 @@ def test_cli_run_writes_outputs_and_checks_against_the_reference(fmu_dir, tmp_pa
 def test_a_shipped_scene_runs_and_checks_by_name_from_any_directory(fmu_dir, tmp_path):
     """`mechfmu run gear_retraction --check` from a folder that is not the repository: the
     scene and its reference CSV are package data."""
-    done = subprocess.run([sys.executable, "-m", "mechfmu", "run", "gear_retraction", "--check",
-                           "--no-plot", "--fmu-dir", str(fmu_dir)], cwd=tmp_path,
-                          capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "mechfmu",
+            "run",
+            "gear_retraction",
+            "--check",
+            "--no-plot",
+            "--fmu-dir",
+            str(fmu_dir),
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     assert "match: 6 column(s), 301 sample(s)" in done.stdout
     assert (tmp_path / "out" / "gear_retraction.csv").is_file()
 
 
 def test_a_script_in_sims_defaults_to_its_repository_and_yields_to_its_arguments(
-        fmu_dir, tmp_path, monkeypatch, capsys):
+    fmu_dir, tmp_path, monkeypatch, capsys
+):
     """script_main puts --out and --fmu-dir in the script's repository before the script's
     own arguments, which win; the exit status is the verb's."""
     from mechfmu.cli import script_main
+
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sys, "argv", ["run_gear.py", "--out", str(tmp_path / "mine"),
-                                      "--no-plot"])
+    monkeypatch.setattr(sys, "argv", ["run_gear.py", "--out", str(tmp_path / "mine"), "--no-plot"])
     with pytest.raises(SystemExit) as exit_:
-        script_main(ROOT / "sims" / "run_gear.py", "example", "gear", out="out",
-                    fmu_dir=str(fmu_dir))
+        script_main(
+            ROOT / "sims" / "run_gear.py", "example", "gear", out="out", fmu_dir=str(fmu_dir)
+        )
     assert exit_.value.code == 0
     assert "every sample within 1e-9 relative (+1e-12 absolute): yes" in capsys.readouterr().out
     assert (tmp_path / "mine" / "gear_retraction.csv").is_file()
@@ -222,24 +284,41 @@ def test_package_data_ships_every_scene_sweep_and_reference():
     CSV, so an installed wheel finds them as a clone does."""
     patterns = read_toml(ROOT / "pyproject.toml")["tool"]["setuptools"]["package-data"]["mechfmu"]
     package = ROOT / "src" / "mechfmu"
-    shipped = {path for folder in ("scenes", "sweeps") for path in (package / folder).rglob("*")
-               if path.is_file() and "__pycache__" not in path.parts}
+    shipped = {
+        path
+        for folder in ("scenes", "sweeps")
+        for path in (package / folder).rglob("*")
+        if path.is_file() and "__pycache__" not in path.parts
+    }
     covered = {path for pattern in patterns for path in package.glob(pattern)}
     assert shipped and shipped <= covered, sorted(map(str, shipped - covered))
     assert {path.stem for path in REFERENCES.glob("*.csv")} == set(GENERATED)
 
 
-@pytest.mark.parametrize("script, expected", [
-    ("run_gear.py", "every sample within 1e-9 relative (+1e-12 absolute): yes"),
-    ("run_suspension.py", "snap-through at t = 3.10 s"),
-    ("run_four_bar.py", "open     theta3 =    88.8372 deg, theta4 =   117.2861 deg"),
-    ("run_slider_crank.py", "against the numpy closed form (rtol 1e-10, atol 1e-09): match"),
-    ("run_valve_train.py", "camshaft at 1.01 x the float speed: 8 loss(es) of contact"),
-])
+@pytest.mark.parametrize(
+    "script, expected",
+    [
+        ("run_gear.py", "every sample within 1e-9 relative (+1e-12 absolute): yes"),
+        ("run_suspension.py", "snap-through at t = 3.10 s"),
+        ("run_four_bar.py", "open     theta3 =    88.8372 deg, theta4 =   117.2861 deg"),
+        ("run_slider_crank.py", "against the numpy closed form (rtol 1e-10, atol 1e-09): match"),
+        ("run_valve_train.py", "camshaft at 1.01 x the float speed: 8 loss(es) of contact"),
+    ],
+)
 def test_runner_scripts(fmu_dir, tmp_path, script, expected):
-    done = subprocess.run([sys.executable, str(ROOT / "sims" / script), "--out", str(tmp_path),
-                           "--fmu-dir", str(fmu_dir)], capture_output=True, text=True,
-                          timeout=300)
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "sims" / script),
+            "--out",
+            str(tmp_path),
+            "--fmu-dir",
+            str(fmu_dir),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     assert expected in done.stdout
     assert any(tmp_path.glob("*.png"))
@@ -248,8 +327,9 @@ def test_runner_scripts(fmu_dir, tmp_path, script, expected):
 def test_components_feeding_no_recorded_output_are_not_instantiated(fmu_dir, tmp_path):
     data = gear_scene(record=["actuator.piston_extension"])
     data["components"]["idle"] = {"fmu": "LoadProfile"}
-    result, paths = run_scene(parse_scene(data, tmp_path / "inline.toml"), tmp_path, fmu_dir,
-                              plot=False)
+    result, paths = run_scene(
+        parse_scene(data, tmp_path / "inline.toml"), tmp_path, fmu_dir, plot=False
+    )
     meta = json.loads(paths["json"].read_text())
     assert set(meta["pruned"]) == {"gear", "idle"}
     assert "not instantiated" in meta["pruned"]["gear"]

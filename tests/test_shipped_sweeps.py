@@ -17,8 +17,19 @@ def quick(fmu_dir, tmp_path_factory):
     """mechfmu example sweeps --quick (sims/run_sweeps.py --quick), run once: (exit status,
     out folder, findings)."""
     out = tmp_path_factory.mktemp("sweeps")
-    status = cli(["example", "sweeps", "--quick", "--jobs", "2", "--out", str(out),
-                  "--fmu-dir", str(fmu_dir)])
+    status = cli(
+        [
+            "example",
+            "sweeps",
+            "--quick",
+            "--jobs",
+            "2",
+            "--out",
+            str(out),
+            "--fmu-dir",
+            str(fmu_dir),
+        ]
+    )
     return status, out, sweeps.analyse(SWEEPS, out)
 
 
@@ -49,14 +60,14 @@ def test_quick_run_agrees_with_the_references(quick):
     assert gear["points"] == 4 and gear["disagree"] == []
     assert gear["max_error_s"] < 1e-9
     times = dict(gear["times"])
-    assert times[3e6] == -1.0                         # stalls below ~3.76 MPa
+    assert times[3e6] == -1.0  # stalls below ~3.76 MPa
     assert 2.25 < times[2.1e7] < times[1.5e7] < times[9e6] < 2.5
     assert gear["bracket_pa"] == (3e6, 9e6)
     assert 3e6 < gear["lowest_reference_pa"] < 9e6
     valve = findings["valve"]
     assert valve["points"] == 7 and valve["max_relative_error"] < 1e-12
     speeds = [speed for _, speed in valve["speeds"]]
-    assert speeds == sorted(speeds)                   # a stiffer preload floats later
+    assert speeds == sorted(speeds)  # a stiffer preload floats later
     assert dict(valve["speeds"])[300.0] == pytest.approx(432.2334, abs=1e-4)
 
 

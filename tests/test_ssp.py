@@ -28,15 +28,18 @@ from mechfmu.cli import main
 from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import SceneError, load_scene, parse_scene
 from mechfmu.runtime.models import MODELS
-from mechfmu.tools.ssp import (NS, SSD_NAME, experiment, export_ssp, extract_ssp,
-                         simulate_ssp_fmpy)
+from mechfmu.tools.ssp import NS, SSD_NAME, experiment, export_ssp, extract_ssp, simulate_ssp_fmpy
 
 SCHEMA_DIR = Path(fmpy_ssd.__file__).resolve().parent / "schema"  # fmpy's copy of SSP 1.0
 SSD_SCHEMA = etree.XMLSchema(file=str(SCHEMA_DIR / "SystemStructureDescription.xsd"))
 SSV_SCHEMA = etree.XMLSchema(file=str(SCHEMA_DIR / "SystemStructureParameterValues.xsd"))
 SHIPPED = sorted(path.stem for path in SCENES.glob("*.toml"))
-FMI_LITERAL = {"Real": float, "Integer": int, "String": str,
-               "Boolean": lambda text: {"true": True, "false": False}[text]}
+FMI_LITERAL = {
+    "Real": float,
+    "Integer": int,
+    "String": str,
+    "Boolean": lambda text: {"true": True, "false": False}[text],
+}
 
 
 def q(prefix, name):
@@ -56,10 +59,12 @@ def read_ssd(ssp):
 
 def assert_valid(schema, element):
     assert schema.validate(element), "\n".join(
-        f"line {entry.line}: {entry.message}" for entry in schema.error_log)
+        f"line {entry.line}: {entry.message}" for entry in schema.error_log
+    )
 
 
 # --- every shipped scene: export, schema, content ------------------------------------------
+
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_every_shipped_scene_exports_valid_and_complete(name, fmus, tmp_path):
@@ -73,8 +78,9 @@ def test_every_shipped_scene_exports_valid_and_complete(name, fmus, tmp_path):
         assert_valid(SSV_SCHEMA, etree.fromstring(etree.tostring(parameter_set)))
     assert root.get("version") == "1.0" and root.get("name") == scene.name
 
-    components = root.findall(f"{q('ssd', 'System')}/{q('ssd', 'Elements')}/"
-                              f"{q('ssd', 'Component')}")
+    components = root.findall(
+        f"{q('ssd', 'System')}/{q('ssd', 'Elements')}/{q('ssd', 'Component')}"
+    )
     assert sorted(c.get("name") for c in components) == sorted(scene.components)
     with zipfile.ZipFile(ssp) as package:
         names = set(package.namelist())
@@ -86,10 +92,13 @@ def test_every_shipped_scene_exports_valid_and_complete(name, fmus, tmp_path):
             assert component.get("source") == f"resources/{spec.fmu}.fmu"
             assert package.read(component.get("source")) == (fmus / f"{spec.fmu}.fmu").read_bytes()
 
-    expected_connections = sorted((c.source, c.output, c.target, c.input)
-                                  for c in scene.connections)
-    connections = sorted((c.get("startElement"), c.get("startConnector"), c.get("endElement"),
-                          c.get("endConnector")) for c in root.iter(q("ssd", "Connection")))
+    expected_connections = sorted(
+        (c.source, c.output, c.target, c.input) for c in scene.connections
+    )
+    connections = sorted(
+        (c.get("startElement"), c.get("startConnector"), c.get("endElement"), c.get("endConnector"))
+        for c in root.iter(q("ssd", "Connection"))
+    )
     assert connections == expected_connections
 
     needed = {(c.source, c.output) for c in scene.connections}
@@ -98,8 +107,9 @@ def test_every_shipped_scene_exports_valid_and_complete(name, fmus, tmp_path):
     for component in components:
         name_ = component.get("name")
         spec = scene.components[name_]
-        variables = {v.name: v for v in read_model_description(
-            str(fmus / f"{spec.fmu}.fmu")).modelVariables}
+        variables = {
+            v.name: v for v in read_model_description(str(fmus / f"{spec.fmu}.fmu")).modelVariables
+        }
         needed |= {(name_, key) for key in list(spec.parameters) + spec.effects}
         connectors = {}
         for connector in component.iter(q("ssd", "Connector")):
@@ -117,12 +127,12 @@ def test_every_shipped_scene_exports_valid_and_complete(name, fmus, tmp_path):
             fmi_type = typed.tag.split("}")[1]
             assert fmi_type == variables[parameter.get("name")].type
             bound[parameter.get("name")] = FMI_LITERAL[fmi_type](typed.get("value"))
-        expected = {**spec.parameters, **{effect: True for effect in spec.effects},
-                    **spec.inputs}
+        expected = {**spec.parameters, **{effect: True for effect in spec.effects}, **spec.inputs}
         assert bound == expected
 
     assert len(parameter_sets) == sum(
-        1 for spec in scene.components.values() if spec.parameters or spec.effects or spec.inputs)
+        1 for spec in scene.components.values() if spec.parameters or spec.effects or spec.inputs
+    )
     default = root.find(q("ssd", "DefaultExperiment"))
     assert float(default.get("startTime")) == scene.start_time
     assert float(default.get("stopTime")) == scene.stop_time
@@ -132,16 +142,19 @@ def test_every_shipped_scene_exports_valid_and_complete(name, fmus, tmp_path):
     assert (start, stop, step) == (scene.start_time, scene.stop_time, scene.step)
     assert record == [full_name for full_name, _, _ in simulation.recorded]
     # fmpy reads (and validates) it with its own reader
-    assert sorted(c.name for c in fmpy_ssd.read_ssd(str(ssp)).system.elements) == \
-        sorted(scene.components)
+    assert sorted(c.name for c in fmpy_ssd.read_ssd(str(ssp)).system.elements) == sorted(
+        scene.components
+    )
 
 
 def test_the_validation_rejects_what_the_schemas_forbid(fmus, tmp_path):
     root = read_ssd(export_ssp(SCENES / "gear_retraction.toml", tmp_path / "g.ssp", fmus))
     assert_valid(SSD_SCHEMA, root)
-    for path, attribute, value in [(q("ssd", "Connector"), "kind", "sideways"),
-                                   (q("ssd", "DefaultExperiment"), "stopTime", "soon"),
-                                   (q("ssd", "Component"), "implementation", "Both")]:
+    for path, attribute, value in [
+        (q("ssd", "Connector"), "kind", "sideways"),
+        (q("ssd", "DefaultExperiment"), "stopTime", "soon"),
+        (q("ssd", "Component"), "implementation", "Both"),
+    ]:
         broken = etree.fromstring(etree.tostring(root))
         next(broken.iter(path)).set(attribute, value)
         assert not SSD_SCHEMA.validate(broken)
@@ -155,24 +168,37 @@ def test_the_validation_rejects_what_the_schemas_forbid(fmus, tmp_path):
 
 # --- what an SSP cannot say is refused, and nothing is written -----------------------------
 
+
 def _load_scene(tmp_path, parameters):
-    return parse_scene({
-        "stop_time": 1.0, "step": 0.1, "connections": ["load.load -> suspension.load"],
-        "components": {
-            "load": {"fmu": "LoadProfile", "parameters": parameters},
-            "suspension": {"fmu": "Suspension",
-                           "inputs": {"road_height": 0.0, "road_rate": 0.0}}}},
-        tmp_path / "inline.toml")
+    return parse_scene(
+        {
+            "stop_time": 1.0,
+            "step": 0.1,
+            "connections": ["load.load -> suspension.load"],
+            "components": {
+                "load": {"fmu": "LoadProfile", "parameters": parameters},
+                "suspension": {
+                    "fmu": "Suspension",
+                    "inputs": {"road_height": 0.0, "road_rate": 0.0},
+                },
+            },
+        },
+        tmp_path / "inline.toml",
+    )
 
 
 def test_what_an_ssp_cannot_express_is_refused(fmus, tmp_path):
     (tmp_path / "load.csv").write_text("time,load\n0,0\n1,100\n")
     cases = [
-        ({"shape": "table", "table_file": "load.csv"},
-         r"component 'load': parameter table_file = '.*load\.csv' names a file the FMU opens "
-         r"on the host; SSP 1\.0 cannot hand an FMU a path into the package"),
-        ({"shape": "constant", "initial_value": math.inf},
-         r"load\.initial_value = inf: a non-finite Real is not exported to SSP"),
+        (
+            {"shape": "table", "table_file": "load.csv"},
+            r"component 'load': parameter table_file = '.*load\.csv' names a file the FMU opens "
+            r"on the host; SSP 1\.0 cannot hand an FMU a path into the package",
+        ),
+        (
+            {"shape": "constant", "initial_value": math.inf},
+            r"load\.initial_value = inf: a non-finite Real is not exported to SSP",
+        ),
     ]
     for parameters, message in cases:
         scene = _load_scene(tmp_path, parameters)
@@ -180,13 +206,23 @@ def test_what_an_ssp_cannot_express_is_refused(fmus, tmp_path):
         with pytest.raises(SceneError, match=message):
             export_ssp(scene, tmp_path / "refused.ssp", fmus)
         assert not (tmp_path / "refused.ssp").exists()
-    data = {"stop_time": 1.0, "step": 0.1,
-            "components": {"crank": {"fmu": "CrankDrive", "parameters": {"speed": 1.0}},
-                           "linkage": {"fmu": "FourBar", "parameters": {"circuit": 2 ** 40},
-                                       "inputs": {"crank_angle": 0.0, "crank_speed": 0.0,
-                                                  "crank_acceleration": 0.0}}}}
-    with pytest.raises(SceneError, match=r"linkage\.circuit = 1099511627776 does not fit the "
-                                         r"32-bit Integer of FMI and SSP"):
+    data = {
+        "stop_time": 1.0,
+        "step": 0.1,
+        "components": {
+            "crank": {"fmu": "CrankDrive", "parameters": {"speed": 1.0}},
+            "linkage": {
+                "fmu": "FourBar",
+                "parameters": {"circuit": 2**40},
+                "inputs": {"crank_angle": 0.0, "crank_speed": 0.0, "crank_acceleration": 0.0},
+            },
+        },
+    }
+    with pytest.raises(
+        SceneError,
+        match=r"linkage\.circuit = 1099511627776 does not fit the "
+        r"32-bit Integer of FMI and SSP",
+    ):
         export_ssp(parse_scene(data, tmp_path / "inline.toml"), tmp_path / "refused.ssp", fmus)
     # the master's own checks come first, with the master's message
     scene = _load_scene(tmp_path, {"shape": "constant", "speed": 3.0})
@@ -204,8 +240,9 @@ def test_the_cli_verb(fmus, tmp_path, monkeypatch, capsys):
     assert f"wrote {out}" in printed and "2 components, 3 connections" in printed
     assert_valid(SSD_SCHEMA, read_ssd(out))
     bad = tmp_path / "bad.toml"
-    bad.write_text('stop_time = 1.0\nstep = 0.1\nwhatever = 1\n'
-                   '[components.a]\nfmu = "CrankDrive"\n')
+    bad.write_text(
+        'stop_time = 1.0\nstep = 0.1\nwhatever = 1\n[components.a]\nfmu = "CrankDrive"\n'
+    )
     assert main(["export-ssp", str(bad), str(tmp_path / "bad.ssp"), "--fmu-dir", str(fmus)]) == 2
     error = capsys.readouterr().err
     assert error.startswith("scene error:") and "unknown key(s) whatever" in error
@@ -213,6 +250,7 @@ def test_the_cli_verb(fmus, tmp_path, monkeypatch, capsys):
 
 
 # --- three masters on the same package ------------------------------------------------------
+
 
 def run_libcosim(ssp):
     """Run an exported SSP (file or extracted folder) in libcosim's fixed-step algorithm
@@ -235,20 +273,26 @@ def run_libcosim(ssp):
     for full_name in record:
         component, variable = full_name.split(".", 1)
         index = slaves[component]
-        (description,) = [v for v in execution.slave_variables(index)
-                          if v.name.decode() == variable]
+        (description,) = [
+            v for v in execution.slave_variables(index) if v.name.decode() == variable
+        ]
         # Real and Integer only: libcosimpy 0.0.6 has no Boolean or String time series
         kind = {0: CosimVariableType.REAL, 1: CosimVariableType.INTEGER}[description.type]
         assert observer.start_time_series(index, description.reference, kind)
         series[full_name] = (index, description.reference, kind)
     if not execution.simulate_until(round(stop * 1e9)):
-        raise AssertionError(f"libcosim stopped at {execution.status().current_time} ns: "
-                             f"{get_last_error_message()} (the FMU's message is in libcosim's "
-                             f"log, on stdout)")
+        raise AssertionError(
+            f"libcosim stopped at {execution.status().current_time} ns: "
+            f"{get_last_error_message()} (the FMU's message is in libcosim's "
+            f"log, on stdout)"
+        )
     times, columns = None, {}
     for full_name, (index, reference, kind) in series.items():
-        read = (observer.time_series_real_samples if kind == CosimVariableType.REAL
-                else observer.time_series_integer_samples)
+        read = (
+            observer.time_series_real_samples
+            if kind == CosimVariableType.REAL
+            else observer.time_series_integer_samples
+        )
         # libcosimpy 0.0.6 trims a read by the number of step numbers equal to 0, so a read
         # that includes step 0 loses its last sample: read steps 0.. and 1.. and merge them
         # by step number (which also holds if that is ever fixed).
@@ -273,8 +317,8 @@ def relative_to_peak(value, reference):
 
 @dataclasses.dataclass
 class Case:
-    jacobi: float          # bound on every column vs the Jacobi master, relative to its peak
-    gauss_seidel: tuple    # (column, measured worst difference from the Gauss-Seidel master)
+    jacobi: float  # bound on every column vs the Jacobi master, relative to its peak
+    gauss_seidel: tuple  # (column, measured worst difference from the Gauss-Seidel master)
     lagged: list = dataclasses.field(default_factory=list)  # kinematic targets: exactly 1 step
     fmpy_own: tuple = None  # (column, measured worst) where fmpy's own initialisation differs
 
@@ -284,17 +328,32 @@ class Case:
 # contacts amplify the last-bit differences of the communication times (libcosim: k * 10 us
 # from integer nanoseconds; fmpy: accumulated; ours: start + k * step).
 REPRESENTATIVE = {
-    "gear_retraction": Case(1e-12, ("gear.gear_angular_acceleration", 0.0717),
-                            ["gear.gear_angle", "gear.gear_angular_velocity",
-                             "gear.gear_angular_acceleration"]),
-    "four_bar_crank_rocker": Case(1e-12, ("linkage.rocker_angular_acceleration", 0.0885), [
-        "linkage.coupler_angle", "linkage.rocker_angle", "linkage.coupler_angular_velocity",
-        "linkage.rocker_angular_velocity", "linkage.coupler_angular_acceleration",
-        "linkage.rocker_angular_acceleration", "linkage.transmission_angle"]),
-    "suspension_road_bump": Case(1e-12, ("suspension.potential_energy", 0.0785),
-                                 fmpy_own=("suspension.sprung_displacement", 0.00296)),
-    "valve_train_dynamic": Case(1e-8, ("valve.valve_acceleration", 0.556),
-                                ["valve_train.valve_lift"]),
+    "gear_retraction": Case(
+        1e-12,
+        ("gear.gear_angular_acceleration", 0.0717),
+        ["gear.gear_angle", "gear.gear_angular_velocity", "gear.gear_angular_acceleration"],
+    ),
+    "four_bar_crank_rocker": Case(
+        1e-12,
+        ("linkage.rocker_angular_acceleration", 0.0885),
+        [
+            "linkage.coupler_angle",
+            "linkage.rocker_angle",
+            "linkage.coupler_angular_velocity",
+            "linkage.rocker_angular_velocity",
+            "linkage.coupler_angular_acceleration",
+            "linkage.rocker_angular_acceleration",
+            "linkage.transmission_angle",
+        ],
+    ),
+    "suspension_road_bump": Case(
+        1e-12,
+        ("suspension.potential_energy", 0.0785),
+        fmpy_own=("suspension.sprung_displacement", 0.00296),
+    ),
+    "valve_train_dynamic": Case(
+        1e-8, ("valve.valve_acceleration", 0.556), ["valve_train.valve_lift"]
+    ),
 }
 
 
@@ -319,8 +378,10 @@ def runs(fmus, tmp_path_factory):
         if not entry:
             entry["scene"] = load_scene(SCENES / f"{name}.toml")
             entry["ssp"] = export_ssp(entry["scene"], folder / f"{name}.ssp", fmus)
-            entry["types"] = {full: variable.type for full, _, variable
-                              in Simulation(entry["scene"], fmus).recorded}
+            entry["types"] = {
+                full: variable.type
+                for full, _, variable in Simulation(entry["scene"], fmus).recorded
+            }
         if what not in entry:
             scene, ssp, types = entry["scene"], entry["ssp"], entry["types"]
             entry[what] = {
@@ -328,8 +389,10 @@ def runs(fmus, tmp_path_factory):
                 "gauss_seidel": lambda: master(scene, "gauss_seidel"),
                 "libcosim": lambda: run_libcosim(ssp),
                 "fmpy": lambda: fmpy(ssp, types, False),
-                "fmpy_from_sources": lambda: fmpy(ssp, types, True)}[what]()
+                "fmpy_from_sources": lambda: fmpy(ssp, types, True),
+            }[what]()
         return entry[what]
+
     return get
 
 
@@ -383,8 +446,13 @@ def test_gauss_seidel_differs_by_the_coupling_lag(name, host, runs):
     times, columns = runs(name, host)
     rows = slice(scene.steps + 1 - len(times), None)  # fmpy has no row at t0
     _, seidel = runs(name, "gauss_seidel")
-    worst = _differences(times, {k: v for k, v in columns.items() if types[k] == "Real"},
-                         runs(name, "gauss_seidel"), types, rows=rows)
+    worst = _differences(
+        times,
+        {k: v for k, v in columns.items() if types[k] == "Real"},
+        runs(name, "gauss_seidel"),
+        types,
+        rows=rows,
+    )
     column, measured = case.gauss_seidel
     assert max(worst, key=worst.get) == column
     assert 0.9 * measured <= worst[column] <= 1.1 * measured, worst
@@ -421,12 +489,16 @@ def test_fmus_answer_their_outputs_in_initialization_mode(fmus):
     wrong = {}
     for path in (fmus / f"{name}.fmu" for name in MODELS):
         description = read_model_description(str(path))
-        outputs = [v for v in description.modelVariables
-                   if v.causality == "output" and v.type == "Real"]
+        outputs = [
+            v for v in description.modelVariables if v.causality == "output" and v.type == "Real"
+        ]
         unzipped = extract(str(path))
-        slave = FMU2Slave(guid=description.guid, unzipDirectory=unzipped,
-                          modelIdentifier=description.coSimulation.modelIdentifier,
-                          instanceName="probe")
+        slave = FMU2Slave(
+            guid=description.guid,
+            unzipDirectory=unzipped,
+            modelIdentifier=description.coSimulation.modelIdentifier,
+            instanceName="probe",
+        )
         try:
             slave.instantiate()
             slave.setupExperiment(startTime=0.0)

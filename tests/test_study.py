@@ -14,22 +14,27 @@ from mechfmu.tools.study.report import cheapest_for, pareto_front
 STUDY = ROOT / "data" / "study"
 
 
-@pytest.mark.parametrize("costs, errors, front", [
-    ([1, 2, 3, 4], [4, 3, 2, 1], [0, 1, 2, 3]),    # every point trades cost for error
-    ([1, 2, 3, 4], [1, 2, 3, 4], [0]),             # the cheapest is also the best
-    ([3, 1, 2, 5], [1e-3, 1e-1, 1e-2, 1e-6], [1, 2, 0, 3]),
-    ([1, 1, 2], [5, 3, 3], [1]),                   # equal cost: the smaller error; equal error: cheaper
-    ([1, math.nan, 2, 3], [1, 1e-9, math.inf, 0.5], [0, 3]),  # non-finite never on the front
-    ([], [], []),
-])
+@pytest.mark.parametrize(
+    "costs, errors, front",
+    [
+        ([1, 2, 3, 4], [4, 3, 2, 1], [0, 1, 2, 3]),  # every point trades cost for error
+        ([1, 2, 3, 4], [1, 2, 3, 4], [0]),  # the cheapest is also the best
+        ([3, 1, 2, 5], [1e-3, 1e-1, 1e-2, 1e-6], [1, 2, 0, 3]),
+        ([1, 1, 2], [5, 3, 3], [1]),  # equal cost: the smaller error; equal error: cheaper
+        ([1, math.nan, 2, 3], [1, 1e-9, math.inf, 0.5], [0, 3]),  # non-finite never on the front
+        ([], [], []),
+    ],
+)
 def test_pareto_front(costs, errors, front):
     assert pareto_front(costs, errors) == front
 
 
 def test_cheapest_setting_for_a_target():
-    rows = [{"max_error": 1e-3, "ms_per_simulated_s": 1.0},
-            {"max_error": 1e-7, "ms_per_simulated_s": 9.0},
-            {"max_error": 1e-6, "ms_per_simulated_s": 4.0}]
+    rows = [
+        {"max_error": 1e-3, "ms_per_simulated_s": 1.0},
+        {"max_error": 1e-7, "ms_per_simulated_s": 9.0},
+        {"max_error": 1e-6, "ms_per_simulated_s": 4.0},
+    ]
     assert cheapest_for(rows, 1e-2) is rows[0]
     assert cheapest_for(rows, 1e-6) is rows[2]
     assert cheapest_for(rows, 1e-7) is rows[1]
@@ -39,9 +44,25 @@ def test_cheapest_setting_for_a_target():
 @pytest.fixture(scope="module")
 def quick_study(fmu_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("study")
-    status = cli(["study", "--quick", "--repeats", "1", "--workers", "2", "--out", str(out),
-                  "--fmu-dir", str(fmu_dir), "--scene-dir", str(SCENES),
-                  "--scenes", "gear_extension_gravity", "suspension_sudden_load"])
+    status = cli(
+        [
+            "study",
+            "--quick",
+            "--repeats",
+            "1",
+            "--workers",
+            "2",
+            "--out",
+            str(out),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--scene-dir",
+            str(SCENES),
+            "--scenes",
+            "gear_extension_gravity",
+            "suspension_sudden_load",
+        ]
+    )
     assert status == 0
     return out, read_rows(out / "accuracy_cost.csv")
 
@@ -56,13 +77,21 @@ def test_quick_study_writes_every_file_and_row(quick_study):
         assert (out / f"{name}.png").stat().st_size > 10_000
         assert (out / f"{name}_sources.png").stat().st_size > 10_000
         scene = design.load(SCENES, next(s for s in design.SCENES if s.name == name))
-        expected = design.points(next(s for s in design.SCENES if s.name == name),
-                                 design.couplings_of(scene), quick=True)
+        expected = design.points(
+            next(s for s in design.SCENES if s.name == name), design.couplings_of(scene), quick=True
+        )
         outputs = scene.record
         per_point = defaultdict(set)
         for row in _select(rows, scene=name):
-            per_point[(row["integrator"], row["tolerance"], row["max_substep"], row["step"],
-                       row["coupling"])].add(row["output"])
+            per_point[
+                (
+                    row["integrator"],
+                    row["tolerance"],
+                    row["max_substep"],
+                    row["step"],
+                    row["coupling"],
+                )
+            ].add(row["output"])
         assert len(per_point) == len(expected)
         assert all(found == set(outputs) for found in per_point.values())
     table = (out / "pareto.md").read_text()
@@ -71,29 +100,41 @@ def test_quick_study_writes_every_file_and_row(quick_study):
 
 def test_quick_study_errors_follow_the_methods_orders(quick_study):
     _, rows = quick_study
-    angle = dict(scene="gear_extension_gravity", output="gear.gear_angle", step=0.05,
-                 coupling="gauss_seidel", status="ok")
-    loose, = _select(rows, integrator="dopri5", tolerance=1e-4, **angle)
-    tight, = _select(rows, integrator="dopri5", tolerance=1e-8, **angle)
+    angle = dict(
+        scene="gear_extension_gravity",
+        output="gear.gear_angle",
+        step=0.05,
+        coupling="gauss_seidel",
+        status="ok",
+    )
+    (loose,) = _select(rows, integrator="dopri5", tolerance=1e-4, **angle)
+    (tight,) = _select(rows, integrator="dopri5", tolerance=1e-8, **angle)
     assert tight["max_error"] < 1e-6 < loose["max_error"] < 1e-3
     assert tight["rhs_evaluations"] > loose["rhs_evaluations"]
-    coarse, = _select(rows, integrator="euler", max_substep=1e-3, **angle)
-    fine, = _select(rows, integrator="euler", max_substep=1e-4, **angle)
+    (coarse,) = _select(rows, integrator="euler", max_substep=1e-3, **angle)
+    (fine,) = _select(rows, integrator="euler", max_substep=1e-4, **angle)
     assert 5.0 < coarse["max_error"] / fine["max_error"] < 20.0  # first order: 10x per decade
     assert fine["substeps"] >= 2.0 / 1e-4 and fine["communication_steps"] == 40
     for row in (loose, tight, coarse, fine):
         assert row["loop_time_s"] > 0 and row["ms_per_simulated_s"] == pytest.approx(
-            row["loop_time_s"] / 2.0 * 1e3)
+            row["loop_time_s"] / 2.0 * 1e3
+        )
 
 
 def test_quick_study_shows_the_coupling_error(quick_study):
     # The 2500 N load step of suspension_sudden_load reaches the suspension one
     # communication step late under Jacobi: a coupling error the integrator cannot remove.
     _, rows = quick_study
-    common = dict(scene="suspension_sudden_load", output="suspension.deflection", step=0.05,
-                  integrator="dopri5", tolerance=1e-8, status="ok")
-    seidel, = _select(rows, coupling="gauss_seidel", **common)
-    jacobi, = _select(rows, coupling="jacobi", **common)
+    common = dict(
+        scene="suspension_sudden_load",
+        output="suspension.deflection",
+        step=0.05,
+        integrator="dopri5",
+        tolerance=1e-8,
+        status="ok",
+    )
+    (seidel,) = _select(rows, coupling="gauss_seidel", **common)
+    (jacobi,) = _select(rows, coupling="jacobi", **common)
     assert seidel["max_error"] < 1e-7
     assert jacobi["max_error"] > 1e3 * seidel["max_error"]
 
@@ -102,10 +143,14 @@ def test_shipped_study_covers_the_whole_sweep_and_its_tables_are_generated(fmu_d
     rows = read_rows(STUDY / "accuracy_cost.csv")
     for study_scene in design.SCENES:
         scene = design.load(SCENES, study_scene)
-        expected = {(p.integrator, p.tolerance, p.max_substep, p.step, p.coupling)
-                    for p in design.points(study_scene, design.couplings_of(scene))}
-        found = {(r["integrator"], r["tolerance"], r["max_substep"], r["step"], r["coupling"])
-                 for r in _select(rows, scene=study_scene.name)}
+        expected = {
+            (p.integrator, p.tolerance, p.max_substep, p.step, p.coupling)
+            for p in design.points(study_scene, design.couplings_of(scene))
+        }
+        found = {
+            (r["integrator"], r["tolerance"], r["max_substep"], r["step"], r["coupling"])
+            for r in _select(rows, scene=study_scene.name)
+        }
         assert found == expected, study_scene.name
         assert (STUDY / f"{study_scene.name}.png").is_file()
         assert (STUDY / f"{study_scene.name}_sources.png").is_file()
@@ -120,17 +165,34 @@ def test_shipped_study_covers_the_whole_sweep_and_its_tables_are_generated(fmu_d
 def test_studying_one_scene_again_keeps_the_others_rows(quick_study, fmu_dir, tmp_path):
     out, rows = quick_study
     shutil.copytree(out, tmp_path, dirs_exist_ok=True)
-    status = cli(["study", "--quick", "--repeats", "1", "--workers", "1", "--out", str(tmp_path),
-                  "--fmu-dir", str(fmu_dir), "--scene-dir", str(SCENES),
-                  "--scenes", "gear_extension_gravity"])
+    status = cli(
+        [
+            "study",
+            "--quick",
+            "--repeats",
+            "1",
+            "--workers",
+            "1",
+            "--out",
+            str(tmp_path),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--scene-dir",
+            str(SCENES),
+            "--scenes",
+            "gear_extension_gravity",
+        ]
+    )
     assert status == 0
     again = read_rows(tmp_path / "accuracy_cost.csv")
 
     def lines(folder, scene):  # as written (rows hold NaN, which compares unequal)
         text = (folder / "accuracy_cost.csv").read_text().splitlines()
         return [line for line in text if line.startswith(scene + ",")]
+
     kept = lines(out, "suspension_sudden_load")
     assert kept and lines(tmp_path, "suspension_sudden_load") == kept
     assert len(_select(again, scene="gear_extension_gravity")) == len(
-        _select(rows, scene="gear_extension_gravity"))
+        _select(rows, scene="gear_extension_gravity")
+    )
     assert "#### suspension_sudden_load" in (tmp_path / "pareto.md").read_text()

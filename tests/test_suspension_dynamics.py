@@ -60,14 +60,17 @@ def upward_crossings(times, values):
 
 # --- small oscillation: tangent, not secant, stiffness ----------------------------------------
 
+
 def test_small_oscillation_about_u1_has_the_tangent_frequency(fmu_dir):
     tangent = statics.tangent_stiffness(U1, SPRING)
     secant = statics.secant_stiffness(U1, SPRING)
     f_tangent = math.sqrt(tangent / MASS) / (2.0 * math.pi)
     f_secant = math.sqrt(secant / MASS) / (2.0 * math.pi)
-    fmu = Driven(fmu_dir / "Suspension.fmu",
-                 parameters={"dynamics": True, "initial_deflection": U1 + 1e-4},
-                 inputs={"load": WEIGHT})
+    fmu = Driven(
+        fmu_dir / "Suspension.fmu",
+        parameters={"dynamics": True, "initial_deflection": U1 + 1e-4},
+        inputs={"load": WEIGHT},
+    )
     try:
         dt, times, offsets = 0.002, [0.0], [fmu.get("deflection") - U1]
         for _ in range(2500):
@@ -87,6 +90,7 @@ def test_small_oscillation_about_u1_has_the_tangent_frequency(fmu_dir):
 
 
 # --- energy ----------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("effects", [{}, {"tyre": True}])
 @pytest.mark.parametrize("method", ["dopri5", "radau"])
@@ -109,17 +113,21 @@ def test_damping_dissipates_energy():
 
 # --- sudden load: dynamic snap-through below the static limit load ----------------------------
 
+
 def critical_sudden_load():
     """Smallest load that, applied suddenly to the unloaded undamped spring, snaps it through.
 
     From rest at u = 0 the mass reaches the unstable equilibrium u2(W) with energy to spare
     when W u2 > E_spring(u2) (the work of the load exceeds the stored elastic energy).
     """
+
     def u2(load):
         low, high = LIMIT.deflection, statics.rest_height(SPRING)
         for _ in range(200):
             middle = 0.5 * (low + high)
-            low, high = (middle, high) if statics.spring_force(middle, SPRING) > load else (low, middle)
+            low, high = (
+                (middle, high) if statics.spring_force(middle, SPRING) > load else (low, middle)
+            )
         return low
 
     low, high = 0.5 * LIMIT.load, LIMIT.load
@@ -144,9 +152,16 @@ def test_critical_sudden_load_is_well_below_the_static_limit():
 def test_sudden_load_below_the_limit_snaps_through_but_a_slow_ramp_does_not(fmu_dir):
     load = 2500.0
     assert load < 0.81 * LIMIT.load
-    fmu = Driven(fmu_dir / "Suspension.fmu",
-                 parameters={"dynamics": True, "damping": True, "damping_coefficient": 200.0,
-                             "input_interpolation": "hold"}, inputs={"load": 0.0})
+    fmu = Driven(
+        fmu_dir / "Suspension.fmu",
+        parameters={
+            "dynamics": True,
+            "damping": True,
+            "damping_coefficient": 200.0,
+            "input_interpolation": "hold",
+        },
+        inputs={"load": 0.0},
+    )
     try:
         flags = []
         for i in range(300):
@@ -168,7 +183,8 @@ def test_sudden_load_below_the_limit_snaps_through_but_a_slow_ramp_does_not(fmu_
             assert static.step(0.01, load=load * i / 300) is True
             assert static.get("branch") == 0 and not static.get("snap_through")
         assert static.get("deflection") == pytest.approx(
-            statics.solve_on_branch(load, statics.NEAR, SPRING), rel=1e-12)
+            statics.solve_on_branch(load, statics.NEAR, SPRING), rel=1e-12
+        )
     finally:
         static.close()
 
@@ -185,13 +201,16 @@ def test_dynamic_snap_through_can_stop_the_run():
 
 # --- stiff springs -------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("stiffness", [1e6, 1e7, 1e8])
 def test_stiff_spring_runs_stably_with_radau(fmu_dir, stiffness):
     spring = statics.make_spring(0.5, stiffness, 0.2)
     u1 = statics.solve_on_branch(WEIGHT, statics.NEAR, spring)
-    fmu = Driven(fmu_dir / "Suspension.fmu",
-                 parameters={"dynamics": True, "spring_stiffness": stiffness,
-                             "integrator": "radau"}, inputs={"load": WEIGHT})
+    fmu = Driven(
+        fmu_dir / "Suspension.fmu",
+        parameters={"dynamics": True, "spring_stiffness": stiffness, "integrator": "radau"},
+        inputs={"load": WEIGHT},
+    )
     try:
         deflections, energies = [], []
         for _ in range(20):
@@ -208,14 +227,19 @@ def test_stiff_spring_runs_stably_with_radau(fmu_dir, stiffness):
 
 @pytest.mark.parametrize("method", ["euler", "rk4"])
 @pytest.mark.parametrize("stiffness", [1e6, 1e7, 1e8])
-def test_stiff_spring_with_an_explicit_method_is_refused_as_unstable(fmu_dir, method,
-                                                                     stiffness):
+def test_stiff_spring_with_an_explicit_method_is_refused_as_unstable(fmu_dir, method, stiffness):
     omega = math.sqrt(2.0 * stiffness * 0.84 / MASS)  # small-deflection stiffness 2 k h^2/L^2
     max_substep = 10.0 / omega  # h omega = 10: beyond euler's and rk4's stability limits
-    fmu = Driven(fmu_dir / "Suspension.fmu",
-                 parameters={"dynamics": True, "spring_stiffness": stiffness,
-                             "integrator": method, "max_substep": max_substep},
-                 inputs={"load": WEIGHT})
+    fmu = Driven(
+        fmu_dir / "Suspension.fmu",
+        parameters={
+            "dynamics": True,
+            "spring_stiffness": stiffness,
+            "integrator": method,
+            "max_substep": max_substep,
+        },
+        inputs={"load": WEIGHT},
+    )
     try:
         outcome = True
         for _ in range(10):
@@ -233,6 +257,7 @@ def test_stiff_spring_with_an_explicit_method_is_refused_as_unstable(fmu_dir, me
 
 # --- effects: only the enabled ones are computed -------------------------------------------------
 
+
 @pytest.fixture
 def counted(monkeypatch):
     """Wrap each effect's term function with a call counter."""
@@ -244,6 +269,7 @@ def counted(monkeypatch):
         def wrapper(*args, _name=name, _original=original):
             calls[_name] += 1
             return _original(*args)
+
         monkeypatch.setattr(dyn, name, wrapper)
     return calls
 
@@ -257,8 +283,9 @@ def test_disabled_effects_are_never_called(counted):
 
 @pytest.mark.parametrize("enabled", ["damping", "tyre", "road_input"])
 def test_each_effect_costs_only_its_own_term(counted, enabled):
-    model = slave({"dynamics": True, enabled: True, "initial_deflection": U1},
-                  road_height=0.01, road_rate=0.0)
+    model = slave(
+        {"dynamics": True, enabled: True, "initial_deflection": U1}, road_height=0.01, road_rate=0.0
+    )
     run_slave(model, 20, 0.01)
     term = {"damping": "damping_force", "tyre": "tyre_force", "road_input": "road_at"}[enabled]
     assert counted[term] >= model.values["rhs_evaluations"]
@@ -284,6 +311,7 @@ def test_effects_other_than_dynamics_need_dynamics():
 
 # --- road profiles ----------------------------------------------------------------------------
 
+
 def test_bump_is_exact():
     height, duration, start = 0.05, 0.1, 0.3
     assert road.bump(start + duration / 2, height, duration, start).value == height
@@ -295,19 +323,24 @@ def test_bump_is_exact():
     assert peak_rate == pytest.approx(math.pi * height / duration, rel=1e-15)
 
 
-@pytest.mark.parametrize("shape, kwargs", [
-    ("bump", dict(height=0.05, duration=0.1, start_time=0.1)),
-    ("sine", dict(amplitude=0.02, frequency=3.0, start_time=0.05)),
-])
+@pytest.mark.parametrize(
+    "shape, kwargs",
+    [
+        ("bump", dict(height=0.05, duration=0.1, start_time=0.1)),
+        ("sine", dict(amplitude=0.02, frequency=3.0, start_time=0.05)),
+    ],
+)
 def test_road_rates_are_the_derivatives(shape, kwargs):
     for t in np.linspace(0.11, 0.19, 9):
         h = 1e-6
         sample = road.road(t, shape, **kwargs)
         ahead, behind = road.road(t + h, shape, **kwargs), road.road(t - h, shape, **kwargs)
-        assert sample.rate == pytest.approx((ahead.value - behind.value) / (2 * h), rel=1e-7,
-                                            abs=1e-9)
-        assert sample.rate2 == pytest.approx((ahead.rate - behind.rate) / (2 * h), rel=1e-6,
-                                             abs=1e-6)
+        assert sample.rate == pytest.approx(
+            (ahead.value - behind.value) / (2 * h), rel=1e-7, abs=1e-9
+        )
+        assert sample.rate2 == pytest.approx(
+            (ahead.rate - behind.rate) / (2 * h), rel=1e-6, abs=1e-6
+        )
 
 
 def test_sine_and_step_values():
@@ -319,12 +352,17 @@ def test_sine_and_step_values():
 def test_road_profile_fmu_shapes(fmu_dir, tmp_path):
     table = tmp_path / "road.csv"
     table.write_text("time,height\n0,0\n1,0.02\n2,-0.01\n")
-    cases = [({"shape": "bump", "height": 0.05, "duration": 0.1, "start_time": 0.1},
-              [(0.125, 0.025, math.pi * 0.5), (0.15, 0.05, 0.0), (0.2, 0.0, 0.0)]),
-             ({"shape": "step", "height": 0.03, "start_time": 0.5},
-              [(0.4, 0.0, 0.0), (0.5, 0.03, 0.0)]),
-             ({"shape": "table", "table_file": str(table)},
-              [(0.5, 0.01, 0.02), (1.5, 0.005, -0.03), (3.0, -0.01, 0.0)])]
+    cases = [
+        (
+            {"shape": "bump", "height": 0.05, "duration": 0.1, "start_time": 0.1},
+            [(0.125, 0.025, math.pi * 0.5), (0.15, 0.05, 0.0), (0.2, 0.0, 0.0)],
+        ),
+        ({"shape": "step", "height": 0.03, "start_time": 0.5}, [(0.4, 0.0, 0.0), (0.5, 0.03, 0.0)]),
+        (
+            {"shape": "table", "table_file": str(table)},
+            [(0.5, 0.01, 0.02), (1.5, 0.005, -0.03), (3.0, -0.01, 0.0)],
+        ),
+    ]
     for parameters, samples in cases:
         fmu = Driven(fmu_dir / "RoadProfile.fmu", parameters=parameters)
         try:
@@ -336,11 +374,14 @@ def test_road_profile_fmu_shapes(fmu_dir, tmp_path):
             fmu.close()
 
 
-@pytest.mark.parametrize("parameters, words", [
-    ({"shape": "ramp"}, ["shape = 'ramp'", "bump"]),
-    ({"shape": "bump", "duration": 0.0}, ["duration = 0.0"]),
-    ({"shape": "sine", "frequency": -1.0}, ["frequency = -1.0"]),
-])
+@pytest.mark.parametrize(
+    "parameters, words",
+    [
+        ({"shape": "ramp"}, ["shape = 'ramp'", "bump"]),
+        ({"shape": "bump", "duration": 0.0}, ["duration = 0.0"]),
+        ({"shape": "sine", "frequency": -1.0}, ["frequency = -1.0"]),
+    ],
+)
 def test_road_profile_refuses_bad_parameters(parameters, words):
     model = RoadProfile(instance_name="in_process")
     model.values.update(parameters)
@@ -353,7 +394,8 @@ def test_step_inputs_hermite_is_exact_for_cubics():
     inputs = dyn.StepInputs("interpolate")
 
     def cubic(t):
-        return 0.01 + 0.2 * t - 3.0 * t * t + 5.0 * t ** 3, 0.2 - 6.0 * t + 15.0 * t * t
+        return 0.01 + 0.2 * t - 3.0 * t * t + 5.0 * t**3, 0.2 - 6.0 * t + 15.0 * t * t
+
     t0, t1 = 0.3, 0.35
     inputs.set_step(t0, t1, (0.0, *cubic(t0)), (10.0, *cubic(t1)))
     for t in np.linspace(t0, t1, 7):
@@ -367,16 +409,20 @@ def test_step_inputs_hermite_is_exact_for_cubics():
 
 # --- shipped scenes against their solve_ivp references ---------------------------------------
 
+
 def declared_tolerance(scene_name):
     text = (SCENES / f"{scene_name}.toml").read_text()
     match = re.search(r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", text, re.M)
     return float(match.group(1)), float(match.group(2))
 
 
-@pytest.mark.parametrize("scene_name, peak_fraction", [
-    ("suspension_road_bump", 1e-7),
-    ("suspension_sudden_load", 1e-9),
-])
+@pytest.mark.parametrize(
+    "scene_name, peak_fraction",
+    [
+        ("suspension_road_bump", 1e-7),
+        ("suspension_sudden_load", 1e-9),
+    ],
+)
 def test_dynamic_scene_matches_its_reference(fmu_dir, tmp_path, scene_name, peak_fraction):
     rtol, atol = declared_tolerance(scene_name)
     result, paths = run_scene(SCENES / f"{scene_name}.toml", tmp_path, fmu_dir, plot=False)
@@ -392,8 +438,7 @@ def test_dynamic_scene_matches_its_reference(fmu_dir, tmp_path, scene_name, peak
 
 
 def test_sudden_load_scene_snaps_once(fmu_dir, tmp_path):
-    result, _ = run_scene(SCENES / "suspension_sudden_load.toml", tmp_path, fmu_dir,
-                          plot=False)
+    result, _ = run_scene(SCENES / "suspension_sudden_load.toml", tmp_path, fmu_dir, plot=False)
     flags = result.columns["suspension.snap_through"]
     assert sum(flags) == 1 and result.columns["suspension.branch"][-1] == 1
     assert max(result.columns["load.load"]) < LIMIT.load
@@ -410,14 +455,32 @@ def test_road_bump_scene_starts_at_rest():
 
 # --- FMU state -------------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("method", ["dopri5", "radau"])
 def test_fmu_state_round_trip_gives_identical_outputs(fmu_dir, method):
-    names = ["deflection", "velocity", "acceleration", "unsprung_displacement", "tyre_force",
-             "kinetic_energy", "rhs_evaluations", "substeps", "snap_through_count"]
-    fmu = Driven(fmu_dir / "Suspension.fmu",
-                 parameters={"dynamics": True, "damping": True, "tyre": True,
-                             "road_input": True, "integrator": method,
-                             "initial_deflection": U1}, inputs={"load": WEIGHT})
+    names = [
+        "deflection",
+        "velocity",
+        "acceleration",
+        "unsprung_displacement",
+        "tyre_force",
+        "kinetic_energy",
+        "rhs_evaluations",
+        "substeps",
+        "snap_through_count",
+    ]
+    fmu = Driven(
+        fmu_dir / "Suspension.fmu",
+        parameters={
+            "dynamics": True,
+            "damping": True,
+            "tyre": True,
+            "road_input": True,
+            "integrator": method,
+            "initial_deflection": U1,
+        },
+        inputs={"load": WEIGHT},
+    )
 
     def steps(count):
         rows = []
@@ -462,9 +525,21 @@ def test_runner_script(fmu_dir, tmp_path):
     import subprocess
     import sys
     from conftest import ROOT
-    done = subprocess.run([sys.executable, str(ROOT / "sims" / "run_suspension_dynamics.py"),
-                           "--out", str(tmp_path), "--fmu-dir", str(fmu_dir), "--no-plot"],
-                          capture_output=True, text=True, timeout=300)
+
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "sims" / "run_suspension_dynamics.py"),
+            "--out",
+            str(tmp_path),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--no-plot",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.count("match: ") == 2 and "MISMATCH" not in done.stdout
     assert "snap-throughs at t = 0.6963" in done.stdout

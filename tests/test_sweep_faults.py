@@ -26,8 +26,15 @@ METRIC = "max:suspension.deflection"
 
 def small_sweep(tmp_path, out, **options):
     options.setdefault("jobs", 2)
-    return sweep.run_sweep(write_scene(tmp_path, stop=0.3), [sweep.parse_vary(VARY)],
-                           [metric(METRIC)], out, fmu_dir=FMU_DIR, progress=False, **options)
+    return sweep.run_sweep(
+        write_scene(tmp_path, stop=0.3),
+        [sweep.parse_vary(VARY)],
+        [metric(METRIC)],
+        out,
+        fmu_dir=FMU_DIR,
+        progress=False,
+        **options,
+    )
 
 
 def rows_by_index(out):
@@ -39,13 +46,26 @@ def rows_by_index(out):
 
 # --- failed points ------------------------------------------------------------------------------
 
+
 def test_a_sweep_with_failed_points_exits_non_zero_and_names_them(tmp_path, capsys):
     """The issue's command: every point's stroke time is beyond the actuator's 4 s."""
     out = tmp_path / "out"
-    code = cli_main(["sweep", str(SCENES / "gear_retraction.toml"),
-                     "--vary", "actuator.stroke_time=5:6:3", "--metrics",
-                     "final:gear.gear_angle", "--jobs", "2", "--fmu-dir", str(FMU_DIR),
-                     "--out", str(out)])
+    code = cli_main(
+        [
+            "sweep",
+            str(SCENES / "gear_retraction.toml"),
+            "--vary",
+            "actuator.stroke_time=5:6:3",
+            "--metrics",
+            "final:gear.gear_angle",
+            "--jobs",
+            "2",
+            "--fmu-dir",
+            str(FMU_DIR),
+            "--out",
+            str(out),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 1, err
     assert "sweep failed: 3 of 3 point(s) failed (index 0, 1, 2); index 0: " in err, err
@@ -55,6 +75,7 @@ def test_a_sweep_with_failed_points_exits_non_zero_and_names_them(tmp_path, caps
 
 
 # --- workers that die ---------------------------------------------------------------------------
+
 
 def test_a_killed_worker_is_replaced_and_its_lost_points_retried(tmp_path, monkeypatch):
     monkeypatch.setattr(sweep, "run_point", faults.run_point_or_die)
@@ -73,17 +94,35 @@ def test_a_killed_worker_is_replaced_and_its_lost_points_retried(tmp_path, monke
 
 
 def test_a_point_that_always_kills_its_worker_fails_alone_after_its_retries(
-        tmp_path, monkeypatch, capsys):
+    tmp_path, monkeypatch, capsys
+):
     monkeypatch.setattr(sweep, "run_point", faults.run_point_or_die)
     monkeypatch.setenv(faults.ALWAYS, "2")
     out = tmp_path / "out"
-    code = cli_main(["sweep", str(write_scene(tmp_path, stop=0.3)), "--vary", VARY,
-                     "--metrics", METRIC, "--jobs", "2", "--retries", "2",
-                     "--fmu-dir", str(FMU_DIR), "--out", str(out)])
+    code = cli_main(
+        [
+            "sweep",
+            str(write_scene(tmp_path, stop=0.3)),
+            "--vary",
+            VARY,
+            "--metrics",
+            METRIC,
+            "--jobs",
+            "2",
+            "--retries",
+            "2",
+            "--fmu-dir",
+            str(FMU_DIR),
+            "--out",
+            str(out),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 1, err
-    assert "sweep failed: 1 of 8 point(s) failed (index 2); index 2: worker: its process " \
-           "died on each of 3 attempt(s), the last one alone" in err, err
+    assert (
+        "sweep failed: 1 of 8 point(s) failed (index 2); index 2: worker: its process "
+        "died on each of 3 attempt(s), the last one alone" in err
+    ), err
     rows = rows_by_index(out)
     assert sorted(rows) == list(range(8))
     assert [i for i, row in rows.items() if row["error"]] == [2]  # no innocent point blamed
@@ -93,19 +132,23 @@ def test_a_point_that_always_kills_its_worker_fails_alone_after_its_retries(
 
 # --- sweep.json while running -----------------------------------------------------------
 
+
 def test_sweep_json_is_current_after_every_point(tmp_path):
     out = tmp_path / "out"
     seen = []
 
     def look(row):
         summary = json.loads((out / "sweep.json").read_text())
-        seen.append((summary["done"], summary["failed"],
-                     len(sweep.read_sweep_csv(out / "sweep.csv"))))
+        seen.append(
+            (summary["done"], summary["failed"], len(sweep.read_sweep_csv(out / "sweep.csv")))
+        )
+
     small_sweep(tmp_path, out, on_point=look)
     assert seen == [(k, 0, k) for k in range(1, 9)]
 
 
 # --- resuming -----------------------------------------------------------------------------------
+
 
 def _interrupted_after(tmp_path, out, count, **options):
     seen = []
@@ -114,6 +157,7 @@ def _interrupted_after(tmp_path, out, count, **options):
         seen.append(row["index"])
         if len(seen) == count:
             raise KeyboardInterrupt
+
     with pytest.raises(KeyboardInterrupt):
         small_sweep(tmp_path, out, on_point=stop, **options)
     return seen
@@ -123,8 +167,9 @@ def test_a_stopped_sweep_resumes_without_redoing_finished_points(tmp_path):
     out = tmp_path / "out"
     finished = _interrupted_after(tmp_path, out, 3)
     redone = []
-    summary = small_sweep(tmp_path, out, resume=True,
-                          on_point=lambda row: redone.append(row["index"]))
+    summary = small_sweep(
+        tmp_path, out, resume=True, on_point=lambda row: redone.append(row["index"])
+    )
     assert sorted(redone) == sorted(set(range(8)) - set(finished))
     assert summary["done"] == 8 and summary["resumed"] == 3 and not summary["interrupted"]
     clean = tmp_path / "clean"
@@ -138,16 +183,27 @@ def test_resume_redoes_the_failed_points(tmp_path):
     """spring_base_offset 0.6 m is outside (0, L): those points fail, and a resumed sweep
     runs them again (their failure may have been a dead worker)."""
     scene = write_scene(tmp_path, stop=0.3)
-    varies = [sweep.parse_vary("suspension.spring_base_offset=0.2:0.6:2"),
-              sweep.parse_vary("suspension.spring_stiffness=8000:12000:2")]
+    varies = [
+        sweep.parse_vary("suspension.spring_base_offset=0.2:0.6:2"),
+        sweep.parse_vary("suspension.spring_stiffness=8000:12000:2"),
+    ]
     out = tmp_path / "out"
-    first = sweep.run_sweep(scene, varies, [metric(METRIC)], out, jobs=2, fmu_dir=FMU_DIR,
-                            progress=False)
+    first = sweep.run_sweep(
+        scene, varies, [metric(METRIC)], out, jobs=2, fmu_dir=FMU_DIR, progress=False
+    )
     assert first["failed_indices"] == [2, 3]
     again = []
-    second = sweep.run_sweep(scene, varies, [metric(METRIC)], out, jobs=2, fmu_dir=FMU_DIR,
-                             progress=False, resume=True,
-                             on_point=lambda row: again.append(row["index"]))
+    second = sweep.run_sweep(
+        scene,
+        varies,
+        [metric(METRIC)],
+        out,
+        jobs=2,
+        fmu_dir=FMU_DIR,
+        progress=False,
+        resume=True,
+        on_point=lambda row: again.append(row["index"]),
+    )
     assert sorted(again) == [2, 3] and second["resumed"] == 2
     assert second["failed_indices"] == [2, 3] and sorted(rows_by_index(out)) == [0, 1, 2, 3]
 
@@ -157,14 +213,23 @@ def test_resume_refuses_another_sweep_or_nothing(tmp_path):
     with pytest.raises(sweep.SweepError, match="nothing to resume in .*: no sweep.json"):
         small_sweep(tmp_path, out, resume=True)
     _interrupted_after(tmp_path, out, 2)
-    with pytest.raises(sweep.SweepError, match="cannot resume .*: its varies, points differ from this one.s"):
-        sweep.run_sweep(write_scene(tmp_path, stop=0.3),
-                        [sweep.parse_vary("suspension.spring_stiffness=8000:12000:9")],
-                        [metric(METRIC)], out, jobs=2, fmu_dir=FMU_DIR, progress=False,
-                        resume=True)
+    with pytest.raises(
+        sweep.SweepError, match="cannot resume .*: its varies, points differ from this one.s"
+    ):
+        sweep.run_sweep(
+            write_scene(tmp_path, stop=0.3),
+            [sweep.parse_vary("suspension.spring_stiffness=8000:12000:9")],
+            [metric(METRIC)],
+            out,
+            jobs=2,
+            fmu_dir=FMU_DIR,
+            progress=False,
+            resume=True,
+        )
 
 
 # --- a --scheduler address where no Dask scheduler answers ---------------------------------------
+
 
 class FakeServer:
     """A TCP server on 127.0.0.1 that sends ``greeting`` to each connection (None: nothing)
@@ -195,12 +260,17 @@ class FakeServer:
             connection.close()
 
 
-@pytest.mark.parametrize("greeting, message", [
-    (b"HTTP/1.1 200 OK\r\nContent-Length: 5\r\n\r\nhello" * 10,
-     "something answered there, but not a Dask scheduler"),
-    (b"\xff" * 64, "something answered there, but not a Dask scheduler"),
-    (None, "something accepted the connection but sent no Dask handshake within 1 s"),
-])
+@pytest.mark.parametrize(
+    "greeting, message",
+    [
+        (
+            b"HTTP/1.1 200 OK\r\nContent-Length: 5\r\n\r\nhello" * 10,
+            "something answered there, but not a Dask scheduler",
+        ),
+        (b"\xff" * 64, "something answered there, but not a Dask scheduler"),
+        (None, "something accepted the connection but sent no Dask handshake within 1 s"),
+    ],
+)
 def test_something_else_at_the_scheduler_address_is_a_clear_error(greeting, message):
     server = FakeServer(greeting)
     started = time.monotonic()
@@ -217,20 +287,35 @@ def test_something_else_at_the_scheduler_address_is_a_clear_error(greeting, mess
 
 # --- counts that are not positive ------------------------------------------------------------------
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--vary", VARY, "--samples", "0"], "--samples = 0 must be at least 1"),
-    (["--vary", VARY, "--samples", "-3"], "--samples = -3 must be at least 1"),
-    (["--vary", VARY, "--jobs", "0"], "--jobs = 0 must be at least 1"),
-    (["--vary", VARY, "--jobs", "-2"], "--jobs = -2 must be at least 1"),
-    (["--vary", VARY, "--retries", "-1"], "--retries = -1 must be at least 0"),
-    (["--vary", VARY, "--samples", "4", "--seed", "-1"], "--seed = -1 must be at least 0"),
-    (["--vary", "suspension.spring_stiffness=1:2:0"], "COUNT must be at least 1"),
-    (["--vary", "suspension.spring_stiffness=1:2:-5"], "COUNT must be at least 1"),
-])
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--vary", VARY, "--samples", "0"], "--samples = 0 must be at least 1"),
+        (["--vary", VARY, "--samples", "-3"], "--samples = -3 must be at least 1"),
+        (["--vary", VARY, "--jobs", "0"], "--jobs = 0 must be at least 1"),
+        (["--vary", VARY, "--jobs", "-2"], "--jobs = -2 must be at least 1"),
+        (["--vary", VARY, "--retries", "-1"], "--retries = -1 must be at least 0"),
+        (["--vary", VARY, "--samples", "4", "--seed", "-1"], "--seed = -1 must be at least 0"),
+        (["--vary", "suspension.spring_stiffness=1:2:0"], "COUNT must be at least 1"),
+        (["--vary", "suspension.spring_stiffness=1:2:-5"], "COUNT must be at least 1"),
+    ],
+)
 def test_counts_that_are_not_positive_are_refused(tmp_path, capsys, arguments, message):
     out = tmp_path / "out"
-    code = cli_main(["sweep", str(write_scene(tmp_path)), *arguments, "--metrics", METRIC,
-                     "--fmu-dir", str(FMU_DIR), "--out", str(out)])
+    code = cli_main(
+        [
+            "sweep",
+            str(write_scene(tmp_path)),
+            *arguments,
+            "--metrics",
+            METRIC,
+            "--fmu-dir",
+            str(FMU_DIR),
+            "--out",
+            str(out),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2 and "sweep error: " in err and message in err, err
     assert not (out / "sweep.csv").exists()
@@ -238,22 +323,28 @@ def test_counts_that_are_not_positive_are_refused(tmp_path, capsys, arguments, m
 
 def test_sweep_file_counts_are_checked_too(tmp_path):
     path = tmp_path / "negative.toml"
-    path.write_text(f'scene = "{write_scene(tmp_path).as_posix()}"\n'
-                    f'vary = ["suspension.spring_stiffness=8000:12000"]\n'
-                    f'metrics = ["{METRIC}"]\nsamples = -2\nseed = 1\n')
+    path.write_text(
+        f'scene = "{write_scene(tmp_path).as_posix()}"\n'
+        f'vary = ["suspension.spring_stiffness=8000:12000"]\n'
+        f'metrics = ["{METRIC}"]\nsamples = -2\nseed = 1\n'
+    )
     settings = sweep.load_sweep_file(path)
     settings.pop("description")
     with pytest.raises(sweep.SweepError, match="samples = -2 must be at least 1"):
-        sweep.run_sweep(**settings, out_dir=tmp_path / "out", jobs=1, fmu_dir=FMU_DIR,
-                        progress=False)
+        sweep.run_sweep(
+            **settings, out_dir=tmp_path / "out", jobs=1, fmu_dir=FMU_DIR, progress=False
+        )
 
 
-@pytest.mark.parametrize("arguments, message", [
-    (["--sequences", "-5"], "--sequences = -5 must be at least 1"),
-    (["--sequences", "0"], "--sequences = 0 must be at least 1"),
-    (["--jobs", "0"], "--jobs = 0 must be at least 1"),
-    (["--sequences", "10", "--only", "10"], "--only = 10 must lie in [0, 9]"),
-])
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (["--sequences", "-5"], "--sequences = -5 must be at least 1"),
+        (["--sequences", "0"], "--sequences = 0 must be at least 1"),
+        (["--jobs", "0"], "--jobs = 0 must be at least 1"),
+        (["--sequences", "10", "--only", "10"], "--only = 10 must lie in [0, 9]"),
+    ],
+)
 def test_fuzz_refuses_counts_that_are_not_positive(capsys, arguments, message):
     with pytest.raises(SystemExit) as raised:
         cli_main(["fuzz", "PistonActuator", *arguments, "--fmus", str(FMU_DIR)])
@@ -265,8 +356,20 @@ def test_fuzz_refuses_counts_that_are_not_positive(capsys, arguments, message):
 def test_an_unusable_out_stops_the_sweep_before_any_point(tmp_path, capsys):
     out = tmp_path / "out"
     out.write_text("a file, not a folder")
-    code = cli_main(["sweep", str(write_scene(tmp_path)), "--vary", VARY, "--metrics", METRIC,
-                     "--fmu-dir", str(FMU_DIR), "--out", str(out)])
+    code = cli_main(
+        [
+            "sweep",
+            str(write_scene(tmp_path)),
+            "--vary",
+            VARY,
+            "--metrics",
+            METRIC,
+            "--fmu-dir",
+            str(FMU_DIR),
+            "--out",
+            str(out),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2, err
     assert err.strip().splitlines() == [f"sweep error: output folder {out} is not a directory"]

@@ -17,6 +17,7 @@ L, K, D = 0.5, 1e4, 0.2  # the coursework suspension
 
 # --- suspension --------------------------------------------------------------------------
 
+
 def test_static_snap_through_mass_is_the_limit_load_over_g():
     mass = sweeps.static_snap_through_mass()
     assert mass == pytest.approx(315.15, abs=0.005)  # README: F* = 3090.58 N
@@ -71,6 +72,7 @@ def test_scene_sudden_load_snaps():
 
 # --- landing gear ------------------------------------------------------------------------
 
+
 @pytest.fixture(scope="module")
 def retraction_times():
     return {p: sweeps.retraction_time(p) for p in (5e6, 1e7, 2.07e7, 2.5e7)}
@@ -103,6 +105,7 @@ def test_minimum_retraction_pressure():
 
 # --- valve float speed ---------------------------------------------------------------------
 
+
 def test_valve_float_speed_default():
     assert sweeps.valve_float_speed(300.0) == pytest.approx(432.233, abs=5e-4)  # README
 
@@ -119,29 +122,35 @@ def test_valve_float_speed_checks_the_fmu_physics(law):
     from mechfmu.runtime.models.valve_train import CAM
     from mechfmu.runtime.physics import cam_laws
     from mechfmu.runtime.physics import valve_train as physics
+
     profile = cam_laws.check_profile(law, *CAM[1:])
     for preload in (50.0, 300.0, 900.0):
         fmu = physics.float_speed(physics.DEFAULT_VALVE_GEOMETRY, profile, 0.1, 5e4, preload)
         assert sweeps.valve_float_speed(preload, cam_law=law) == pytest.approx(
-            fmu.camshaft_speed, rel=1e-9)
+            fmu.camshaft_speed, rel=1e-9
+        )
 
 
 # --- bad input -------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("call, name", [
-    (lambda: sweeps.valve_float_speed(-1.0), "spring_preload"),
-    (lambda: sweeps.valve_float_speed(300.0, valve_mass=0.0), "valve_mass"),
-    (lambda: sweeps.valve_float_speed(300.0, spring_stiffness=-5.0), "spring_stiffness"),
-    (lambda: sweeps.valve_float_speed(300.0, cam_law="square"), "cam_law"),
-    (lambda: sweeps.valve_float_speed(300.0, lobe=1.0), "lobe"),
-    (lambda: sweeps.sudden_snap_through_mass(-1.0), "damping_coefficient"),
-    (lambda: sweeps.sudden_snap_through_mass(0.0, tolerance=0.0), "tolerance"),
-    (lambda: sweeps.sudden_load_snaps(0.0, 0.0), "mass"),
-    (lambda: sweeps.static_snap_through_mass(spring_base_offset=0.6), "spring_base_offset"),
-    (lambda: sweeps.static_snap_through_mass(gravity=math.nan), "gravity"),
-    (lambda: sweeps.retraction_time(-2e7), "supply_pressure"),
-    (lambda: sweeps.retraction_time(2e7, no_such_thing=1.0), "no_such_thing"),
-])
+
+@pytest.mark.parametrize(
+    "call, name",
+    [
+        (lambda: sweeps.valve_float_speed(-1.0), "spring_preload"),
+        (lambda: sweeps.valve_float_speed(300.0, valve_mass=0.0), "valve_mass"),
+        (lambda: sweeps.valve_float_speed(300.0, spring_stiffness=-5.0), "spring_stiffness"),
+        (lambda: sweeps.valve_float_speed(300.0, cam_law="square"), "cam_law"),
+        (lambda: sweeps.valve_float_speed(300.0, lobe=1.0), "lobe"),
+        (lambda: sweeps.sudden_snap_through_mass(-1.0), "damping_coefficient"),
+        (lambda: sweeps.sudden_snap_through_mass(0.0, tolerance=0.0), "tolerance"),
+        (lambda: sweeps.sudden_load_snaps(0.0, 0.0), "mass"),
+        (lambda: sweeps.static_snap_through_mass(spring_base_offset=0.6), "spring_base_offset"),
+        (lambda: sweeps.static_snap_through_mass(gravity=math.nan), "gravity"),
+        (lambda: sweeps.retraction_time(-2e7), "supply_pressure"),
+        (lambda: sweeps.retraction_time(2e7, no_such_thing=1.0), "no_such_thing"),
+    ],
+)
 def test_bad_input_names_the_value(call, name):
     with pytest.raises(ValueError, match=name):
         call()

@@ -37,7 +37,8 @@ def _break_fmi3_time(fmu, target):
     with zipfile.ZipFile(fmu) as archive:
         members = {info.filename: archive.read(info) for info in archive.infolist()}
     members["modelDescription.xml"] = members["modelDescription.xml"].replace(
-        b'causality="independent"', b'causality="output"')
+        b'causality="independent"', b'causality="output"'
+    )
     with zipfile.ZipFile(target, "w") as archive:
         for name, data in members.items():
             archive.writestr(name, data)
@@ -48,14 +49,16 @@ def test_fmutool_command_passes_our_fmus_and_fails_a_broken_one(fmu_dir, fmu3_di
     """The command users run: exit 0 on an FMI 2.0 and an FMI 3.0 FMU; non-zero, naming the
     fault, on a broken copy (so the checks above can fail)."""
     for fmu in (fmu_dir / "LandingGear.fmu", fmu3_dir / "LandingGear.fmu"):
-        done = subprocess.run([str(FMUTOOL), "-input", str(fmu), "-check"],
-                              capture_output=True, text=True)
+        done = subprocess.run(
+            [str(FMUTOOL), "-input", str(fmu), "-check"], capture_output=True, text=True
+        )
         assert done.returncode == 0, done.stdout + done.stderr
         assert "No semantic error" in done.stdout + done.stderr
     broken = _break_fmi3_time(fmu3_dir / "CrankDrive.fmu", tmp_path / "broken.fmu")
     errors, _ = fmutool_check(broken)
     assert any("'time' is not listed in <Output>" in e for e in errors), errors
-    done = subprocess.run([str(FMUTOOL), "-input", str(broken), "-check"],
-                          capture_output=True, text=True)
+    done = subprocess.run(
+        [str(FMUTOOL), "-input", str(broken), "-check"], capture_output=True, text=True
+    )
     assert done.returncode != 0
     assert "'time' is not listed in <Output>" in done.stdout + done.stderr

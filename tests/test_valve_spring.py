@@ -23,17 +23,21 @@ from mechfmu.references import valve_spring as ref
 from mechfmu.tools.scene_references import model_defaults
 
 P = vs.make_parameters()
-FLOAT_SPEED = vt.float_speed(vt.DEFAULT_VALVE_GEOMETRY, cam_laws.DEFAULT_CAM_PROFILE, 0.1,
-                             50e3, 300.0).camshaft_speed  # 432.233 rad/s, kinematic
+FLOAT_SPEED = vt.float_speed(
+    vt.DEFAULT_VALVE_GEOMETRY, cam_laws.DEFAULT_CAM_PROFILE, 0.1, 50e3, 300.0
+).camshaft_speed  # 432.233 rad/s, kinematic
 
 
 def cam_drive(speed, start_angle=-0.2):
     """The rocker end at a constant camshaft speed (rad/s): ValveTrain's closed form."""
+
     def drive(t):
-        law = cam_laws.follower_motion(cam_laws.DEFAULT_CAM_PROFILE, start_angle + speed * t,
-                                       speed, 0.0)
+        law = cam_laws.follower_motion(
+            cam_laws.DEFAULT_CAM_PROFILE, start_angle + speed * t, speed, 0.0
+        )
         motion = vt.forward(vt.DEFAULT_VALVE_GEOMETRY, *law)
         return motion.valve_lift, motion.valve_velocity, motion.valve_acceleration
+
     return drive
 
 
@@ -66,6 +70,7 @@ def run_slave(model, drive, steps, dt=1e-5):
 
 # --- force laws and equilibrium ------------------------------------------------------------
 
+
 def test_force_laws_push_and_never_pull():
     assert vs.spring_force(P, 0.0) == 300.0 and vs.spring_force(P, 0.01) == 800.0
     assert vs.penetration(P, 0.005, 0.004) == pytest.approx(0.001, abs=1e-18)
@@ -80,16 +85,19 @@ def test_force_laws_push_and_never_pull():
     for depth in (-1e-5, 0.0, 1e-7, 1e-5):
         for rate in (-3.0, -0.01, 0.0, 0.01, 3.0):
             assert (vs.contact_switch(P, depth, rate) > 0.0) == (
-                vs.contact_force(P, depth, rate) > 0.0)
-            assert (vs.seat_switch(P, -depth, rate) > 0.0) == (
-                vs.seat_force(P, -depth, rate) > 0.0)
+                vs.contact_force(P, depth, rate) > 0.0
+            )
+            assert (vs.seat_switch(P, -depth, rate) > 0.0) == (vs.seat_force(P, -depth, rate) > 0.0)
 
 
-@pytest.mark.parametrize("rocker_lift, lash, expected", [
-    (0.0, 0.0, -300.0 / (50e3 + 1e7 + 1e8)),            # on the seat and the rocker
-    (0.005, 0.0, (1e7 * 0.005 - 300.0) / (50e3 + 1e7)),  # open, on the rocker only
-    (0.0, 1e-4, -300.0 / (50e3 + 1e8)),                  # closed, rocker clear by the lash
-])
+@pytest.mark.parametrize(
+    "rocker_lift, lash, expected",
+    [
+        (0.0, 0.0, -300.0 / (50e3 + 1e7 + 1e8)),  # on the seat and the rocker
+        (0.005, 0.0, (1e7 * 0.005 - 300.0) / (50e3 + 1e7)),  # open, on the rocker only
+        (0.0, 1e-4, -300.0 / (50e3 + 1e8)),  # closed, rocker clear by the lash
+    ],
+)
 def test_static_equilibrium_balances_the_forces(rocker_lift, lash, expected):
     p = P._replace(lash=lash)
     x = vs.static_equilibrium(p, rocker_lift, 0.0)
@@ -98,12 +106,15 @@ def test_static_equilibrium_balances_the_forces(rocker_lift, lash, expected):
     assert abs(f.acceleration) * p.mass < 1e-12 * f.spring
 
 
-@pytest.mark.parametrize("name, value, words", [
-    ("mass", 0.0, ["valve_mass = 0.0", "(0, inf)"]),
-    ("contact_stiffness", -1.0, ["contact_stiffness = -1.0", "positive"]),
-    ("seat_damping", -5.0, ["seat_damping = -5.0", "[0, inf)"]),
-    ("lash", math.nan, ["lash = nan", "finite"]),
-])
+@pytest.mark.parametrize(
+    "name, value, words",
+    [
+        ("mass", 0.0, ["valve_mass = 0.0", "(0, inf)"]),
+        ("contact_stiffness", -1.0, ["contact_stiffness = -1.0", "positive"]),
+        ("seat_damping", -5.0, ["seat_damping = -5.0", "[0, inf)"]),
+        ("lash", math.nan, ["lash = nan", "finite"]),
+    ],
+)
 def test_parameters_out_of_range_are_named(name, value, words):
     with pytest.raises(RangeError) as caught:
         vs.make_parameters(**{name: value})
@@ -112,6 +123,7 @@ def test_parameters_out_of_range_are_named(name, value, words):
 
 
 # --- the drive inside a step ---------------------------------------------------------------
+
 
 def test_quintic_hermite_is_exact_on_a_quintic_and_the_cubic_on_a_cubic():
     quintic = (2e-3, 0.7, -40.0, 3e4, -2e6, 5e7)
@@ -164,12 +176,18 @@ def test_the_references_tabulated_drive_matches_the_exact_one():
 
 # --- physics through the slave ---------------------------------------------------------------
 
+
 def test_energy_balance_without_damping():
     """No dashpots, no seat contact: the rocker's work is the change of T + V."""
+
     def drive(t):  # the valve held 4.5 .. 7.5 mm open and shaken at 200 Hz
         w = 2 * math.pi * 200.0
-        return (0.006 + 0.0015 * math.sin(w * t), 0.0015 * w * math.cos(w * t),
-                -0.0015 * w * w * math.sin(w * t))
+        return (
+            0.006 + 0.0015 * math.sin(w * t),
+            0.0015 * w * math.cos(w * t),
+            -0.0015 * w * w * math.sin(w * t),
+        )
+
     model = slave(drive, contact_damping=0.0, seat_damping=0.0)
     rows = run_slave(model, drive, 1000)
     assert len(rows) == 1001 and max(r[1]["seat_force"] for r in rows) == 0.0
@@ -177,6 +195,7 @@ def test_energy_balance_without_damping():
 
     def energy(values):
         return values["kinetic_energy"] + values["elastic_energy"]
+
     scale = max(energy(r[1]) for r in rows)
     assert max(abs(r[1]["contact_work"]) for r in rows) > 0.1 * scale
     for _, values, _ in rows:
@@ -219,8 +238,9 @@ def test_above_the_float_speed_the_valve_floats_and_bounces(fmu_dir):
 
 def test_stop_on_float_discards_the_step_and_keeps_the_state(fmu_dir):
     drive = cam_drive(1.1 * FLOAT_SPEED)
-    fmu = Driven(fmu_dir / "ValveSpring.fmu", {"stop_on_float": True},
-                 inputs(drive(0.0)), instance="valve")
+    fmu = Driven(
+        fmu_dir / "ValveSpring.fmu", {"stop_on_float": True}, inputs(drive(0.0)), instance="valve"
+    )
     names = ("valve_lift", "valve_velocity", "contact_force", "rhs_evaluations", "float_events")
     try:
         outcome, kept = True, None
@@ -260,8 +280,13 @@ def test_radau_steps_through_impacts_and_agrees_with_dopri5():
     drive = cam_drive(50.0, start_angle=0.0)
     lifts = {}
     for method in ("radau", "dopri5"):
-        model = slave(drive, integrator=method, spring_stiffness=1.0, spring_preload=7.0,
-                      contact_stiffness=1e5)
+        model = slave(
+            drive,
+            integrator=method,
+            spring_stiffness=1.0,
+            spring_preload=7.0,
+            contact_stiffness=1e5,
+        )
         rows = run_slave(model, drive, 40, dt=1.25e-3)
         assert len(rows) == 41 and rows[-1][1]["float_events"] == 1, model.log_queue[-1].msg
         lifts[method] = np.array([r[1]["valve_lift"] for r in rows])
@@ -272,15 +297,19 @@ def test_radau_steps_through_impacts_and_agrees_with_dopri5():
 
 # Measured worst deviations (README): lift 2.2e-13 m, velocity 2.4e-9 m/s, acceleration
 # 6.5e-5 m/s^2, contact force 2.2e-6 N, seat force 5.9e-6 N; asked with a margin of 20 to 30.
-COLUMN_TOLERANCE = {"valve.valve_lift": 5e-12, "valve.valve_velocity": 5e-8,
-                    "valve.valve_acceleration": 2e-3, "valve.contact_force": 5e-5,
-                    "valve.seat_force": 2e-4, "valve.float_events": 0.0,
-                    "valve.seat_impacts": 0.0}
+COLUMN_TOLERANCE = {
+    "valve.valve_lift": 5e-12,
+    "valve.valve_velocity": 5e-8,
+    "valve.valve_acceleration": 2e-3,
+    "valve.contact_force": 5e-5,
+    "valve.seat_force": 2e-4,
+    "valve.float_events": 0.0,
+    "valve.seat_impacts": 0.0,
+}
 
 
 def test_scene_matches_the_reference_column_by_column(fmu_dir, tmp_path):
-    result, paths = run_scene(SCENES / "valve_train_dynamic.toml", tmp_path, fmu_dir,
-                              plot=False)
+    result, paths = run_scene(SCENES / "valve_train_dynamic.toml", tmp_path, fmu_dir, plot=False)
     _, ours = read_csv(paths["csv"])
     _, reference = read_csv(result.scene.reference)
     for name, tolerance in COLUMN_TOLERANCE.items():
@@ -295,9 +324,19 @@ def test_scene_matches_the_reference_column_by_column(fmu_dir, tmp_path):
 
 def test_fmu_state_roll_back_re_steps_bit_for_bit(fmu_dir):
     drive = cam_drive(1.1 * FLOAT_SPEED)  # through a float and re-contact
-    names = ("valve_lift", "valve_velocity", "valve_acceleration", "contact_force",
-             "seat_force", "contact_work", "float_events", "seat_impacts", "rhs_evaluations",
-             "substeps", "contact_lost")
+    names = (
+        "valve_lift",
+        "valve_velocity",
+        "valve_acceleration",
+        "contact_force",
+        "seat_force",
+        "contact_work",
+        "float_events",
+        "seat_impacts",
+        "rhs_evaluations",
+        "substeps",
+        "contact_lost",
+    )
     fmu = Driven(fmu_dir / "ValveSpring.fmu", inputs=inputs(drive(0.0)))
 
     def steps(first, count):
@@ -321,8 +360,10 @@ def test_fmu_state_roll_back_re_steps_bit_for_bit(fmu_dir):
     assert first[-1][names.index("float_events")] > first[0][names.index("float_events")]
 
 
-@pytest.mark.parametrize("name, unit", [("rocker_lift", "m"), ("rocker_velocity", "m/s"),
-                                        ("rocker_acceleration", "m/s2")])
+@pytest.mark.parametrize(
+    "name, unit",
+    [("rocker_lift", "m"), ("rocker_velocity", "m/s"), ("rocker_acceleration", "m/s2")],
+)
 def test_a_non_finite_input_is_refused_by_name(fmu_dir, name, unit):
     fmu = Driven(fmu_dir / "ValveSpring.fmu")
     try:
@@ -349,23 +390,44 @@ def test_invalid_parameters_are_refused_at_every_step(fmu_dir):
 
 # --- random speeds and springs: finite outputs or a named error ------------------------------
 
-OUTPUTS = ("valve_lift", "valve_velocity", "valve_acceleration", "contact_force",
-           "seat_force", "spring_force", "kinetic_energy", "elastic_energy", "contact_work")
+OUTPUTS = (
+    "valve_lift",
+    "valve_velocity",
+    "valve_acceleration",
+    "contact_force",
+    "seat_force",
+    "spring_force",
+    "kinetic_energy",
+    "elastic_energy",
+    "contact_work",
+)
 # a refusal names the variable, its value and range, or the integration method and why
-NAMED = re.compile(r"^property at t = \S+ s: ([a-z_]+ = \S+ \S+ is outside the valid range "
-                   r"|(euler|rk4|dopri5|radau): )")
+NAMED = re.compile(
+    r"^property at t = \S+ s: ([a-z_]+ = \S+ \S+ is outside the valid range "
+    r"|(euler|rk4|dopri5|radau): )"
+)
 
 
 @settings(derandomize=True, max_examples=30, deadline=3000)
-@given(speed=st.floats(250.0, 700.0), stiffness=st.floats(-1e4, 3e5),
-       preload=st.floats(0.0, 800.0), contact=st.floats(1e5, 1e8),
-       integrator=st.sampled_from(["dopri5", "rk4", "euler"]))
+@given(
+    speed=st.floats(250.0, 700.0),
+    stiffness=st.floats(-1e4, 3e5),
+    preload=st.floats(0.0, 800.0),
+    contact=st.floats(1e5, 1e8),
+    integrator=st.sampled_from(["dopri5", "rk4", "euler"]),
+)
 def test_random_speeds_and_springs_give_finite_outputs_or_a_named_error(
-        speed, stiffness, preload, contact, integrator):
+    speed, stiffness, preload, contact, integrator
+):
     drive = cam_drive(speed, start_angle=0.0)
     model = ValveSpring(instance_name="property")
-    model.values.update(spring_stiffness=stiffness, spring_preload=preload,
-                        contact_stiffness=contact, integrator=integrator, **inputs(drive(0.0)))
+    model.values.update(
+        spring_stiffness=stiffness,
+        spring_preload=preload,
+        contact_stiffness=contact,
+        integrator=integrator,
+        **inputs(drive(0.0)),
+    )
     model.exit_initialization_mode()
     if model.pending_error is not None:
         assert stiffness <= 0.0 and "spring_stiffness = " in model.pending_error
@@ -381,6 +443,7 @@ def test_random_speeds_and_springs_give_finite_outputs_or_a_named_error(
 
 # --- the travel limit ----------------------------------------------------------------------------
 
+
 def test_at_ten_times_the_cam_speed_the_valve_stops_at_its_travel_limit(fmu_dir, tmp_path):
     """The issue's run: valve_train_dynamic with the camshaft 10 times as fast (3000 rad/s).
     The valve floats off the 10.5 mm cam and used to fly 117 mm; now the step in which it
@@ -388,15 +451,19 @@ def test_at_ten_times_the_cam_speed_the_valve_stops_at_its_travel_limit(fmu_dir,
     the limit named, and the rows before it are kept."""
     from mechfmu.cosim.master import SimulationError
     from mechfmu.cosim.scene import load_scene
+
     scene = load_scene(SCENES / "valve_train_dynamic.toml")
     scene.components["camshaft"].parameters["speed"] = 6000.0
     with pytest.raises(SimulationError) as raised:
         run_scene(scene, tmp_path, fmu_dir, plot=False)
     error = raised.value
     assert error.component == "valve"
-    assert re.search(r"valve at t = \S+ s: valve_lift = 0\.0125\d* m is outside the valid "
-                     r"range \(-inf, 0\.0125\] m \(max_valve_lift, the travel limit: the spring "
-                     r"retainer meets the valve guide", str(error)), str(error)
+    assert re.search(
+        r"valve at t = \S+ s: valve_lift = 0\.0125\d* m is outside the valid "
+        r"range \(-inf, 0\.0125\] m \(max_valve_lift, the travel limit: the spring "
+        r"retainer meets the valve guide",
+        str(error),
+    ), str(error)
     assert "the valve left the rocker (float) at t = 0.000421" in str(error)
     lifts = error.result.columns["valve.valve_lift"]
     assert 0.0105 < max(lifts) <= 0.0125 and len(lifts) > 10
@@ -437,8 +504,14 @@ def test_a_rocker_already_beyond_the_travel_limit_is_refused_at_the_start():
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.booleans(), st.booleans(), st.floats(0.0, 1.0), st.floats(-1e-4, 1.2e-2),
-       st.floats(-8.0, 8.0), st.floats(0.0, 1e-4))
+@given(
+    st.booleans(),
+    st.booleans(),
+    st.floats(0.0, 1.0),
+    st.floats(-1e-4, 1.2e-2),
+    st.floats(-8.0, 8.0),
+    st.floats(0.0, 1e-4),
+)
 def test_rhs_is_the_force_laws_written_out(contact, seat, where, lift, velocity, lash):
     """build_rhs (inlined for speed) gives the floats of drive_at and engaged_forces (the
     same operations in the same order; compared to 1e-14 so a CPU's fused multiply-add

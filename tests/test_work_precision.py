@@ -50,11 +50,14 @@ def test_same_methods_same_work(frame):
 
 
 def test_evaluations_at_target_errors_interpolate_between_runs():
-    frame = pd.DataFrame([
-        {"problem": "p", "library": "x", "method": "m", "error": 1e-3, "rhs_evaluations": 100},
-        {"problem": "p", "library": "x", "method": "m", "error": 1e-7, "rhs_evaluations": 1000}])
+    frame = pd.DataFrame(
+        [
+            {"problem": "p", "library": "x", "method": "m", "error": 1e-3, "rhs_evaluations": 100},
+            {"problem": "p", "library": "x", "method": "m", "error": 1e-7, "rhs_evaluations": 1000},
+        ]
+    )
     summary = wp.evaluations_at(frame, (1e-5, 1e-9))
-    assert summary.loc[0, "at 1e-05"] == pytest.approx(10 ** 2.5)
+    assert summary.loc[0, "at 1e-05"] == pytest.approx(10**2.5)
     assert math.isnan(summary.loc[0, "at 1e-09"])
     assert summary.loc[0, "observed order"] == pytest.approx(4.0)  # 1e4 less error, 10x work
 
@@ -63,6 +66,7 @@ def test_command_writes_the_csv_and_the_table(tmp_path, capsys):
     assert cli(["study", "--work-precision", "--quick", "--out", str(tmp_path)]) == 0
     written = pd.read_csv(tmp_path / "work_precision.csv")
     assert len(written) == len(wp.PROBLEMS) * (
-        (len(wp.OURS_ADAPTIVE) + len(wp.SCIPY)) * len(wp.QUICK_TOLERANCES) + 3)
+        (len(wp.OURS_ADAPTIVE) + len(wp.SCIPY)) * len(wp.QUICK_TOLERANCES) + 3
+    )
     assert "#### valve" in (tmp_path / "work_precision.md").read_text(encoding="utf-8")
     assert "work_precision.csv" in capsys.readouterr().out

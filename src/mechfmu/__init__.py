@@ -18,12 +18,30 @@ __version__ = "0.1.0"
 
 # The public Python API, imported on first use (``import mechfmu`` stays cheap: no pandas
 # until a name below is used): name -> module of the package that defines it.
-_API = {"simulate": "api", "reference": "api", "sweep": "api",
-        "read_result": "io", "write_result": "io", "read_table": "io",
-        "ResultFileError": "io", "compare": "comparison", "Comparison": "comparison"}
+_API = {
+    "simulate": "api",
+    "reference": "api",
+    "sweep": "api",
+    "read_result": "io",
+    "write_result": "io",
+    "read_table": "io",
+    "ResultFileError": "io",
+    "compare": "comparison",
+    "Comparison": "comparison",
+}
 
-__all__ = ["Comparison", "ResultFileError", "__version__", "compare", "read_result",
-           "read_table", "reference", "simulate", "sweep", "write_result"]  # _API's names
+__all__ = [
+    "Comparison",
+    "ResultFileError",
+    "__version__",
+    "compare",
+    "read_result",
+    "read_table",
+    "reference",
+    "simulate",
+    "sweep",
+    "write_result",
+]  # _API's names
 
 if TYPE_CHECKING:
     from .api import reference, simulate, sweep
@@ -36,6 +54,7 @@ def __getattr__(name: str) -> Any:
     if module is None:
         raise AttributeError(f"module 'mechfmu' has no attribute {name!r}")
     from importlib import import_module
+
     value = getattr(import_module(f".{module}", __name__), name)
     globals()[name] = value
     return value

@@ -1,4 +1,5 @@
 """``python -m mechfmu``: the mechfmu command."""
+
 import sys
 
 from .cli import main

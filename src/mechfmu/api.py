@@ -48,34 +48,46 @@ SceneLike = str | PathLike | Scene
 StrPath = str | PathLike
 
 # fmus/ of the source checkout the package runs from (an editable install), if it is one
-CHECKOUT_FMU_DIR = PACKAGE_ROOT.parents[1] / "fmus" if PACKAGE_ROOT.parent.name == "src" \
-    else None
+CHECKOUT_FMU_DIR = PACKAGE_ROOT.parents[1] / "fmus" if PACKAGE_ROOT.parent.name == "src" else None
 
 
-def _scene(scene: SceneLike, start_time: float | None = None, stop_time: float | None = None,
-           step: float | None = None) -> Scene:
+def _scene(
+    scene: SceneLike,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+) -> Scene:
     """The Scene ``scene`` names (a Scene, a path, or a shipped scene's name), with the given
     times replacing its own (checked as in the scene file: a whole number of steps)."""
-    overrides = {key: value for key, value in (("start_time", start_time),
-                                               ("stop_time", stop_time), ("step", step))
-                 if value is not None}
+    overrides = {
+        key: value
+        for key, value in (("start_time", start_time), ("stop_time", stop_time), ("step", step))
+        if value is not None
+    }
     if isinstance(scene, Scene):
         chosen = copy.deepcopy(scene)
         for key, value in overrides.items():
-            if isinstance(value, bool) or not isinstance(value, (int, float)) \
-                    or not math.isfinite(value):
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, (int, float))
+                or not math.isfinite(value)
+            ):
                 raise SceneError(f"{key} = {value!r} must be a finite number")
             setattr(chosen, key, float(value))
         check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
         return chosen
     if not isinstance(scene, (str, PathLike)):
-        raise TypeError(f"scene must be a shipped scene's name, a scene file or a Scene, got "
-                        f"{type(scene).__name__}")
+        raise TypeError(
+            f"scene must be a shipped scene's name, a scene file or a Scene, got "
+            f"{type(scene).__name__}"
+        )
     path = find_file(str(scene))
     if not path.exists() and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
         shipped = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
-        raise SceneError(f"no shipped scene named {str(scene)!r} and no such file; shipped "
-                         f"scenes: {', '.join(shipped)}")
+        raise SceneError(
+            f"no shipped scene named {str(scene)!r} and no such file; shipped "
+            f"scenes: {', '.join(shipped)}"
+        )
     return load_scene(path, overrides)
 
 
@@ -85,8 +97,9 @@ def _fmu_folder(scene: Scene, fmu_dir: StrPath | None) -> Path:
     build them otherwise."""
     if fmu_dir is not None:
         return Path(fmu_dir)
-    models = sorted({spec.fmu for spec in scene.components.values()
-                     if not spec.fmu.endswith(".fmu")})
+    models = sorted(
+        {spec.fmu for spec in scene.components.values() if not spec.fmu.endswith(".fmu")}
+    )
     folders = [Path.cwd() / "fmus"]
     if os.environ.get("MECHFMU_FMU_DIR"):  # the Makefile's folder for this interpreter
         folders.insert(0, Path(os.environ["MECHFMU_FMU_DIR"]))
@@ -95,9 +108,11 @@ def _fmu_folder(scene: Scene, fmu_dir: StrPath | None) -> Path:
     for folder in folders:
         if all((folder / f"{model}.fmu").is_file() for model in models):
             return folder
-    raise SceneError(f"scene {scene.name}: FMU(s) {', '.join(f'{m}.fmu' for m in models)} "
-                     f"not found in {' or '.join(str(f) for f in folders)}; build them with "
-                     f"'mechfmu build --out DIR' and pass fmu_dir=DIR")
+    raise SceneError(
+        f"scene {scene.name}: FMU(s) {', '.join(f'{m}.fmu' for m in models)} "
+        f"not found in {' or '.join(str(f) for f in folders)}; build them with "
+        f"'mechfmu build --out DIR' and pass fmu_dir=DIR"
+    )
 
 
 def _plain(value: Any) -> Any:
@@ -105,8 +120,7 @@ def _plain(value: Any) -> Any:
     return value.item() if isinstance(value, numpy.generic) else value
 
 
-def apply_parameters(scene: Scene, parameters: Mapping[str, Any] | None,
-                     fmu_dir: Path) -> None:
+def apply_parameters(scene: Scene, parameters: Mapping[str, Any] | None, fmu_dir: Path) -> None:
     """Set ``parameters`` ({"component.parameter": value}) on ``scene``'s components, in
     place. A name may also be a constant input the scene gives a value, or an effect (True
     or False). SceneError naming the item for an unknown component or a name the
@@ -117,49 +131,69 @@ def apply_parameters(scene: Scene, parameters: Mapping[str, Any] | None,
             raise SceneError(f"parameters: {name!r} is not of the form component.parameter")
         spec = scene.components.get(component)
         if spec is None:
-            raise SceneError(f"parameters: {name!r}: scene {scene.name} has no component "
-                             f"{component!r}; its components: {', '.join(scene.components)}")
+            raise SceneError(
+                f"parameters: {name!r}: scene {scene.name} has no component "
+                f"{component!r}; its components: {', '.join(scene.components)}"
+            )
         value = _plain(value)
         if variable in spec.inputs:
             spec.inputs[variable] = value
             continue
         description = model_description(resolve_fmu(spec, scene, fmu_dir))
-        names = sorted(v.name for v in description.modelVariables
-                       if v.causality == "parameter")
+        names = sorted(v.name for v in description.modelVariables if v.causality == "parameter")
         if variable not in names:
-            raise SceneError(f"parameters: {name!r}: {component!r} "
-                             f"({description.modelName}) has no parameter {variable!r}; its "
-                             f"parameters: {', '.join(names)}")
+            raise SceneError(
+                f"parameters: {name!r}: {component!r} "
+                f"({description.modelName}) has no parameter {variable!r}; its "
+                f"parameters: {', '.join(names)}"
+            )
         if variable in spec.effects:
             spec.effects.remove(variable)
         spec.parameters[variable] = value
 
 
 def _fmu_versions(simulation: Simulation) -> dict[str, dict[str, Any]]:
-    return {name: {"file": str(component.path), "model": description.modelName,
-                   "fmi_version": description.fmiVersion, "guid": description.guid,
-                   "version": description.version,
-                   "generation_tool": description.generationTool,
-                   "generated": description.generationDateAndTime}
-            for name, component in simulation.components.items()
-            for description in [component.description]}
+    return {
+        name: {
+            "file": str(component.path),
+            "model": description.modelName,
+            "fmi_version": description.fmiVersion,
+            "guid": description.guid,
+            "version": description.version,
+            "generation_tool": description.generationTool,
+            "generated": description.generationDateAndTime,
+        }
+        for name, component in simulation.components.items()
+        for description in [component.description]
+    }
 
 
-def frame(times: Sequence[float] | numpy.ndarray, columns: Mapping[str, Sequence[float]],
-          units: Mapping[str, str | None] | None = None, **attrs: Any) -> pandas.DataFrame:
+def frame(
+    times: Sequence[float] | numpy.ndarray,
+    columns: Mapping[str, Sequence[float]],
+    units: Mapping[str, str | None] | None = None,
+    **attrs: Any,
+) -> pandas.DataFrame:
     """A result DataFrame: index ``time`` (s, float64), one float64 column per entry of
     ``columns`` in order, ``attrs["units"]`` and the other ``attrs``."""
-    table = pandas.DataFrame({name: numpy.asarray(values, dtype=float)
-                              for name, values in columns.items()},
-                             index=pandas.Index(numpy.asarray(times, dtype=float), name="time"))
+    table = pandas.DataFrame(
+        {name: numpy.asarray(values, dtype=float) for name, values in columns.items()},
+        index=pandas.Index(numpy.asarray(times, dtype=float), name="time"),
+    )
     table.attrs.update(attrs)
     table.attrs["units"] = {name: (units or {}).get(name) for name in table.columns}
     return table
 
 
-def simulate(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
-             start_time: float | None = None, stop_time: float | None = None,
-             step: float | None = None, fmu_dir: StrPath | None = None) -> pandas.DataFrame:
+def simulate(
+    scene: SceneLike,
+    *,
+    parameters: Mapping[str, Any] | None = None,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+    fmu_dir: StrPath | None = None,
+) -> pandas.DataFrame:
     """Run ``scene`` and return its recorded variables as a DataFrame.
 
     ``scene``: the name of a shipped scene (``"gear_retraction"``, found from any working
@@ -195,20 +229,36 @@ def simulate(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
             result = simulation.run(stop=guard)
         except SimulationInterrupted as stopped:
             raise KeyboardInterrupt(str(stopped)) from None
-    return frame(result.times, result.columns, result.units,
-                 scene=chosen.name, scene_file=str(chosen.path),
-                 description=chosen.description, start_time=chosen.start_time,
-                 stop_time=chosen.stop_time, step=chosen.step, coupling=chosen.coupling,
-                 parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
-                 components=parameter_values(simulation), fmus=_fmu_versions(simulation),
-                 versions=versions(), wall_time_s=result.meta["wall_time_s"],
-                 loop_time_s=result.meta.get("loop_time_s"), steps=result.meta["steps"],
-                 log=[entry for entry in result.log if entry["status"] != "ok"])
+    return frame(
+        result.times,
+        result.columns,
+        result.units,
+        scene=chosen.name,
+        scene_file=str(chosen.path),
+        description=chosen.description,
+        start_time=chosen.start_time,
+        stop_time=chosen.stop_time,
+        step=chosen.step,
+        coupling=chosen.coupling,
+        parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
+        components=parameter_values(simulation),
+        fmus=_fmu_versions(simulation),
+        versions=versions(),
+        wall_time_s=result.meta["wall_time_s"],
+        loop_time_s=result.meta.get("loop_time_s"),
+        steps=result.meta["steps"],
+        log=[entry for entry in result.log if entry["status"] != "ok"],
+    )
 
 
-def reference(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
-              start_time: float | None = None, stop_time: float | None = None,
-              step: float | None = None) -> pandas.DataFrame:
+def reference(
+    scene: SceneLike,
+    *,
+    parameters: Mapping[str, Any] | None = None,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+) -> pandas.DataFrame:
     """The reference of a shipped scene, computed now from the numpy closed forms (or by
     scipy's solve_ivp at rtol = atol = 1e-12 for the dynamic scenes), as a DataFrame shaped
     like simulate's: index ``time`` (s) at the scene's communication points, one column per
@@ -223,39 +273,54 @@ def reference(scene: SceneLike, *, parameters: Mapping[str, Any] | None = None,
     """
     from .tools.docs import declared_units, model_class
     from .tools.scene_references import REFERENCES, sample_times
+
     chosen = _scene(scene, start_time, stop_time, step)
     build = REFERENCES.get(chosen.name)
     if build is None:
-        raise SceneError(f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
-                         f"scenes with one: {', '.join(REFERENCES)}")
+        raise SceneError(
+            f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
+            f"scenes with one: {', '.join(REFERENCES)}"
+        )
     for name, value in (parameters or {}).items():
         component, dot, variable = str(name).partition(".")
         spec = chosen.components.get(component)
         if not dot or spec is None:
-            raise SceneError(f"parameters: {name!r}: scene {chosen.name} has no component "
-                             f"{component!r}; its components: {', '.join(chosen.components)}")
+            raise SceneError(
+                f"parameters: {name!r}: scene {chosen.name} has no component "
+                f"{component!r}; its components: {', '.join(chosen.components)}"
+            )
         if variable in spec.inputs:
             spec.inputs[variable] = _plain(value)
             continue
         model: Any = model_class(Path(spec.fmu).stem)
         declared = sorted(v.name for v in model.VARIABLES if v.causality == "parameter")
         if variable not in declared:
-            raise SceneError(f"parameters: {name!r}: {component!r} ({Path(spec.fmu).stem}) "
-                             f"has no parameter {variable!r}; its parameters: "
-                             f"{', '.join(declared)}")
+            raise SceneError(
+                f"parameters: {name!r}: {component!r} ({Path(spec.fmu).stem}) "
+                f"has no parameter {variable!r}; its parameters: "
+                f"{', '.join(declared)}"
+            )
         if variable in spec.effects:
             spec.effects.remove(variable)
         spec.parameters[variable] = _plain(value)
     columns = build(chosen)
-    return frame(sample_times(chosen), columns, declared_units(chosen), scene=chosen.name,
-                 scene_file=str(chosen.path), start_time=chosen.start_time,
-                 stop_time=chosen.stop_time, step=chosen.step,
-                 parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
-                 kind="reference")
+    return frame(
+        sample_times(chosen),
+        columns,
+        declared_units(chosen),
+        scene=chosen.name,
+        scene_file=str(chosen.path),
+        start_time=chosen.start_time,
+        stop_time=chosen.stop_time,
+        step=chosen.step,
+        parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
+        kind="reference",
+    )
 
 
 def _varies(vary: Mapping[str, Sequence[float]] | Iterable[str]) -> list:
     from .tools.sweep import SweepError, Vary, parse_vary
+
     if isinstance(vary, str):
         vary = [vary]
     if isinstance(vary, Mapping):
@@ -264,9 +329,11 @@ def _varies(vary: Mapping[str, Sequence[float]] | Iterable[str]) -> list:
             component, dot, variable = str(name).partition(".")
             values = list(bounds) if isinstance(bounds, (tuple, list)) else None
             if not dot or values is None or len(values) not in (2, 3):
-                raise SweepError(f"vary: {name!r}: {bounds!r} must be (start, stop, count) "
-                                 f"or (start, stop) for sampling, keyed by "
-                                 f"component.parameter")
+                raise SweepError(
+                    f"vary: {name!r}: {bounds!r} must be (start, stop, count) "
+                    f"or (start, stop) for sampling, keyed by "
+                    f"component.parameter"
+                )
             text = f"{name}=" + ":".join(str(_plain(v)) for v in values)
             parsed = parse_vary(text)
             varies.append(Vary(component, variable, parsed.start, parsed.stop, parsed.count))
@@ -274,12 +341,22 @@ def _varies(vary: Mapping[str, Sequence[float]] | Iterable[str]) -> list:
     return [parse_vary(text) for text in vary]
 
 
-def sweep(scene: StrPath, vary: Mapping[str, Sequence[float]] | Iterable[str] | None = None,
-          metrics: Iterable[str] | None = None, *, links: Iterable[str] = (),
-          samples: int | None = None, seed: int | None = None, method: str | None = None,
-          stop_time: float | None = None, step: float | None = None, jobs: int | None = None,
-          fmu_dir: StrPath | None = None, out_dir: StrPath | None = None,
-          scheduler: str | None = None) -> pandas.DataFrame:
+def sweep(
+    scene: StrPath,
+    vary: Mapping[str, Sequence[float]] | Iterable[str] | None = None,
+    metrics: Iterable[str] | None = None,
+    *,
+    links: Iterable[str] = (),
+    samples: int | None = None,
+    seed: int | None = None,
+    method: str | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+    jobs: int | None = None,
+    fmu_dir: StrPath | None = None,
+    out_dir: StrPath | None = None,
+    scheduler: str | None = None,
+) -> pandas.DataFrame:
     """Run a parameter sweep (as ``mechfmu sweep``) and return one row per point.
 
     ``scene``: a shipped sweep's or scene's name, a sweep or scene TOML file. ``vary``:
@@ -312,9 +389,12 @@ def sweep(scene: StrPath, vary: Mapping[str, Sequence[float]] | Iterable[str] | 
         read_sweep_table,
         run_sweep,
     )
+
     if not isinstance(scene, (str, PathLike)):
-        raise TypeError(f"sweep: scene must be a sweep or scene file or a shipped one's name, "
-                        f"got {type(scene).__name__}")
+        raise TypeError(
+            f"sweep: scene must be a sweep or scene file or a shipped one's name, "
+            f"got {type(scene).__name__}"
+        )
     path = locate(str(scene))
     try:
         data = read_toml(path, SweepError)
@@ -324,34 +404,55 @@ def sweep(scene: StrPath, vary: Mapping[str, Sequence[float]] | Iterable[str] | 
         chosen = load_sweep_file(path)
         chosen.pop("description", None)
     else:
-        chosen = {"scene_path": path, "varies": [], "links": [], "metrics": [],
-                  "samples": None, "seed": None, "method": "lhs", "overrides": {},
-                  "name": None}
+        chosen = {
+            "scene_path": path,
+            "varies": [],
+            "links": [],
+            "metrics": [],
+            "samples": None,
+            "seed": None,
+            "method": "lhs",
+            "overrides": {},
+            "name": None,
+        }
     if vary is not None:
         chosen["varies"] = _varies(vary)
     if metrics is not None:
-        chosen["metrics"] = [parse_metric(text) for text in
-                             ([metrics] if isinstance(metrics, str) else metrics)]
+        chosen["metrics"] = [
+            parse_metric(text) for text in ([metrics] if isinstance(metrics, str) else metrics)
+        ]
     if links:
-        chosen["links"] = [parse_link(text) for text in
-                           ([links] if isinstance(links, str) else links)]
+        chosen["links"] = [
+            parse_link(text) for text in ([links] if isinstance(links, str) else links)
+        ]
     for key, value in (("samples", samples), ("seed", seed), ("method", method)):
         if value is not None:
             chosen[key] = value
-    chosen["overrides"] = {**chosen["overrides"],
-                           **{key: value for key, value in (("stop_time", stop_time),
-                                                            ("step", step))
-                              if value is not None and key in SCENE_OVERRIDES}}
-    folder = fmu_dir if fmu_dir is not None else _fmu_folder(
-        load_scene(chosen["scene_path"], chosen["overrides"]), None)
+    chosen["overrides"] = {
+        **chosen["overrides"],
+        **{
+            key: value
+            for key, value in (("stop_time", stop_time), ("step", step))
+            if value is not None and key in SCENE_OVERRIDES
+        },
+    }
+    folder = (
+        fmu_dir
+        if fmu_dir is not None
+        else _fmu_folder(load_scene(chosen["scene_path"], chosen["overrides"]), None)
+    )
     with tempfile.TemporaryDirectory(prefix="mechfmu-sweep-") as scratch:
-        summary = run_sweep(**chosen, out_dir=Path(out_dir or Path(scratch) / "sweep"),
-                            jobs=jobs, fmu_dir=str(folder), progress=False,
-                            scheduler=scheduler)
+        summary = run_sweep(
+            **chosen,
+            out_dir=Path(out_dir or Path(scratch) / "sweep"),
+            jobs=jobs,
+            fmu_dir=str(folder),
+            progress=False,
+            scheduler=scheduler,
+        )
         table = read_sweep_table(summary["csv"])
     table = table.set_index("index").sort_index()
     table.attrs.update(summary)
     if out_dir is None:
         table.attrs["csv"] = None
     return table
-

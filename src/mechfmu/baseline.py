@@ -32,6 +32,7 @@ class BaselineChange:
     """What an update does to one baseline: ``status`` is "new", "changed", "unchanged",
     "removed" or "kept" (a baseline without a result, not pruned); ``details`` says how
     much changed."""
+
     name: str
     status: str
     details: str = ""
@@ -50,23 +51,33 @@ def _changes(result: pd.DataFrame, baseline: pd.DataFrame) -> str:
         elif row["kind"] == "extra column":
             parts.append(f"column {row['column']} added")
         elif row["kind"] == "time grid":
-            parts.append(f"time grid changed ({len(baseline)} -> {len(result)} samples, "
-                         f"{baseline.index[0]!r}..{baseline.index[-1]!r} s -> "
-                         f"{result.index[0]!r}..{result.index[-1]!r} s)")
+            parts.append(
+                f"time grid changed ({len(baseline)} -> {len(result)} samples, "
+                f"{baseline.index[0]!r}..{baseline.index[-1]!r} s -> "
+                f"{result.index[0]!r}..{result.index[-1]!r} s)"
+            )
     changed = comparison.summary[comparison.summary["failing"] > 0]
     for column, stats in changed.iterrows():
-        parts.append(f"{column} max |difference| {stats['max_abs']:.3g} "
-                     f"({stats['max_rel']:.3g} of peak) at t = {stats['max_abs_time']:.6g} s")
+        parts.append(
+            f"{column} max |difference| {stats['max_abs']:.3g} "
+            f"({stats['max_rel']:.3g} of peak) at t = {stats['max_abs_time']:.6g} s"
+        )
     return "; ".join(parts)
 
 
 def _csv_files(folder: Path) -> dict[str, Path]:
-    return {p.relative_to(folder).as_posix(): p for p in sorted(folder.rglob("*.csv"))
-            if p.is_file()}
+    return {
+        p.relative_to(folder).as_posix(): p for p in sorted(folder.rglob("*.csv")) if p.is_file()
+    }
 
 
-def update_baselines(results: str | PathLike, baselines: str | PathLike, *,
-                     prune: bool = False, dry_run: bool = False) -> list[BaselineChange]:
+def update_baselines(
+    results: str | PathLike,
+    baselines: str | PathLike,
+    *,
+    prune: bool = False,
+    dry_run: bool = False,
+) -> list[BaselineChange]:
     """Accept the result CSVs under ``results`` (a folder, or one CSV file) as the
     baselines under ``baselines`` (a folder); see the module docstring. ``dry_run``: only
     say what would change. Returns one BaselineChange per file, by relative path.
@@ -76,6 +87,7 @@ def update_baselines(results: str | PathLike, baselines: str | PathLike, *,
     mechfmu.cosim.files.OutputError when a baseline cannot be written.
     """
     from .io import ResultFileError, read_result
+
     results, baselines = Path(results), Path(baselines)
     if not results.exists():
         raise BaselineError(f"results {results} do not exist")
@@ -98,8 +110,9 @@ def update_baselines(results: str | PathLike, baselines: str | PathLike, *,
         target = baselines / name
         if name not in existing:
             frame = frames[name]
-            change = BaselineChange(name, "new", f"{len(frame.columns)} column(s), "
-                                                 f"{len(frame)} sample(s)")
+            change = BaselineChange(
+                name, "new", f"{len(frame.columns)} column(s), {len(frame)} sample(s)"
+            )
         else:
             try:
                 details = _changes(frames[name], read_result(target))
@@ -115,8 +128,13 @@ def update_baselines(results: str | PathLike, baselines: str | PathLike, *,
     removed = []
     for name, path in existing.items():
         if name not in found:
-            changes.append(BaselineChange(name, "removed" if prune else "kept",
-                                          "" if prune else "no result (--prune removes it)"))
+            changes.append(
+                BaselineChange(
+                    name,
+                    "removed" if prune else "kept",
+                    "" if prune else "no result (--prune removes it)",
+                )
+            )
             if prune:
                 removed.append(path)
     if not dry_run:
@@ -134,7 +152,9 @@ def update_baselines(results: str | PathLike, baselines: str | PathLike, *,
 
 def summary(changes: list[BaselineChange], baselines: str | PathLike, dry_run: bool) -> str:
     """The last line of ``mechfmu baseline update``: counts per status."""
-    counts = {status: sum(1 for c in changes if c.status == status)
-              for status in ("new", "changed", "unchanged", "removed", "kept")}
+    counts = {
+        status: sum(1 for c in changes if c.status == status)
+        for status in ("new", "changed", "unchanged", "removed", "kept")
+    }
     text = ", ".join(f"{count} {status}" for status, count in counts.items() if count)
     return f"{'would update' if dry_run else 'updated'} {baselines}: {text}"

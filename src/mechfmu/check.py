@@ -24,8 +24,12 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .cosim.master import Result
 
 
-def compare(result_path: str | PathLike, reference_path: str | PathLike, rtol: float = 1e-9,
-            atol: float = 1e-12) -> Comparison:
+def compare(
+    result_path: str | PathLike,
+    reference_path: str | PathLike,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+) -> Comparison:
     """The check of ``mechfmu run --check``: the result CSV against a reference CSV.
 
     The reference is interpolated linearly onto the result's times (which must start and end
@@ -34,8 +38,9 @@ def compare(result_path: str | PathLike, reference_path: str | PathLike, rtol: f
     ``|value - reference| <= atol + rtol * |reference|``. Raises mechfmu.io.ResultFileError
     (a ValueError) naming the file for a malformed one.
     """
-    return compare_frames(result_path, reference_path, rtol=rtol, atol=atol, interpolate=True,
-                          ignore_extra=True)
+    return compare_frames(
+        result_path, reference_path, rtol=rtol, atol=atol, interpolate=True, ignore_extra=True
+    )
 
 
 @dataclass
@@ -43,6 +48,7 @@ class FileCheck:
     """One file of a check: ``name`` (its relative path), the two paths, and either the
     Comparison or the problem that prevented it (``kind``: "missing file", "malformed
     file" or "no reference"; ``problem`` the one-line message)."""
+
     name: str
     result: Path | None
     reference: Path | None
@@ -76,9 +82,10 @@ class FileCheck:
 @dataclass
 class CheckRun:
     """Every FileCheck of one ``mechfmu check``, and the options it ran with."""
+
     files: list[FileCheck]
     options: dict[str, Any] = field(default_factory=dict)
-    error: str | None = None          # why nothing could be compared (exit 2)
+    error: str | None = None  # why nothing could be compared (exit 2)
 
     @property
     def exit_code(self) -> int:
@@ -104,16 +111,26 @@ class CheckRun:
     def unused_tolerances(self) -> list[str]:
         """The ``tolerances`` keys that matched no compared column of any file."""
         from fnmatch import fnmatchcase
-        columns = {c for f in self.files if f.comparison is not None
-                   for c in f.comparison.summary.index}
-        columns |= {c for f in self.files if f.comparison is not None
-                    for c in f.comparison.reference.columns}
-        return [key for key in self.options.get("tolerances") or {}
-                if not any(fnmatchcase(c, key) for c in columns)]
+
+        columns = {
+            c for f in self.files if f.comparison is not None for c in f.comparison.summary.index
+        }
+        columns |= {
+            c
+            for f in self.files
+            if f.comparison is not None
+            for c in f.comparison.reference.columns
+        }
+        return [
+            key
+            for key in self.options.get("tolerances") or {}
+            if not any(fnmatchcase(c, key) for c in columns)
+        ]
 
 
-def _pairs(result: Path, reference: Path) -> tuple[list[tuple[str, Path | None, Path | None]],
-                                                    str | None]:
+def _pairs(
+    result: Path, reference: Path
+) -> tuple[list[tuple[str, Path | None, Path | None]], str | None]:
     """(relative name, result file, reference file) for every CSV file, matched by relative
     path; and an error when the arguments cannot be compared at all."""
     for path, what in ((result, "result"), (reference, "reference")):
@@ -121,35 +138,52 @@ def _pairs(result: Path, reference: Path) -> tuple[list[tuple[str, Path | None, 
             return [], f"{what} {path} does not exist"
     if result.is_dir() != reference.is_dir():
         if result.is_dir():
-            return [], (f"result {result} is a folder but reference {reference} is a file "
-                        f"(give two folders, two files, or a file and a folder)")
+            return [], (
+                f"result {result} is a folder but reference {reference} is a file "
+                f"(give two folders, two files, or a file and a folder)"
+            )
         reference = reference / result.name  # a file against its namesake in a folder
         return [(result.name, result, reference if reference.is_file() else None)], None
     if not result.is_dir():
         return [(result.name, result, reference)], None
     found = {p.relative_to(result).as_posix(): p for p in result.rglob("*.csv") if p.is_file()}
-    wanted = {p.relative_to(reference).as_posix(): p for p in reference.rglob("*.csv")
-              if p.is_file()}
+    wanted = {
+        p.relative_to(reference).as_posix(): p for p in reference.rglob("*.csv") if p.is_file()
+    }
     names = sorted(set(found) | set(wanted))
     if not names:
         return [], f"no CSV file in {result} nor in {reference}"
     return [(name, found.get(name), wanted.get(name)) for name in names], None
 
 
-def check_paths(result: str | PathLike, reference: str | PathLike, *, rtol: float = 1e-9,
-                atol: float = 1e-12, method: str = "pointwise",
-                time_tolerance: float | None = None,
-                tolerances: Mapping[str, Tolerance] | None = None, interpolate: bool = False,
-                ignore_extra: bool = False) -> CheckRun:
+def check_paths(
+    result: str | PathLike,
+    reference: str | PathLike,
+    *,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    method: str = "pointwise",
+    time_tolerance: float | None = None,
+    tolerances: Mapping[str, Tolerance] | None = None,
+    interpolate: bool = False,
+    ignore_extra: bool = False,
+) -> CheckRun:
     """Compare ``result`` with ``reference``: two CSV files, two folders (their CSV files,
     matched by relative path, in sub-folders too) or a file and the folder holding its
     namesake. The options are ``mechfmu.compare``'s. A reference file without a result is a
     "missing file" failure; a result without a reference is listed but not compared; a file
     that cannot be read is a "malformed file" failure naming the line and column."""
     from .io import ResultFileError, read_result
-    options = {"rtol": rtol, "atol": atol, "method": method, "time_tolerance": time_tolerance,
-               "tolerances": dict(tolerances or {}), "interpolate": interpolate,
-               "ignore_extra": ignore_extra}
+
+    options = {
+        "rtol": rtol,
+        "atol": atol,
+        "method": method,
+        "time_tolerance": time_tolerance,
+        "tolerances": dict(tolerances or {}),
+        "interpolate": interpolate,
+        "ignore_extra": ignore_extra,
+    }
     pairs, error = _pairs(Path(result), Path(reference))
     files = []
     for name, result_file, reference_file in pairs:
@@ -176,6 +210,7 @@ def worst_deviations(result: Any, reference_path: Any) -> Any:
     unit, time of it in s, that difference as a fraction of the column's peak |reference|).
     The reference is interpolated onto the result's times; ``result`` is a cosim Result."""
     from .io import read_result
+
     frame = read_result(reference_path)
     ref_times = frame.index.to_numpy(dtype=float)
     reference = {name: frame[name].to_numpy(dtype=float) for name in frame.columns}
@@ -188,27 +223,52 @@ def worst_deviations(result: Any, reference_path: Any) -> Any:
         difference = np.abs(np.asarray(values) - expected)
         i = int(np.argmax(difference))
         peak = max(float(np.max(np.abs(expected))), 1e-300)
-        rows.append((name, float(difference[i]), result.units.get(name) or "",
-                     float(times[i]), float(difference[i]) / peak))
+        rows.append(
+            (
+                name,
+                float(difference[i]),
+                result.units.get(name) or "",
+                float(times[i]),
+                float(difference[i]) / peak,
+            )
+        )
     return rows
 
 
-def run_report(result: Result, paths: dict[str, Path], reference: Path | None=None, rtol: float=1e-9, atol: float=1e-12, label: str="reference") -> tuple[list[str], Comparison | None]:
+def run_report(
+    result: Result,
+    paths: dict[str, Path],
+    reference: Path | None = None,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    label: str = "reference",
+) -> tuple[list[str], Comparison | None]:
     """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
     verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,
     Comparison or None)."""
-    lines = [(f"{result.scene.name}: {result.meta['steps']} steps of {result.scene.step} s "
-              f"in {result.meta['wall_time_s']:.3f} s wall time")]
-    lines += [f"  [{entry['status']}] {entry['message']}" for entry in result.log
-              if entry["status"] != "ok"]
+    lines = [
+        (
+            f"{result.scene.name}: {result.meta['steps']} steps of {result.scene.step} s "
+            f"in {result.meta['wall_time_s']:.3f} s wall time"
+        )
+    ]
+    lines += [
+        f"  [{entry['status']}] {entry['message']}"
+        for entry in result.log
+        if entry["status"] != "ok"
+    ]
     comparison = None
     if reference is not None:
-        lines.append(f"  worst deviation from the {label} (absolute; as a fraction of the "
-                     f"column's peak |value|):")
+        lines.append(
+            f"  worst deviation from the {label} (absolute; as a fraction of the "
+            f"column's peak |value|):"
+        )
         for name, difference, unit, time, fraction in worst_deviations(result, reference):
-            lines.append(f"    {name:34s} {difference:.2e} {unit:6s} at t = {time:.5g} s "
-                         f"({fraction:.1e} of peak)")
+            lines.append(
+                f"    {name:34s} {difference:.2e} {unit:6s} at t = {time:.5g} s "
+                f"({fraction:.1e} of peak)"
+            )
         comparison = compare(paths["csv"], reference, rtol, atol)
         lines.append(f"  against the {label} (rtol {rtol:g}, atol {atol:g}): {comparison}")
     lines += [f"  {kind}: {path}" for kind, path in paths.items()]

@@ -60,15 +60,22 @@ def parse_tolerance(text: str) -> tuple[str, tuple[float, float | None]]:
         numbers = [float(part) for part in parts]
     except ValueError:
         numbers = []
-    if not sep or not name.strip() or len(numbers) not in (1, 2) \
-            or not all(math.isfinite(x) and x >= 0 for x in numbers):
-        raise ValueError(f"--tol {text!r}: expected COLUMN=RTOL or COLUMN=RTOL,ATOL with "
-                         f"numbers >= 0 (e.g. gear.gear_angle=1e-6)")
+    if (
+        not sep
+        or not name.strip()
+        or len(numbers) not in (1, 2)
+        or not all(math.isfinite(x) and x >= 0 for x in numbers)
+    ):
+        raise ValueError(
+            f"--tol {text!r}: expected COLUMN=RTOL or COLUMN=RTOL,ATOL with "
+            f"numbers >= 0 (e.g. gear.gear_angle=1e-6)"
+        )
     return name.strip(), (numbers[0], numbers[1] if len(numbers) == 2 else None)
 
 
-def _tolerance(column: str, rtol: float, atol: float,
-               tolerances: Mapping[str, Tolerance] | None) -> tuple[float, float]:
+def _tolerance(
+    column: str, rtol: float, atol: float, tolerances: Mapping[str, Tolerance] | None
+) -> tuple[float, float]:
     """(rtol, atol) of ``column``: the last entry of ``tolerances`` whose key (a column name
     or an fnmatch pattern such as ``gear.*``) matches it, else the defaults. An entry is an
     rtol, an (rtol, atol) pair (atol None: the default) or {"rtol": ..., "atol": ...}."""
@@ -90,16 +97,21 @@ def _frame(data: Any, what: str) -> pd.DataFrame:
     result CSV) as a float DataFrame indexed by time; ValueError naming ``what``."""
     if isinstance(data, str | PathLike):
         from .io import read_result
+
         return read_result(data)
     if not isinstance(data, pd.DataFrame):
-        raise TypeError(f"the {what} must be a pandas DataFrame or a CSV path, got "
-                        f"{type(data).__name__}")
+        raise TypeError(
+            f"the {what} must be a pandas DataFrame or a CSV path, got {type(data).__name__}"
+        )
     if "time" in data.columns:
         data = data.set_index("time")
     try:
         times = np.asarray(data.index, dtype=float)
-        frame = pd.DataFrame(data.to_numpy(dtype=float), columns=[str(c) for c in data.columns],
-                             index=pd.Index(times, name="time"))
+        frame = pd.DataFrame(
+            data.to_numpy(dtype=float),
+            columns=[str(c) for c in data.columns],
+            index=pd.Index(times, name="time"),
+        )
     except (TypeError, ValueError) as error:
         raise ValueError(f"the {what} must hold numbers only: {error}") from None
     if not np.isfinite(times).all() or (np.diff(times) <= 0).any():
@@ -148,16 +160,22 @@ class _Windows:
         high_table[0] = np.where(nan, -np.inf, values)
         for k in range(1, self.depth):
             half, size = 1 << (k - 1), n - (1 << k) + 1
-            low_table[k, :size] = np.minimum(low_table[k - 1, :size],
-                                             low_table[k - 1, half:half + size])
-            high_table[k, :size] = np.maximum(high_table[k - 1, :size],
-                                              high_table[k - 1, half:half + size])
+            low_table[k, :size] = np.minimum(
+                low_table[k - 1, :size], low_table[k - 1, half : half + size]
+            )
+            high_table[k, :size] = np.maximum(
+                high_table[k - 1, :size], high_table[k - 1, half : half + size]
+            )
         lo = np.minimum(self.lo, n - 1)
         second = np.minimum(self.second, n - 1)
-        low = np.where(self.empty, np.inf, np.minimum(low_table[self.level, lo],
-                                                      low_table[self.level, second]))
-        high = np.where(self.empty, -np.inf, np.maximum(high_table[self.level, lo],
-                                                        high_table[self.level, second]))
+        low = np.where(
+            self.empty, np.inf, np.minimum(low_table[self.level, lo], low_table[self.level, second])
+        )
+        high = np.where(
+            self.empty,
+            -np.inf,
+            np.maximum(high_table[self.level, lo], high_table[self.level, second]),
+        )
         for j, w in self.ends:
             end = (1.0 - w) * padded[j - 1] + w * padded[j]
             end = np.where(w == 0.0, padded[j - 1], np.where(w == 1.0, padded[j], end))
@@ -166,8 +184,9 @@ class _Windows:
         return low, high, (counts[self.hi] - counts[self.lo]) > 0
 
 
-def tube_bounds(times: np.ndarray, ref_times: np.ndarray, ref_values: np.ndarray,
-                time_tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def tube_bounds(
+    times: np.ndarray, ref_times: np.ndarray, ref_values: np.ndarray, time_tolerance: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(lo, hi, nan) at each of ``times`` (s): the minimum and maximum of the piecewise
     linear reference over [t - dt, t + dt] clipped to its span (its samples inside plus its
     interpolated values at the window's ends), and whether a NaN lies in the window."""
@@ -177,13 +196,14 @@ def tube_bounds(times: np.ndarray, ref_times: np.ndarray, ref_values: np.ndarray
 @dataclass
 class _Column:
     """What the comparison of one column found, kept for the summary and the plot."""
+
     times: np.ndarray
     values: np.ndarray
-    reference: np.ndarray      # at ``times``: the reference (pointwise) or nearest window edge
-    lower: np.ndarray          # the passing band's lower and upper edge at ``times``
+    reference: np.ndarray  # at ``times``: the reference (pointwise) or nearest window edge
+    lower: np.ndarray  # the passing band's lower and upper edge at ``times``
     upper: np.ndarray
     allowed: np.ndarray
-    failing: np.ndarray        # bool per sample
+    failing: np.ndarray  # bool per sample
 
 
 @dataclass
@@ -191,6 +211,7 @@ class Comparison:
     """The outcome of ``compare``: ``passed``, ``failures`` (one row per failing column,
     ordered by time; structural failures, whose time is NaN, first), ``summary`` (one row
     per compared column) and ``plot()``."""
+
     passed: bool
     failures: pd.DataFrame
     summary: pd.DataFrame
@@ -198,7 +219,7 @@ class Comparison:
     rtol: float
     atol: float
     time_tolerance: float | None
-    samples: int                       # result samples compared per column
+    samples: int  # result samples compared per column
     result: pd.DataFrame = field(repr=False)
     reference: pd.DataFrame = field(repr=False)
     _columns: dict[str, _Column] = field(default_factory=dict, repr=False)
@@ -230,15 +251,24 @@ class Comparison:
                 worst = "; identical"
             elif len(self.summary):
                 row = self.summary.sort_values("ratio", ascending=False).iloc[0]
-                worst = (f"; worst: {row.name} at t = {float(row['worst_time'])!r} s, "
-                         f"|difference| {row['max_abs']:.3e} ({row['ratio']:.2g} of allowed)")
+                worst = (
+                    f"; worst: {row.name} at t = {float(row['worst_time'])!r} s, "
+                    f"|difference| {row['max_abs']:.3e} ({row['ratio']:.2g} of allowed)"
+                )
             return f"match: {compared}{worst}"
         more = len(self.failures) - 1
         extra = f"; {more} more failing column(s)" if more else ""
         return f"MISMATCH: {compared}; first: {self.first_failure()}{extra}"
 
-    def draw(self, axis: Any, column: str, *, around: float | None = None,
-             at: float | None = None, legend: bool = True) -> None:
+    def draw(
+        self,
+        axis: Any,
+        column: str,
+        *,
+        around: float | None = None,
+        at: float | None = None,
+        legend: bool = True,
+    ) -> None:
         """Draw ``column`` on a matplotlib Axes: the band (pointwise) or tube, the reference,
         the result and the first failure (a red cross). ``around``: only the samples within
         that many seconds of time ``at`` (default: the first failure, else the start)."""
@@ -249,20 +279,48 @@ class Comparison:
         ref_shown: slice | np.ndarray = slice(None)
         first = int(np.argmax(data.failing)) if data.failing.any() else None
         if around is not None:
-            centre = at if at is not None else \
-                data.times[first] if first is not None else data.times[0]
+            centre = (
+                at if at is not None else data.times[first] if first is not None else data.times[0]
+            )
             shown = (data.times >= centre - around) & (data.times <= centre + around)
             ref_shown = (ref_times >= centre - around) & (ref_times <= centre + around)
         label = "tube" if self.method == "tube" else "band"
-        axis.fill_between(data.times[shown], data.lower[shown], data.upper[shown],
-                          color="tab:green", alpha=0.25, linewidth=0, label=label)
-        axis.plot(ref_times[ref_shown], ref_values[ref_shown], color="tab:green", linewidth=1.0,
-                  marker="." if around is not None else None, label="reference")
-        axis.plot(data.times[shown], data.values[shown], color="tab:blue", linewidth=1.0,
-                  linestyle="--", marker="." if around is not None else None, label="result")
+        axis.fill_between(
+            data.times[shown],
+            data.lower[shown],
+            data.upper[shown],
+            color="tab:green",
+            alpha=0.25,
+            linewidth=0,
+            label=label,
+        )
+        axis.plot(
+            ref_times[ref_shown],
+            ref_values[ref_shown],
+            color="tab:green",
+            linewidth=1.0,
+            marker="." if around is not None else None,
+            label="reference",
+        )
+        axis.plot(
+            data.times[shown],
+            data.values[shown],
+            color="tab:blue",
+            linewidth=1.0,
+            linestyle="--",
+            marker="." if around is not None else None,
+            label="result",
+        )
         if first is not None:
-            axis.plot([data.times[first]], [data.values[first]], "x", color="tab:red",
-                      markersize=10, mew=2, label=f"first failure, t = {data.times[first]:.6g} s")
+            axis.plot(
+                [data.times[first]],
+                [data.values[first]],
+                "x",
+                color="tab:red",
+                markersize=10,
+                mew=2,
+                label=f"first failure, t = {data.times[first]:.6g} s",
+            )
             axis.axvline(data.times[first], color="tab:red", linewidth=0.6)
         units = {**self.reference.attrs.get("units", {}), **self.result.attrs.get("units", {})}
         unit = units.get(column)
@@ -271,13 +329,15 @@ class Comparison:
         if legend:
             axis.legend(fontsize=7, loc="best")
 
-    def plot(self, columns: str | list[str] | None = None, *, max_columns: int = 6,
-             zoom: int = 25) -> Figure:
+    def plot(
+        self, columns: str | list[str] | None = None, *, max_columns: int = 6, zoom: int = 25
+    ) -> Figure:
         """A matplotlib Figure, one row per column (default: the failing ones, else all; at
         most ``max_columns``): the reference, the result, the tolerance band (pointwise) or
         tube, the first failure marked; beside a failing column, the same ``zoom`` samples
         either side of its first failure (0: no zoom)."""
         from matplotlib.figure import Figure
+
         if columns is None:
             failing = [c for c in self.failures["column"] if c in self._columns]
             columns = list(dict.fromkeys(failing)) or list(self._columns)
@@ -285,10 +345,15 @@ class Comparison:
             columns = [columns]
         columns = [c for c in columns if c in self._columns][:max_columns]
         zoomed = zoom > 0 and any(self._columns[c].failing.any() for c in columns)
-        figure = Figure(figsize=(11 if zoomed else 8, 1.2 + 2.4 * max(len(columns), 1)),
-                        layout="constrained")
-        axes = figure.subplots(max(len(columns), 1), 2 if zoomed else 1, squeeze=False,
-                               width_ratios=[2, 1] if zoomed else None)
+        figure = Figure(
+            figsize=(11 if zoomed else 8, 1.2 + 2.4 * max(len(columns), 1)), layout="constrained"
+        )
+        axes = figure.subplots(
+            max(len(columns), 1),
+            2 if zoomed else 1,
+            squeeze=False,
+            width_ratios=[2, 1] if zoomed else None,
+        )
         for row, name in zip(axes, columns):
             self.draw(row[0], name)
             row[0].set_title(name, fontsize=9, loc="left")
@@ -296,19 +361,23 @@ class Comparison:
             if zoomed and data.failing.any():
                 i = int(np.argmax(data.failing))
                 lo, hi = max(i - zoom, 0), min(i + zoom, data.times.size - 1)
-                self.draw(row[1], name, around=max(data.times[i] - data.times[lo],
-                                                   data.times[hi] - data.times[i]),
-                          legend=False)
+                self.draw(
+                    row[1],
+                    name,
+                    around=max(data.times[i] - data.times[lo], data.times[hi] - data.times[i]),
+                    legend=False,
+                )
                 row[1].set_title(f"around t = {data.times[i]:.6g} s", fontsize=9, loc="right")
             elif zoomed:
                 row[1].set_axis_off()
         for axis in axes[-1]:
             axis.set_xlabel("time [s]")
-        tolerance = (f"rtol {self.rtol:g}, atol {self.atol:g}"
-                     + (f", time tolerance {self.time_tolerance:g} s"
-                        if self.method == "tube" else ""))
-        figure.suptitle(f"{'passed' if self.passed else 'FAILED'} ({self.method}, {tolerance})",
-                        fontsize=10)
+        tolerance = f"rtol {self.rtol:g}, atol {self.atol:g}" + (
+            f", time tolerance {self.time_tolerance:g} s" if self.method == "tube" else ""
+        )
+        figure.suptitle(
+            f"{'passed' if self.passed else 'FAILED'} ({self.method}, {tolerance})", fontsize=10
+        )
         return figure
 
 
@@ -316,28 +385,40 @@ def describe_failure(row: Mapping[Any, Any] | pd.Series) -> str:
     """One failure row as a line: 'gear.gear_angle at t = 1.5 s: 0.1 vs reference 0.2
     (|difference| 1e-1, allowed 1e-9)' or 'missing column gear.gear_angle'."""
     kind, column = row["kind"], row["column"]
-    time, value, reference, allowed = (float(row[key]) for key in
-                                       ("time", "value", "reference", "allowed"))
+    time, value, reference, allowed = (
+        float(row[key]) for key in ("time", "value", "reference", "allowed")
+    )
     if kind == "value":
         size = abs(value - reference)
-        return (f"{column} at t = {time!r} s: {value!r} vs reference {reference!r} "
-                f"(|difference| {size:.3e}, allowed {allowed:.3e})")
+        return (
+            f"{column} at t = {time!r} s: {value!r} vs reference {reference!r} "
+            f"(|difference| {size:.3e}, allowed {allowed:.3e})"
+        )
     if kind == "time grid":
         found = "none" if math.isnan(value) else f"{value!r} s"
         expected = "none" if math.isnan(reference) else f"{reference!r} s"
-        return (f"time grid: the result has time {found} where the reference has {expected} "
-                f"(allowed difference {allowed:.3e} s)")
+        return (
+            f"time grid: the result has time {found} where the reference has {expected} "
+            f"(allowed difference {allowed:.3e} s)"
+        )
     return f"{kind} {column}"
 
 
 def _grid_failure(value: float, reference: float, allowed: float) -> dict[str, Any]:
     time = reference if not math.isnan(reference) else value
-    return {"column": "time", "time": time, "value": value, "reference": reference,
-            "allowed": allowed, "kind": "time grid"}
+    return {
+        "column": "time",
+        "time": time,
+        "value": value,
+        "reference": reference,
+        "allowed": allowed,
+        "kind": "time grid",
+    }
 
 
-def _check_grid(times: np.ndarray, ref_times: np.ndarray, margin: float,
-                same_grid: bool) -> dict[str, Any] | None:
+def _check_grid(
+    times: np.ndarray, ref_times: np.ndarray, margin: float, same_grid: bool
+) -> dict[str, Any] | None:
     """The first time-grid failure (a failures row) or None. ``same_grid``: the times must
     be the reference's (within ``margin``); otherwise the result must start and end where
     the reference does, within ``margin``."""
@@ -349,8 +430,11 @@ def _check_grid(times: np.ndarray, ref_times: np.ndarray, margin: float,
             return _grid_failure(float(times[i]), float(ref_times[i]), margin)
         if times.size != ref_times.size:
             longer = times.size > ref_times.size
-            return _grid_failure(float(times[n]) if longer else math.nan,
-                                 math.nan if longer else float(ref_times[n]), margin)
+            return _grid_failure(
+                float(times[n]) if longer else math.nan,
+                math.nan if longer else float(ref_times[n]),
+                margin,
+            )
         return None
     if abs(times[0] - ref_times[0]) > margin:
         return _grid_failure(float(times[0]), float(ref_times[0]), margin)
@@ -359,12 +443,18 @@ def _check_grid(times: np.ndarray, ref_times: np.ndarray, margin: float,
     return None
 
 
-def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str | PathLike,
-            *, rtol: float = 1e-9, atol: float = 1e-12,
-            method: Literal["pointwise", "tube"] = "pointwise",
-            time_tolerance: float | None = None,
-            tolerances: Mapping[str, Tolerance] | None = None,
-            interpolate: bool = False, ignore_extra: bool = False) -> Comparison:
+def compare(
+    result: pd.DataFrame | str | PathLike,
+    reference: pd.DataFrame | str | PathLike,
+    *,
+    rtol: float = 1e-9,
+    atol: float = 1e-12,
+    method: Literal["pointwise", "tube"] = "pointwise",
+    time_tolerance: float | None = None,
+    tolerances: Mapping[str, Tolerance] | None = None,
+    interpolate: bool = False,
+    ignore_extra: bool = False,
+) -> Comparison:
     """Compare ``result`` with ``reference``, column by column.
 
     Args:
@@ -411,15 +501,23 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
     missing = [c for c in reference_frame.columns if c not in result_frame.columns]
     rows += [{"column": c, "kind": "missing column"} for c in missing]
     if not ignore_extra:
-        rows += [{"column": c, "kind": "extra column"}
-                 for c in result_frame.columns if c not in reference_frame.columns]
+        rows += [
+            {"column": c, "kind": "extra column"}
+            for c in result_frame.columns
+            if c not in reference_frame.columns
+        ]
     shared = [c for c in reference_frame.columns if c in result_frame.columns]
     margin = _ulp_margin(ref_times)
     dt = None
     if method == "tube":
         steps = np.diff(ref_times)
-        dt = float(time_tolerance) if time_tolerance is not None else \
-            float(steps.max()) if steps.size else 0.0
+        dt = (
+            float(time_tolerance)
+            if time_tolerance is not None
+            else float(steps.max())
+            if steps.size
+            else 0.0
+        )
         grid = _check_grid(times, ref_times, dt + margin, same_grid=False)
     else:
         grid = _check_grid(times, ref_times, margin, same_grid=not interpolate)
@@ -441,16 +539,23 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
             nearest = np.where(above, high, low)
             allowed = column_atol + column_rtol * np.abs(nearest)
             deviation = np.where(above, values - high, np.where(values < low, low - values, 0.0))
-            passing = ((lower <= values) & (values <= upper) & ~nan) \
-                | (np.isnan(values) & nan) | (values == low) | (values == high)
+            passing = (
+                ((lower <= values) & (values <= upper) & ~nan)
+                | (np.isnan(values) & nan)
+                | (values == low)
+                | (values == high)
+            )
         else:
             expected = np.interp(times, ref_times, ref_values) if interpolate else ref_values
             allowed = column_atol + column_rtol * np.abs(expected)
             deviation = np.abs(values - expected)
             nearest = expected
             lower, upper = expected - allowed, expected + allowed
-            passing = ((deviation <= allowed) & np.isfinite(expected)) | (values == expected) \
+            passing = (
+                ((deviation <= allowed) & np.isfinite(expected))
+                | (values == expected)
                 | (np.isnan(values) & np.isnan(expected))
+            )
         failing = ~passing
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(passing & ~(deviation > 0), 0.0, deviation / allowed)
@@ -461,31 +566,69 @@ def compare(result: pd.DataFrame | str | PathLike, reference: pd.DataFrame | str
         max_abs = float(np.nanmax(deviation)) if np.isfinite(deviation).any() else math.nan
         if np.isnan(deviation).any() and failing.any():
             max_abs = math.inf if math.isnan(max_abs) else max_abs
-        summary_rows.append({"column": name, "samples": int(values.size),
-                             "failing": int(failing.sum()), "max_abs": max_abs,
-                             "max_rel": max_abs / peak if peak > 0 else
-                             (0.0 if max_abs == 0 else math.inf),
-                             "ratio": float(ratio[worst]) if ratio.size else 0.0,
-                             "worst_time": float(times[worst]) if ratio.size else math.nan,
-                             "max_abs_time": float(times[np.nanargmax(deviation)])
-                             if np.isfinite(deviation).any() else math.nan,
-                             "rtol": column_rtol, "atol": column_atol})
+        summary_rows.append(
+            {
+                "column": name,
+                "samples": int(values.size),
+                "failing": int(failing.sum()),
+                "max_abs": max_abs,
+                "max_rel": max_abs / peak if peak > 0 else (0.0 if max_abs == 0 else math.inf),
+                "ratio": float(ratio[worst]) if ratio.size else 0.0,
+                "worst_time": float(times[worst]) if ratio.size else math.nan,
+                "max_abs_time": float(times[np.nanargmax(deviation)])
+                if np.isfinite(deviation).any()
+                else math.nan,
+                "rtol": column_rtol,
+                "atol": column_atol,
+            }
+        )
         if failing.any():
             i = int(np.argmax(failing))
-            rows.append({"column": name, "time": float(times[i]), "value": float(values[i]),
-                         "reference": float(nearest[i]), "allowed": float(allowed[i]),
-                         "kind": "value"})
+            rows.append(
+                {
+                    "column": name,
+                    "time": float(times[i]),
+                    "value": float(values[i]),
+                    "reference": float(nearest[i]),
+                    "allowed": float(allowed[i]),
+                    "kind": "value",
+                }
+            )
     failures = pd.DataFrame(rows, columns=FAILURE_COLUMNS).astype(
-        {"time": float, "value": float, "reference": float, "allowed": float})
+        {"time": float, "value": float, "reference": float, "allowed": float}
+    )
     if len(failures):
-        failures = failures.sort_values("time", na_position="first", kind="stable") \
-            .reset_index(drop=True)
-    summary = pd.DataFrame(summary_rows, columns=[
-        "column", "samples", "failing", "max_abs", "max_rel", "ratio", "worst_time",
-        "max_abs_time", "rtol", "atol"]).set_index("column")
-    return Comparison(passed=failures.empty, failures=failures, summary=summary, method=method,
-                      rtol=rtol, atol=atol, time_tolerance=dt, samples=int(times.size),
-                      result=result_frame, reference=reference_frame, _columns=columns)
+        failures = failures.sort_values("time", na_position="first", kind="stable").reset_index(
+            drop=True
+        )
+    summary = pd.DataFrame(
+        summary_rows,
+        columns=[
+            "column",
+            "samples",
+            "failing",
+            "max_abs",
+            "max_rel",
+            "ratio",
+            "worst_time",
+            "max_abs_time",
+            "rtol",
+            "atol",
+        ],
+    ).set_index("column")
+    return Comparison(
+        passed=failures.empty,
+        failures=failures,
+        summary=summary,
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        time_tolerance=dt,
+        samples=int(times.size),
+        result=result_frame,
+        reference=reference_frame,
+        _columns=columns,
+    )
 
 
 def file_label(text: str) -> str:

@@ -30,8 +30,14 @@ import pandas
 from .cosim.files import atomic_write_all
 from .cosim.results import csv_writer, json_text
 
-__all__ = ["ResultFileError", "companion_json", "read_profile_table", "read_result", "read_table",
-           "write_result"]
+__all__ = [
+    "ResultFileError",
+    "companion_json",
+    "read_profile_table",
+    "read_result",
+    "read_table",
+    "write_result",
+]
 
 StrPath = str | PathLike
 
@@ -54,8 +60,9 @@ def _raw_rows(path: Path) -> pandas.DataFrame:
     if path.is_dir():
         raise ResultFileError(f"{path}: is a directory, not a CSV file")
     try:
-        raw = pandas.read_csv(path, header=None, dtype=str, na_filter=False,
-                              skip_blank_lines=False, encoding="utf-8")
+        raw = pandas.read_csv(
+            path, header=None, dtype=str, na_filter=False, skip_blank_lines=False, encoding="utf-8"
+        )
     except pandas.errors.EmptyDataError:
         raise ResultFileError(f"{path}: empty file (no header, no data)") from None
     except pandas.errors.ParserError as error:
@@ -63,8 +70,9 @@ def _raw_rows(path: Path) -> pandas.DataFrame:
         found = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(error))
         if found:
             expected, line, seen = found.groups()
-            raise ResultFileError(f"{path}: line {line} has {seen} values, the header "
-                                  f"{expected} columns") from None
+            raise ResultFileError(
+                f"{path}: line {line} has {seen} values, the header {expected} columns"
+            ) from None
         detail = str(error).split("C error: ")[-1].strip()
         raise ResultFileError(f"{path}: malformed CSV: {detail}") from None
     except UnicodeDecodeError:
@@ -83,8 +91,9 @@ def _raw_rows(path: Path) -> pandas.DataFrame:
 def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
     names = [name.strip() for name in raw.iloc[0]]
     if first is not None and names[0] != first:
-        raise ResultFileError(f"{path}: line 1: the first column must be {first!r}, got "
-                              f"{names[0]!r} (no header?)")
+        raise ResultFileError(
+            f"{path}: line 1: the first column must be {first!r}, got {names[0]!r} (no header?)"
+        )
     for index, name in enumerate(names):
         if not name:
             raise ResultFileError(f"{path}: line 1: column {index + 1} has no name")
@@ -93,8 +102,9 @@ def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
     return names
 
 
-def _problem_cell(path: Path, cells: numpy.ndarray, names: list[str], line0: int,
-                  blank: bool, finite: bool = True) -> ResultFileError | None:
+def _problem_cell(
+    path: Path, cells: numpy.ndarray, names: list[str], line0: int, blank: bool, finite: bool = True
+) -> ResultFileError | None:
     """The error for the first cell of ``cells`` (strings, rows from file line ``line0``)
     that is not a number (not empty either with ``blank``, not finite with ``finite``), or
     None."""
@@ -106,15 +116,18 @@ def _problem_cell(path: Path, cells: numpy.ndarray, names: list[str], line0: int
             if text == "":
                 return ResultFileError(
                     f"{path}: line {line}, column {column!r}: empty field (the line has "
-                    f"fewer values than the header: cut short?)")
+                    f"fewer values than the header: cut short?)"
+                )
             try:
                 value = float(text)
             except ValueError:
-                return ResultFileError(f"{path}: line {line}, column {column!r}: {text!r} is "
-                                       f"not a number")
+                return ResultFileError(
+                    f"{path}: line {line}, column {column!r}: {text!r} is not a number"
+                )
             if finite and not math.isfinite(value):
-                return ResultFileError(f"{path}: line {line}, column {column!r}: {text!r} is "
-                                       f"not a finite number")
+                return ResultFileError(
+                    f"{path}: line {line}, column {column!r}: {text!r} is not a finite number"
+                )
     return None
 
 
@@ -127,14 +140,16 @@ def _numbers(path: Path, cells: numpy.ndarray, names: list[str]) -> numpy.ndarra
         values = None
     if values is None or not numpy.isfinite(values).all():
         raise _problem_cell(path, cells, names, 2, blank=False) or ResultFileError(
-            f"{path}: a value is not a finite number")
+            f"{path}: a value is not a finite number"
+        )
     return values
 
 
 # pandas >= 3 parses floats exactly by default (and deprecates the option); pandas 2's
 # default ("high") may be one ulp off, its "round_trip" converter is exact
-_EXACT_FLOATS: dict[str, Any] = {} if int(pandas.__version__.split(".")[0]) >= 3 else \
-    {"float_precision": "round_trip"}
+_EXACT_FLOATS: dict[str, Any] = (
+    {} if int(pandas.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+)
 
 
 def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
@@ -142,13 +157,21 @@ def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
     pandas' C reader with an exact float conversion; (None, []) when anything
     looks wrong (the caller then reads the file as text to name the problem)."""
     try:
-        header = pandas.read_csv(path, header=None, nrows=1, dtype=str, na_filter=False,
-                                 encoding="utf-8")
+        header = pandas.read_csv(
+            path, header=None, nrows=1, dtype=str, na_filter=False, encoding="utf-8"
+        )
         names = [name.strip() for name in header.iloc[0]]
         if names[0] != "time" or "" in names or len(set(names)) != len(names):
             return None, []
-        table = pandas.read_csv(path, header=None, skiprows=1, dtype=numpy.float64,
-                                skip_blank_lines=False, encoding="utf-8", **_EXACT_FLOATS)
+        table = pandas.read_csv(
+            path,
+            header=None,
+            skiprows=1,
+            dtype=numpy.float64,
+            skip_blank_lines=False,
+            encoding="utf-8",
+            **_EXACT_FLOATS,
+        )
     except (ValueError, OSError, pandas.errors.ParserError, pandas.errors.EmptyDataError):
         return None, []
     values = table.to_numpy(dtype=numpy.float64)
@@ -169,14 +192,15 @@ def _metadata(path: Path) -> dict[str, Any]:
     except (OSError, UnicodeDecodeError) as error:
         raise ResultFileError(f"{meta_path}: cannot be read: {error}") from None
     except json.JSONDecodeError as error:
-        raise ResultFileError(f"{meta_path}: malformed JSON: {error.msg} at line "
-                              f"{error.lineno}, column {error.colno}") from None
+        raise ResultFileError(
+            f"{meta_path}: malformed JSON: {error.msg} at line {error.lineno}, column {error.colno}"
+        ) from None
     if not isinstance(meta, dict):
-        raise ResultFileError(f"{meta_path}: must hold a JSON object, got "
-                              f"{type(meta).__name__}")
+        raise ResultFileError(f"{meta_path}: must hold a JSON object, got {type(meta).__name__}")
     units = meta.get("units", {})
-    if not isinstance(units, dict) or not all(isinstance(unit, str) or unit is None
-                                              for unit in units.values()):
+    if not isinstance(units, dict) or not all(
+        isinstance(unit, str) or unit is None for unit in units.values()
+    ):
         raise ResultFileError(f"{meta_path}: 'units' must map column names to unit strings")
     return meta
 
@@ -210,10 +234,13 @@ def read_result(path: StrPath) -> pandas.DataFrame:
     if (steps <= 0.0).any():
         row = int(numpy.argmax(steps <= 0.0)) + 1
         kind = "repeats" if steps[row - 1] == 0.0 else "is before"
-        raise ResultFileError(f"{path}: line {row + 2}: time {times[row]!r} s {kind} the "
-                              f"previous line's {times[row - 1]!r} s (times must increase)")
-    frame = pandas.DataFrame(values[:, 1:], columns=names[1:],
-                             index=pandas.Index(values[:, 0], name="time"))
+        raise ResultFileError(
+            f"{path}: line {row + 2}: time {times[row]!r} s {kind} the "
+            f"previous line's {times[row - 1]!r} s (times must increase)"
+        )
+    frame = pandas.DataFrame(
+        values[:, 1:], columns=names[1:], index=pandas.Index(values[:, 0], name="time")
+    )
     meta = _metadata(path)
     frame.attrs.update(meta)
     units = meta.get("units", {})
@@ -232,16 +259,16 @@ def _result_frame(frame: pandas.DataFrame) -> pandas.DataFrame:
     names = list(frame.columns)
     bad = [name for name in names if not isinstance(name, str) or not name or name == "time"]
     if bad:
-        raise ValueError(f"result columns must be non-empty names other than 'time', got "
-                         f"{bad[0]!r}")
+        raise ValueError(
+            f"result columns must be non-empty names other than 'time', got {bad[0]!r}"
+        )
     if len(set(names)) != len(names):
         raise ValueError("result columns must have distinct names")
     try:
         times = numpy.asarray(frame.index, dtype=float)
         values = frame.to_numpy(dtype=float)
     except (TypeError, ValueError) as error:
-        raise ValueError(f"a result holds numbers only (time index and columns): {error}") \
-            from None
+        raise ValueError(f"a result holds numbers only (time index and columns): {error}") from None
     if not numpy.isfinite(times).all() or not numpy.isfinite(values).all():
         raise ValueError("a result holds finite numbers only (no NaN, no infinity)")
     if (numpy.diff(times) <= 0.0).any():
@@ -265,19 +292,27 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
     path = Path(path)
     names = [str(name) for name in frame.columns]
     columns = {name: frame[name].to_numpy(dtype=float).tolist() for name in names}
-    meta: dict[str, Any] = {str(key): value for key, value in frame.attrs.items()
-                            if key != "file"}
+    meta: dict[str, Any] = {str(key): value for key, value in frame.attrs.items() if key != "file"}
     units = meta.get("units") or {}
     meta["units"] = {name: units[name] for name in names if name in units}
     meta["recorded"] = names
-    atomic_write_all({path: csv_writer(frame.index.to_numpy(dtype=float).tolist(), columns),
-                      companion_json(path): json_text(meta)})
+    atomic_write_all(
+        {
+            path: csv_writer(frame.index.to_numpy(dtype=float).tolist(), columns),
+            companion_json(path): json_text(meta),
+        }
+    )
     return path
 
 
-def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[str] = (),
-               required: Iterable[str] = (), missing: float | None = math.nan
-               ) -> pandas.DataFrame:
+def read_table(
+    path: StrPath,
+    *,
+    text: Iterable[str] = (),
+    integers: Iterable[str] = (),
+    required: Iterable[str] = (),
+    missing: float | None = math.nan,
+) -> pandas.DataFrame:
     """A CSV table mechfmu writes (a sweep's sweep.csv, the study's accuracy_cost.csv) as a
     DataFrame with a default index, one column per header name.
 
@@ -301,8 +336,9 @@ def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[st
     for position, name in enumerate(names):
         cells = body.iloc[:, position].to_numpy()
         if name in text:
-            frame[name] = pandas.Series([cell if cell != "" else None for cell in cells],
-                                        dtype=object, index=frame.index)
+            frame[name] = pandas.Series(
+                [cell if cell != "" else None for cell in cells], dtype=object, index=frame.index
+            )
             continue
         if name not in integers:
             problem = _problem_cell(path, cells[:, None], [name], 2, blank=True, finite=False)
@@ -313,14 +349,20 @@ def read_table(path: StrPath, *, text: Iterable[str] = (), integers: Iterable[st
                 frame[name] = numpy.array([int(cell) for cell in cells], dtype=numpy.int64)
             except ValueError:
                 line = 2 + next(i for i, cell in enumerate(cells) if not _is_int(cell))
-                raise ResultFileError(f"{path}: line {line}, column {name!r}: "
-                                      f"{cells[line - 2]!r} is not a whole number") from None
+                raise ResultFileError(
+                    f"{path}: line {line}, column {name!r}: "
+                    f"{cells[line - 2]!r} is not a whole number"
+                ) from None
         elif missing is None and (cells == "").any():
-            frame[name] = pandas.Series([float(cell) if cell != "" else None
-                                         for cell in cells], dtype=object, index=frame.index)
+            frame[name] = pandas.Series(
+                [float(cell) if cell != "" else None for cell in cells],
+                dtype=object,
+                index=frame.index,
+            )
         else:
-            frame[name] = numpy.array([float(cell) if cell != "" else missing
-                                       for cell in cells], dtype=float)
+            frame[name] = numpy.array(
+                [float(cell) if cell != "" else missing for cell in cells], dtype=float
+            )
     return frame
 
 
@@ -352,9 +394,18 @@ def read_profile_table(path: StrPath) -> pandas.DataFrame:
     try:
         with warnings.catch_warnings():  # lines with more values: the first two are kept
             warnings.simplefilter("ignore", pandas.errors.ParserWarning)
-            raw = pandas.read_csv(path, header=None, names=[0, 1], index_col=False, dtype=str,
-                                  na_filter=False, skip_blank_lines=False, encoding="utf-8",
-                                  engine="python", on_bad_lines=lambda fields: fields[:2])
+            raw = pandas.read_csv(
+                path,
+                header=None,
+                names=[0, 1],
+                index_col=False,
+                dtype=str,
+                na_filter=False,
+                skip_blank_lines=False,
+                encoding="utf-8",
+                engine="python",
+                on_bad_lines=lambda fields: fields[:2],
+            )
         raw = raw.fillna("")  # a blank line or a line with one value: empty cells
     except pandas.errors.EmptyDataError:
         raise ResultFileError(f"{path}: no data rows (empty file)") from None
@@ -377,24 +428,32 @@ def read_profile_table(path: StrPath) -> pandas.DataFrame:
                 names = (first.strip() or "time", second.strip() or "value")
                 continue
             if not second:
-                raise ResultFileError(f"{path}: line {number}: expected 'time,value', got "
-                                      f"only {first!r}") from None
+                raise ResultFileError(
+                    f"{path}: line {number}: expected 'time,value', got only {first!r}"
+                ) from None
             bad = 0 if not _is_float(first) else 1
-            raise ResultFileError(f"{path}: line {number}, column {names[bad]!r}: "
-                                  f"{(first, second)[bad]!r} is not a number") from None
+            raise ResultFileError(
+                f"{path}: line {number}, column {names[bad]!r}: "
+                f"{(first, second)[bad]!r} is not a number"
+            ) from None
         for column, number_ in zip(names, (time, value)):
             if not math.isfinite(number_):
-                raise ResultFileError(f"{path}: line {number}, column {column!r}: "
-                                      f"{number_!r} is not a finite number")
+                raise ResultFileError(
+                    f"{path}: line {number}, column {column!r}: {number_!r} is not a finite number"
+                )
         if times and time <= times[-1]:
-            raise ResultFileError(f"{path}: line {number}: time {time!r} s is not after "
-                                  f"{times[-1]!r} s (times must increase)")
+            raise ResultFileError(
+                f"{path}: line {number}: time {time!r} s is not after "
+                f"{times[-1]!r} s (times must increase)"
+            )
         times.append(time)
         values.append(value)
     if not times:
         raise ResultFileError(f"{path}: no data rows")
-    return pandas.DataFrame({names[1]: numpy.asarray(values, dtype=float)},
-                            index=pandas.Index(numpy.asarray(times, dtype=float), name="time"))
+    return pandas.DataFrame(
+        {names[1]: numpy.asarray(values, dtype=float)},
+        index=pandas.Index(numpy.asarray(times, dtype=float), name="time"),
+    )
 
 
 def _is_float(text: str) -> bool:

@@ -29,9 +29,13 @@ if TYPE_CHECKING:
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("mechfmu")
-    group.addoption("--mechfmu-regen", action="store_true", default=False,
-                    help="mechfmu_regression: rewrite the baseline CSVs that fail (the tests "
-                         "that rewrote one fail once)")
+    group.addoption(
+        "--mechfmu-regen",
+        action="store_true",
+        default=False,
+        help="mechfmu_regression: rewrite the baseline CSVs that fail (the tests "
+        "that rewrote one fail once)",
+    )
 
 
 class MechfmuRegression:
@@ -56,26 +60,38 @@ class MechfmuRegression:
         folder = self.request.getfixturevalue("tmp_path")
         return Path(folder) / baseline.name
 
-    def check(self, data: pandas.DataFrame, *, basename: str | None = None,
-              rtol: float = 1e-9, atol: float = 1e-12, method: str = "pointwise",
-              time_tolerance: float | None = None,
-              tolerances: Mapping[str, Any] | None = None,
-              interpolate: bool = False) -> Comparison:
+    def check(
+        self,
+        data: pandas.DataFrame,
+        *,
+        basename: str | None = None,
+        rtol: float = 1e-9,
+        atol: float = 1e-12,
+        method: str = "pointwise",
+        time_tolerance: float | None = None,
+        tolerances: Mapping[str, Any] | None = None,
+        interpolate: bool = False,
+    ) -> Comparison:
         """Compare ``data`` with its baseline (see the module docstring); the keywords are
         ``mechfmu.compare``'s. Fails the test, with the failures table, on a mismatch; writes
         the baseline and fails when there is none; returns the Comparison when it passes."""
         from .comparison import compare
         from .io import ResultFileError, read_result, write_result
+
         path = self.path(basename)
 
         def write(reason: str) -> None:
             try:
                 write_result(data, path)
             except ValueError as error:
-                pytest.fail(f"mechfmu_regression: cannot store the baseline {path}: {error}",
-                            pytrace=False)
-            pytest.fail(f"mechfmu_regression: {reason}; wrote {path}: look at it, commit it "
-                        f"and run the test again", pytrace=False)
+                pytest.fail(
+                    f"mechfmu_regression: cannot store the baseline {path}: {error}", pytrace=False
+                )
+            pytest.fail(
+                f"mechfmu_regression: {reason}; wrote {path}: look at it, commit it "
+                f"and run the test again",
+                pytrace=False,
+            )
 
         if not path.exists():
             write("no baseline yet")
@@ -84,12 +100,17 @@ class MechfmuRegression:
         except ResultFileError as error:
             if self.regen:
                 write(f"the baseline was unreadable ({error})")
-            pytest.fail(f"mechfmu_regression: {error} (--mechfmu-regen rewrites it)",
-                        pytrace=False)
-        comparison = compare(data, baseline, rtol=rtol, atol=atol,
-                             method=method,  # type: ignore[arg-type]
-                             time_tolerance=time_tolerance, tolerances=tolerances,
-                             interpolate=interpolate)
+            pytest.fail(f"mechfmu_regression: {error} (--mechfmu-regen rewrites it)", pytrace=False)
+        comparison = compare(
+            data,
+            baseline,
+            rtol=rtol,
+            atol=atol,
+            method=method,  # type: ignore[arg-type]
+            time_tolerance=time_tolerance,
+            tolerances=tolerances,
+            interpolate=interpolate,
+        )
         if comparison.passed:
             return comparison
         if self.regen:
@@ -98,13 +119,15 @@ class MechfmuRegression:
         obtained = self.obtained_path(path)
         try:
             write_result(data, obtained)
-            kept = (f"\nobtained: {obtained} (mechfmu check {obtained} {path} --report DIR "
-                    f"plots it)")
+            kept = f"\nobtained: {obtained} (mechfmu check {obtained} {path} --report DIR plots it)"
         except (ValueError, OSError):
             kept = ""
-        pytest.fail(f"mechfmu_regression: differs from the baseline {path} ({method}, rtol "
-                    f"{rtol:g}, atol {atol:g}):\n{table}{kept}\n(pytest --mechfmu-regen "
-                    f"accepts the new values)", pytrace=False)
+        pytest.fail(
+            f"mechfmu_regression: differs from the baseline {path} ({method}, rtol "
+            f"{rtol:g}, atol {atol:g}):\n{table}{kept}\n(pytest --mechfmu-regen "
+            f"accepts the new values)",
+            pytrace=False,
+        )
         raise AssertionError("unreachable")  # pytest.fail raises
 
 

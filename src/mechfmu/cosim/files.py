@@ -68,8 +68,7 @@ def output_folder(folder: Path | str) -> Path:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise OutputError(f"output folder {folder} cannot be created: {_cause(error)}") \
-            from None
+        raise OutputError(f"output folder {folder} cannot be created: {_cause(error)}") from None
     probe = folder / f".mechfmu-probe-{secrets.token_hex(6)}"
     try:
         os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
@@ -84,8 +83,11 @@ def inside(folder: Path, name: str) -> Path:
     resolving '..' and symbolic links of the folder)."""
     folder = Path(folder)
     path = folder / name
-    if plain_file_name(Path(name).name) or Path(name).name != str(name) \
-            or path.resolve().parent != folder.resolve():
+    if (
+        plain_file_name(Path(name).name)
+        or Path(name).name != str(name)
+        or path.resolve().parent != folder.resolve()
+    ):
         raise OutputError(f"{name!r} would be written outside the output folder {folder}")
     return path
 
@@ -100,8 +102,9 @@ def _content_bytes(content: Callable | bytes | str, path: Path) -> bytes:
         return content.encode("utf-8")
     if isinstance(content, (bytes, bytearray, memoryview)):
         return bytes(content)
-    raise TypeError(f"{path}: content must be str, bytes or a callable, got "
-                    f"{type(content).__name__}")
+    raise TypeError(
+        f"{path}: content must be str, bytes or a callable, got {type(content).__name__}"
+    )
 
 
 def _write_temporary(path: Path, data: bytes) -> Path:
@@ -112,7 +115,7 @@ def _write_temporary(path: Path, data: bytes) -> Path:
         try:
             view = memoryview(data)
             while view:
-                view = view[os.write(descriptor, view):]
+                view = view[os.write(descriptor, view) :]
         finally:
             os.close(descriptor)  # some file systems (NFS) report a full disk only here
     except BaseException:
@@ -164,7 +167,7 @@ def save_figure(path: Path, figure: Figure, **options: Any) -> Path:
     return atomic_write(path, buffer.getvalue())
 
 
-def move_aside(paths: list[Path], marker: str="previous") -> list[Any]:
+def move_aside(paths: list[Path], marker: str = "previous") -> list[Any]:
     """Rename each existing file '<stem>.<ext>' in ``paths`` to '<stem>.<marker>.<ext>'
     (replacing an older one of that name); returns the new paths."""
     moved = []

@@ -34,6 +34,7 @@ class FmuError(SceneError):
 
 def checked_description(path: str) -> ModelDescription:
     """fmpy's ModelDescription of the FMU at ``path`` after the checks of this module."""
+
     def refuse(cause: Any):
         raise FmuError(f"{path} is not a valid FMU: {cause}")
 
@@ -44,8 +45,14 @@ def checked_description(path: str) -> ModelDescription:
     with archive:
         try:
             damaged = archive.testzip()
-        except (zipfile.BadZipFile, OSError, EOFError, zlib.error, ValueError,
-                NotImplementedError) as error:
+        except (
+            zipfile.BadZipFile,
+            OSError,
+            EOFError,
+            zlib.error,
+            ValueError,
+            NotImplementedError,
+        ) as error:
             refuse(f"the archive cannot be read ({error})")
         if damaged is not None:
             refuse(f"member {damaged} is damaged (its checksum does not match)")
@@ -61,10 +68,13 @@ def checked_description(path: str) -> ModelDescription:
         folder = f"binaries/{fmi2_platform}/"
         binary = f"{folder}{description.coSimulation.modelIdentifier}{sharedLibraryExtension}"
         if binary not in names:
-            offered = [name for name in names if name.startswith("binaries/")
-                       and not name.endswith("/")]
-            refuse(f"it has no binary for this platform ({binary}); it has: "
-                   f"{', '.join(offered) or 'no binaries'}")
+            offered = [
+                name for name in names if name.startswith("binaries/") and not name.endswith("/")
+            ]
+            refuse(
+                f"it has no binary for this platform ({binary}); it has: "
+                f"{', '.join(offered) or 'no binaries'}"
+            )
         if sys.platform.startswith("linux"):
             for name in names:
                 if name.startswith(folder) and name.endswith(".so"):
@@ -75,8 +85,18 @@ def checked_description(path: str) -> ModelDescription:
 
 
 # e_machine of the ELF header for the machines Python reports (platform.machine())
-_MACHINES = {"x86_64": 62, "amd64": 62, "aarch64": 183, "arm64": 183, "i386": 3, "i686": 3,
-             "armv7l": 40, "ppc64le": 21, "s390x": 22, "riscv64": 243}
+_MACHINES = {
+    "x86_64": 62,
+    "amd64": 62,
+    "aarch64": 183,
+    "arm64": 183,
+    "i386": 3,
+    "i686": 3,
+    "armv7l": 40,
+    "ppc64le": 21,
+    "s390x": 22,
+    "riscv64": 243,
+}
 _ET_DYN, _PT_LOAD = 3, 1
 
 
@@ -93,31 +113,52 @@ def elf_problem(data: bytes) -> str | None:
     if word_size not in (1, 2) or byte_order is None:
         return "is not an ELF shared library (unknown class or byte order)"
     bits = 64 if word_size == 2 else 32
-    if bits != (64 if sys.maxsize > 2 ** 32 else 32):
+    if bits != (64 if sys.maxsize > 2**32 else 32):
         return f"is a {bits}-bit library; this Python is {64 if bits == 32 else 32}-bit"
     header = byte_order + ("HHIQQQIHHHHHH" if bits == 64 else "HHIIIIIHHHHHH")
     if len(data) < 16 + struct.calcsize(header):
         return f"is truncated ({len(data)} bytes: not even a whole ELF header)"
-    (kind, machine, _, _, program_offset, section_offset, _, _, program_size, program_count,
-     section_size, section_count, _) = struct.unpack_from(header, data, 16)
+    (
+        kind,
+        machine,
+        _,
+        _,
+        program_offset,
+        section_offset,
+        _,
+        _,
+        program_size,
+        program_count,
+        section_size,
+        section_count,
+        _,
+    ) = struct.unpack_from(header, data, 16)
     if kind != _ET_DYN:
         return f"is not an ELF shared library (ELF type {kind}, expected {_ET_DYN})"
     expected = _MACHINES.get(platform.machine().lower())
     if expected is not None and machine != expected:
-        return (f"is built for another machine (ELF machine {machine}; this is "
-                f"{platform.machine()}, {expected})")
-    extents = [("its program headers", program_offset, program_size * program_count),
-               ("its section headers", section_offset, section_size * section_count)]
+        return (
+            f"is built for another machine (ELF machine {machine}; this is "
+            f"{platform.machine()}, {expected})"
+        )
+    extents = [
+        ("its program headers", program_offset, program_size * program_count),
+        ("its section headers", section_offset, section_size * section_count),
+    ]
     segment = byte_order + ("IIQQQQQQ" if bits == 64 else "IIIIIIII")
     if program_offset + program_size * program_count <= len(data):
         for index in range(program_count):
             fields = struct.unpack_from(segment, data, program_offset + index * program_size)
-            kind, offset, size = ((fields[0], fields[2], fields[5]) if bits == 64
-                                  else (fields[0], fields[1], fields[4]))
+            kind, offset, size = (
+                (fields[0], fields[2], fields[5])
+                if bits == 64
+                else (fields[0], fields[1], fields[4])
+            )
             if kind == _PT_LOAD:
                 extents.append((f"its loadable segment {index}", offset, size))
     for what, offset, size in extents:
         if offset + size > len(data):
-            return (f"is truncated: {what} end at byte {offset + size}, the file has "
-                    f"{len(data)} bytes")
+            return (
+                f"is truncated: {what} end at byte {offset + size}, the file has {len(data)} bytes"
+            )
     return None

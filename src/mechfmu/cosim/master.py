@@ -28,9 +28,18 @@ from collections.abc import Callable
 
 from fmpy import extract
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import (FMU2Slave, fmi2Boolean, fmi2CallbackAllocateMemoryTYPE,
-                       fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE,
-                       fmi2Integer, fmi2Real, fmi2True, fmi2ValueReference)
+from fmpy.fmi2 import (
+    FMU2Slave,
+    fmi2Boolean,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    fmi2Integer,
+    fmi2Real,
+    fmi2True,
+    fmi2ValueReference,
+)
 from fmpy import calloc, free
 
 from .fmu_file import FmuError, checked_description
@@ -65,8 +74,11 @@ class SimulationInterrupted(SimulationError):
     def __init__(self, signum: Any, time: float, result: Any) -> None:
         super().__init__(None, time, "", result)
         self.signum = signum
-        RuntimeError.__init__(self, f"interrupted by {signal_name(signum)} at t = {time!r} s "
-                                    f"after {max(len(result.times) - 1, 0)} step(s)")
+        RuntimeError.__init__(
+            self,
+            f"interrupted by {signal_name(signum)} at t = {time!r} s "
+            f"after {max(len(result.times) - 1, 0)} step(s)",
+        )
 
 
 @dataclass
@@ -98,8 +110,10 @@ def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
     else:
         candidate = Path(fmu_dir) / f"{spec.fmu}.fmu"
     if not candidate.is_file():
-        raise SceneError(f"component {spec.name!r}: FMU file {candidate} not found; build the "
-                         f"FMUs with 'mechfmu build' (or 'make fmus')")
+        raise SceneError(
+            f"component {spec.name!r}: FMU file {candidate} not found; build the "
+            f"FMUs with 'mechfmu build' (or 'make fmus')"
+        )
     return candidate
 
 
@@ -141,7 +155,9 @@ class LogBook:
     """
 
     _next_key = 1
-    _books: weakref.WeakValueDictionary[int, Any] = weakref.WeakValueDictionary()  # componentEnvironment value -> LogBook
+    _books: weakref.WeakValueDictionary[int, Any] = (
+        weakref.WeakValueDictionary()
+    )  # componentEnvironment value -> LogBook
 
     def __init__(self) -> None:
         self.messages: list[Any] = []
@@ -155,6 +171,7 @@ class LogBook:
         self.callbacks.componentEnvironment = ctypes.c_void_p(self.key)
         try:
             from fmpy.logging import addLoggerProxy
+
             addLoggerProxy(byref(self.callbacks))  # formats the variadic message in C
         except Exception:
             pass
@@ -162,8 +179,15 @@ class LogBook:
     def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
         def text(raw: Any):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
-        self.messages.append({"instance": text(instance), "status": STATUS_NAMES.get(status, status),
-                              "category": text(category), "message": text(message)})
+
+        self.messages.append(
+            {
+                "instance": text(instance),
+                "status": STATUS_NAMES.get(status, status),
+                "category": text(category),
+                "message": text(message),
+            }
+        )
 
     def last_problem(self, instance: str) -> str:
         for entry in reversed(self.messages):
@@ -184,7 +208,7 @@ class Instances:
     ``created`` and ``reused`` count the instances made and the resets that saved one.
     """
 
-    def __init__(self, keep: bool=False) -> None:
+    def __init__(self, keep: bool = False) -> None:
         self.keep = keep
         self.logbook = LogBook()  # instances log through the book they were created with
         self._folders: dict[tuple, Path] = {}  # (FMU path, mtime, size) -> extracted folder
@@ -202,9 +226,12 @@ class Instances:
         if idle:
             self.reused += 1
             return idle.pop()
-        slave = FMU2Slave(guid=component.description.guid, unzipDirectory=folder,
-                          modelIdentifier=component.description.coSimulation.modelIdentifier,
-                          instanceName=component.name)
+        slave = FMU2Slave(
+            guid=component.description.guid,
+            unzipDirectory=folder,
+            modelIdentifier=component.description.coSimulation.modelIdentifier,
+            instanceName=component.name,
+        )
         try:
             slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         except Exception:  # fmpy says only "Failed to instantiate model"; the FMU's log says why
@@ -250,15 +277,19 @@ class _Component:
         self.variables = {v.name: v for v in description.modelVariables}
         self.slave: Any = None  # fmpy's FMU2Slave, from InstancePool.acquire
 
-    def variable(self, name: str, where: str, causality: tuple[str] | None=None) -> ModelVariable:
+    def variable(self, name: str, where: str, causality: tuple[str] | None = None) -> ModelVariable:
         variable = self.variables.get(name)
         if variable is None:
             names = ", ".join(sorted(self.variables))
-            raise SceneError(f"{where}: {self.name!r} ({self.description.modelName}) has no "
-                             f"variable {name!r}; it has: {names}")
+            raise SceneError(
+                f"{where}: {self.name!r} ({self.description.modelName}) has no "
+                f"variable {name!r}; it has: {names}"
+            )
         if causality is not None and variable.causality not in causality:
-            raise SceneError(f"{where}: {self.name}.{name} is a {variable.causality}, "
-                             f"expected {' or '.join(causality)}")
+            raise SceneError(
+                f"{where}: {self.name}.{name} is a {variable.causality}, "
+                f"expected {' or '.join(causality)}"
+            )
         return variable
 
     def getter(self, variable: ModelVariable) -> Callable:
@@ -283,11 +314,15 @@ def accessor(slave: FMU2Slave, fmi_type: str, verb: str) -> Callable:
 def _check_value(component: str, variable: ModelVariable, value: float, where: str) -> None:
     expected = _PYTHON_TYPES[variable.type]
     if not isinstance(value, expected) or (variable.type != "Boolean" and isinstance(value, bool)):
-        raise SceneError(f"{where}: {component}.{variable.name} is {variable.type}, got "
-                         f"{type(value).__name__} {value!r}")
+        raise SceneError(
+            f"{where}: {component}.{variable.name} is {variable.type}, got "
+            f"{type(value).__name__} {value!r}"
+        )
 
 
-def order_components(names: list[str], connections: list[Any], feedthrough: Callable | None=None) -> tuple:
+def order_components(
+    names: list[str], connections: list[Any], feedthrough: Callable | None = None
+) -> tuple:
     """Components in stepping order, and the connections that must lag one step.
 
     ``feedthrough(connection)`` tells whether the connection's source output depends
@@ -305,8 +340,10 @@ def order_components(names: list[str], connections: list[Any], feedthrough: Call
         targets[connection.source].add(connection.target)
     cycle = _find_cycle(names, targets)
     if cycle:
-        raise SceneError("algebraic loop: the direct-feedthrough connections form a cycle "
-                         + " -> ".join(cycle + cycle[:1]))
+        raise SceneError(
+            "algebraic loop: the direct-feedthrough connections form a cycle "
+            + " -> ".join(cycle + cycle[:1])
+        )
     lagged = []
     for connection in connections:
         if connection in hard or connection.target in targets[connection.source]:
@@ -352,7 +389,7 @@ def _find_cycle(names: list[str], targets: dict[str, set[str] | set[Any]]) -> li
                 path.pop()
                 state[node] = 2
             elif state[child] == 1:
-                return path[path.index(child):]
+                return path[path.index(child) :]
             elif state[child] == 0:
                 state[child] = 1
                 path.append(child)
@@ -363,7 +400,7 @@ def _find_cycle(names: list[str], targets: dict[str, set[str] | set[Any]]) -> li
 class Simulation:
     """A scene bound to its FMUs, checked and ready to run."""
 
-    def __init__(self, scene: Scene, fmu_dir: str | Path | None=None) -> None:
+    def __init__(self, scene: Scene, fmu_dir: str | Path | None = None) -> None:
         self.scene = scene
         fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
         self.components = {}
@@ -375,8 +412,9 @@ class Simulation:
                 raise FmuError(f"component {name!r}: FMU file {error}") from None
             self.components[name] = _Component(spec, path, description)
         self._check()
-        self.order, self.lagged = order_components(list(self.components), self.connections,
-                                                   self._feedthrough)
+        self.order, self.lagged = order_components(
+            list(self.components), self.connections, self._feedthrough
+        )
 
     def _feedthrough(self, connection: Connection) -> bool:
         """Whether the connection's source output depends directly on one of its inputs."""
@@ -392,61 +430,94 @@ class Simulation:
         for connection in self.scene.connections:
             for name in (connection.source, connection.target):
                 if name not in self.components:
-                    raise SceneError(f"{where}: connection {connection} names unknown component "
-                                     f"{name!r}; components: {', '.join(self.components)}")
+                    raise SceneError(
+                        f"{where}: connection {connection} names unknown component "
+                        f"{name!r}; components: {', '.join(self.components)}"
+                    )
             source = self.components[connection.source].variable(
-                connection.output, f"{where}: connection {connection}", ("output",))
+                connection.output, f"{where}: connection {connection}", ("output",)
+            )
             target = self.components[connection.target].variable(
-                connection.input, f"{where}: connection {connection}", ("input",))
+                connection.input, f"{where}: connection {connection}", ("input",)
+            )
             if source.type != target.type:
-                raise SceneError(f"{where}: connection {connection} joins a {source.type} "
-                                 f"output to a {target.type} input")
+                raise SceneError(
+                    f"{where}: connection {connection} joins a {source.type} "
+                    f"output to a {target.type} input"
+                )
             if source.type not in _CTYPES:
-                raise SceneError(f"{where}: connection {connection} joins {source.type} "
-                                 f"variables; only Real, Integer and Boolean are connected")
+                raise SceneError(
+                    f"{where}: connection {connection} joins {source.type} "
+                    f"variables; only Real, Integer and Boolean are connected"
+                )
             key = (connection.target, connection.input)
             if key in fed:
-                raise SceneError(f"{where}: input {connection.target}.{connection.input} is "
-                                 f"connected twice ({fed[key]} and {connection})")
+                raise SceneError(
+                    f"{where}: input {connection.target}.{connection.input} is "
+                    f"connected twice ({fed[key]} and {connection})"
+                )
             fed[key] = str(connection)
         for component in self.components.values():
             for name, value in component.spec.parameters.items():
                 variable = component.variable(name, f"{where}: parameters", ("parameter",))
                 _check_value(component.name, variable, value, f"{where}: parameters")
-            available = sorted(v.name for v in component.variables.values()
-                               if v.causality == "parameter" and v.type == "Boolean"
-                               and (v.description or "").startswith(EFFECT_PREFIX))
+            available = sorted(
+                v.name
+                for v in component.variables.values()
+                if v.causality == "parameter"
+                and v.type == "Boolean"
+                and (v.description or "").startswith(EFFECT_PREFIX)
+            )
             for name in component.spec.effects:
                 if name not in available:
-                    raise SceneError(f"{where}: effects: {component.name!r} "
-                                     f"({component.description.modelName}) has no effect {name!r}; "
-                                     f"its effects: {', '.join(available) or 'none'}")
+                    raise SceneError(
+                        f"{where}: effects: {component.name!r} "
+                        f"({component.description.modelName}) has no effect {name!r}; "
+                        f"its effects: {', '.join(available) or 'none'}"
+                    )
                 if name in component.spec.parameters:
-                    raise SceneError(f"{where}: effect {component.name}.{name} is also given "
-                                     f"under parameters; list it in one place only")
+                    raise SceneError(
+                        f"{where}: effect {component.name}.{name} is also given "
+                        f"under parameters; list it in one place only"
+                    )
             for name, value in component.spec.inputs.items():
                 variable = component.variable(name, f"{where}: inputs", ("input",))
                 _check_value(component.name, variable, value, f"{where}: inputs")
                 if (component.name, name) in fed:
-                    raise SceneError(f"{where}: input {component.name}.{name} is both "
-                                     f"connected ({fed[(component.name, name)]}) and given a value")
-            unfed = [v.name for v in component.variables.values() if v.causality == "input"
-                     and (component.name, v.name) not in fed and v.name not in component.spec.inputs]
+                    raise SceneError(
+                        f"{where}: input {component.name}.{name} is both "
+                        f"connected ({fed[(component.name, name)]}) and given a value"
+                    )
+            unfed = [
+                v.name
+                for v in component.variables.values()
+                if v.causality == "input"
+                and (component.name, v.name) not in fed
+                and v.name not in component.spec.inputs
+            ]
             if unfed:
-                raise SceneError(f"{where}: input(s) {', '.join(unfed)} of {component.name!r} are "
-                                 f"neither connected nor given a value under "
-                                 f"[components.{component.name}.inputs]")
+                raise SceneError(
+                    f"{where}: input(s) {', '.join(unfed)} of {component.name!r} are "
+                    f"neither connected nor given a value under "
+                    f"[components.{component.name}.inputs]"
+                )
         self.recorded = []
-        names = self.scene.record or [f"{c.name}.{v.name}" for c in self.components.values()
-                                      for v in c.variables.values() if v.causality == "output"]
+        names = self.scene.record or [
+            f"{c.name}.{v.name}"
+            for c in self.components.values()
+            for v in c.variables.values()
+            if v.causality == "output"
+        ]
         for full_name in names:
             component_name, variable_name = split_name(full_name, f"{where}: record")
             if component_name not in self.components:
                 raise SceneError(f"{where}: record names unknown component {component_name!r}")
             variable = self.components[component_name].variable(variable_name, f"{where}: record")
             if variable.type not in _CTYPES:
-                raise SceneError(f"{where}: record: {full_name} is a {variable.type}; only "
-                                 f"Real, Integer and Boolean variables are recorded")
+                raise SceneError(
+                    f"{where}: record: {full_name} is a {variable.type}; only "
+                    f"Real, Integer and Boolean variables are recorded"
+                )
             self.recorded.append((full_name, self.components[component_name], variable))
         self.pruned = self._prune()
 
@@ -460,15 +531,18 @@ class Simulation:
                 if connection.target == name and connection.source not in needed:
                     needed.add(connection.source)
                     frontier.append(connection.source)
-        pruned = {name: "feeds none of the recorded outputs, not instantiated"
-                  for name in self.components if name not in needed}
+        pruned = {
+            name: "feeds none of the recorded outputs, not instantiated"
+            for name in self.components
+            if name not in needed
+        }
         for name in pruned:
             del self.components[name]
         self.connections = [c for c in self.scene.connections if c.target in needed]
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls: bool=False, instances: Any=None, stop: Any=None) -> Result:
+    def run(self, time_fmi_calls: bool = False, instances: Any = None, stop: Any = None) -> Result:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -482,8 +556,11 @@ class Simulation:
         with SimulationInterrupted (the rows so far, every instance freed).
         """
         scene = self.scene
-        result = Result(scene=scene, columns={name: [] for name, _, _ in self.recorded},
-                        units={name: variable.unit for name, _, variable in self.recorded})
+        result = Result(
+            scene=scene,
+            columns={name: [] for name, _, _ in self.recorded},
+            units={name: variable.unit for name, _, variable in self.recorded},
+        )
         result.meta["coupling"] = scene.coupling
         own = instances is None
         if own:
@@ -503,8 +580,9 @@ class Simulation:
                 component = self.components[name]
                 component.slave = instances.acquire(component)
                 instantiated.append(component)
-                component.slave.setupExperiment(startTime=scene.start_time,
-                                                stopTime=scene.stop_time)
+                component.slave.setupExperiment(
+                    startTime=scene.start_time, stopTime=scene.stop_time
+                )
                 component.slave.enterInitializationMode()
                 for pname, value in component.spec.parameters.items():
                     component.set(component.variables[pname], value)
@@ -532,20 +610,27 @@ class Simulation:
                     result.meta["fmi_call_time_s"] = timer.total
         except _InstantiationFailed as failure:
             result.partial = True
-            raise SimulationError(failure.component, scene.start_time,
-                                  f"the FMU could not be instantiated; its log: "
-                                  f"{logbook.last_problem(failure.component)} "
-                                  f"[fmi2Instantiate failed]", result) from None
+            raise SimulationError(
+                failure.component,
+                scene.start_time,
+                f"the FMU could not be instantiated; its log: "
+                f"{logbook.last_problem(failure.component)} "
+                f"[fmi2Instantiate failed]",
+                result,
+            ) from None
         except _Stopped as stopped:
             result.partial = True
             raise SimulationInterrupted(stop.take(), stopped.time, result) from None
         except _CallFailed as failure:
             result.partial = True
             message = logbook.last_problem(failure.component)
-            raise SimulationError(failure.component, failure.time,
-                                  f"{message} [{failure.function} returned "
-                                  f"{STATUS_NAMES.get(failure.status, failure.status)}]",
-                                  result) from None
+            raise SimulationError(
+                failure.component,
+                failure.time,
+                f"{message} [{failure.function} returned "
+                f"{STATUS_NAMES.get(failure.status, failure.status)}]",
+                result,
+            ) from None
         except FMICallException as error:
             name, at = current
             result.partial = True
@@ -562,26 +647,31 @@ class Simulation:
                 instances.close()
         return result
 
-    def _feeds(self, name: str, skip: Any=()) -> list[Any]:
+    def _feeds(self, name: str, skip: Any = ()) -> list[Any]:
         """(get from source, set on ``name``) pairs for the connected inputs of ``name``."""
         feeds = []
         for connection in self.connections:
             if connection.target == name and connection not in skip:
                 source = self.components[connection.source]
                 target = self.components[name]
-                feeds.append((source.getter(source.variables[connection.output]),
-                              target.setter(target.variables[connection.input])))
+                feeds.append(
+                    (
+                        source.getter(source.variables[connection.output]),
+                        target.setter(target.variables[connection.input]),
+                    )
+                )
         return feeds
 
-    def _feed(self, name: str, skip: Any=()) -> None:
+    def _feed(self, name: str, skip: Any = ()) -> None:
         """Set the connected inputs of ``name`` from its sources' current outputs."""
         for get, put in self._feeds(name, skip):
             put(get())
 
     def _set_from_source(self, connection: Connection) -> None:
         source, target = self.components[connection.source], self.components[connection.target]
-        target.set(target.variables[connection.input],
-                   source.getter(source.variables[connection.output])())
+        target.set(
+            target.variables[connection.input], source.getter(source.variables[connection.output])()
+        )
 
 
 # --- the stepping loop: FMI calls bound once, buffers allocated once -----------------------
@@ -640,6 +730,7 @@ class CallTimer:
             status = _function(*arguments)
             self.total += _clock() - begin
             return status
+
         # A ctypes caller may read these from the function it looked up (fmpy's _call does).
         for name in ("restype", "argtypes", "argnames"):
             setattr(timed, name, getattr(function, name, None))
@@ -652,10 +743,21 @@ class _Call:
     The value references and the value buffer are ctypes arrays built once per run.
     """
 
-    __slots__ = ("function", "instance", "references", "count", "buffer", "component", "name",
-                 "raw", "sent")
+    __slots__ = (
+        "function",
+        "instance",
+        "references",
+        "count",
+        "buffer",
+        "component",
+        "name",
+        "raw",
+        "sent",
+    )
 
-    def __init__(self, component: Any, verb: str, fmi_type: Any, references: Any, buffer: Any, timer: Any) -> None:
+    def __init__(
+        self, component: Any, verb: str, fmi_type: Any, references: Any, buffer: Any, timer: Any
+    ) -> None:
         name = f"fmi2{verb}{fmi_type}"
         function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
         self.function = timer.wrap(function) if timer else function
@@ -677,7 +779,14 @@ class _Outputs:
     the buffer's bytes appended as they are.
     """
 
-    def __init__(self, component: _Component, fmi_type: str, groups: list[Any], recorded: list[Any], timer: CallTimer | None) -> None:
+    def __init__(
+        self,
+        component: _Component,
+        fmi_type: str,
+        groups: list[Any],
+        recorded: list[Any],
+        timer: CallTimer | None,
+    ) -> None:
         variables = [variable for _, variables in groups for variable in variables]
         self.offsets, start = {}, 0
         for key, group in groups:
@@ -689,16 +798,23 @@ class _Outputs:
                 variables.append(variable)
             self.positions[full_name] = variables.index(variable)
         ctype, code = _CTYPES[fmi_type]
-        self.call = _Call(component, "Get", fmi_type, [v.valueReference for v in variables],
-                          (ctype * len(variables))(), timer)
+        self.call = _Call(
+            component,
+            "Get",
+            fmi_type,
+            [v.valueReference for v in variables],
+            (ctype * len(variables))(),
+            timer,
+        )
         self.rows = array(code)  # row-major: one row per communication point
         self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
 
     def view(self, key: Any, size: Any) -> Any:
         """The part of the buffer that holds connection group ``key`` (shared memory)."""
         ctype = self.call.buffer._type_
-        return (ctype * size).from_buffer(self.call.buffer,
-                                          self.offsets[key] * ctypes.sizeof(ctype))
+        return (ctype * size).from_buffer(
+            self.call.buffer, self.offsets[key] * ctypes.sizeof(ctype)
+        )
 
 
 class _StepPlan:
@@ -714,11 +830,14 @@ class _StepPlan:
     def __init__(self, simulation: Simulation, timer: CallTimer | None) -> None:
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
-        members: dict[tuple, tuple[list, list]] = {}  # (target, source, type) -> ([source outputs], [target inputs])
+        members: dict[
+            tuple, tuple[list, list]
+        ] = {}  # (target, source, type) -> ([source outputs], [target inputs])
         for connection in simulation.connections:
             output = components[connection.source].variables[connection.output]
             outputs, inputs = members.setdefault(
-                (connection.target, connection.source, output.type), ([], []))
+                (connection.target, connection.source, output.type), ([], [])
+            )
             outputs.append(output)
             inputs.append(components[connection.target].variables[connection.input])
         groups: dict[tuple, list] = {}  # (source, type) -> [(member key, [source outputs])]
@@ -727,21 +846,33 @@ class _StepPlan:
         recorded: dict[tuple, list] = {}
         for full_name, component, variable in simulation.recorded:
             recorded.setdefault((component.name, variable.type), []).append((full_name, variable))
-        self.outputs = {key: _Outputs(components[key[0]], key[1], groups.get(key, []),
-                                      recorded.get(key, []), timer)
-                        for key in list(groups) + [k for k in recorded if k not in groups]}
+        self.outputs = {
+            key: _Outputs(
+                components[key[0]], key[1], groups.get(key, []), recorded.get(key, []), timer
+            )
+            for key in list(groups) + [k for k in recorded if k not in groups]
+        }
         self.recorders = [self.outputs[key] for key in recorded]
         self.steps = []  # (name, doStep, instance, [input sets], [output reads])
         for name in simulation.order:
-            sets = [_Call(components[name], "Set", key[2], [v.valueReference for v in inputs],
-                          self.outputs[key[1:]].view(key, len(inputs)), timer)
-                    for key, (_, inputs) in members.items() if key[0] == name]
-            reads = [outputs.call for (owner, _), outputs in self.outputs.items()
-                     if owner == name]
+            sets = [
+                _Call(
+                    components[name],
+                    "Set",
+                    key[2],
+                    [v.valueReference for v in inputs],
+                    self.outputs[key[1:]].view(key, len(inputs)),
+                    timer,
+                )
+                for key, (_, inputs) in members.items()
+                if key[0] == name
+            ]
+            reads = [outputs.call for (owner, _), outputs in self.outputs.items() if owner == name]
             slave = components[name].slave
             do_step = slave.dll.fmi2DoStep
-            self.steps.append((name, timer.wrap(do_step) if timer else do_step,
-                               slave.component, sets, reads))
+            self.steps.append(
+                (name, timer.wrap(do_step) if timer else do_step, slave.component, sets, reads)
+            )
 
     @staticmethod
     def _call(call: _Call, time: float) -> None:
@@ -770,7 +901,7 @@ class _StepPlan:
             recorder.rows.frombytes(recorder.raw)
         result.times.append(time)
 
-    def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop=_NEVER) -> None:
+    def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop = _NEVER) -> None:
         """Step from start_time to stop_time, recording after every communication step;
         before each step, stop with _Stopped if ``stop`` has been requested."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
@@ -805,14 +936,17 @@ class _StepPlan:
         for recorder in recorders:
             width = recorder.call.count
             for name, position in recorder.positions.items():
-                result.columns[name] = [float(value) for value in
-                                        recorder.rows[position:rows * width:width]]
+                result.columns[name] = [
+                    float(value) for value in recorder.rows[position : rows * width : width]
+                ]
 
 
 _WARNING = 1  # fmi2Warning: the worst status a step may return and still count as done
 
 
-def parameter_values(simulation: Simulation) -> dict[str, dict[str, str | dict[str, float]] | dict[str, str | dict[str, float] | list[str]]]:
+def parameter_values(
+    simulation: Simulation,
+) -> dict[str, dict[str, str | dict[str, float]] | dict[str, str | dict[str, float] | list[str]]]:
     """Every parameter of every component as applied: scene values over FMU defaults."""
     values = {}
     for component in simulation.components.values():
@@ -827,11 +961,14 @@ def parameter_values(simulation: Simulation) -> dict[str, dict[str, str | dict[s
                 elif variable.type == "Boolean":
                     start = start in (True, "true", "1")
                 applied[variable.name] = component.spec.parameters.get(
-                    variable.name, True if variable.name in component.spec.effects else start)
-        values[component.name] = {"fmu": str(component.path),
-                                  "model": component.description.modelName,
-                                  "guid": component.description.guid,
-                                  "parameters": applied,
-                                  "effects": list(component.spec.effects),
-                                  "inputs": dict(component.spec.inputs)}
+                    variable.name, True if variable.name in component.spec.effects else start
+                )
+        values[component.name] = {
+            "fmu": str(component.path),
+            "model": component.description.modelName,
+            "guid": component.description.guid,
+            "parameters": applied,
+            "effects": list(component.spec.effects),
+            "inputs": dict(component.spec.inputs),
+        }
     return values

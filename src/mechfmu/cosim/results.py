@@ -28,6 +28,7 @@ def csv_writer(times: list[float], columns: dict[str, list[float]]) -> Callable:
         writer.writerow(["time", *names])
         for i, time in enumerate(times):
             writer.writerow([repr(float(time)), *(repr(float(columns[n][i])) for n in names)])
+
     return write
 
 
@@ -41,6 +42,7 @@ def read_csv(path: Path | str) -> tuple[list[float], dict[str, list[float]]]:
     mechfmu.io.read_result (pandas; ResultFileError, a ValueError naming the file, line and
     column, for a malformed file)."""
     from ..io import read_result
+
     table = read_result(path)
     return table.index.tolist(), {name: table[name].tolist() for name in table.columns}
 
@@ -69,17 +71,20 @@ def write_json(path: Path, data: dict[str, Any]) -> Path:
 def write_plot(path: Any, times: Any, columns: Any, units: Any, title: Any) -> Any:
     """One panel per signal against time, y axes labelled with their units."""
     import matplotlib
+
     matplotlib.use("Agg")
     from matplotlib import pyplot
 
     names = list(columns)
-    figure, axes = pyplot.subplots(len(names), 1, sharex=True, squeeze=False,
-                                   figsize=(8, 1.1 + 1.7 * len(names)))
+    figure, axes = pyplot.subplots(
+        len(names), 1, sharex=True, squeeze=False, figsize=(8, 1.1 + 1.7 * len(names))
+    )
     for axis, name in zip(axes[:, 0], names):
         axis.plot(times, columns[name], linewidth=1.2)
         unit = units.get(name)
-        axis.set_ylabel(f"{name.split('.', 1)[1]}\n[{unit}]" if unit else name.split(".", 1)[1],
-                        fontsize=8)
+        axis.set_ylabel(
+            f"{name.split('.', 1)[1]}\n[{unit}]" if unit else name.split(".", 1)[1], fontsize=8
+        )
         axis.set_title(name, fontsize=8, loc="left")
         axis.grid(True, linewidth=0.3)
     axes[-1, 0].set_xlabel("time [s]")
@@ -99,26 +104,41 @@ def result_stem(result: Result) -> str:
     return result.scene.name + (".partial" if result.partial else "")
 
 
-def write_result(result: Result, out_dir: Path, plot: bool=True) -> dict[str, Path]:
+def write_result(result: Result, out_dir: Path, plot: bool = True) -> dict[str, Path]:
     """Write <scene>.csv and .json as a pair (both or neither), then .png; ``.partial`` in
     the names for a failed or interrupted run. Every file lands inside ``out_dir``
     (OutputError otherwise). Returns {kind: path}."""
     stem = result_stem(result)
     paths = {kind: inside(out_dir, f"{stem}.{kind}") for kind in RESULT_FILES}
     meta = dict(result.meta)
-    meta.update({"scene": result.scene.name, "scene_file": str(result.scene.path),
-                 "description": result.scene.description, "partial": result.partial,
-                 "start_time": result.scene.start_time, "stop_time": result.scene.stop_time,
-                 "step": result.scene.step, "recorded": list(result.columns),
-                 "units": result.units, "versions": versions(), "command": sys.argv,
-                 "log": [entry for entry in result.log if entry["status"] != "ok"]})
-    atomic_write_all({paths["csv"]: csv_writer(result.times, result.columns),
-                      paths["json"]: json_text(meta)})
+    meta.update(
+        {
+            "scene": result.scene.name,
+            "scene_file": str(result.scene.path),
+            "description": result.scene.description,
+            "partial": result.partial,
+            "start_time": result.scene.start_time,
+            "stop_time": result.scene.stop_time,
+            "step": result.scene.step,
+            "recorded": list(result.columns),
+            "units": result.units,
+            "versions": versions(),
+            "command": sys.argv,
+            "log": [entry for entry in result.log if entry["status"] != "ok"],
+        }
+    )
+    atomic_write_all(
+        {paths["csv"]: csv_writer(result.times, result.columns), paths["json"]: json_text(meta)}
+    )
     written = {"csv": paths["csv"], "json": paths["json"]}
     if plot and result.times:
-        written["png"] = write_plot(paths["png"], result.times, result.columns,
-                                    result.units, f"{result.scene.name}"
-                                    + (" (partial)" if result.partial else ""))
+        written["png"] = write_plot(
+            paths["png"],
+            result.times,
+            result.columns,
+            result.units,
+            f"{result.scene.name}" + (" (partial)" if result.partial else ""),
+        )
     return written
 
 

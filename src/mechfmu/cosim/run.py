@@ -16,7 +16,13 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .master import Result
 
 
-def run_scene(scene: Path | Scene, out_dir: Path | str, fmu_dir: Path | str | None=None, plot: bool=True, guard: InterruptGuard | None=None) -> tuple[Result, dict[str, Path]]:
+def run_scene(
+    scene: Path | Scene,
+    out_dir: Path | str,
+    fmu_dir: Path | str | None = None,
+    plot: bool = True,
+    guard: InterruptGuard | None = None,
+) -> tuple[Result, dict[str, Path]]:
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
     The scene, its table files (check_tables) and the output folder (created if missing,
@@ -36,21 +42,29 @@ def run_scene(scene: Path | Scene, out_dir: Path | str, fmu_dir: Path | str | No
         check_tables(scene)
         simulation = Simulation(scene, fmu_dir)
         out_dir = output_folder(out_dir)
-        setup = {"components": parameter_values(simulation), "order": simulation.order,
-                 "connections": [str(c) for c in simulation.connections],
-                 "pruned": simulation.pruned,
-                 "lagged_connections": [str(c) for c in simulation.lagged]}
+        setup = {
+            "components": parameter_values(simulation),
+            "order": simulation.order,
+            "connections": [str(c) for c in simulation.connections],
+            "pruned": simulation.pruned,
+            "lagged_connections": [str(c) for c in simulation.lagged],
+        }
         try:
             result = simulation.run(stop=guard)
         except SimulationError as error:
             interrupted = isinstance(error, SimulationInterrupted)
             error.moved_aside = move_aside_complete(scene.name, out_dir)
             error.result.meta.update(
-                setup, error=str(error), failed_component=error.component,
-                failed_at=error.time, interrupted=interrupted,
-                signal=(signal_name(error.signum) if isinstance(error, SimulationInterrupted)
-                        else None),
-                moved_aside=[str(path) for path in error.moved_aside])
+                setup,
+                error=str(error),
+                failed_component=error.component,
+                failed_at=error.time,
+                interrupted=interrupted,
+                signal=(
+                    signal_name(error.signum) if isinstance(error, SimulationInterrupted) else None
+                ),
+                moved_aside=[str(path) for path in error.moved_aside],
+            )
             try:
                 error.paths = write_result(error.result, out_dir, plot)
             except OutputError as problem:  # the failure is the news; the writer's joins it

@@ -40,13 +40,20 @@ else:  # Python 3.10
     import tomli as tomllib
 
 
-def refuse_unknown_keys(table: dict[str, Any], allowed: set[str], where: Path | str, error: type[Exception] | None=None) -> None:
+def refuse_unknown_keys(
+    table: dict[str, Any],
+    allowed: set[str],
+    where: Path | str,
+    error: type[Exception] | None = None,
+) -> None:
     """Raise ``error`` (default SceneError) naming the keys of the TOML ``table`` that are
     not ``allowed``, at ``where`` (the file, and the table in it)."""
     unknown = set(table) - set(allowed)
     if unknown:
-        raise (error or SceneError)(f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
-                                    f"allowed: {', '.join(sorted(allowed))}")
+        raise (error or SceneError)(
+            f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
+            f"allowed: {', '.join(sorted(allowed))}"
+        )
 
 
 class SceneError(ValueError):
@@ -55,8 +62,8 @@ class SceneError(ValueError):
 
 @dataclass(frozen=True)
 class Connection:
-    source: str        # component name
-    output: str        # variable name
+    source: str  # component name
+    output: str  # variable name
     target: str
     input: str
 
@@ -97,8 +104,18 @@ class Scene:
         return self.start_time + index * self.step
 
 
-_SCENE_KEYS = {"name", "description", "start_time", "stop_time", "step", "connections",
-               "record", "reference", "components", "coupling"}
+_SCENE_KEYS = {
+    "name",
+    "description",
+    "start_time",
+    "stop_time",
+    "step",
+    "connections",
+    "record",
+    "reference",
+    "components",
+    "coupling",
+}
 # How the master feeds inputs at each communication step: gauss_seidel gives each component
 # the outputs of the components stepped before it in the same step (already at the step's
 # end); jacobi gives every component the outputs at the step's start (all in parallel).
@@ -106,7 +123,7 @@ COUPLINGS = ("gauss_seidel", "jacobi")
 _COMPONENT_KEYS = {"fmu", "parameters", "inputs", "effects"}
 
 
-def _number(data: dict[str, Any], key: str, where: str, default: float | None=None) -> float:
+def _number(data: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
     value = data.get(key, default)
     if value is None:
         raise SceneError(f"{where}: missing '{key}'")
@@ -127,25 +144,30 @@ def split_name(text: str, where: str) -> tuple[str, str]:
 
 def _connection(text: str, where: str) -> Connection:
     if not isinstance(text, str) or text.count("->") != 1:
-        raise SceneError(f"{where}: {text!r} is not of the form "
-                         f"'component.output -> component.input'")
+        raise SceneError(
+            f"{where}: {text!r} is not of the form 'component.output -> component.input'"
+        )
     left, right = (part.strip() for part in text.split("->"))
     return Connection(*split_name(left, where), *split_name(right, where))
 
 
-def check_times(where: str, start_time: float, stop_time: float, step: float
-                ) -> tuple[float, float, float]:
+def check_times(
+    where: str, start_time: float, stop_time: float, step: float
+) -> tuple[float, float, float]:
     """(start_time, stop_time, step) in s, checked: step > 0, stop after start, a whole
     number of communication steps between them; SceneError naming ``where`` otherwise."""
     if step <= 0.0:
         raise SceneError(f"{where}: step = {step!r} s must be > 0")
     if stop_time <= start_time:
-        raise SceneError(f"{where}: stop_time = {stop_time!r} s must exceed "
-                         f"start_time = {start_time!r} s")
+        raise SceneError(
+            f"{where}: stop_time = {stop_time!r} s must exceed start_time = {start_time!r} s"
+        )
     ratio = (stop_time - start_time) / step
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
-        raise SceneError(f"{where}: (stop_time - start_time) / step = {ratio!r} is not a "
-                         f"whole number of communication steps")
+        raise SceneError(
+            f"{where}: (stop_time - start_time) / step = {ratio!r} is not a "
+            f"whole number of communication steps"
+        )
     return start_time, stop_time, step
 
 
@@ -155,8 +177,11 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     where = str(path)
     refuse_unknown_keys(data, _SCENE_KEYS, where)
     start_time, stop_time, step = check_times(
-        where, _number(data, "start_time", where, 0.0), _number(data, "stop_time", where),
-        _number(data, "step", where))
+        where,
+        _number(data, "start_time", where, 0.0),
+        _number(data, "stop_time", where),
+        _number(data, "step", where),
+    )
     components = {}
     raw_components = data.get("components")
     if not isinstance(raw_components, dict) or not raw_components:
@@ -177,8 +202,10 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
         if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
             raise SceneError(f"{cwhere}: 'effects' must be a list of effect names")
         components[name] = ComponentSpec(name, spec["fmu"], parameters, inputs, list(effects))
-    connections = [_connection(text, f"{where}: connections[{i}]")
-                   for i, text in enumerate(data.get("connections", []))]
+    connections = [
+        _connection(text, f"{where}: connections[{i}]")
+        for i, text in enumerate(data.get("connections", []))
+    ]
     record = data.get("record")
     if record is not None:
         if not isinstance(record, list) or not all(isinstance(r, str) for r in record):
@@ -188,18 +215,27 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     reference = data.get("reference")
     coupling = data.get("coupling", COUPLINGS[0])
     if coupling not in COUPLINGS:
-        raise SceneError(f"{where}: coupling = {coupling!r} is not one of "
-                         f"{', '.join(COUPLINGS)}")
+        raise SceneError(f"{where}: coupling = {coupling!r} is not one of {', '.join(COUPLINGS)}")
     name = data.get("name", path.stem)
     problem = plain_file_name(name)
     if problem:
-        raise SceneError(f"{where}: name = {name!r} must be a plain file name (the result "
-                         f"files are named after it inside the output folder): {problem}")
+        raise SceneError(
+            f"{where}: name = {name!r} must be a plain file name (the result "
+            f"files are named after it inside the output folder): {problem}"
+        )
     return Scene(
-        name=name, path=path, start_time=start_time,
-        stop_time=stop_time, step=step, components=components, connections=connections,
-        record=record, description=data.get("description", ""), coupling=coupling,
-        reference=(path.parent / reference).resolve() if reference else None)
+        name=name,
+        path=path,
+        start_time=start_time,
+        stop_time=stop_time,
+        step=step,
+        components=components,
+        connections=connections,
+        record=record,
+        description=data.get("description", ""),
+        coupling=coupling,
+        reference=(path.parent / reference).resolve() if reference else None,
+    )
 
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]
@@ -208,7 +244,7 @@ SWEEP_DIR = PACKAGE_ROOT / "sweeps"  # the shipped sweeps
 REFERENCE_DIR = SCENE_DIR / "reference"  # the shipped scenes' reference CSVs
 
 
-def find_file(text: str, folders: tuple=(SCENE_DIR,)) -> Path:
+def find_file(text: str, folders: tuple = (SCENE_DIR,)) -> Path:
     """The scene or sweep file that ``text`` names.
 
     ``text`` is a path when it names an existing file or ends in .toml; otherwise the name
@@ -223,7 +259,9 @@ def find_file(text: str, folders: tuple=(SCENE_DIR,)) -> Path:
     return next((candidate for candidate in candidates if candidate.is_file()), candidates[0])
 
 
-def read_toml(path: Path, error: type[Exception]=SceneError, what: str="scene file") -> dict[str, Any]:
+def read_toml(
+    path: Path, error: type[Exception] = SceneError, what: str = "scene file"
+) -> dict[str, Any]:
     """The parsed TOML file at ``path``; a missing or malformed file raises ``error`` naming
     the file and the problem."""
     try:
@@ -235,7 +273,7 @@ def read_toml(path: Path, error: type[Exception]=SceneError, what: str="scene fi
         raise error(f"{path}: malformed TOML: {problem}") from None
 
 
-def load_scene(path: Path | str, overrides: dict[str, Any] | None=None) -> Scene:
+def load_scene(path: Path | str, overrides: dict[str, Any] | None = None) -> Scene:
     """Read and parse a scene TOML file; errors name the file and the problem.
     ``overrides``: top-level keys (stop_time, step, ...) replacing the file's."""
     path = Path(path)
@@ -249,6 +287,7 @@ def check_tables(scene: Scene) -> dict:
     malformed table raises SceneError naming the scene, the component, the file, the line
     and the column, before any FMU is loaded. Returns {component.parameter: its DataFrame}."""
     from ..io import ResultFileError, read_profile_table
+
     tables = {}
     for name, spec in scene.components.items():
         if spec.parameters.get("shape") != "table":
@@ -258,6 +297,5 @@ def check_tables(scene: Scene) -> dict:
                 try:
                     tables[f"{name}.{key}"] = read_profile_table(value)
                 except ResultFileError as error:
-                    raise SceneError(f"{scene.path}: component {name!r}: {key}: {error}") \
-                        from None
+                    raise SceneError(f"{scene.path}: component {name!r}: {key}: {error}") from None
     return tables

@@ -27,7 +27,7 @@ SHT_DYNSYM = 11
 
 
 def _sections(elf: bytes) -> Iterator[tuple[int, int, int, int, int, int, int, int, int, int]]:
-    shoff, = struct.unpack_from("<Q", elf, 0x28)
+    (shoff,) = struct.unpack_from("<Q", elf, 0x28)
     shentsize, shnum = struct.unpack_from("<HH", elf, 0x3A)
     for i in range(shnum):
         yield struct.unpack_from("<IIQQQQIIQQ", elf, shoff + i * shentsize)
@@ -45,7 +45,7 @@ def find_symbol_offset(elf: bytes, symbol: bytes) -> int | None:
         for start in range(offset, offset + size, entsize):
             name, _, _, index, value, _ = struct.unpack_from("<IBBHQQ", elf, start)
             end = elf.index(b"\0", strings_offset + name)
-            if elf[strings_offset + name:end] == symbol and 0 < index < len(sections):
+            if elf[strings_offset + name : end] == symbol and 0 < index < len(sections):
                 section = sections[index]
                 return value - section[3] + section[4]
     return None
@@ -56,12 +56,14 @@ def patch_exit_finaliser(elf: bytes) -> tuple[bytes, str]:
     offset = find_symbol_offset(elf, SYMBOL)
     if offset is None:
         return elf, f"{SYMBOL.decode()} not found: binary left as built"
-    head = elf[offset:offset + 5]
+    head = elf[offset : offset + 5]
     if head[:4] == ENDBR64 and head[4] == RET:
         return elf, "already patched"
     if head[:4] != ENDBR64 or head[4] != PUSH_RBP:
-        return elf, (f"{SYMBOL.decode()} starts with {head.hex()}, not the known pythonfmu 0.7 "
-                     f"code: binary left as built")
+        return elf, (
+            f"{SYMBOL.decode()} starts with {head.hex()}, not the known pythonfmu 0.7 "
+            f"code: binary left as built"
+        )
     patched = bytearray(elf)
     patched[offset + 4] = RET
     return bytes(patched), f"{SYMBOL.decode()} at 0x{offset:x} made a no-op"

@@ -50,8 +50,10 @@ FMI_VERSIONS = (2, 3)
 # binaries/<folder> of the Linux x86-64 binary, per FMI version
 PLATFORM_FOLDER = {2: "linux64", 3: "x86_64-linux"}
 # the FMU's copy of runtime/fmi/binding.py for FMI 3.0
-FMI3_BINDING = ('"""FMI 3.0: this copy of the runtime binds to pythonfmu3 (written by mechfmu '
-                'build)."""\n\nfrom .fmi3 import Fmi3Binding as Binding  # noqa: F401\n')
+FMI3_BINDING = (
+    '"""FMI 3.0: this copy of the runtime binds to pythonfmu3 (written by mechfmu '
+    'build)."""\n\nfrom .fmi3 import Fmi3Binding as Binding  # noqa: F401\n'
+)
 
 
 def pythonfmu_library_name(name: str) -> str:
@@ -81,7 +83,7 @@ def _c_string(text: str):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def compile_loader(folder: Any, runtime: Any=None, fmi_version: Any=2) -> Any:
+def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> Any:
     """Compile the C loader for FMI ``fmi_version`` into ``folder``/loader<version>.so; return
     (path or None, message).
 
@@ -102,10 +104,19 @@ def compile_loader(folder: Any, runtime: Any=None, fmi_version: Any=2) -> Any:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     target = folder / f"loader{fmi_version}.so"
-    command = [*argv, *LOADER_FLAGS, f"-I{headers}",
-               f"-DPYTHON_SONAME={_c_string(soname)}", f"-DPYTHON_LIBDIR={_c_string(libdir)}",
-               f"-DPYTHON_VERSION={_c_string(version)}", str(LOADER_RUNTIME_SOURCE),
-               str(LOADER_DIR / f"fmi{fmi_version}.c"), "-o", str(target), "-ldl"]
+    command = [
+        *argv,
+        *LOADER_FLAGS,
+        f"-I{headers}",
+        f"-DPYTHON_SONAME={_c_string(soname)}",
+        f"-DPYTHON_LIBDIR={_c_string(libdir)}",
+        f"-DPYTHON_VERSION={_c_string(version)}",
+        str(LOADER_RUNTIME_SOURCE),
+        str(LOADER_DIR / f"fmi{fmi_version}.c"),
+        "-o",
+        str(target),
+        "-ldl",
+    ]
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=120)
     except (OSError, subprocess.SubprocessError) as error:
@@ -115,12 +126,14 @@ def compile_loader(folder: Any, runtime: Any=None, fmi_version: Any=2) -> Any:
         return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
     where = f" (first looked for in {libdir})" if libdir else ""
     warnings = " ".join(done.stderr.split())[:400]
-    return target, (f"compiled with {compiler} for FMI {fmi_version}.0, Python {version} first: "
-                    f"{soname}{where}, then any 3.x >= 3.10"
-                    + (f"; compiler warnings: {warnings}" if warnings else ""))
+    return target, (
+        f"compiled with {compiler} for FMI {fmi_version}.0, Python {version} first: "
+        f"{soname}{where}, then any 3.x >= 3.10"
+        + (f"; compiler warnings: {warnings}" if warnings else "")
+    )
 
 
-def runtime_package(name: str, fmi_version: Any=2) -> Any:
+def runtime_package(name: str, fmi_version: Any = 2) -> Any:
     """Private package name of the runtime inside ``name``.fmu.
 
     Every FMU carries its own copy under its own name: FMUs loaded into one Python process
@@ -135,8 +148,11 @@ def _entry_module(fmu_name: Any, fmi_version: Any):
     """Name of the FMU's entry module (pythonfmu imports it by this name)."""
     # Not the model's name: fmpy puts a module of its own under sys.modules[model name], so a
     # second load of the FMU would import that one.
-    return (f"mechfmu_entry_{fmu_name}" if fmi_version == 2
-            else f"mechfmu_entry{fmi_version}_{fmu_name}")
+    return (
+        f"mechfmu_entry_{fmu_name}"
+        if fmi_version == 2
+        else f"mechfmu_entry{fmi_version}_{fmu_name}"
+    )
 
 
 def _stage_runtime(target: Any, fmi_version: Any) -> None:
@@ -152,34 +168,42 @@ def null_name(name: str) -> str:
     return f"{name}Null"
 
 
-def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any=2):
+def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any = 2):
     """Source of the FMU's entry module: the model's class, or its null subclass."""
     # pythonfmu 0.7's loader (findClass) re-runs this file at every instantiation and then
     # releases one reference to the module namespace that it only borrowed: after the first
     # instance is freed the namespace is gone and the next load crashes or fails. Each run
     # of the file therefore keeps one reference of its own. Only the model may be a class here.
-    header = (f'"""FMU entry point for {fmu_name} (FMI {fmi_version}.0)."""\n'
-              "import sys\n"
-              "sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n")
-    null_step = ("    def do_step(self, current_time, step_size):\n"
-                 "        return True\n")
+    header = (
+        f'"""FMU entry point for {fmu_name} (FMI {fmi_version}.0)."""\n'
+        "import sys\n"
+        "sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n"
+    )
+    null_step = "    def do_step(self, current_time, step_size):\n        return True\n"
     if fmi_version == 3:
         # pythonfmu3 finds the class by a regular expression on its line, which must name
         # Fmi3Slave among the bases (it is already one of the model's, through the binding).
-        docstring = (f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
-                     if fmu_name != name else f'    """{name} as an FMI 3.0 slave."""\n')
-        return header + ("from pythonfmu3 import Fmi3Slave  # noqa: E402\n"
-                         f"import {inner_module} as model_module  # noqa: E402\n\n\n"
-                         f"class {fmu_name}(model_module.{name}, Fmi3Slave):\n" + docstring
-                         + (null_step if fmu_name != name else ""))
+        docstring = (
+            f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
+            if fmu_name != name
+            else f'    """{name} as an FMI 3.0 slave."""\n'
+        )
+        return header + (
+            "from pythonfmu3 import Fmi3Slave  # noqa: E402\n"
+            f"import {inner_module} as model_module  # noqa: E402\n\n\n"
+            f"class {fmu_name}(model_module.{name}, Fmi3Slave):\n"
+            + docstring
+            + (null_step if fmu_name != name else "")
+        )
     if fmu_name == name:
         return header + f"from {inner_module} import {name}  # noqa: E402,F401\n"
     # The null variant: the model's module, not its class, enters the namespace, so the
     # loader finds exactly one slave class here (the subclass).
-    return header + (f"import {inner_module} as model_module  # noqa: E402\n\n\n"
-                     f"class {fmu_name}(model_module.{name}):\n"
-                     f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
-                     + null_step)
+    return header + (
+        f"import {inner_module} as model_module  # noqa: E402\n\n\n"
+        f"class {fmu_name}(model_module.{name}):\n"
+        f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n' + null_step
+    )
 
 
 def _builder(fmi_version: Any):
@@ -188,11 +212,22 @@ def _builder(fmi_version: Any):
         return Fmi2Builder, {"canGetAndSetFMUstate": True}
     # FMU states are not serialised (as in FMI 2.0): an integrator's state holds Python
     # objects that pythonfmu3's JSON serialisation cannot write.
-    return Fmi3Builder, {"canGetAndSetFMUState": True, "canSerializeFMUState": False,
-                         "canHandleVariableCommunicationStepSize": True}
+    return Fmi3Builder, {
+        "canGetAndSetFMUState": True,
+        "canSerializeFMUState": False,
+        "canHandleVariableCommunicationStepSize": True,
+    }
 
 
-def build_model(name: str, out_dir: Any, staging: Any, null: bool=False, loader: Any=None, fmi_version: Any=2, embed: Any=None) -> Any:
+def build_model(
+    name: str,
+    out_dir: Any,
+    staging: Any,
+    null: bool = False,
+    loader: Any = None,
+    fmi_version: Any = 2,
+    embed: Any = None,
+) -> Any:
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
     null=True builds ``out_dir``/``name``Null.fmu instead: the same variables, parameters and
@@ -215,14 +250,19 @@ def build_model(name: str, out_dir: Any, staging: Any, null: bool=False, loader:
     script = folder / f"{_entry_module(fmu_name, fmi_version)}.py"
     script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version))
     builder, options = _builder(fmi_version)
-    built = builder.build_FMU(script, dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
-                              project_files=[package], **options)
+    built = builder.build_FMU(
+        script,
+        dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
+        project_files=[package],
+        **options,
+    )
     if loader is None:
         loader = compile_loader(staging / f"loader_{fmu_name}", fmi_version=fmi_version)
     extra = embed.files_for(built, staging / f"embed_{fmu_name}_fmi{fmi_version}") if embed else {}
     # atomic: a reader never sees a half-written FMU
-    return atomic_write(Path(out_dir) / f"{fmu_name}.fmu",
-                        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra))
+    return atomic_write(
+        Path(out_dir) / f"{fmu_name}.fmu", _rewrite_fmu(built, fmu_name, loader, fmi_version, extra)
+    )
 
 
 def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any):
@@ -234,8 +274,11 @@ def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any)
     member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
     loader_path, loader_message = loader
     with zipfile.ZipFile(fmu) as archive:
-        entries = [(info, archive.read(info)) for info in archive.infolist()
-                   if not info.filename.startswith("sources/")]
+        entries = [
+            (info, archive.read(info))
+            for info in archive.infolist()
+            if not info.filename.startswith("sources/")
+        ]
     if member not in {info.filename for info, _ in entries}:
         raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu FMU?")
     patched_fmu = io.BytesIO()
@@ -247,32 +290,46 @@ def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any)
                     data, message = patch_exit_finaliser(data)
                     print(f"{name}: {message}")
                 if loader_path is not None:
-                    inner = zipfile.ZipInfo(member[:-len(".so")] + PYTHONFMU_SUFFIX,
-                                            info.date_time)
+                    inner = zipfile.ZipInfo(
+                        member[: -len(".so")] + PYTHONFMU_SUFFIX, info.date_time
+                    )
                     inner.external_attr = info.external_attr
                     archive.writestr(inner, data, zipfile.ZIP_DEFLATED)
                     data = Path(loader_path).read_bytes()
             archive.writestr(info, data)
         for filename, data in extra.items():
             entry = zipfile.ZipInfo(filename, (2020, 1, 1, 0, 0, 0))
-            entry.external_attr = 0o755 << 16 if filename.endswith(".so") or ".so." in filename \
-                else 0o644 << 16
+            entry.external_attr = (
+                0o755 << 16 if filename.endswith(".so") or ".so." in filename else 0o644 << 16
+            )
             # the stdlib zip stays uncompressed inside (zipimport reads it without zlib, which
             # is itself an extension module); the FMU's own deflate compresses it
             archive.writestr(entry, data, zipfile.ZIP_DEFLATED)
     if loader_path is not None:
-        print(f"{name}: C loader as {member} (loads libpython itself in hosts without Python), "
-              f"pythonfmu's library as {pythonfmu_library_name(name)}")
+        print(
+            f"{name}: C loader as {member} (loads libpython itself in hosts without Python), "
+            f"pythonfmu's library as {pythonfmu_library_name(name)}"
+        )
     else:
-        print(f"{name}: no C loader ({loader_message}): pythonfmu's plain binary, which loads "
-              "only in hosts that already run Python (such as fmpy)")
+        print(
+            f"{name}: no C loader ({loader_message}): pythonfmu's plain binary, which loads "
+            "only in hosts that already run Python (such as fmpy)"
+        )
     if extra:
-        print(f"{name}: embedded Python runtime, {len(extra)} files, "
-              f"{sum(len(data) for data in extra.values()) / 1e6:.1f} MB before compression")
+        print(
+            f"{name}: embedded Python runtime, {len(extra)} files, "
+            f"{sum(len(data) for data in extra.values()) / 1e6:.1f} MB before compression"
+        )
     return patched_fmu.getvalue()
 
 
-def build_all(out_dir: Any, names: Any=None, null: bool=False, fmi_version: Any=2, embed_python: bool=False) -> Any:
+def build_all(
+    out_dir: Any,
+    names: Any = None,
+    null: bool = False,
+    fmi_version: Any = 2,
+    embed_python: bool = False,
+) -> Any:
     """Build the named models (default: all of MODELS); return the FMU paths.
 
     null=True builds their null variants (``<name>Null.fmu``, see build_model).
@@ -286,14 +343,22 @@ def build_all(out_dir: Any, names: Any=None, null: bool=False, fmi_version: Any=
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="mechfmu_build_", dir=out_dir) as temp:
         loader = compile_loader(Path(temp) / "c_loader", fmi_version=fmi_version)
-        print(f"C loader: {loader[1]}" if loader[0] is not None else
-              f"C loader not built: {loader[1]}; the FMUs keep pythonfmu's plain binary")
+        print(
+            f"C loader: {loader[1]}"
+            if loader[0] is not None
+            else f"C loader not built: {loader[1]}; the FMUs keep pythonfmu's plain binary"
+        )
         embed = None
         if embed_python:
             from .embed import EmbeddedPython
+
             if loader[0] is None:
-                raise RuntimeError("--embed-python needs the C loader, which starts the "
-                                   f"embedded runtime: {loader[1]}")
+                raise RuntimeError(
+                    "--embed-python needs the C loader, which starts the "
+                    f"embedded runtime: {loader[1]}"
+                )
             embed = EmbeddedPython.of_this_interpreter()
-        return [build_model(name, out_dir, Path(temp), null, loader, fmi_version, embed)
-                for name in (names or MODELS)]
+        return [
+            build_model(name, out_dir, Path(temp), null, loader, fmi_version, embed)
+            for name in (names or MODELS)
+        ]

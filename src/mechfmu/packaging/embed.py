@@ -35,11 +35,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 PREFIX = "resources/python"  # the FMU's own Python prefix (the C loader's first folder)
-ALWAYS = ("encodings",)      # packages shipped whole (see the module docstring)
+ALWAYS = ("encodings",)  # packages shipped whole (see the module docstring)
 
 # Run by the base interpreter in a fresh process: argv = resources folder, class name. It
 # uses nothing but builtins and sys until it prints, so its own imports add nothing.
-TRACE_DRIVER = r'''
+TRACE_DRIVER = r"""
 import sys
 resources, class_name = sys.argv[1], sys.argv[2]
 sys.path.insert(0, resources)
@@ -72,15 +72,18 @@ for name, module in list(sys.modules.items()):
     spec = getattr(module, "__spec__", None)
     found.append((name, getattr(module, "__file__", None), getattr(spec, "origin", None)))
 sys.stdout.write(repr(found))
-'''
+"""
 
 
 def _strip(source: Path, target: Path) -> None:
     """Copy a shared library, without its debug symbols when ``strip`` is there."""
     strip = shutil.which("strip")
     if strip is not None:
-        done = subprocess.run([strip, "--strip-unneeded", "-o", str(target), str(source)],
-                              capture_output=True, text=True)
+        done = subprocess.run(
+            [strip, "--strip-unneeded", "-o", str(target), str(source)],
+            capture_output=True,
+            text=True,
+        )
         if done.returncode == 0:
             return
     shutil.copyfile(source, target)
@@ -90,8 +93,13 @@ def _compiled(source: Path, relative: str, folder: Path) -> bytes:
     """The .pyc bytes of a standard-library module, its tracebacks naming ``relative``
     (unchecked hash: the FMU carries no source to compare with)."""
     target = Path(folder) / "compiled.pyc"
-    py_compile.compile(str(source), cfile=str(target), dfile=relative, doraise=True,
-                       invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
+    py_compile.compile(
+        str(source),
+        cfile=str(target),
+        dfile=relative,
+        doraise=True,
+        invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH,
+    )
     return target.read_bytes()
 
 
@@ -99,11 +107,11 @@ def _compiled(source: Path, relative: str, folder: Path) -> bytes:
 class EmbeddedPython:
     """The runtime of the interpreter running the build: what an FMU needs to carry."""
 
-    version: str        # major.minor, e.g. "3.11"
-    library: Path       # its libpython3.x.so.1.0
-    stdlib: Path        # lib/python3.x
-    dynload: Path       # lib/python3.x/lib-dynload
-    executable: Path    # the base interpreter (not a venv's), for the trace
+    version: str  # major.minor, e.g. "3.11"
+    library: Path  # its libpython3.x.so.1.0
+    stdlib: Path  # lib/python3.x
+    dynload: Path  # lib/python3.x/lib-dynload
+    executable: Path  # the base interpreter (not a venv's), for the trace
 
     @classmethod
     def of_this_interpreter(cls) -> "EmbeddedPython":
@@ -113,15 +121,24 @@ class EmbeddedPython:
         soname = sysconfig.get_config_var("INSTSONAME") or ""
         library = libdir / soname
         if ".so" not in soname or not library.is_file():
-            raise RuntimeError(f"--embed-python needs a Python built with a shared library "
-                               f"(--enable-shared); this one ({sys.executable}) has none at "
-                               f"{library}")
+            raise RuntimeError(
+                f"--embed-python needs a Python built with a shared library "
+                f"(--enable-shared); this one ({sys.executable}) has none at "
+                f"{library}"
+            )
         if sysconfig.get_config_var("Py_GIL_DISABLED"):
-            raise RuntimeError("--embed-python: a free-threaded Python cannot run pythonfmu's "
-                               "library; build with the default (GIL) build")
+            raise RuntimeError(
+                "--embed-python: a free-threaded Python cannot run pythonfmu's "
+                "library; build with the default (GIL) build"
+            )
         executable = Path(getattr(sys, "_base_executable", "") or sys.executable)
-        return cls(version, library, Path(sysconfig.get_paths()["stdlib"]),
-                   Path(sysconfig.get_config_var("DESTSHARED")), executable)
+        return cls(
+            version,
+            library,
+            Path(sysconfig.get_paths()["stdlib"]),
+            Path(sysconfig.get_config_var("DESTSHARED")),
+            executable,
+        )
 
     @property
     def zip_name(self) -> str:
@@ -137,9 +154,19 @@ class EmbeddedPython:
             description = (Path(folder) / "modelDescription.xml").read_text()
             class_name = description.split('modelName="', 1)[1].split('"', 1)[0]
             done = subprocess.run(
-                [str(self.executable), "-I", "-c", TRACE_DRIVER,
-                 str(Path(folder) / "resources"), class_name],
-                capture_output=True, text=True, cwd=folder, timeout=300)
+                [
+                    str(self.executable),
+                    "-I",
+                    "-c",
+                    TRACE_DRIVER,
+                    str(Path(folder) / "resources"),
+                    class_name,
+                ],
+                capture_output=True,
+                text=True,
+                cwd=folder,
+                timeout=300,
+            )
         if done.returncode != 0:
             raise RuntimeError(f"tracing the imports of {fmu} failed: {done.stderr[-2000:]}")
         pure, extensions = {}, {}
@@ -149,8 +176,11 @@ class EmbeddedPython:
             path = Path(file)
             if path.parent == self.dynload:
                 extensions[name] = path
-            elif path.suffix == ".py" and self.stdlib in path.parents \
-                    and "site-packages" not in path.parts:
+            elif (
+                path.suffix == ".py"
+                and self.stdlib in path.parents
+                and "site-packages" not in path.parts
+            ):
                 pure[name] = path
         return pure, extensions
 
@@ -175,13 +205,16 @@ class EmbeddedPython:
         with zipfile.ZipFile(stdlib_zip, "w", zipfile.ZIP_STORED) as archive:
             for source in sorted(set(pure.values())):
                 relative = source.relative_to(self.stdlib)
-                entry = zipfile.ZipInfo(relative.with_suffix(".pyc").as_posix(),
-                                        (2020, 1, 1, 0, 0, 0))
+                entry = zipfile.ZipInfo(
+                    relative.with_suffix(".pyc").as_posix(), (2020, 1, 1, 0, 0, 0)
+                )
                 archive.writestr(entry, _compiled(source, relative.as_posix(), folder))
         files = {f"{PREFIX}/lib/{self.zip_name}": stdlib_zip.read_bytes()}
         shared = [(self.library, f"{PREFIX}/lib/{self.library.name}")]
-        shared += [(path, f"{PREFIX}/lib/python{self.version}/lib-dynload/{path.name}")
-                   for path in sorted(extensions.values())]
+        shared += [
+            (path, f"{PREFIX}/lib/python{self.version}/lib-dynload/{path.name}")
+            for path in sorted(extensions.values())
+        ]
         for source, member in shared:
             target = folder / Path(member).name
             _strip(source, target)

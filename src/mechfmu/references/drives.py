@@ -14,7 +14,15 @@ from typing import Any
 TIME_SNAP = 1e-9
 
 
-def rotation(times: float | ndarray, initial_angle: float, initial_speed: float, speed: float, ramp_time: float, start_time: float=0.0, ratio: float=1.0) -> dict[str, Any]:
+def rotation(
+    times: float | ndarray,
+    initial_angle: float,
+    initial_speed: float,
+    speed: float,
+    ramp_time: float,
+    start_time: float = 0.0,
+    ratio: float = 1.0,
+) -> dict[str, Any]:
     """Columns 'angle', 'speed', 'acceleration' at ``times``; speeds scaled by ``ratio``
     (0.5 for a camshaft driven from the crankshaft speeds)."""
     t = np.asarray(times, dtype=float) - start_time
@@ -22,8 +30,13 @@ def rotation(times: float | ndarray, initial_angle: float, initial_speed: float,
     if ramp_time > 0.0:
         during = np.clip(t, 0.0, ramp_time)
         slope = (w1 - w0) / ramp_time
-        angle = (initial_angle + w0 * np.minimum(t, 0.0) + w0 * during
-                 + 0.5 * slope * during ** 2 + w1 * np.maximum(t - ramp_time, 0.0))
+        angle = (
+            initial_angle
+            + w0 * np.minimum(t, 0.0)
+            + w0 * during
+            + 0.5 * slope * during**2
+            + w1 * np.maximum(t - ramp_time, 0.0)
+        )
         # The acceleration jumps at both ends of the ramp: a sample within TIME_SNAP of the
         # ramp time of an end counts as that end, as in runtime/physics/profiles.rotation,
         # so the classification does not hinge on how the sample time was rounded.

@@ -53,10 +53,13 @@ def dynamics_model(values: Any) -> Any:
 def stroke_crossings(dynamics: Any) -> Any:
     """Terminal solve_ivp events: the piston length through stroke_max, through stroke_min
     (the integration restarts at each, as the FMU's does at the kink)."""
+
     def crossing(limit: Any):
         def event(t: float, y: Any):
             return dynamics.piston_length(y) - limit
+
         return ivp_event(event, terminal=True)
+
     low, high = dynamics.stroke
     return [crossing(high), crossing(low)]
 
@@ -69,12 +72,18 @@ def simulate(values: Any, times: Any) -> Any:
     pieces: list = []
     events: dict[str, list[float]] = {"stroke_max": [], "stroke_min": []}
     for _ in range(10_000):
-        solution = solve_ivp(rhs, (t, times[-1]), y, method="Radau", rtol=TOLERANCE,
-                             atol=TOLERANCE, dense_output=True,
-                             events=stroke_crossings(dynamics))
+        solution = solve_ivp(
+            rhs,
+            (t, times[-1]),
+            y,
+            method="Radau",
+            rtol=TOLERANCE,
+            atol=TOLERANCE,
+            dense_output=True,
+            events=stroke_crossings(dynamics),
+        )
         if solution.status == -1:
-            raise RuntimeError(f"gear reference: Radau failed at t = {t!r} s: "
-                               f"{solution.message}")
+            raise RuntimeError(f"gear reference: Radau failed at t = {t!r} s: {solution.message}")
         pieces.append((t, float(solution.t[-1]), solution.sol))
         start_length = dynamics.piston_length(list(y))
         t, y = float(solution.t[-1]), solution.y[:, -1]
@@ -91,11 +100,14 @@ def simulate(values: Any, times: Any) -> Any:
         if len(solution.t_events[1]) and start_length > low + surface:
             events["stroke_min"].append(t)
         t_next = min(t + STEP_OFF, times[-1])  # step off the surface so it does not refire
-        step = solve_ivp(rhs, (t, t_next), y, method="DOP853", rtol=TOLERANCE, atol=TOLERANCE,
-                         dense_output=True)
+        step = solve_ivp(
+            rhs, (t, t_next), y, method="DOP853", rtol=TOLERANCE, atol=TOLERANCE, dense_output=True
+        )
         if step.status == -1:
-            raise RuntimeError(f"gear reference: the step off the stroke surface at "
-                               f"t = {t!r} s failed: {step.message}")
+            raise RuntimeError(
+                f"gear reference: the step off the stroke surface at "
+                f"t = {t!r} s failed: {step.message}"
+            )
         pieces.append((t, t_next, step.sol))
         t, y = t_next, step.y[:, -1]
     else:

@@ -42,7 +42,13 @@ def design_geometry(retracted_length: float, extended_length: float) -> tuple[fl
     return d, h, theta_1
 
 
-def gear_from_piston(x: float | list[float] | ndarray, xdot: float | ndarray, xddot: float | ndarray, d: float, h: float) -> tuple:
+def gear_from_piston(
+    x: float | list[float] | ndarray,
+    xdot: float | ndarray,
+    xddot: float | ndarray,
+    d: float,
+    h: float,
+) -> tuple:
     """Gear angle, angular velocity and angular acceleration for a piston motion.
 
     theta = arccos((h^2 + d^2 - x^2) / (2 d h)); differentiating the law of cosines once,
@@ -58,7 +64,9 @@ def gear_from_piston(x: float | list[float] | ndarray, xdot: float | ndarray, xd
     return theta, omega, alpha
 
 
-def piston_from_gear(theta: ndarray, omega: float | ndarray, alpha: float | ndarray, d: float, h: float) -> tuple[ndarray, ndarray, ndarray]:
+def piston_from_gear(
+    theta: ndarray, omega: float | ndarray, alpha: float | ndarray, d: float, h: float
+) -> tuple[ndarray, ndarray, ndarray]:
     """Piston length, speed and acceleration for a gear-angle motion.
 
     x = sqrt(h^2 + d^2 - 2 d h cos(theta)), xdot = d h sin(theta) omega / x,
@@ -69,12 +77,18 @@ def piston_from_gear(theta: ndarray, omega: float | ndarray, alpha: float | ndar
     with np.errstate(invalid="ignore", divide="ignore"):
         x = np.sqrt(h * h + d * d - 2.0 * d * h * np.cos(theta))
         xdot = d * h * np.sin(theta) * omega / x
-        xddot = (d * h * (np.cos(theta) * omega * omega + np.sin(theta) * alpha)
-                 - xdot * xdot) / x
+        xddot = (d * h * (np.cos(theta) * omega * omega + np.sin(theta) * alpha) - xdot * xdot) / x
     return x, xdot, xddot
 
 
-def stroke(t: float | list[float] | ndarray, start_extension: float, end_extension: float, stroke_time: float, profile: str, start_time: float=0.0) -> tuple[ndarray, ndarray, ndarray]:
+def stroke(
+    t: float | list[float] | ndarray,
+    start_extension: float,
+    end_extension: float,
+    stroke_time: float,
+    profile: str,
+    start_time: float = 0.0,
+) -> tuple[ndarray, ndarray, ndarray]:
     """Piston extension, speed and acceleration of a stroke at times ``t`` (arrays).
 
     tau = (t - start_time) / stroke_time. Before the stroke x holds start_extension, after it
@@ -110,7 +124,15 @@ def stroke(t: float | list[float] | ndarray, start_extension: float, end_extensi
     return x, speed, accel
 
 
-def retraction(t: ndarray, d: float, h: float, start_extension: float, end_extension: float, stroke_time: float, profile: str) -> dict[str, ndarray]:
+def retraction(
+    t: ndarray,
+    d: float,
+    h: float,
+    start_extension: float,
+    end_extension: float,
+    stroke_time: float,
+    profile: str,
+) -> dict[str, ndarray]:
     """Piston-driven retraction sampled at times ``t``: a dict of column arrays.
 
     Columns: piston_extension, piston_speed, piston_acceleration (from ``stroke``, starting at

@@ -57,8 +57,16 @@ def _broadcast(*values: Any) -> tuple[ndarray, ...]:
     return np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in values))
 
 
-def four_bar(ground: float, crank: float, coupler: float, rocker: float, circuit: int, crank_angle: float | ndarray, crank_speed: float,
-             crank_acceleration: float) -> dict[str, ndarray | float]:
+def four_bar(
+    ground: float,
+    crank: float,
+    coupler: float,
+    rocker: float,
+    circuit: int,
+    crank_angle: float | ndarray,
+    crank_speed: float,
+    crank_acceleration: float,
+) -> dict[str, ndarray | float]:
     """Four-bar motion for arrays of crank angle, speed and acceleration.
 
     Returns a dict of arrays: coupler_angle, rocker_angle, coupler_angular_velocity,
@@ -70,7 +78,7 @@ def four_bar(ground: float, crank: float, coupler: float, rocker: float, circuit
     d, a, b, c = (float(v) for v in (ground, crank, coupler, rocker))
     t2, w2, al2 = _broadcast(crank_angle, crank_speed, crank_acceleration)
     ax, ay = a * np.cos(t2), a * np.sin(t2)
-    dx, dy = d - ax, -ay                      # diagonal A -> O4
+    dx, dy = d - ax, -ay  # diagonal A -> O4
     f = np.hypot(dx, dy)
     phi = np.arctan2(dy, dx)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -87,15 +95,19 @@ def four_bar(ground: float, crank: float, coupler: float, rocker: float, circuit
         s4, c4 = np.sin(t4), np.cos(t4)
         # d/dt of a e^(i t2) + b e^(i t3) - c e^(i t4) = d, real and imaginary parts:
         #   -b s3 w3 + c s4 w4 = a s2 w2,   b c3 w3 - c c4 w4 = -a c2 w2
-        matrix = np.stack([np.stack([-b * s3, c * s4], axis=-1),
-                           np.stack([b * c3, -c * c4], axis=-1)], axis=-2)
+        matrix = np.stack(
+            [np.stack([-b * s3, c * s4], axis=-1), np.stack([b * c3, -c * c4], axis=-1)], axis=-2
+        )
         rates = _solve_stacked(matrix, np.stack([a * s2 * w2, -a * c2 * w2], axis=-1))
         w3, w4 = rates[..., 0], rates[..., 1]
         # second derivative: the same matrix acting on (al3, al4)
-        rhs = np.stack([
-            a * s2 * al2 + a * c2 * w2 ** 2 + b * c3 * w3 ** 2 - c * c4 * w4 ** 2,
-            -a * c2 * al2 + a * s2 * w2 ** 2 + b * s3 * w3 ** 2 - c * s4 * w4 ** 2,
-        ], axis=-1)
+        rhs = np.stack(
+            [
+                a * s2 * al2 + a * c2 * w2**2 + b * c3 * w3**2 - c * c4 * w4**2,
+                -a * c2 * al2 + a * s2 * w2**2 + b * s3 * w3**2 - c * s4 * w4**2,
+            ],
+            axis=-1,
+        )
         accelerations = _solve_stacked(matrix, rhs)
     return {
         "coupler_angle": _wrap(t3),
@@ -108,7 +120,15 @@ def four_bar(ground: float, crank: float, coupler: float, rocker: float, circuit
     }
 
 
-def slider_crank(crank: float, coupler: float, offset: float, circuit: int, crank_angle: ndarray, crank_speed: float, crank_acceleration: float) -> dict[str, ndarray]:
+def slider_crank(
+    crank: float,
+    coupler: float,
+    offset: float,
+    circuit: int,
+    crank_angle: ndarray,
+    crank_speed: float,
+    crank_acceleration: float,
+) -> dict[str, ndarray]:
     """Offset slider-crank motion for arrays of crank angle, speed and acceleration.
 
     Returns a dict of arrays: slider_position, slider_speed, slider_acceleration,
@@ -119,7 +139,7 @@ def slider_crank(crank: float, coupler: float, offset: float, circuit: int, cran
     a, b, e = float(crank), float(coupler), float(offset)
     t2, w2, al2 = _broadcast(crank_angle, crank_speed, crank_acceleration)
     ax, ay = a * np.cos(t2), a * np.sin(t2)
-    height = e - ay                            # y of B - A
+    height = e - ay  # y of B - A
     with np.errstate(invalid="ignore", divide="ignore"):
         reach = np.sqrt(b * b - height * height)
         s = ax + reach if circuit == 0 else ax - reach
@@ -129,14 +149,18 @@ def slider_crank(crank: float, coupler: float, offset: float, circuit: int, cran
         # d/dt of a e^(i t2) + b e^(i t3) = s + i offset, unknowns (w3, ds/dt):
         #   -b s3 w3 - sdot = a s2 w2,   b c3 w3 = -a c2 w2
         ones = np.ones_like(t3)
-        matrix = np.stack([np.stack([-b * s3, -ones], axis=-1),
-                           np.stack([b * c3, 0.0 * ones], axis=-1)], axis=-2)
+        matrix = np.stack(
+            [np.stack([-b * s3, -ones], axis=-1), np.stack([b * c3, 0.0 * ones], axis=-1)], axis=-2
+        )
         rates = _solve_stacked(matrix, np.stack([a * s2 * w2, -a * c2 * w2], axis=-1))
         w3, speed = rates[..., 0], rates[..., 1]
-        rhs = np.stack([
-            a * s2 * al2 + a * c2 * w2 ** 2 + b * c3 * w3 ** 2,
-            -a * c2 * al2 + a * s2 * w2 ** 2 + b * s3 * w3 ** 2,
-        ], axis=-1)
+        rhs = np.stack(
+            [
+                a * s2 * al2 + a * c2 * w2**2 + b * c3 * w3**2,
+                -a * c2 * al2 + a * s2 * w2**2 + b * s3 * w3**2,
+            ],
+            axis=-1,
+        )
         accelerations = _solve_stacked(matrix, rhs)
     return {
         "slider_position": s,

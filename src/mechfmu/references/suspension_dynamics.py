@@ -36,49 +36,69 @@ TOLERANCE = 1e-12
 
 # --- exact source signals -------------------------------------------------------------------
 
-def load_signal(shape: Any, initial_value: Any, final_value: Any, start_time: float, duration: float) -> Any:
+
+def load_signal(
+    shape: Any, initial_value: Any, final_value: Any, start_time: float, duration: float
+) -> Any:
     """(W(t) vectorised, breakpoints) for a LoadProfile constant, step or ramp."""
     if shape == "constant":
         return (lambda t: np.full(np.shape(t), float(initial_value))), []
     if shape == "step":
-        return (lambda t: np.where(np.asarray(t) >= start_time, final_value, initial_value)
-                .astype(float)), [start_time]
+        return (
+            lambda t: np.where(np.asarray(t) >= start_time, final_value, initial_value).astype(
+                float
+            )
+        ), [start_time]
     if shape == "ramp":
+
         def ramp(t: float):
             tau = np.clip((np.asarray(t, dtype=float) - start_time) / duration, 0.0, 1.0)
             return initial_value + (final_value - initial_value) * tau
+
         return ramp, [start_time, start_time + duration]
     raise ValueError(f"load shape {shape!r} is not covered by the dynamic reference")
 
 
-def road_signal(shape: Any, height: Any, duration: float, start_time: float, amplitude: Any, frequency: Any) -> Any:
+def road_signal(
+    shape: Any, height: Any, duration: float, start_time: float, amplitude: Any, frequency: Any
+) -> Any:
     """(r(t) -> (r, r', r'') vectorised, breakpoints) for a RoadProfile step, bump or sine."""
     if shape == "bump":
+
         def bump(t: Any):
             t = np.asarray(t, dtype=float)
             phase = (t - start_time) / duration
             inside = (phase > 0.0) & (phase < 1.0)
             angle = 2.0 * np.pi * phase
             w = np.pi / duration
-            return (np.where(inside, 0.5 * height * (1.0 - np.cos(angle)), 0.0),
-                    np.where(inside, height * w * np.sin(angle), 0.0),
-                    np.where(inside, 2.0 * height * w * w * np.cos(angle), 0.0))
+            return (
+                np.where(inside, 0.5 * height * (1.0 - np.cos(angle)), 0.0),
+                np.where(inside, height * w * np.sin(angle), 0.0),
+                np.where(inside, 2.0 * height * w * w * np.cos(angle), 0.0),
+            )
+
         return bump, [start_time, start_time + duration]
     if shape == "sine":
+
         def sine(t: Any):
             t = np.asarray(t, dtype=float)
             on = t >= start_time
             w = 2.0 * np.pi * frequency
             angle = w * (t - start_time)
-            return (np.where(on, amplitude * np.sin(angle), 0.0),
-                    np.where(on, amplitude * w * np.cos(angle), 0.0),
-                    np.where(on, -amplitude * w * w * np.sin(angle), 0.0))
+            return (
+                np.where(on, amplitude * np.sin(angle), 0.0),
+                np.where(on, amplitude * w * np.cos(angle), 0.0),
+                np.where(on, -amplitude * w * w * np.sin(angle), 0.0),
+            )
+
         return sine, [start_time]
     if shape == "step":
+
         def kerb(t: Any):
             t = np.asarray(t, dtype=float)
             zero = np.zeros_like(t)
             return np.where(t >= start_time, height, 0.0), zero, zero
+
         return kerb, [start_time]
     raise ValueError(f"road shape {shape!r} is not covered by the dynamic reference")
 
@@ -90,6 +110,7 @@ def no_road(t: float) -> Any:
 
 # --- the equations ----------------------------------------------------------------------------
 
+
 class System:
     """The suspension's state equations for given parameters and signals.
 
@@ -97,7 +118,9 @@ class System:
     base), or r(t) as above.
     """
 
-    def __init__(self, spring: Any, mass: Any, damping: Any, tyre: Any, load: Any, road: Any) -> None:
+    def __init__(
+        self, spring: Any, mass: Any, damping: Any, tyre: Any, load: Any, road: Any
+    ) -> None:
         self.L, self.k, self.d = spring
         self.m, self.c, self.tyre = mass, damping, tyre
         self.load, self.road = load, road
@@ -159,18 +182,31 @@ class System:
         tangent = statics.tangent_stiffness(u, L, k, d)
         stable, marginal = statics.stability(tangent, k)
         return {
-            "deflection": u, "velocity": dy - dz, "acceleration": ddy - ddz,
-            "sprung_displacement": y, "unsprung_displacement": z, "tyre_force": tyre_force,
+            "deflection": u,
+            "velocity": dy - dz,
+            "acceleration": ddy - ddz,
+            "sprung_displacement": y,
+            "unsprung_displacement": z,
+            "tyre_force": tyre_force,
             "spring_force": statics.spring_force(u, L, k, d),
             "secant_stiffness": statics.secant_stiffness(u, L, k, d),
-            "tangent_stiffness": tangent, "stable": stable,
+            "tangent_stiffness": tangent,
+            "stable": stable,
             "marginal": marginal,
             "kinetic_energy": 0.5 * self.m * dy * dy + kinetic_extra,
             "potential_energy": k * stretch * stretch - W * y + potential_extra,
         }
 
 
-def simulate(system: Any, times: Any, u0: Any, du0: Any, breakpoints: Any=(), method: str="DOP853", max_step: Any=np.inf) -> Any:
+def simulate(
+    system: Any,
+    times: Any,
+    u0: Any,
+    du0: Any,
+    breakpoints: Any = (),
+    method: str = "DOP853",
+    max_step: Any = np.inf,
+) -> Any:
     """Integrate ``system`` over ``times`` (sorted samples, the first the start time).
 
     Returns (columns at the samples, snap-through times). Integration restarts at each
@@ -196,9 +232,17 @@ def simulate(system: Any, times: Any, u0: Any, du0: Any, breakpoints: Any=(), me
     states = np.empty((state.size, times.size))
     crossings = []
     for a, b in zip(edges[:-1], edges[1:]):
-        solution = solve_ivp(system, (a, b), state, method=method, rtol=TOLERANCE,
-                             atol=TOLERANCE, dense_output=True, events=(up, down),
-                             max_step=max_step)
+        solution = solve_ivp(
+            system,
+            (a, b),
+            state,
+            method=method,
+            rtol=TOLERANCE,
+            atol=TOLERANCE,
+            dense_output=True,
+            events=(up, down),
+            max_step=max_step,
+        )
         if solution.status != 0:
             raise RuntimeError(f"solve_ivp failed on [{a}, {b}]: {solution.message}")
         inside = (times >= a) & (times <= b)
@@ -208,8 +252,9 @@ def simulate(system: Any, times: Any, u0: Any, du0: Any, breakpoints: Any=(), me
         state = solution.y[:, -1]
     columns = system.columns(times, states)
     u = columns["deflection"]
-    columns["branch"] = np.where(u < near_end, NEAR, np.where(u > far_start, FAR, BETWEEN)
-                                 ).astype(float)
+    columns["branch"] = np.where(u < near_end, NEAR, np.where(u > far_start, FAR, BETWEEN)).astype(
+        float
+    )
     side = NEAR if u0 <= h else FAR
     snaps = []
     for t, target in sorted(crossings):
@@ -220,15 +265,25 @@ def simulate(system: Any, times: Any, u0: Any, du0: Any, breakpoints: Any=(), me
     flags = np.zeros(times.size)
     flags[index] = 1.0
     columns["snap_through"] = flags
-    columns["snap_through_count"] = np.cumsum(np.bincount(index, minlength=times.size)
-                                              ).astype(float)
+    columns["snap_through_count"] = np.cumsum(np.bincount(index, minlength=times.size)).astype(
+        float
+    )
     return columns, snaps
 
 
 # --- a scene's reference -------------------------------------------------------------------------
 
-def scene_columns(times: Any, load_name: Any, load: Any, suspension_name: Any, parameters: Any, road_name: Any=None,
-                  road: Any=None, record: Any=None) -> Any:
+
+def scene_columns(
+    times: Any,
+    load_name: Any,
+    load: Any,
+    suspension_name: Any,
+    parameters: Any,
+    road_name: Any = None,
+    road: Any = None,
+    record: Any = None,
+) -> Any:
     """Reference columns ('component.variable') of a LoadProfile [-> RoadProfile] ->
     Suspension scene with the dynamics effect, from the components' parameters (scene values
     over the models' defaults). Only the recorded columns are returned when ``record`` is
@@ -237,18 +292,34 @@ def scene_columns(times: Any, load_name: Any, load: Any, suspension_name: Any, p
     p = parameters
     if not p["dynamics"]:
         raise ValueError("the dynamic reference needs the dynamics effect")
-    W, breaks = load_signal(load["shape"], load["initial_value"], load["final_value"],
-                            load["start_time"], load["duration"])
+    W, breaks = load_signal(
+        load["shape"],
+        load["initial_value"],
+        load["final_value"],
+        load["start_time"],
+        load["duration"],
+    )
     r = None
     if p["road_input"]:
         if road is None:
             raise ValueError("road_input needs a RoadProfile component")
-        r, road_breaks = road_signal(road["shape"], road["height"], road["duration"],
-                                     road["start_time"], road["amplitude"], road["frequency"])
+        r, road_breaks = road_signal(
+            road["shape"],
+            road["height"],
+            road["duration"],
+            road["start_time"],
+            road["amplitude"],
+            road["frequency"],
+        )
         breaks = breaks + road_breaks
-    system = System((p["spring_free_length"], p["spring_stiffness"], p["spring_base_offset"]),
-                    p["mass"], p["damping_coefficient"] if p["damping"] else 0.0,
-                    (p["tyre_stiffness"], p["unsprung_mass"]) if p["tyre"] else None, W, r)
+    system = System(
+        (p["spring_free_length"], p["spring_stiffness"], p["spring_base_offset"]),
+        p["mass"],
+        p["damping_coefficient"] if p["damping"] else 0.0,
+        (p["tyre_stiffness"], p["unsprung_mass"]) if p["tyre"] else None,
+        W,
+        r,
+    )
     times = np.asarray(times, dtype=float)
     columns, _ = simulate(system, times, p["initial_deflection"], p["initial_velocity"], breaks)
     named = {f"{suspension_name}.{key}": value for key, value in columns.items()}

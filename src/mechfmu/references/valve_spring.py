@@ -61,12 +61,25 @@ MAX_STEP = 1e-5
 # the same instant (rounding puts it at ~1e-11 N: 1e8 N/m times 1e-19 m)
 NEAR_ZERO = 1e-9
 ATOL = (1e-14, 1e-12, 1e-12)  # m, m/s, J
-COLUMNS = ("valve_lift", "valve_velocity", "valve_acceleration", "contact_force", "seat_force",
-           "spring_force", "penetration", "contact_lost", "float_events", "seat_impacts",
-           "kinetic_energy", "elastic_energy", "contact_work")
+COLUMNS = (
+    "valve_lift",
+    "valve_velocity",
+    "valve_acceleration",
+    "contact_force",
+    "seat_force",
+    "spring_force",
+    "penetration",
+    "contact_lost",
+    "float_events",
+    "seat_impacts",
+    "kinetic_energy",
+    "elastic_energy",
+    "contact_work",
+)
 
 
 # --- the drive --------------------------------------------------------------------------------
+
 
 class RockerDrive:
     """L(t), L'(t), L''(t) of the rocker's valve end, and the times where they lose
@@ -80,16 +93,29 @@ class RockerDrive:
 
     def rotation(self, t: float | ndarray) -> dict[str, Any]:
         s = self.shaft
-        return drives.rotation(t, s["initial_angle"], s["initial_speed"], s["speed"],
-                               s["ramp_time"], s["start_time"], ratio=0.5)
+        return drives.rotation(
+            t,
+            s["initial_angle"],
+            s["initial_speed"],
+            s["speed"],
+            s["ramp_time"],
+            s["start_time"],
+            ratio=0.5,
+        )
 
     def __call__(self, t: float | ndarray) -> tuple:
         p = self.train
         shaft = self.rotation(t)
         w, alpha = shaft["speed"], shaft["acceleration"]
-        s, s1, s2 = valve_train.cam_lift(p["cam_law"], p["lift"], p["rise_start"],
-                                         p["rise_angle"], p["high_dwell_angle"],
-                                         p["return_angle"], shaft["angle"])
+        s, s1, s2 = valve_train.cam_lift(
+            p["cam_law"],
+            p["lift"],
+            p["rise_start"],
+            p["rise_angle"],
+            p["high_dwell_angle"],
+            p["return_angle"],
+            shaft["angle"],
+        )
         motion = self.solve(self.geometry, s, s1 * w, s2 * w * w + s1 * alpha)
         return motion["valve_lift"], motion["valve_velocity"], motion["valve_acceleration"]
 
@@ -101,13 +127,22 @@ class RockerDrive:
         found = [t for t in (s["start_time"], s["start_time"] + s["ramp_time"]) if t0 < t < t1]
         angles = self.rotation(times)["angle"]
         edges = np.cumsum([0.0, p["rise_angle"], p["high_dwell_angle"], p["return_angle"]])
-        turns = np.arange(np.floor((angles[0] - p["rise_start"]) / (2 * np.pi)) - 1,
-                          np.ceil((angles[-1] - p["rise_start"]) / (2 * np.pi)) + 1)
+        turns = np.arange(
+            np.floor((angles[0] - p["rise_start"]) / (2 * np.pi)) - 1,
+            np.ceil((angles[-1] - p["rise_start"]) / (2 * np.pi)) + 1,
+        )
         for target in (p["rise_start"] + 2 * np.pi * turns[:, None] + edges).ravel():
             i = np.searchsorted(angles, target)
             if 0 < i < len(times):
-                found.append(brentq(lambda t: float(self.rotation(t)["angle"]) - target,
-                                    times[i - 1], times[i], xtol=1e-15, rtol=1e-15))
+                found.append(
+                    brentq(
+                        lambda t: float(self.rotation(t)["angle"]) - target,
+                        times[i - 1],
+                        times[i],
+                        xtol=1e-15,
+                        rtol=1e-15,
+                    )
+                )
         return sorted(set(found))
 
     def piece(self, a: float, b: float) -> Callable:
@@ -122,8 +157,10 @@ class RockerDrive:
         values = np.array(self(inside))  # (3, count + 1)
         h = (b - a) / count
         # conditions on the unit interval: p, p', p'' at s = 0 and s = 1, scaled by h^k
-        scaled = np.vstack([values[:, :-1], values[:, 1:]]) * np.array(
-            [1.0, h, h * h, 1.0, h, h * h])[:, None]
+        scaled = (
+            np.vstack([values[:, :-1], values[:, 1:]])
+            * np.array([1.0, h, h * h, 1.0, h, h * h])[:, None]
+        )
         coefficients = (_UNIT_QUINTIC @ scaled).T  # (count, 6), powers of s
         rows = [tuple(row) for row in coefficients]
         first = [tuple(row[1:] * np.arange(1, 6)) for row in coefficients]
@@ -134,8 +171,8 @@ class RockerDrive:
             position = (t - a) / h
             i = min(max(int(position), 0), last)
             u = position - i
-            return (_horner(rows[i], u), _horner(first[i], u) / h,
-                    _horner(second[i], u) / (h * h))
+            return (_horner(rows[i], u), _horner(first[i], u) / h, _horner(second[i], u) / (h * h))
+
         return drive
 
 
@@ -152,10 +189,11 @@ def _unit_quintic() -> ndarray:
     powers = np.arange(6)
     rows = []
     for s in (0.0, 1.0):
-        rows.append(s ** powers)
+        rows.append(s**powers)
         rows.append(np.where(powers >= 1, powers * s ** np.maximum(powers - 1, 0), 0.0))
-        rows.append(np.where(powers >= 2, powers * (powers - 1) * s ** np.maximum(powers - 2, 0),
-                             0.0))
+        rows.append(
+            np.where(powers >= 2, powers * (powers - 1) * s ** np.maximum(powers - 2, 0), 0.0)
+        )
     return np.linalg.inv(np.array(rows))
 
 
@@ -163,6 +201,7 @@ _UNIT_QUINTIC = _unit_quintic()
 
 
 # --- the valve, by contact modes ---------------------------------------------------------------
+
 
 class Valve:
     """The equations for ValveSpring parameters ``p`` (a mapping); ``drive`` arguments are
@@ -191,8 +230,10 @@ class Valve:
         x, v = state[0], state[1]
         L, rate, _ = drive(t)
         d = L - x - self.lash
-        return (min(self.kc * d, self.kc * d + self.cc * (rate - v)),
-                min(-self.ks * x, -self.ks * x - self.cs * v))
+        return (
+            min(self.kc * d, self.kc * d + self.cc * (rate - v)),
+            min(-self.ks * x, -self.ks * x - self.cs * v),
+        )
 
     def other_mode(self, which: Any, t: float, state: Any, drive: Any, engaged: Any) -> Any:
         """Mode of contact ``which`` (0 rocker, 1 seat) at an event of the other one.
@@ -219,16 +260,26 @@ class Valve:
         contact = np.where(d > 0.0, np.maximum(contact, 0.0), 0.0)
         seat = np.where(x < 0.0, np.maximum(seat, 0.0), 0.0)
         spring = self.f0 + self.k * x
-        elastic = (self.f0 * x + 0.5 * self.k * x * x
-                   + 0.5 * self.kc * np.where(d > 0.0, d, 0.0) ** 2
-                   + 0.5 * self.ks * np.where(x < 0.0, x, 0.0) ** 2)
+        elastic = (
+            self.f0 * x
+            + 0.5 * self.k * x * x
+            + 0.5 * self.kc * np.where(d > 0.0, d, 0.0) ** 2
+            + 0.5 * self.ks * np.where(x < 0.0, x, 0.0) ** 2
+        )
         lost = (d <= 0.0) & (L - self.lash > 0.0)
-        return {"valve_lift": x, "valve_velocity": v,
-                "valve_acceleration": (contact + seat - spring) / self.m,
-                "contact_force": contact, "seat_force": seat, "spring_force": spring,
-                "penetration": d, "contact_lost": lost.astype(float),
-                "kinetic_energy": 0.5 * self.m * v * v, "elastic_energy": elastic,
-                "contact_work": work}
+        return {
+            "valve_lift": x,
+            "valve_velocity": v,
+            "valve_acceleration": (contact + seat - spring) / self.m,
+            "contact_force": contact,
+            "seat_force": seat,
+            "spring_force": spring,
+            "penetration": d,
+            "contact_lost": lost.astype(float),
+            "kinetic_energy": 0.5 * self.m * v * v,
+            "elastic_energy": elastic,
+            "contact_work": work,
+        }
 
     def equilibrium(self, t: float, drive: Any) -> Any:
         """(x, v, W) at rest on the drive: the force balance with v = L', by trying the four
@@ -237,8 +288,7 @@ class Valve:
         for contact_on in (True, False):
             for seat_on in (True, False):
                 stiffness = self.k + self.kc * contact_on + self.ks * seat_on
-                force = (-self.f0 + self.kc * (L - self.lash) * contact_on
-                         - self.cs * rate * seat_on)
+                force = -self.f0 + self.kc * (L - self.lash) * contact_on - self.cs * rate * seat_on
                 state = np.array([force / stiffness, rate, 0.0])
                 engaged = tuple(value > 0.0 for value in self.switches(t, state, drive))
                 if engaged == (contact_on, seat_on):
@@ -269,13 +319,27 @@ def simulate(valve: Any, drive: Any, times: Any) -> Any:
         piece = drive.piece(a, b)
         t = a
         while t < b:
-            switch = [_event(lambda s, y, i=i: valve.switches(s, y, piece)[i],
-                             -1.0 if modes[i] else 1.0, True) for i in range(2)]
+            switch = [
+                _event(
+                    lambda s, y, i=i: valve.switches(s, y, piece)[i],
+                    -1.0 if modes[i] else 1.0,
+                    True,
+                )
+                for i in range(2)
+            ]
             separation = _event(lambda s, y: piece(s)[0] - y[0] - valve.lash, -1.0, False)
             engaged = tuple(modes)
-            solution = solve_ivp(lambda s, y: valve.rhs(s, y, piece, *engaged), (t, b), state,
-                                 method="DOP853", rtol=TOLERANCE, atol=ATOL, max_step=MAX_STEP,
-                                 dense_output=True, events=(*switch, separation))
+            solution = solve_ivp(
+                lambda s, y: valve.rhs(s, y, piece, *engaged),
+                (t, b),
+                state,
+                method="DOP853",
+                rtol=TOLERANCE,
+                atol=ATOL,
+                max_step=MAX_STEP,
+                dense_output=True,
+                events=(*switch, separation),
+            )
             if solution.status < 0:
                 raise RuntimeError(f"solve_ivp failed on [{t}, {b}]: {solution.message}")
             work["rhs"] += solution.nfev
@@ -290,8 +354,7 @@ def simulate(valve: Any, drive: Any, times: Any) -> Any:
                 fired = next(i for i in range(2) if len(solution.t_events[i]))
                 before = list(modes)
                 modes[fired] = not modes[fired]
-                modes[1 - fired] = valve.other_mode(1 - fired, end, state, piece,
-                                                    modes[1 - fired])
+                modes[1 - fired] = valve.other_mode(1 - fired, end, state, piece, modes[1 - fired])
                 if modes[1] and not before[1] and state[1] < 0.0:
                     impacts.append(end)
             t = end
@@ -306,8 +369,11 @@ def _floats(valve: Any, drive: Any, separations: Any, impacts: Any):
     for t, rocker_lift in separations:
         if rocker_lift - valve.lash <= 0.0:
             continue
-        landed = any(np.min(drive(np.linspace(t_i, t, 1001))[0]) - valve.lash > 0.0
-                     for t_i in impacts if t_i <= t)
+        landed = any(
+            np.min(drive(np.linspace(t_i, t, 1001))[0]) - valve.lash > 0.0
+            for t_i in impacts
+            if t_i <= t
+        )
         if not landed:
             floats.append(t)
     return floats
@@ -321,8 +387,7 @@ def scene_columns(times: Any, shaft: Any, train: Any, parameters: Any) -> Any:
     valve, drive = Valve(parameters), RockerDrive(shaft, train)
     states, separations, impacts, work = simulate(valve, drive, times)
     columns = valve.columns(times, states, drive)
-    columns["float_events"] = _cumulative_count(times, _floats(valve, drive, separations,
-                                                               impacts))
+    columns["float_events"] = _cumulative_count(times, _floats(valve, drive, separations, impacts))
     columns["seat_impacts"] = _cumulative_count(times, impacts)
     return {name: columns[name] for name in COLUMNS}, work
 
@@ -330,4 +395,4 @@ def scene_columns(times: Any, shaft: Any, train: Any, parameters: Any) -> Any:
 def _cumulative_count(times: Any, events: Any):
     """Events so far at each sample; sample i ends the step (t_{i-1}, t_i]."""
     index = np.searchsorted(times, events, side="left")
-    return np.cumsum(np.bincount(index, minlength=times.size)[:times.size]).astype(float)
+    return np.cumsum(np.bincount(index, minlength=times.size)[: times.size]).astype(float)

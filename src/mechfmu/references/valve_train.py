@@ -23,9 +23,17 @@ from numpy import ndarray
 from typing import Any
 
 CAM_LAWS = ("harmonic", "cycloidal", "polynomial_345", "polynomial_4567")
-MOTION_FIELDS = ("tappet_lift", "tappet_velocity", "tappet_acceleration", "rocker_angle",
-                 "rocker_angular_velocity", "rocker_angular_acceleration", "valve_lift",
-                 "valve_velocity", "valve_acceleration")
+MOTION_FIELDS = (
+    "tappet_lift",
+    "tappet_velocity",
+    "tappet_acceleration",
+    "rocker_angle",
+    "rocker_angular_velocity",
+    "rocker_angular_acceleration",
+    "valve_lift",
+    "valve_velocity",
+    "valve_acceleration",
+)
 
 # Expanded polynomial coefficients of f, lowest power first.
 _POLYNOMIALS = {
@@ -38,19 +46,29 @@ def normalized(law: str, x: float | ndarray) -> tuple:
     """(f, f', f'') of the normalized rise at x in [0, 1] (arrays)."""
     x = np.asarray(x, dtype=float)
     if law == "harmonic":
-        return ((1.0 - np.cos(np.pi * x)) / 2.0, np.pi / 2.0 * np.sin(np.pi * x),
-                np.pi ** 2 / 2.0 * np.cos(np.pi * x))
+        return (
+            (1.0 - np.cos(np.pi * x)) / 2.0,
+            np.pi / 2.0 * np.sin(np.pi * x),
+            np.pi**2 / 2.0 * np.cos(np.pi * x),
+        )
     if law == "cycloidal":
         angle = 2.0 * np.pi * x
-        return (x - np.sin(angle) / (2.0 * np.pi), 1.0 - np.cos(angle),
-                2.0 * np.pi * np.sin(angle))
+        return (x - np.sin(angle) / (2.0 * np.pi), 1.0 - np.cos(angle), 2.0 * np.pi * np.sin(angle))
     if law not in _POLYNOMIALS:
         raise ValueError(f"law = {law!r} is not one of {', '.join(CAM_LAWS)}")
     poly = np.polynomial.Polynomial(_POLYNOMIALS[law])
     return poly(x), poly.deriv(1)(x), poly.deriv(2)(x)
 
 
-def cam_lift(law: str, lift: float, rise_start: float, rise_angle: float, high_dwell_angle: float, return_angle: float, angle: float | list[float] | ndarray) -> tuple[ndarray, ndarray, ndarray]:
+def cam_lift(
+    law: str,
+    lift: float,
+    rise_start: float,
+    rise_angle: float,
+    high_dwell_angle: float,
+    return_angle: float,
+    angle: float | list[float] | ndarray,
+) -> tuple[ndarray, ndarray, ndarray]:
     """Follower lift s (m) and ds/dtheta, d2s/dtheta2 (m/rad, m/rad^2) at camshaft ``angle``.
 
     Segments closed on the left: rise [0, beta_r), high dwell, return, low dwell, measured
@@ -65,24 +83,45 @@ def cam_lift(law: str, lift: float, rise_start: float, rise_angle: float, high_d
     returning = (local >= return_start) & (local < return_end)
     f_r, f1_r, f2_r = normalized(law, np.clip(local / rise_angle, 0.0, 1.0))
     f_d, f1_d, f2_d = normalized(law, np.clip((local - return_start) / return_angle, 0.0, 1.0))
-    s = np.where(rising, lift * f_r, np.where(high, lift, np.where(returning, lift * (1.0 - f_d),
-                                                                    0.0)))
-    s1 = np.where(rising, lift * f1_r / rise_angle,
-                  np.where(returning, -lift * f1_d / return_angle, 0.0))
-    s2 = np.where(rising, lift * f2_r / rise_angle ** 2,
-                  np.where(returning, -lift * f2_d / return_angle ** 2, 0.0))
+    s = np.where(
+        rising, lift * f_r, np.where(high, lift, np.where(returning, lift * (1.0 - f_d), 0.0))
+    )
+    s1 = np.where(
+        rising, lift * f1_r / rise_angle, np.where(returning, -lift * f1_d / return_angle, 0.0)
+    )
+    s2 = np.where(
+        rising,
+        lift * f2_r / rise_angle**2,
+        np.where(returning, -lift * f2_d / return_angle**2, 0.0),
+    )
     return s, s1, s2
 
 
-GEOMETRY_FIELDS = ("cam_base_radius", "pushrod_length", "rocker_pivot_x", "rocker_pivot_y",
-                   "tappet_arm", "valve_arm", "valve_axis_x", "valve_link_length")
+GEOMETRY_FIELDS = (
+    "cam_base_radius",
+    "pushrod_length",
+    "rocker_pivot_x",
+    "rocker_pivot_y",
+    "tappet_arm",
+    "valve_arm",
+    "valve_axis_x",
+    "valve_link_length",
+)
 
 
 def _unpack(geometry: dict[str, float]) -> tuple[float, ...]:
     return tuple(float(geometry[key]) for key in GEOMETRY_FIELDS)
 
 
-def _circle_point(centre_x: float, centre_y: ndarray | float, radius: float, other_x: float, other_y: float, other_radius: float, sign: float) -> tuple:
+def _circle_point(
+    centre_x: float,
+    centre_y: ndarray | float,
+    radius: float,
+    other_x: float,
+    other_y: float,
+    other_radius: float,
+    sign: float,
+) -> tuple:
     """Intersection of circle (centre, radius) with circle (other, other_radius).
 
     sign = +1 takes the point to the left of the direction centre -> other, -1 to the right.
@@ -90,7 +129,7 @@ def _circle_point(centre_x: float, centre_y: ndarray | float, radius: float, oth
     dx, dy = other_x - centre_x, other_y - centre_y
     distance = np.hypot(dx, dy)
     ex, ey = dx / distance, dy / distance
-    along = (radius ** 2 - other_radius ** 2 + distance ** 2) / (2.0 * distance)
+    along = (radius**2 - other_radius**2 + distance**2) / (2.0 * distance)
     with np.errstate(invalid="ignore"):
         chord = np.sqrt((radius - along) * (radius + along))
     return centre_x + along * ex - sign * chord * ey, centre_y + along * ey + sign * chord * ex
@@ -108,7 +147,7 @@ def _y3_from_rocker(geometry: dict[str, float], phi: ndarray | float) -> ndarray
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     vx, vy = a + lv * np.cos(phi), b + lv * np.sin(phi)
     with np.errstate(invalid="ignore"):
-        return vy - np.sqrt(l3 ** 2 - (c - vx) ** 2)
+        return vy - np.sqrt(l3**2 - (c - vx) ** 2)
 
 
 def _rocker_from_y3(geometry: dict[str, float], y3: ndarray) -> ndarray:
@@ -123,7 +162,7 @@ def _y1_from_rocker(geometry: dict[str, float], phi: ndarray) -> ndarray:
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     tx, ty = a - lt * np.cos(phi), b - lt * np.sin(phi)
     with np.errstate(invalid="ignore"):
-        return ty - np.sqrt(l1 ** 2 - tx ** 2)
+        return ty - np.sqrt(l1**2 - tx**2)
 
 
 def closed_valve_position(geometry: dict[str, float]) -> float:
@@ -132,7 +171,9 @@ def closed_valve_position(geometry: dict[str, float]) -> float:
     return float(_y3_from_rocker(geometry, _rocker_from_y1(geometry, np.float64(r_b))))
 
 
-def _tappet_partials(geometry: dict[str, float], phi: ndarray | float, y1: ndarray | float) -> tuple:
+def _tappet_partials(
+    geometry: dict[str, float], phi: ndarray | float, y1: ndarray | float
+) -> tuple:
     """Partials of F = a cos(phi) + (b - y1) sin(phi) - (a^2 + (b - y1)^2 + lt^2 - L1^2)/(2 lt)."""
     r_b, l1, a, b, lt, lv, c, l3 = _unpack(geometry)
     w = b - y1
@@ -159,7 +200,9 @@ def _valve_partials(geometry: dict[str, float], phi: ndarray | float, y3: ndarra
     return h_p, h_y, h_pp, h_py, h_yy
 
 
-def _driven(partials: tuple, rate: float | ndarray, accel: float | ndarray, driver_is_phi: bool) -> tuple:
+def _driven(
+    partials: tuple, rate: float | ndarray, accel: float | ndarray, driver_is_phi: bool
+) -> tuple:
     """Rates of the driven variable of F(phi, y) = 0 from those of the driver.
 
     F_phi phi' + F_y y' = 0;  F_pp phi'^2 + 2 F_py phi' y' + F_yy y'^2 + F_phi phi'' + F_y y'' = 0.
@@ -168,57 +211,101 @@ def _driven(partials: tuple, rate: float | ndarray, accel: float | ndarray, driv
     with np.errstate(invalid="ignore", divide="ignore"):
         if driver_is_phi:
             y_rate = -f_p * rate / f_y
-            y_accel = -(f_pp * rate ** 2 + 2.0 * f_py * rate * y_rate + f_yy * y_rate ** 2
-                        + f_p * accel) / f_y
+            y_accel = (
+                -(f_pp * rate**2 + 2.0 * f_py * rate * y_rate + f_yy * y_rate**2 + f_p * accel)
+                / f_y
+            )
             return y_rate, y_accel
         phi_rate = -f_y * rate / f_p
-        phi_accel = -(f_pp * phi_rate ** 2 + 2.0 * f_py * phi_rate * rate + f_yy * rate ** 2
-                      + f_y * accel) / f_p
+        phi_accel = (
+            -(f_pp * phi_rate**2 + 2.0 * f_py * phi_rate * rate + f_yy * rate**2 + f_y * accel)
+            / f_p
+        )
         return phi_rate, phi_accel
 
 
-def forward(geometry: dict[str, float], tappet_lift: float | ndarray, tappet_velocity: float | ndarray, tappet_acceleration: float | ndarray) -> dict[str, ndarray | float]:
+def forward(
+    geometry: dict[str, float],
+    tappet_lift: float | ndarray,
+    tappet_velocity: float | ndarray,
+    tappet_acceleration: float | ndarray,
+) -> dict[str, ndarray | float]:
     """Rocker and valve motion for a tappet motion: dict of arrays keyed by MOTION_FIELDS.
 
     ``geometry``: mapping with the ValveGeometry field names (m).
     """
-    s, sd, sdd = (np.asarray(v, dtype=float) for v in
-                  (tappet_lift, tappet_velocity, tappet_acceleration))
+    s, sd, sdd = (
+        np.asarray(v, dtype=float) for v in (tappet_lift, tappet_velocity, tappet_acceleration)
+    )
     s, sd, sdd = np.broadcast_arrays(s, sd, sdd)
     y1 = float(geometry["cam_base_radius"]) + s
     phi = _rocker_from_y1(geometry, y1)
     y3 = _y3_from_rocker(geometry, phi)
     omega, alpha = _driven(_tappet_partials(geometry, phi, y1), sd, sdd, driver_is_phi=False)
-    y3_rate, y3_accel = _driven(_valve_partials(geometry, phi, y3), omega, alpha,
-                                driver_is_phi=True)
-    values = (s, sd, sdd, phi, omega, alpha, closed_valve_position(geometry) - y3,
-              -y3_rate, -y3_accel)
+    y3_rate, y3_accel = _driven(
+        _valve_partials(geometry, phi, y3), omega, alpha, driver_is_phi=True
+    )
+    values = (
+        s,
+        sd,
+        sdd,
+        phi,
+        omega,
+        alpha,
+        closed_valve_position(geometry) - y3,
+        -y3_rate,
+        -y3_accel,
+    )
     return dict(zip(MOTION_FIELDS, values))
 
 
-def inverse(geometry: dict[str, float], valve_lift: ndarray, valve_velocity: ndarray, valve_acceleration: ndarray) -> dict[str, ndarray]:
+def inverse(
+    geometry: dict[str, float],
+    valve_lift: ndarray,
+    valve_velocity: ndarray,
+    valve_acceleration: ndarray,
+) -> dict[str, ndarray]:
     """Rocker and tappet motion for a valve motion: dict of arrays keyed by MOTION_FIELDS."""
-    lift, ld, ldd = (np.asarray(v, dtype=float) for v in
-                     (valve_lift, valve_velocity, valve_acceleration))
+    lift, ld, ldd = (
+        np.asarray(v, dtype=float) for v in (valve_lift, valve_velocity, valve_acceleration)
+    )
     lift, ld, ldd = np.broadcast_arrays(lift, ld, ldd)
     y3 = closed_valve_position(geometry) - lift
     phi = _rocker_from_y3(geometry, y3)
     y1 = _y1_from_rocker(geometry, phi)
     omega, alpha = _driven(_valve_partials(geometry, phi, y3), -ld, -ldd, driver_is_phi=False)
-    y1_rate, y1_accel = _driven(_tappet_partials(geometry, phi, y1), omega, alpha,
-                                driver_is_phi=True)
-    values = (y1 - float(geometry["cam_base_radius"]), y1_rate, y1_accel, phi, omega, alpha,
-              lift, ld, ldd)
+    y1_rate, y1_accel = _driven(
+        _tappet_partials(geometry, phi, y1), omega, alpha, driver_is_phi=True
+    )
+    values = (
+        y1 - float(geometry["cam_base_radius"]),
+        y1_rate,
+        y1_accel,
+        phi,
+        omega,
+        alpha,
+        lift,
+        ld,
+        ldd,
+    )
     return dict(zip(MOTION_FIELDS, values))
 
 
-def revolution(geometry: dict[str, float], law: str, lift: float, rise_start: float, rise_angle: float, high_dwell_angle: float, return_angle: float,
-               angle: list[float], camshaft_speed: float) -> dict[str, Any]:
+def revolution(
+    geometry: dict[str, float],
+    law: str,
+    lift: float,
+    rise_start: float,
+    rise_angle: float,
+    high_dwell_angle: float,
+    return_angle: float,
+    angle: list[float],
+    camshaft_speed: float,
+) -> dict[str, Any]:
     """Valve-train motion at constant camshaft speed (rad/s) over camshaft ``angle`` (rad).
 
     The tappet follows the cam: lift s, velocity s1 w, acceleration s2 w^2.
     """
-    s, s1, s2 = cam_lift(law, lift, rise_start, rise_angle, high_dwell_angle, return_angle,
-                         angle)
+    s, s1, s2 = cam_lift(law, lift, rise_start, rise_angle, high_dwell_angle, return_angle, angle)
     w = float(camshaft_speed)
     return forward(geometry, s, s1 * w, s2 * w * w)

@@ -14,7 +14,9 @@ class MechanismError(ValueError):
 class RangeError(MechanismError):
     """A value lies outside its valid range (or is NaN or infinite)."""
 
-    def __init__(self, name: str, value: float | None, valid: str, unit: str="", why: str="") -> None:
+    def __init__(
+        self, name: str, value: float | None, valid: str, unit: str = "", why: str = ""
+    ) -> None:
         self.name = name
         self.value = value
         self.valid = valid
@@ -38,7 +40,7 @@ class SnapThrough(MechanismError):
     """The load passed the limit load and the caller asked not to continue past it."""
 
 
-def require_finite(name: str, value: float, unit: str="") -> float:
+def require_finite(name: str, value: float, unit: str = "") -> float:
     """Return ``value`` as float or raise RangeError for NaN, +-inf or non-numbers."""
     try:
         number = float(value)
@@ -49,7 +51,7 @@ def require_finite(name: str, value: float, unit: str="") -> float:
     return number
 
 
-def require_positive(name: str, value: float, unit: str="") -> float:
+def require_positive(name: str, value: float, unit: str = "") -> float:
     """Return ``value`` as float or raise RangeError unless it is finite and > 0."""
     number = require_finite(name, value, unit)
     if number <= 0.0:
@@ -57,7 +59,15 @@ def require_positive(name: str, value: float, unit: str="") -> float:
     return number
 
 
-def require_between(name: str, value: float, low: float, high: float, unit: str="", low_open: bool=False, high_open: bool=False) -> float:
+def require_between(
+    name: str,
+    value: float,
+    low: float,
+    high: float,
+    unit: str = "",
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
     """Return ``value`` as float or raise RangeError unless low <(=) value <(=) high."""
     number = require_finite(name, value, unit)
     below = number <= low if low_open else number < low

@@ -41,10 +41,10 @@ class ContainerSummary:
     """What export_scene_fmu wrote: the file, its FMUs in stepping order, its outputs."""
 
     path: Path
-    components: tuple   # component names, in the order the container steps them
-    outputs: tuple      # the container's outputs, "component.variable"
-    sequential: bool    # True: Gauss-Seidel in that order; False: parallel (one-step lag)
-    step: float         # the container's fixed step (s)
+    components: tuple  # component names, in the order the container steps them
+    outputs: tuple  # the container's outputs, "component.variable"
+    sequential: bool  # True: Gauss-Seidel in that order; False: parallel (one-step lag)
+    step: float  # the container's fixed step (s)
 
 
 def _start_value(value: Any):
@@ -83,7 +83,7 @@ def _quiet_builder(container: Any):
         logger.setLevel(level)
 
 
-def export_scene_fmu(scene_file: Any, out: Any, fmu_dir: Any=None, sequential: Any=None) -> Any:
+def export_scene_fmu(scene_file: Any, out: Any, fmu_dir: Any = None, sequential: Any = None) -> Any:
     """Pack the scene ``scene_file`` with its FMUs (from ``fmu_dir``, default fmus/) into the
     container FMU ``out``; return a ContainerSummary.
 
@@ -114,20 +114,24 @@ def export_scene_fmu(scene_file: Any, out: Any, fmu_dir: Any=None, sequential: A
         for name in simulation.order:
             container.get_fmu(files[name])
         for connection in simulation.connections:
-            container.add_link(files[connection.source], connection.output,
-                               files[connection.target], connection.input)
+            container.add_link(
+                files[connection.source],
+                connection.output,
+                files[connection.target],
+                connection.input,
+            )
         for name in simulation.order:
             spec = simulation.components[name].spec
-            values = {**spec.parameters, **{effect: True for effect in spec.effects},
-                      **spec.inputs}
+            values = {**spec.parameters, **{effect: True for effect in spec.effects}, **spec.inputs}
             for variable, value in values.items():
                 container.add_start_value(files[name], variable, _start_value(value))
         outputs = []
         for full_name, component, variable in simulation.recorded:
             container.add_output(files[component.name], variable.name, full_name)
             outputs.append(full_name)
-        used = ({(c.source, c.output) for c in simulation.connections}
-                | {(component.name, variable.name) for _, component, variable in simulation.recorded})
+        used = {(c.source, c.output) for c in simulation.connections} | {
+            (component.name, variable.name) for _, component, variable in simulation.recorded
+        }
         for name in simulation.order:
             for variable in simulation.components[name].variables.values():
                 if variable.causality == "output" and (name, variable.name) not in used:
@@ -136,5 +140,4 @@ def export_scene_fmu(scene_file: Any, out: Any, fmu_dir: Any=None, sequential: A
         with _quiet_builder(container):
             container.make_fmu(built.name, step_size=scene.step, sequential=sequential)
         shutil.move(str(built), out)
-    return ContainerSummary(out, tuple(simulation.order), tuple(outputs), sequential,
-                            scene.step)
+    return ContainerSummary(out, tuple(simulation.order), tuple(outputs), sequential, scene.step)

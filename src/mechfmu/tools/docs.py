@@ -16,8 +16,10 @@ from ..io import read_result
 from ..runtime.models import MODELS
 
 TYPES = {float: "Real", int: "Integer", bool: "Boolean", str: "String"}
-TABLE_HEADER = ("| variable | causality | type | unit | range | default | meaning |\n"
-                "|---|---|---|---|---|---|---|")
+TABLE_HEADER = (
+    "| variable | causality | type | unit | range | default | meaning |\n"
+    "|---|---|---|---|---|---|---|"
+)
 
 
 def _range(variable: Any):
@@ -51,13 +53,15 @@ def interface_table(name: str) -> str:
     """Markdown for one FMU: a heading, its description and one row per declared variable
     (name, causality, type, SI unit, range, default, meaning), in declaration order."""
     model = model_class(name)
-    rows = [f"| `{v.name}` | {v.causality} | {TYPES[v.kind]} | {v.unit or ''} | {_range(v)} | "
-            f"{_start(v)} | {v.description.replace('|', chr(92) + '|')} |"
-            for v in model.VARIABLES]
+    rows = [
+        f"| `{v.name}` | {v.causality} | {TYPES[v.kind]} | {v.unit or ''} | {_range(v)} | "
+        f"{_start(v)} | {v.description.replace('|', chr(92) + '|')} |"
+        for v in model.VARIABLES
+    ]
     return "\n".join([f"### `{name}.fmu`", "", model.description + ".", "", TABLE_HEADER, *rows])
 
 
-def interface_tables(names: Any=None) -> str:
+def interface_tables(names: Any = None) -> str:
     """Markdown: the interface table of each named FMU (every registered FMU by default)."""
     return "\n\n".join(interface_table(name) for name in (names or MODELS))
 
@@ -82,5 +86,6 @@ def reference_plot(scene_path: Any, out_path: Any) -> Path:
     if scene.reference is None:
         raise ValueError(f"scene {scene.name} ({scene_path}) names no reference CSV")
     table = read_result(scene.reference)
-    return write_plot(out_path, table.index.to_numpy(), table, declared_units(scene),
-                      f"{scene.name}: reference")
+    return write_plot(
+        out_path, table.index.to_numpy(), table, declared_units(scene), f"{scene.name}: reference"
+    )

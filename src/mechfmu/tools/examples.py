@@ -53,29 +53,43 @@ def gear(args: Any) -> Any:
     LandingGear), the worst deviation of angle, angular velocity and angular acceleration
     from the closed form evaluated at every recorded time."""
     result, paths = _run("gear_retraction", args)
-    stroke = {**model_defaults("PistonActuator"),
-              **result.scene.components["actuator"].parameters}
+    stroke = {**model_defaults("PistonActuator"), **result.scene.components["actuator"].parameters}
     geometry = {**model_defaults("LandingGear"), **result.scene.components["gear"].parameters}
     times = np.asarray(result.times)
-    exact = retraction(times, geometry["attachment_distance"], geometry["pivot_height"],
-                       stroke["start_extension"], stroke["end_extension"],
-                       stroke["stroke_time"], stroke["profile"])
-    print(f"gear retraction: {result.meta['steps']} steps of {result.scene.step} s in "
-          f"{result.meta['wall_time_s']:.3f} s wall time")
+    exact = retraction(
+        times,
+        geometry["attachment_distance"],
+        geometry["pivot_height"],
+        stroke["start_extension"],
+        stroke["end_extension"],
+        stroke["stroke_time"],
+        stroke["profile"],
+    )
+    print(
+        f"gear retraction: {result.meta['steps']} steps of {result.scene.step} s in "
+        f"{result.meta['wall_time_s']:.3f} s wall time"
+    )
     # Relative deviation is meaningful where the exact value is not itself rounding noise
     # (alpha is exactly 0 at t = 0 by the design condition): there the absolute one counts.
     print("worst deviation from the closed form (relative where |exact| > 1e-6 of its peak):")
     passed = True
-    for name, unit in (("gear_angle", "rad"), ("gear_angular_velocity", "rad/s"),
-                       ("gear_angular_acceleration", "rad/s^2")):
+    for name, unit in (
+        ("gear_angle", "rad"),
+        ("gear_angular_velocity", "rad/s"),
+        ("gear_angular_acceleration", "rad/s^2"),
+    ):
         values, reference = np.asarray(result.columns[f"gear.{name}"]), exact[name]
         difference = np.abs(values - reference)
         meaningful = np.abs(reference) > 1e-6 * np.max(np.abs(reference))
-        relative = np.where(meaningful, difference / np.where(meaningful, np.abs(reference), 1.0), 0.0)
+        relative = np.where(
+            meaningful, difference / np.where(meaningful, np.abs(reference), 1.0), 0.0
+        )
         i, j = int(np.argmax(relative)), int(np.argmax(difference))
         passed &= bool(np.all(difference <= 1e-9 * np.abs(reference) + GEAR_ABSOLUTE))
-        print(f"  {name:26s} relative {relative[i]:.1e} at t = {times[i]:.2f} s; "
-              f"absolute {difference[j]:.1e} {unit} at t = {times[j]:.2f} s")
+        print(
+            f"  {name:26s} relative {relative[i]:.1e} at t = {times[i]:.2f} s; "
+            f"absolute {difference[j]:.1e} {unit} at t = {times[j]:.2f} s"
+        )
     print(f"  every sample within 1e-9 relative (+1e-12 absolute): {'yes' if passed else 'NO'}")
     for kind, path in paths.items():
         print(f"{kind}: {path}")
@@ -87,6 +101,7 @@ def gear(args: Any) -> Any:
 FOUR_BAR_RTOL, FOUR_BAR_ATOL = 1e-10, 1e-10  # rad, rad/s, rad/s^2
 SLIDER_RTOL, SLIDER_ATOL = 1e-10, 1e-9  # m, m/s, m/s^2 (peak acceleration ~7000 m/s^2)
 
+
 def four_bar(args: Any) -> Any:
     """Four-bar linkage: the coursework's worked example (a, b, c, d = 2, 7, 9, 6 in,
     theta2 = 30 deg) on both circuits, then four_bar_crank_rocker (open circuit, Freudenstein
@@ -94,13 +109,17 @@ def four_bar(args: Any) -> Any:
     constraint solver, crank speeding up) against the numpy reference (circle
     intersection, an independent derivation)."""
     linkage = fb.COURSEWORK_FOUR_BAR
-    print(f"coursework four-bar: {fb.GRASHOF_CLASSES[fb.grashof_class(*linkage) - 1].name}; "
-          f"crank at {math.degrees(fb.COURSEWORK_CRANK_ANGLE):g} deg:")
+    print(
+        f"coursework four-bar: {fb.GRASHOF_CLASSES[fb.grashof_class(*linkage) - 1].name}; "
+        f"crank at {math.degrees(fb.COURSEWORK_CRANK_ANGLE):g} deg:"
+    )
     for circuit, name in ((fb.OPEN, "open"), (fb.CROSSED, "crossed")):
         m = fb.motion(*linkage, circuit, fb.COURSEWORK_CRANK_ANGLE, 1.0, 0.0)
-        print(f"  {name:8s} theta3 = {math.degrees(m.coupler_angle):10.4f} deg, theta4 = "
-              f"{math.degrees(m.rocker_angle):10.4f} deg, transmission angle "
-              f"{math.degrees(m.transmission_angle):.4f} deg")
+        print(
+            f"  {name:8s} theta3 = {math.degrees(m.coupler_angle):10.4f} deg, theta4 = "
+            f"{math.degrees(m.rocker_angle):10.4f} deg, transmission angle "
+            f"{math.degrees(m.transmission_angle):.4f} deg"
+        )
     ok = True
     for scene_name in ("four_bar_crank_rocker", "four_bar_solver_crossed"):
         _, passed = _checked(scene_name, args, FOUR_BAR_RTOL, FOUR_BAR_ATOL, "numpy closed form")
@@ -112,20 +131,24 @@ def slider_crank(args: Any) -> Any:
     """Offset slider-crank at 3000 rpm on the constraint solver (slider_crank_offset: crank
     50 mm, rod 150 mm, offset 10 mm, one revolution) against the closed form, the stroke
     (longer than twice the crank with the offset) and the peak slider acceleration."""
-    result, ok = _checked("slider_crank_offset", args, SLIDER_RTOL, SLIDER_ATOL,
-                          "numpy closed form")
+    result, ok = _checked(
+        "slider_crank_offset", args, SLIDER_RTOL, SLIDER_ATOL, "numpy closed form"
+    )
     slider = np.asarray(result.columns["slider.slider_position"])
     acceleration = np.asarray(result.columns["slider.slider_acceleration"])
     parameters = result.scene.components["slider"].parameters
     a, b, e = 0.05, 0.15, parameters["offset"]
     exact_stroke = math.sqrt((a + b) ** 2 - e * e) - math.sqrt((b - a) ** 2 - e * e)
-    print(f"  stroke over the sampled revolution {slider.max() - slider.min():.6f} m "
-          f"(exact between the dead centres {exact_stroke:.6f} m); peak |acceleration| "
-          f"{np.abs(acceleration).max():.1f} m/s^2")
+    print(
+        f"  stroke over the sampled revolution {slider.max() - slider.min():.6f} m "
+        f"(exact between the dead centres {exact_stroke:.6f} m); peak |acceleration| "
+        f"{np.abs(acceleration).max():.1f} m/s^2"
+    )
     return 0 if ok else 1
 
 
 # --- suspension ----------------------------------------------------------------------------
+
 
 def suspension(args: Any) -> Any:
     """Suspension under a slow load ramp past the limit load (suspension_load_ramp):
@@ -136,12 +159,16 @@ def suspension(args: Any) -> Any:
         if entry["status"] != "ok":
             print(f"[{entry['status']}] {entry['message']}")
     snaps = [i for i, flag in enumerate(columns["suspension.snap_through"]) if flag]
-    print(f"suspension load ramp: {result.meta['steps']} steps in "
-          f"{result.meta['wall_time_s']:.3f} s wall time")
+    print(
+        f"suspension load ramp: {result.meta['steps']} steps in "
+        f"{result.meta['wall_time_s']:.3f} s wall time"
+    )
     for i in snaps:
-        print(f"snap-through at t = {result.times[i]:.2f} s, load {columns['load.load'][i]:.1f} N: "
-              f"deflection {columns['suspension.deflection'][i - 1]:.4f} m -> "
-              f"{columns['suspension.deflection'][i]:.4f} m")
+        print(
+            f"snap-through at t = {result.times[i]:.2f} s, load {columns['load.load'][i]:.1f} N: "
+            f"deflection {columns['suspension.deflection'][i - 1]:.4f} m -> "
+            f"{columns['suspension.deflection'][i]:.4f} m"
+        )
     comparison = compare(paths["csv"], result.scene.reference, rtol=1e-9, atol=1e-9)
     print(f"against the closed form (rtol 1e-9, atol 1e-9): {comparison}")
     for kind, path in paths.items():
@@ -152,8 +179,9 @@ def suspension(args: Any) -> Any:
 def declared_tolerance(scene_name: str) -> tuple[float, float]:
     """(rtol, atol) that a shipped scene declares in its '# tolerance: ...' line."""
     path = find_file(scene_name)
-    match = re.search(r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", path.read_text(),
-                      re.M)
+    match = re.search(
+        r"^# tolerance: rtol=([0-9.e+-]+), atol=([0-9.e+-]+)$", path.read_text(), re.M
+    )
     if match is None:
         raise ValueError(f"{path}: no '# tolerance: rtol=..., atol=...' line")
     return float(match.group(1)), float(match.group(2))
@@ -166,8 +194,9 @@ def suspension_dynamics(args: Any) -> Any:
     scenes' declared tolerances, and the sudden load's snap-through times from the log."""
     ok = True
     for scene_name in ("suspension_road_bump", "suspension_sudden_load"):
-        result, passed = _checked(scene_name, args, *declared_tolerance(scene_name),
-                                  "solve_ivp reference")
+        result, passed = _checked(
+            scene_name, args, *declared_tolerance(scene_name), "solve_ivp reference"
+        )
         ok &= passed
         if scene_name == "suspension_sudden_load":
             limit = statics.limit_point(statics.make_spring(0.5, 1e4, 0.2)).load
@@ -175,9 +204,10 @@ def suspension_dynamics(args: Any) -> Any:
             snaps = [m["message"] for m in result.log if "snap-through" in m["message"]]
             found = [re.search(r"at t = ([0-9.e+-]+) s", m) for m in snaps]
             times = [float(match.group(1)) for match in found if match]
-            print(f"  load {load:.1f} N = {load / limit:.3f} of the static limit load "
-                  f"{limit:.2f} N; snap-throughs at t = "
-                  + ", ".join(f"{t:.6f} s" for t in times))
+            print(
+                f"  load {load:.1f} N = {load / limit:.3f} of the static limit load "
+                f"{limit:.2f} N; snap-throughs at t = " + ", ".join(f"{t:.6f} s" for t in times)
+            )
     return 0 if ok else 1
 
 
@@ -200,7 +230,8 @@ def round_trip(result: Any) -> Any:
         if i == 0:
             solution = follower.assemble(constraint_models.valve_train_guess(g), drive)
             rest = planar.BranchFollower(constraint_models.valve_train(g)).assemble(
-                constraint_models.valve_train_guess(g), [(g.cam_base_radius, 0.0, 0.0)])
+                constraint_models.valve_train_guess(g), [(g.cam_base_radius, 0.0, 0.0)]
+            )
             closed = rest.q[3 * constraint_models.VALVE + 1]
         else:
             solution = follower.follow(drive, time - result.times[i - 1])
@@ -214,10 +245,26 @@ def float_runs(args: Any) -> Any:
     base = load_scene(find_file("valve_float"))
     parameters = {**model_defaults("ValveTrain"), **base.components["valve"].parameters}
     geometry = ValveGeometry(*(parameters[name] for name in ValveGeometry._fields))
-    profile = cam_laws.check_profile(*(parameters[name] for name in (
-        "cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle", "return_angle")))
-    predicted = float_speed(geometry, profile, parameters["valve_mass"],
-                            parameters["spring_stiffness"], parameters["spring_preload"])
+    profile = cam_laws.check_profile(
+        *(
+            parameters[name]
+            for name in (
+                "cam_law",
+                "lift",
+                "rise_start",
+                "rise_angle",
+                "high_dwell_angle",
+                "return_angle",
+            )
+        )
+    )
+    predicted = float_speed(
+        geometry,
+        profile,
+        parameters["valve_mass"],
+        parameters["spring_stiffness"],
+        parameters["spring_preload"],
+    )
     lines, ok = [], True
     for factor in (0.99, 1.01):
         scene = copy.deepcopy(base)
@@ -227,8 +274,10 @@ def float_runs(args: Any) -> Any:
         events = int(result.columns["valve.float_events"][-1])
         force = min(result.columns["valve.contact_force"])
         reported = result.columns["valve.float_camshaft_speed"][-1]
-        lines.append(f"  camshaft at {factor:.2f} x the float speed: {events} loss(es) of "
-                     f"contact in {scene.stop_time} s, least contact force {force:.2f} N")
+        lines.append(
+            f"  camshaft at {factor:.2f} x the float speed: {events} loss(es) of "
+            f"contact in {scene.stop_time} s, least contact force {force:.2f} N"
+        )
         ok &= reported == predicted.camshaft_speed
         ok &= (events == 0 and force > 0) if factor < 1 else (events > 0 and force < 0)
     return predicted, lines, ok
@@ -243,18 +292,23 @@ def valve_train(args: Any) -> Any:
     ok = True
     _, passed = _checked("valve_train", args, VALVE_RTOL, VALVE_ATOL, "numpy closed form")
     ok &= passed
-    inverse, passed = _checked("valve_train_inverse", args, VALVE_RTOL, VALVE_ATOL,
-                               "numpy closed form")
+    inverse, passed = _checked(
+        "valve_train_inverse", args, VALVE_RTOL, VALVE_ATOL, "numpy closed form"
+    )
     ok &= passed
     worst = round_trip(inverse)
-    print(f"inverse then forward: the forward solver driven by the computed tappet lift gives "
-          f"back the valve lift within {worst:.1e} m")
+    print(
+        f"inverse then forward: the forward solver driven by the computed tappet lift gives "
+        f"back the valve lift within {worst:.1e} m"
+    )
     ok &= worst < 1e-12
     predicted, lines, passed = float_runs(args)
     speed = predicted.camshaft_speed
-    print(f"valve float: loss of contact above {speed:.3f} rad/s of camshaft "
-          f"({speed * 60 / math.pi:.0f} engine rpm) for this cam and spring, first at camshaft "
-          f"angle {predicted.camshaft_angle:.4f} rad (FMU output float_camshaft_speed)")
+    print(
+        f"valve float: loss of contact above {speed:.3f} rad/s of camshaft "
+        f"({speed * 60 / math.pi:.0f} engine rpm) for this cam and spring, first at camshaft "
+        f"angle {predicted.camshaft_angle:.4f} rad (FMU output float_camshaft_speed)"
+    )
     print("\n".join(lines))
     ok &= passed
     return 0 if ok else 1
@@ -262,13 +316,16 @@ def valve_train(args: Any) -> Any:
 
 # --- the shipped sweeps --------------------------------------------------------------------
 
+
 def sweeps(args: Any) -> Any:
     """The shipped sweeps (src/mechfmu/sweeps/*.toml) against their references: each sweep's
     folder (sweep.csv, sweep.json, plots), summary.md and suspension_mass.png in args.out.
     ``quick``: a few points of each sweep around its threshold (what the tests run)."""
     from .report import sweeps as shipped
-    summaries = shipped.run_shipped(SWEEP_DIR, args.out, args.fmu_dir, args.jobs, args.quick,
-                                    args.scheduler)
+
+    summaries = shipped.run_shipped(
+        SWEEP_DIR, args.out, args.fmu_dir, args.jobs, args.quick, args.scheduler
+    )
     findings, text = shipped.report(SWEEP_DIR, args.out, summaries)
     print(text)
     print(f"wrote {Path(args.out) / 'summary.md'} and {Path(args.out) / 'suspension_mass.png'}")
@@ -276,4 +333,3 @@ def sweeps(args: Any) -> Any:
     for problem in problems:
         print(f"DISAGREES: {problem}", file=sys.stderr)
     return 1 if problems else 0
-

@@ -47,31 +47,46 @@ _NON_FINITE = (math.nan, math.inf, -math.inf)
 
 # --- what to vary, from the model's own declarations ------------------------------------------
 
-def declarations(model_name: str, description: Any=None) -> dict[str, Variable]:
+
+def declarations(model_name: str, description: Any = None) -> dict[str, Variable]:
     """What to vary, by variable name: the model's Variable declarations
     (mechfmu.runtime.fmi.slave.Variable) for one of our models, else the same fields read from
     ``description`` (an fmpy ModelDescription): any FMU can be fuzzed."""
     import importlib
 
     from ..runtime.models import MODELS
+
     if model_name in MODELS:
         cls = getattr(importlib.import_module(MODELS[model_name]), model_name)
         return {v.name: v for v in cls.VARIABLES}
     from ..runtime.fmi.slave import Variable
+
     kinds = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
     declared = {}
     for v in description.modelVariables:
         if v.causality not in ("parameter", "input", "output") or v.type not in kinds:
             continue
         kind = kinds[v.type]
-        start = kind(v.start) if v.start is not None and kind is not bool else (
-            str(v.start).lower() in ("true", "1") if kind is bool else kind())
-        bound = (lambda text: None if text is None else kind(text)) if kind in (int, float) \
+        start = (
+            kind(v.start)
+            if v.start is not None and kind is not bool
+            else (str(v.start).lower() in ("true", "1") if kind is bool else kind())
+        )
+        bound = (
+            (lambda text: None if text is None else kind(text))
+            if kind in (int, float)
             else (lambda text: None)
-        declared[v.name] = Variable(v.name, kind, v.causality, start, v.description or "",
-                                    min=bound(v.min), max=bound(v.max),
-                                    nominal=bound(getattr(v, "nominal", None))
-                                    if kind is float else None)
+        )
+        declared[v.name] = Variable(
+            v.name,
+            kind,
+            v.causality,
+            start,
+            v.description or "",
+            min=bound(v.min),
+            max=bound(v.max),
+            nominal=bound(getattr(v, "nominal", None)) if kind is float else None,
+        )
     return declared
 
 
@@ -85,7 +100,7 @@ def _scale(variable: Any):
     return abs(variable.start) if variable.start else 1.0
 
 
-def plausible(rng: Any, variable: Any, current: Any=None) -> Any:
+def plausible(rng: Any, variable: Any, current: Any = None) -> Any:
     """A value that a reasonable user might give: near the current or start value."""
     kind, start = variable.kind, variable.start if current is None else current
     if kind is bool:  # switches stay as declared three times in four
@@ -108,15 +123,19 @@ def hostile(rng: Any, variable: Any) -> Any:
     if kind is bool:
         return rng.random() < 0.5
     if kind is int:
-        return rng.choice((0, -1, -(2 ** 31), 2 ** 31 - 1))
+        return rng.choice((0, -1, -(2**31), 2**31 - 1))
     if kind is str:
-        return rng.choice(("", "no such value", "\u00e9\u00e8 unicode", "x" * 300,
-                           "/nonexistent/file.csv"))
+        return rng.choice(
+            ("", "no such value", "\u00e9\u00e8 unicode", "x" * 300, "/nonexistent/file.csv")
+        )
     candidates = list(_EXTREMES + _NON_FINITE)
     for bound in (variable.min, variable.max):
         if bound is not None:
-            candidates += [bound, bound - 1e-9 * max(1.0, abs(bound)),
-                           bound + 1e-9 * max(1.0, abs(bound))]
+            candidates += [
+                bound,
+                bound - 1e-9 * max(1.0, abs(bound)),
+                bound + 1e-9 * max(1.0, abs(bound)),
+            ]
     if variable.start:
         candidates += [-variable.start, 1e6 * variable.start]
     return rng.choice(candidates)
@@ -153,13 +172,19 @@ def plan_sequence(rng: Any, variables: Any) -> Any:
     typical = variables["max_substep"].start if "max_substep" in variables else 1e-3
     steps, current = [], dict(inputs)
     for _ in range(rng.randint(1, MAX_STEPS)):
-        changed = {name: plausible(rng, variables[name], value)
-                   for name, value in current.items() if rng.random() < 0.7}
+        changed = {
+            name: plausible(rng, variables[name], value)
+            for name, value in current.items()
+            if rng.random() < 0.7
+        }
         if current and rng.random() < 0.15:  # one input at a bound, extreme or not finite
             name = rng.choice(sorted(current))
             changed[name] = hostile(rng, variables[name])
-        current.update((name, value) for name, value in changed.items()
-                       if not isinstance(value, float) or math.isfinite(value))
+        current.update(
+            (name, value)
+            for name, value in changed.items()
+            if not isinstance(value, float) or math.isfinite(value)
+        )
         steps.append((step_size(rng, typical), changed))
     rollback = rng.randrange(len(steps)) if rng.random() < 0.3 else None
     return {"parameters": parameters, "inputs": inputs, "steps": steps, "rollback": rollback}
@@ -172,6 +197,7 @@ def sequence_rng(seed: int, model_name: str, index: int) -> Any:
 
 # --- the child: one FMU, many sequences -------------------------------------------------------
 
+
 class Finding(Exception):
     """A violated invariant: the FMU misbehaved on this sequence."""
 
@@ -179,22 +205,29 @@ class Finding(Exception):
 class Fuzzed:
     """One instantiated FMU under fmpy, driven sequence after sequence."""
 
-    def __init__(self, path: Any, instance: str="fuzzed") -> None:
+    def __init__(self, path: Any, instance: str = "fuzzed") -> None:
         from fmpy import extract, read_model_description
         from fmpy.fmi2 import FMU2Slave
 
         from ..cosim.master import LogBook
+
         self.description = read_model_description(str(path))
         self.variables = {v.name: v for v in self.description.modelVariables}
-        self.outputs = [v for v in self.description.modelVariables
-                        if v.causality == "output" and v.type == "Real"]
+        self.outputs = [
+            v
+            for v in self.description.modelVariables
+            if v.causality == "output" and v.type == "Real"
+        ]
         self.output_refs = [v.valueReference for v in self.outputs]
         self.folder = extract(str(path))
         self.logbook = LogBook()
         self.instance = instance
-        self.slave = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
-                               modelIdentifier=self.description.coSimulation.modelIdentifier,
-                               instanceName=instance)
+        self.slave = FMU2Slave(
+            guid=self.description.guid,
+            unzipDirectory=self.folder,
+            modelIdentifier=self.description.coSimulation.modelIdentifier,
+            instanceName=instance,
+        )
         self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         self.fresh = True
 
@@ -223,6 +256,7 @@ class Fuzzed:
     def step(self, time_now: Any, size: Any, inputs: Any) -> Any:
         """Set inputs and step; True (OK) or False (Discard with an error logged)."""
         from fmpy.fmi1 import FMICallException
+
         self.set(inputs)
         errors_before, outputs_before = self.errors_logged(), self.read_outputs()
         try:
@@ -230,23 +264,34 @@ class Fuzzed:
             ok = True
         except FMICallException as error:
             if error.status != 2:  # fmi2Discard is the only non-OK status we may return
-                raise Finding(f"doStep returned status {error.status} ({error}); last log: "
-                              f"{self.logbook.last_problem(self.instance)}") from None
+                raise Finding(
+                    f"doStep returned status {error.status} ({error}); last log: "
+                    f"{self.logbook.last_problem(self.instance)}"
+                ) from None
             if self.errors_logged() == errors_before:
-                raise Finding(f"doStep(t = {time_now!r}, h = {size!r}) discarded without "
-                              "an error message in the log") from None
+                raise Finding(
+                    f"doStep(t = {time_now!r}, h = {size!r}) discarded without "
+                    "an error message in the log"
+                ) from None
             ok = False
         outputs = self.read_outputs()
         if not ok and outputs != outputs_before:
             changed = [v.name for v, a, b in zip(self.outputs, outputs_before, outputs) if a != b]
-            raise Finding(f"a discarded doStep(t = {time_now!r}, h = {size!r}) changed the "
-                          f"outputs {', '.join(changed[:5])}: it must leave the FMU as before")
+            raise Finding(
+                f"a discarded doStep(t = {time_now!r}, h = {size!r}) changed the "
+                f"outputs {', '.join(changed[:5])}: it must leave the FMU as before"
+            )
         bad = [v.name for v, x in zip(self.outputs, outputs) if not math.isfinite(x)]
         if bad:
-            raise Finding(f"after {'an OK' if ok else 'a discarded'} doStep(t = {time_now!r}, "
-                          f"h = {size!r}) outputs are not finite: " + ", ".join(
-                              f"{n} = {x!r}" for n, x in zip(
-                                  [v.name for v in self.outputs], outputs) if n in bad))
+            raise Finding(
+                f"after {'an OK' if ok else 'a discarded'} doStep(t = {time_now!r}, "
+                f"h = {size!r}) outputs are not finite: "
+                + ", ".join(
+                    f"{n} = {x!r}"
+                    for n, x in zip([v.name for v in self.outputs], outputs)
+                    if n in bad
+                )
+            )
         return ok
 
     def run(self, plan: Any) -> Any:
@@ -273,8 +318,7 @@ class Fuzzed:
     def _timed_out(self, first_message: Any):
         """Whether a step of this sequence (or of its repeat) hit its wall-clock bound: then
         the repeat may legitimately differ (the bound depends on the machine's load)."""
-        return any("(max_wall_time)" in m["message"]
-                   for m in self.logbook.messages[first_message:])
+        return any("(max_wall_time)" in m["message"] for m in self.logbook.messages[first_message:])
 
     def _replay(self, plan: Any, saved: Any, end_time: Any):
         """Roll back to the saved state, repeat the steps from there: identical outputs."""
@@ -290,15 +334,16 @@ class Fuzzed:
         replayed = self.read_outputs()
         if replayed != final or now != end_time:
             diff = [(v.name, a, b) for v, a, b in zip(self.outputs, final, replayed) if a != b]
-            raise Finding(f"rolled back to step {first} and repeated: outputs differ "
-                          f"{diff[:3]}")
+            raise Finding(f"rolled back to step {first} and repeated: outputs differ {diff[:3]}")
 
     def close(self) -> None:
         self.slave.terminate()
         self.slave.freeInstance()
 
 
-def child(path: Any, model_name: str, sequences: int, seed: int, progress: Any, only: Any=None) -> Any:
+def child(
+    path: Any, model_name: str, sequences: int, seed: int, progress: Any, only: Any = None
+) -> Any:
     """Fuzz one FMU in this process; append a JSON line per event to ``progress``."""
     fuzzed = Fuzzed(path)
     variables = declarations(model_name, fuzzed.description)
@@ -326,66 +371,116 @@ def child(path: Any, model_name: str, sequences: int, seed: int, progress: Any, 
 
 # --- the parent: one child per FMU --------------------------------------------------------------
 
-def fuzz_model(model_name: str, fmu_dir: Any, sequences: int, seed: int, work_dir: Any, only: Any=None) -> Any:
+
+def fuzz_model(
+    model_name: str, fmu_dir: Any, sequences: int, seed: int, work_dir: Any, only: Any = None
+) -> Any:
     """Run the child for one FMU; a summary dict with 'failure' set when it misbehaved."""
     path = Path(fmu_dir) / f"{model_name}.fmu"
     progress = Path(work_dir) / f"{model_name}.jsonl"
     progress.unlink(missing_ok=True)
-    command = [sys.executable, "-m", "mechfmu.tools.fuzz", "--child", str(path), model_name,
-               str(sequences), str(seed), str(progress)]
+    command = [
+        sys.executable,
+        "-m",
+        "mechfmu.tools.fuzz",
+        "--child",
+        str(path),
+        model_name,
+        str(sequences),
+        str(seed),
+        str(progress),
+    ]
     if only is not None:
         command.append(str(only))
     started = time.perf_counter()
     try:
-        completed = subprocess.run(command, capture_output=True, text=True,
-                                   timeout=CHILD_TIME_LIMIT)
+        completed = subprocess.run(
+            command, capture_output=True, text=True, timeout=CHILD_TIME_LIMIT
+        )
         returncode, stderr = completed.returncode, completed.stderr
     except subprocess.TimeoutExpired:
         returncode, stderr = None, f"no answer after {CHILD_TIME_LIMIT:g} s (hang)"
-    lines = [json.loads(line) for line in progress.read_text().splitlines()] \
-        if progress.exists() else []
+    lines = (
+        [json.loads(line) for line in progress.read_text().splitlines()]
+        if progress.exists()
+        else []
+    )
     summary = next((line["done"] for line in lines if "done" in line), None)
     last = next((line["sequence"] for line in reversed(lines) if "sequence" in line), None)
-    result = {"model": model_name, "seconds": time.perf_counter() - started,
-              "returncode": returncode, "failure": None}
+    result = {
+        "model": model_name,
+        "seconds": time.perf_counter() - started,
+        "returncode": returncode,
+        "failure": None,
+    }
     if summary is None or returncode != 0:
-        how = (f"killed by signal {-returncode}" if returncode is not None and returncode < 0
-               else f"exit code {returncode}" if returncode is not None else "hang")
-        result["failure"] = (f"{model_name}: the FMU's host process ended abnormally ({how}) "
-                             f"during sequence {last}; re-run with --only {last}. "
-                             + stderr.strip()[-2000:])
+        how = (
+            f"killed by signal {-returncode}"
+            if returncode is not None and returncode < 0
+            else f"exit code {returncode}"
+            if returncode is not None
+            else "hang"
+        )
+        result["failure"] = (
+            f"{model_name}: the FMU's host process ended abnormally ({how}) "
+            f"during sequence {last}; re-run with --only {last}. " + stderr.strip()[-2000:]
+        )
         return result
     result.update(summary)
     if summary["findings"]:
-        result["failure"] = "; ".join(f"{model_name} sequence {f['sequence']}: {f['message']}"
-                                      for f in summary["findings"][:5])
+        result["failure"] = "; ".join(
+            f"{model_name} sequence {f['sequence']}: {f['message']}"
+            for f in summary["findings"][:5]
+        )
     return result
 
 
-def fuzz(models: Any, fmu_dir: Any, sequences: int, seed: int, work_dir: Any, jobs: int=2, only: Any=None) -> Any:
+def fuzz(
+    models: Any,
+    fmu_dir: Any,
+    sequences: int,
+    seed: int,
+    work_dir: Any,
+    jobs: int = 2,
+    only: Any = None,
+) -> Any:
     """Fuzz ``models`` with up to ``jobs`` children at a time; a list of summaries."""
     from concurrent.futures import ThreadPoolExecutor
+
     Path(work_dir).mkdir(parents=True, exist_ok=True)
     with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
-        return list(pool.map(lambda name: fuzz_model(name, fmu_dir, sequences, seed,
-                                                     work_dir, only), models))
+        return list(
+            pool.map(
+                lambda name: fuzz_model(name, fmu_dir, sequences, seed, work_dir, only), models
+            )
+        )
 
 
 def command(args: Any) -> Any:
     """``mechfmu fuzz`` with the parsed command line ``args`` (options in mechfmu/cli.py);
     the exit status."""
     from ..runtime.models import MODELS
-    results = fuzz(args.models or list(MODELS), args.fmus, args.sequences, args.seed,
-                   args.out, args.jobs, args.only)
+
+    results = fuzz(
+        args.models or list(MODELS),
+        args.fmus,
+        args.sequences,
+        args.seed,
+        args.out,
+        args.jobs,
+        args.only,
+    )
     failed = 0
     for result in results:
         if result["failure"]:
             failed += 1
             print(f"FAIL {result['failure']}")
         else:
-            print(f"ok   {result['model']}: {result['sequences']} sequences, "
-                  f"{result['steps_ok']} steps ok, {result['steps_discarded']} discarded "
-                  f"with an error message, {result['seconds']:.1f} s")
+            print(
+                f"ok   {result['model']}: {result['sequences']} sequences, "
+                f"{result['steps_ok']} steps ok, {result['steps_discarded']} discarded "
+                f"with an error message, {result['seconds']:.1f} s"
+            )
     return 1 if failed else 0
 
 

@@ -18,18 +18,30 @@ class LocalPool:
     the whole executor: every point not finished is lost with BrokenProcessPool.
     ``restart`` replaces the executor; the sweep resubmits the lost points."""
 
-    def __init__(self, jobs: int, task: Callable[..., Any],
-                 initializer: Callable[..., None] | None = None, initargs: tuple = (),
-                 context: str | None = None) -> None:
+    def __init__(
+        self,
+        jobs: int,
+        task: Callable[..., Any],
+        initializer: Callable[..., None] | None = None,
+        initargs: tuple = (),
+        context: str | None = None,
+    ) -> None:
         self.workers, self.where = jobs, f"local, {jobs} process(es)"
-        self.task, self.initializer, self.initargs, self.context = (task, initializer,
-                                                                    initargs, context)
+        self.task, self.initializer, self.initargs, self.context = (
+            task,
+            initializer,
+            initargs,
+            context,
+        )
         self.executor = self._executor()
 
     def _executor(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(
-            max_workers=self.workers, initializer=self.initializer, initargs=self.initargs,
-            mp_context=get_context(self.context) if self.context else None)
+            max_workers=self.workers,
+            initializer=self.initializer,
+            initargs=self.initargs,
+            mp_context=get_context(self.context) if self.context else None,
+        )
 
     def ship(self, paths: Iterable[str]) -> None:
         """Local workers read the FMUs where they are: nothing to send."""

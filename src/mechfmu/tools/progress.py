@@ -11,8 +11,14 @@ class Progress:
     rate, time left, and an optional note (the last point). ``already``: points done
     before (a resumed sweep), not counted in the rate."""
 
-    def __init__(self, total: int, stream: TextIO | None = None, already: int = 0,
-                 label: str = "sweep", unit: str = "scenes") -> None:
+    def __init__(
+        self,
+        total: int,
+        stream: TextIO | None = None,
+        already: int = 0,
+        label: str = "sweep",
+        unit: str = "scenes",
+    ) -> None:
         self.total, self.started, self.already = total, time.perf_counter(), already
         self.stream = stream or sys.stderr
         self.label, self.unit = label, unit
@@ -25,6 +31,8 @@ class Progress:
         left_text = f"{left:.0f} s" if math.isfinite(left) else "?"
         end = "\n" if done == self.total else ""
         note = f", {note}" if note else ""
-        self.stream.write(f"\r{self.label}: {done}/{self.total} done ({failed} failed), "
-                          f"{rate:.2f} {self.unit}/s, {left_text} left{note}   {end}")
+        self.stream.write(
+            f"\r{self.label}: {done}/{self.total} done ({failed} failed), "
+            f"{rate:.2f} {self.unit}/s, {left_text} left{note}   {end}"
+        )
         self.stream.flush()

@@ -18,19 +18,26 @@ import numpy as np
 from ..cosim.results import write_csv
 from ..cosim.scene import find_file, load_scene
 from ..runtime.models import MODELS
-from ..references import (drives, gear_dynamics, landing_gear, linkages, suspension,
-               suspension_dynamics, valve_spring, valve_train)
+from ..references import (
+    drives,
+    gear_dynamics,
+    landing_gear,
+    linkages,
+    suspension,
+    suspension_dynamics,
+    valve_spring,
+    valve_train,
+)
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from ..cosim.scene import Scene
     from numpy import ndarray
 
 
-def start_values(model: str, causality: str | None=None) -> dict[str, float]:
+def start_values(model: str, causality: str | None = None) -> dict[str, float]:
     """Start values declared by a model (its FMU's), of every variable or of one causality."""
     cls = getattr(importlib.import_module(MODELS[model]), model)
-    return {v.name: v.start for v in cls.VARIABLES
-            if causality is None or v.causality == causality}
+    return {v.name: v.start for v in cls.VARIABLES if causality is None or v.causality == causality}
 
 
 def model_defaults(model: str) -> dict[str, float]:
@@ -55,11 +62,19 @@ def gear_retraction(scene: Any) -> Any:
     actuator, stroke = _component(scene, "PistonActuator")
     gear, geometry = _component(scene, "LandingGear")
     columns = landing_gear.retraction(
-        sample_times(scene), geometry["attachment_distance"], geometry["pivot_height"],
-        stroke["start_extension"], stroke["end_extension"], stroke["stroke_time"],
-        stroke["profile"])
-    owner = {"piston_extension": actuator, "piston_speed": actuator,
-             "piston_acceleration": actuator}
+        sample_times(scene),
+        geometry["attachment_distance"],
+        geometry["pivot_height"],
+        stroke["start_extension"],
+        stroke["end_extension"],
+        stroke["stroke_time"],
+        stroke["profile"],
+    )
+    owner = {
+        "piston_extension": actuator,
+        "piston_speed": actuator,
+        "piston_acceleration": actuator,
+    }
     return {f"{owner.get(key, gear)}.{key}": values for key, values in columns.items()}
 
 
@@ -72,8 +87,12 @@ def suspension_load_ramp(scene: Any) -> Any:
     times = sample_times(scene)
     tau = np.clip((times - ramp["start_time"]) / ramp["duration"], 0.0, 1.0)
     loads = ramp["initial_value"] + (ramp["final_value"] - ramp["initial_value"]) * tau
-    columns = suspension.follow_load(loads, spring["spring_free_length"],
-                                     spring["spring_stiffness"], spring["spring_base_offset"])
+    columns = suspension.follow_load(
+        loads,
+        spring["spring_free_length"],
+        spring["spring_stiffness"],
+        spring["spring_base_offset"],
+    )
     return {f"{source}.load": loads, **{f"{name}.{key}": v for key, v in columns.items()}}
 
 
@@ -85,42 +104,63 @@ def suspension_dynamics_scene(scene: Any) -> Any:
     road_name, road = None, None
     if any(Path(spec.fmu).stem == "RoadProfile" for spec in scene.components.values()):
         road_name, road = _component(scene, "RoadProfile")
-    return suspension_dynamics.scene_columns(sample_times(scene), source, load, name,
-                                             parameters, road_name, road, scene.record)
+    return suspension_dynamics.scene_columns(
+        sample_times(scene), source, load, name, parameters, road_name, road, scene.record
+    )
 
 
 def gear_dynamics_scene(scene: Scene) -> Any:
     """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
     name, _ = _component(scene, "LandingGear")
     spec = scene.components[name]
-    values = gear_dynamics.gear_values(start_values("LandingGear"), spec.parameters,
-                                       spec.effects, spec.inputs)
+    values = gear_dynamics.gear_values(
+        start_values("LandingGear"), spec.parameters, spec.effects, spec.inputs
+    )
     columns = gear_dynamics.simulate(values, sample_times(scene))
-    return {f"{name}.{key}": np.asarray(values_) for key, values_ in columns.items()
-            if scene.record is None or f"{name}.{key}" in scene.record}
+    return {
+        f"{name}.{key}": np.asarray(values_)
+        for key, values_ in columns.items()
+        if scene.record is None or f"{name}.{key}" in scene.record
+    }
 
 
-def _shaft_columns(scene: Any, model: str="CrankDrive", prefix: str="crank", ratio: float=1.0):
+def _shaft_columns(
+    scene: Any, model: str = "CrankDrive", prefix: str = "crank", ratio: float = 1.0
+):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
     name, shaft = _component(scene, model)
-    columns = drives.rotation(sample_times(scene), shaft["initial_angle"],
-                              shaft["initial_speed"], shaft["speed"], shaft["ramp_time"],
-                              shaft["start_time"], ratio)
+    columns = drives.rotation(
+        sample_times(scene),
+        shaft["initial_angle"],
+        shaft["initial_speed"],
+        shaft["speed"],
+        shaft["ramp_time"],
+        shaft["start_time"],
+        ratio,
+    )
     return name, {f"{prefix}_{key}": value for key, value in columns.items()}
 
 
 def _recorded(scene: Any, columns: Any):
-    return {key: value for key, value in columns.items()
-            if scene.record is None or key in scene.record}
+    return {
+        key: value for key, value in columns.items() if scene.record is None or key in scene.record
+    }
 
 
 def four_bar_scene(scene: Any) -> Any:
     """CrankDrive -> FourBar: the crank motion and the closed-form linkage motion."""
     crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "FourBar")
-    motion = linkages.four_bar(p["ground_length"], p["crank_length"], p["coupler_length"],
-                               p["rocker_length"], p["circuit"], crank["crank_angle"],
-                               crank["crank_speed"], crank["crank_acceleration"])
+    motion = linkages.four_bar(
+        p["ground_length"],
+        p["crank_length"],
+        p["coupler_length"],
+        p["rocker_length"],
+        p["circuit"],
+        crank["crank_angle"],
+        crank["crank_speed"],
+        crank["crank_acceleration"],
+    )
     columns = {f"{crank_name}.{key}": value for key, value in crank.items()}
     columns.update({f"{name}.{key}": value for key, value in motion.items()})
     return _recorded(scene, columns)
@@ -130,9 +170,15 @@ def slider_crank_scene(scene: Any) -> Any:
     """CrankDrive -> SliderCrank: the crank motion and the closed-form slider motion."""
     crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "SliderCrank")
-    motion = linkages.slider_crank(p["crank_length"], p["coupler_length"], p["offset"],
-                                   p["circuit"], crank["crank_angle"], crank["crank_speed"],
-                                   crank["crank_acceleration"])
+    motion = linkages.slider_crank(
+        p["crank_length"],
+        p["coupler_length"],
+        p["offset"],
+        p["circuit"],
+        crank["crank_angle"],
+        crank["crank_speed"],
+        crank["crank_acceleration"],
+    )
     columns = {f"{crank_name}.{key}": value for key, value in crank.items()}
     columns.update({f"{name}.{key}": value for key, value in motion.items()})
     return _recorded(scene, columns)
@@ -143,18 +189,28 @@ def valve_train_scene(scene: Any) -> Any:
     (forward or inverse), and the valve spring's contact force where the effect is on."""
     cam_name, cam = _shaft_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
     name, p = _component(scene, "ValveTrain")
-    angle, speed, acceleration = (cam[f"camshaft_{key}"]
-                                  for key in ("angle", "speed", "acceleration"))
-    s, s1, s2 = valve_train.cam_lift(p["cam_law"], p["lift"], p["rise_start"], p["rise_angle"],
-                                     p["high_dwell_angle"], p["return_angle"], angle)
-    law = (s, s1 * speed, s2 * speed ** 2 + s1 * acceleration)
+    angle, speed, acceleration = (
+        cam[f"camshaft_{key}"] for key in ("angle", "speed", "acceleration")
+    )
+    s, s1, s2 = valve_train.cam_lift(
+        p["cam_law"],
+        p["lift"],
+        p["rise_start"],
+        p["rise_angle"],
+        p["high_dwell_angle"],
+        p["return_angle"],
+        angle,
+    )
+    law = (s, s1 * speed, s2 * speed**2 + s1 * acceleration)
     solve = valve_train.inverse if p["mode"] == "inverse" else valve_train.forward
     geometry = {key: p[key] for key in valve_train.GEOMETRY_FIELDS}
     motion = solve(geometry, *law)
     if "valve_spring" in scene.components[name].effects:
-        motion["contact_force"] = (p["valve_mass"] * motion["valve_acceleration"]
-                                   + p["spring_stiffness"] * motion["valve_lift"]
-                                   + p["spring_preload"])
+        motion["contact_force"] = (
+            p["valve_mass"] * motion["valve_acceleration"]
+            + p["spring_stiffness"] * motion["valve_lift"]
+            + p["spring_preload"]
+        )
     columns = {f"{cam_name}.{key}": value for key, value in cam.items()}
     columns.update({f"{name}.{key}": value for key, value in motion.items()})
     return _recorded(scene, columns)
@@ -193,8 +249,14 @@ REFERENCES = {
 
 # References integrated by scipy (rtol = atol = 1e-12) rather than evaluated in closed form:
 # a different scipy may change their last digits, so regeneration is compared more loosely.
-INTEGRATED = {"gear_retraction_dynamic", "gear_extension_gravity", "suspension_road_bump",
-              "suspension_sudden_load", "valve_train_dynamic", "valve_float_dynamic"}
+INTEGRATED = {
+    "gear_retraction_dynamic",
+    "gear_extension_gravity",
+    "suspension_road_bump",
+    "suspension_sudden_load",
+    "valve_train_dynamic",
+    "valve_float_dynamic",
+}
 
 
 def generate(scene_dir: Any, out_dir: Any) -> Any:
@@ -202,6 +264,7 @@ def generate(scene_dir: Any, out_dir: Any) -> Any:
     paths = []
     for scene_name, build in REFERENCES.items():
         scene = load_scene(find_file(scene_name, (scene_dir,)))
-        paths.append(write_csv(Path(out_dir) / f"{scene_name}.csv", sample_times(scene),
-                               build(scene)))
+        paths.append(
+            write_csv(Path(out_dir) / f"{scene_name}.csv", sample_times(scene), build(scene))
+        )
     return paths

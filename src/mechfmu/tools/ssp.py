@@ -71,7 +71,7 @@ OSP_ANNOTATION = "com.opensimulationplatform"
 MECHFMU_ANNOTATION = "org.mechfmu.scene"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
 _BASE_UNIT = ("kg", "m", "s", "A", "K", "mol", "cd", "rad", "factor", "offset")
-_INT32 = (-2 ** 31, 2 ** 31 - 1)
+_INT32 = (-(2**31), 2**31 - 1)
 
 for _prefix, _uri in NS.items():
     ET.register_namespace(_prefix, _uri)
@@ -82,8 +82,11 @@ def _tag(prefix: str, name: str) -> str:
 
 
 def _sub(parent: Element, prefix: str, tag: str, **attributes: Any) -> Element:
-    return ET.SubElement(parent, _tag(prefix, tag),
-                         {key: value for key, value in attributes.items() if value is not None})
+    return ET.SubElement(
+        parent,
+        _tag(prefix, tag),
+        {key: value for key, value in attributes.items() if value is not None},
+    )
 
 
 def format_value(fmi_type: str, value: float, where: str) -> str:
@@ -95,8 +98,7 @@ def format_value(fmi_type: str, value: float, where: str) -> str:
         return repr(value)  # shortest round-trip form; xs:double reads it back exactly
     if fmi_type == "Integer":
         if not _INT32[0] <= value <= _INT32[1]:
-            raise SceneError(f"{where} = {value!r} does not fit the 32-bit Integer of FMI and "
-                             f"SSP")
+            raise SceneError(f"{where} = {value!r} does not fit the 32-bit Integer of FMI and SSP")
         return str(int(value))
     if fmi_type == "Boolean":
         return "true" if value else "false"
@@ -122,10 +124,13 @@ def _refuse_unexpressible(scene: Scene) -> None:
                 raise SceneError(
                     f"{scene.path}: component {name!r}: parameter {key} = {value!r} names a "
                     f"file the FMU opens on the host; SSP 1.0 cannot hand an FMU a path into "
-                    f"the package, so a scene with a *_file parameter is not exported")
+                    f"the package, so a scene with a *_file parameter is not exported"
+                )
 
 
-def describe(scene: Path | Scene, fmu_dir: Path | str | None=None) -> tuple[Element, dict[str, Path]]:
+def describe(
+    scene: Path | Scene, fmu_dir: Path | str | None = None
+) -> tuple[Element, dict[str, Path]]:
     """Check ``scene`` and return (SSD root element, {resource name: FMU path})."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
@@ -160,26 +165,44 @@ def describe(scene: Path | Scene, fmu_dir: Path | str | None=None) -> tuple[Elem
         part.connectors.update(part.spec.parameters)
         part.connectors.update(part.spec.effects)
 
-    root = ET.Element(_tag("ssd", "SystemStructureDescription"),
-                      {"version": "1.0", "name": scene.name,
-                       "generationTool": f"mechfmu {__version__}"})
-    system = _sub(root, "ssd", "System", name=scene.name,
-                  description=" ".join(scene.description.split()) or None)
+    root = ET.Element(
+        _tag("ssd", "SystemStructureDescription"),
+        {"version": "1.0", "name": scene.name, "generationTool": f"mechfmu {__version__}"},
+    )
+    system = _sub(
+        root,
+        "ssd",
+        "System",
+        name=scene.name,
+        description=" ".join(scene.description.split()) or None,
+    )
     elements = _sub(system, "ssd", "Elements")
     order = simulation.order + [name for name in scene.components if name not in simulation.order]
     units: dict[str, Any] = {}
     for name in order:
         part = parts[name]
-        element = _sub(elements, "ssd", "Component", name=name, type=FMU_TYPE,
-                       source=part.resource, implementation="CoSimulation")
+        element = _sub(
+            elements,
+            "ssd",
+            "Component",
+            name=name,
+            type=FMU_TYPE,
+            source=part.resource,
+            implementation="CoSimulation",
+        )
         names = sorted(part.connectors, key=lambda n: part.variables[n].valueReference)
         if names:
             connectors = _sub(element, "ssd", "Connectors")
             for variable_name in names:
                 variable = part.variables[variable_name]
-                connector = _sub(connectors, "ssd", "Connector", name=variable_name,
-                                 kind=variable.causality,
-                                 description=variable.description or None)
+                connector = _sub(
+                    connectors,
+                    "ssd",
+                    "Connector",
+                    name=variable_name,
+                    kind=variable.causality,
+                    description=variable.description or None,
+                )
                 if variable.type == "Real":
                     _sub(connector, "ssc", "Real", unit=variable.unit or None)
                     if variable.unit:
@@ -187,8 +210,10 @@ def describe(scene: Path | Scene, fmu_dir: Path | str | None=None) -> tuple[Elem
                 elif variable.type in ("Integer", "Boolean", "String"):
                     _sub(connector, "ssc", variable.type)
                 else:
-                    raise SceneError(f"{scene.path}: {name}.{variable_name} is of type "
-                                     f"{variable.type}, which is not exported to SSP")
+                    raise SceneError(
+                        f"{scene.path}: {name}.{variable_name} is of type "
+                        f"{variable.type}, which is not exported to SSP"
+                    )
         values = [(key, value) for key, value in part.spec.parameters.items()]
         values += [(key, True) for key in part.spec.effects]
         values += [(key, value) for key, value in part.spec.inputs.items()]
@@ -201,29 +226,57 @@ def describe(scene: Path | Scene, fmu_dir: Path | str | None=None) -> tuple[Elem
             for key, value in values:
                 variable = part.variables[key]
                 parameter = _sub(parameters, "ssv", "Parameter", name=key)
-                _sub(parameter, "ssv", variable.type,
-                     value=format_value(variable.type, value, f"{scene.path}: {name}.{key}"))
+                _sub(
+                    parameter,
+                    "ssv",
+                    variable.type,
+                    value=format_value(variable.type, value, f"{scene.path}: {name}.{key}"),
+                )
     if scene.connections:
         connections = _sub(system, "ssd", "Connections")
         for connection in scene.connections:
-            _sub(connections, "ssd", "Connection", startElement=connection.source,
-                 startConnector=connection.output, endElement=connection.target,
-                 endConnector=connection.input)
+            _sub(
+                connections,
+                "ssd",
+                "Connection",
+                startElement=connection.source,
+                startConnector=connection.output,
+                endElement=connection.target,
+                endConnector=connection.input,
+            )
     if units:
         unit_list = _sub(root, "ssd", "Units")
         for unit_name, base in units.items():
             unit = _sub(unit_list, "ssc", "Unit", name=unit_name)
             _sub(unit, "ssc", "BaseUnit", **base)
-    experiment = _sub(root, "ssd", "DefaultExperiment", startTime=repr(scene.start_time),
-                      stopTime=repr(scene.stop_time))
-    annotation = _sub(_sub(experiment, "ssd", "Annotations"), "ssc", "Annotation",
-                      type=OSP_ANNOTATION)
-    _sub(_sub(annotation, "osp", "Algorithm"), "osp", "FixedStepAlgorithm",
-         baseStepSize=repr(scene.step))
-    annotation = _sub(_sub(root, "ssd", "Annotations"), "ssc", "Annotation",
-                      type=MECHFMU_ANNOTATION)
-    info = _sub(annotation, "mechfmu", "Scene", name=scene.name, step=repr(scene.step),
-                coupling=scene.coupling, order=" ".join(simulation.order))
+    experiment = _sub(
+        root,
+        "ssd",
+        "DefaultExperiment",
+        startTime=repr(scene.start_time),
+        stopTime=repr(scene.stop_time),
+    )
+    annotation = _sub(
+        _sub(experiment, "ssd", "Annotations"), "ssc", "Annotation", type=OSP_ANNOTATION
+    )
+    _sub(
+        _sub(annotation, "osp", "Algorithm"),
+        "osp",
+        "FixedStepAlgorithm",
+        baseStepSize=repr(scene.step),
+    )
+    annotation = _sub(
+        _sub(root, "ssd", "Annotations"), "ssc", "Annotation", type=MECHFMU_ANNOTATION
+    )
+    info = _sub(
+        annotation,
+        "mechfmu",
+        "Scene",
+        name=scene.name,
+        step=repr(scene.step),
+        coupling=scene.coupling,
+        order=" ".join(simulation.order),
+    )
     for connection in simulation.lagged:
         _sub(info, "mechfmu", "LaggedConnection", connection=str(connection))
     for name in simulation.pruned:
@@ -233,7 +286,9 @@ def describe(scene: Path | Scene, fmu_dir: Path | str | None=None) -> tuple[Elem
     return root, resources
 
 
-def _unit(units: dict[str, dict[str, str] | dict[Any, Any]], part: _Part, unit_name: str, where: str) -> None:
+def _unit(
+    units: dict[str, dict[str, str] | dict[Any, Any]], part: _Part, unit_name: str, where: str
+) -> None:
     definition = next((u for u in part.description.unitDefinitions if u.name == unit_name), None)
     base = {}
     if definition is not None and definition.baseUnit is not None:
@@ -243,8 +298,10 @@ def _unit(units: dict[str, dict[str, str] | dict[Any, Any]], part: _Part, unit_n
             if value != default:
                 base[key] = repr(float(value)) if key in ("factor", "offset") else str(value)
     if unit_name in units and units[unit_name] != base:
-        raise SceneError(f"{where}: unit {unit_name!r} is defined differently by two FMUs "
-                         f"({units[unit_name]} and {base}); an SSD has one definition per unit")
+        raise SceneError(
+            f"{where}: unit {unit_name!r} is defined differently by two FMUs "
+            f"({units[unit_name]} and {base}); an SSD has one definition per unit"
+        )
     units[unit_name] = base
 
 
@@ -255,7 +312,7 @@ def ssd_bytes(root: Element) -> bytes:
     return ET.tostring(root, encoding="UTF-8", xml_declaration=True) + b"\n"
 
 
-def export_ssp(scene: Path | Scene, out: Path | str, fmu_dir: Path | str | None=None) -> Path:
+def export_ssp(scene: Path | Scene, out: Path | str, fmu_dir: Path | str | None = None) -> Path:
     """Write ``scene`` (a Scene or a path) as the SSP package ``out``; return its path.
 
     The file is written to a temporary name and renamed, so a reader never sees half of it.
@@ -263,8 +320,11 @@ def export_ssp(scene: Path | Scene, out: Path | str, fmu_dir: Path | str | None=
     root, resources = describe(scene, fmu_dir)
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as package:
-        package.writestr(zipfile.ZipInfo(SSD_NAME, date_time=(1980, 1, 1, 0, 0, 0)),
-                         ssd_bytes(root), compress_type=zipfile.ZIP_DEFLATED)
+        package.writestr(
+            zipfile.ZipInfo(SSD_NAME, date_time=(1980, 1, 1, 0, 0, 0)),
+            ssd_bytes(root),
+            compress_type=zipfile.ZIP_DEFLATED,
+        )
         for resource, path in resources.items():
             package.write(path, resource, compress_type=zipfile.ZIP_STORED)
     return atomic_write(out, buffer.getvalue())
@@ -275,11 +335,14 @@ def summary(ssp: Path) -> str:
     with zipfile.ZipFile(ssp) as package:
         root = ET.fromstring(package.read(SSD_NAME))
         fmus = [name for name in package.namelist() if name.endswith(".fmu")]
-    count = {key: len(list(root.iter(_tag(prefix, key))))
-             for prefix, key in (("ssd", "Component"), ("ssd", "Connection"),
-                                 ("ssv", "Parameter"))}
-    return (f"{count['Component']} components, {count['Connection']} connections, "
-            f"{len(fmus)} FMUs, {count['Parameter']} parameter values")
+    count = {
+        key: len(list(root.iter(_tag(prefix, key))))
+        for prefix, key in (("ssd", "Component"), ("ssd", "Connection"), ("ssv", "Parameter"))
+    }
+    return (
+        f"{count['Component']} components, {count['Connection']} connections, "
+        f"{len(fmus)} FMUs, {count['Parameter']} parameter values"
+    )
 
 
 def extract_ssp(ssp: Path, directory: Path) -> Path:
@@ -292,6 +355,7 @@ def extract_ssp(ssp: Path, directory: Path) -> Path:
 
 
 # --- running an exported SSP in fmpy.ssp (host side) ---------------------------------------
+
 
 def experiment(ssp: Path) -> tuple[float, float, float, list[str | None]]:
     """(start time, stop time, step, recorded 'component.variable' names) of an exported SSP.
@@ -307,17 +371,23 @@ def experiment(ssp: Path) -> tuple[float, float, float, list[str | None]]:
             text = package.read(SSD_NAME)
     root = ET.fromstring(text)
     default = root.find(_tag("ssd", "DefaultExperiment"))
-    scene = root.find(f"{_tag('ssd', 'Annotations')}/{_tag('ssc', 'Annotation')}"
-                      f"/{_tag('mechfmu', 'Scene')}")
+    scene = root.find(
+        f"{_tag('ssd', 'Annotations')}/{_tag('ssc', 'Annotation')}/{_tag('mechfmu', 'Scene')}"
+    )
     if default is None or scene is None:
-        raise ValueError(f"{ssp}: not an SSP exported by mechfmu (no DefaultExperiment or "
-                         f"no {MECHFMU_ANNOTATION} annotation)")
-    return (float(default.attrib["startTime"]), float(default.attrib["stopTime"]),
-            float(scene.attrib["step"]),
-            [item.get("variable") for item in scene.findall(_tag("mechfmu", "Record"))])
+        raise ValueError(
+            f"{ssp}: not an SSP exported by mechfmu (no DefaultExperiment or "
+            f"no {MECHFMU_ANNOTATION} annotation)"
+        )
+    return (
+        float(default.attrib["startTime"]),
+        float(default.attrib["stopTime"]),
+        float(scene.attrib["step"]),
+        [item.get("variable") for item in scene.findall(_tag("mechfmu", "Record"))],
+    )
 
 
-def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray:
+def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool = False) -> ndarray:
     """Run an exported SSP (.ssp file) in fmpy's ``fmpy.ssp.simulation.simulate_ssp``.
 
     Returns fmpy's structured array: ``time`` (the END of each step, see below), then one
@@ -356,12 +426,15 @@ def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray
     start, stop, step, _ = experiment(ssp)
     with zipfile.ZipFile(ssp) as package:
         root = ET.fromstring(package.read(SSD_NAME))
-    signals = {f"{component.get('name')}.{connector.get('name')}"
-               for component in root.iter(_tag("ssd", "Component"))
-               for connector in component.iter(_tag("ssd", "Connector"))
-               if connector.get("kind") in ("input", "output")}
-    original = {name: getattr(simulation, name)
-                for name in ("set_value", "set_parameters", "do_step")}
+    signals = {
+        f"{component.get('name')}.{connector.get('name')}"
+        for component in root.iter(_tag("ssd", "Component"))
+        for connector in component.iter(_tag("ssd", "Connector"))
+        if connector.get("kind") in ("input", "output")
+    }
+    original = {
+        name: getattr(simulation, name) for name in ("set_value", "set_parameters", "do_step")
+    }
     started = set()
 
     def set_value(component: Any, name: str, value: Any) -> None:
@@ -378,15 +451,17 @@ def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray
         for binding in component.parameterBindings:
             for values in binding.parameterValues:
                 for parameter in values.parameters:
-                    set_value(component, (binding.prefix or "") + parameter.name,
-                              parameter.value)
+                    set_value(component, (binding.prefix or "") + parameter.name, parameter.value)
         if initialise_from_sources:
             elements = {element.name: element for element in component.parent.elements}
             for connection in component.parent.connections:
                 source = elements[connection.startElement]
                 if connection.endElement == component.name and hasattr(source, "fmu"):
-                    set_value(component, connection.endConnector,
-                              simulation.get_value(source, connection.startConnector))
+                    set_value(
+                        component,
+                        connection.endConnector,
+                        simulation.get_value(source, connection.startConnector),
+                    )
 
     def do_step(component: Any, time: float, step_size: float) -> None:
         system = component.parent
@@ -400,19 +475,27 @@ def simulate_ssp_fmpy(ssp: Path, initialise_from_sources: bool=False) -> ndarray
             for connection in system.connections:
                 source = elements[connection.startElement]
                 target = elements[connection.endElement]
-                value = next(c.value for c in source.connectors
-                             if c.name == connection.startConnector)
+                value = next(
+                    c.value for c in source.connectors if c.name == connection.startConnector
+                )
                 for connector in target.connectors:
                     if connector.name == connection.endConnector:
                         connector.value = value
         original["do_step"](component, time, step_size)
 
     simulation.set_value, simulation.set_parameters, simulation.do_step = (
-        set_value, set_parameters, do_step)
+        set_value,
+        set_parameters,
+        do_step,
+    )
     try:
-        rows = simulation.simulate_ssp(str(ssp), start_time=start, stop_time=stop - step / 2,
-                                       step_size=step,
-                                       parameter_set=ParameterSet(name="unused"))
+        rows = simulation.simulate_ssp(
+            str(ssp),
+            start_time=start,
+            stop_time=stop - step / 2,
+            step_size=step,
+            parameter_set=ParameterSet(name="unused"),
+        )
     finally:
         for name, function in original.items():
             setattr(simulation, name, function)

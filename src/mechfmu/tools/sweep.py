@@ -84,7 +84,8 @@ SCENE_OVERRIDES = {"stop_time", "step"}  # scene keys a sweep may replace
 
 # --- --vary ----------------------------------------------------------------------------------
 
-def split_dotted(name: str, option: str, text: str, what: str="parameter") -> tuple[str, str]:
+
+def split_dotted(name: str, option: str, text: str, what: str = "parameter") -> tuple[str, str]:
     """'component.variable' -> (component, variable), or SweepError naming the option."""
     component, dot, variable = name.strip().partition(".")
     if not dot or not component or not variable:
@@ -134,10 +135,11 @@ def parse_vary(text: str) -> Vary:
 @dataclasses.dataclass(frozen=True)
 class Link:
     """A parameter that follows a varied one: target = factor * source at every point."""
+
     component: str
     variable: str
     factor: float
-    source: str        # the varied parameter's component.parameter
+    source: str  # the varied parameter's component.parameter
 
     @property
     def name(self) -> str:
@@ -147,8 +149,7 @@ class Link:
 def parse_link(text: str) -> Link:
     """'comp.param=FACTOR*comp.varied' or 'comp.param=comp.varied' -> Link."""
     if not isinstance(text, str) or text.count("=") != 1:
-        raise SweepError(f"--link {text!r}: expected component.parameter=FACTOR*"
-                         f"component.varied")
+        raise SweepError(f"--link {text!r}: expected component.parameter=FACTOR*component.varied")
     name, spec = (part.strip() for part in text.split("="))
     component, variable = split_dotted(name, "--link", text)
     factor_text, star, source = spec.rpartition("*")
@@ -157,8 +158,7 @@ def parse_link(text: str) -> Link:
         try:
             factor = float(factor_text)
         except ValueError:
-            raise SweepError(f"--link {text!r}: FACTOR {factor_text!r} is not a number") \
-                from None
+            raise SweepError(f"--link {text!r}: FACTOR {factor_text!r} is not a number") from None
         if not math.isfinite(factor):
             raise SweepError(f"--link {text!r}: FACTOR must be finite")
     split_dotted(source, "--link", text)
@@ -167,12 +167,14 @@ def parse_link(text: str) -> Link:
 
 # --- points ------------------------------------------------------------------------------------
 
+
 def grid_points(varies: list[Vary]) -> ndarray:
     """The full grid: every combination of each parameter's linspace, last varying fastest."""
     for vary in varies:
         if vary.count is None:
-            raise SweepError(f"--vary {vary.name}: a grid needs START:STOP:COUNT "
-                             f"(or use --samples N)")
+            raise SweepError(
+                f"--vary {vary.name}: a grid needs START:STOP:COUNT (or use --samples N)"
+            )
     axes = [np.linspace(v.start, v.stop, int(v.count or 0)) for v in varies]
     mesh = np.meshgrid(*axes, indexing="ij")
     return np.stack([m.ravel() for m in mesh], axis=1)
@@ -184,7 +186,9 @@ def lhs_unit(samples: int, dimensions: int, seed: int | None) -> ndarray:
     return qmc.LatinHypercube(d=dimensions, seed=seed).random(samples)
 
 
-def sample_points(varies: list[Vary], samples: int, seed: int | None, method: str="lhs") -> ndarray:
+def sample_points(
+    varies: list[Vary], samples: int, seed: int | None, method: str = "lhs"
+) -> ndarray:
     """``samples`` points over the ranges: Latin hypercube ('lhs') or uniform ('random')."""
     if samples < 1:
         raise SweepError("--samples must be at least 1")
@@ -201,15 +205,22 @@ def sample_points(varies: list[Vary], samples: int, seed: int | None, method: st
 
 # --- metrics -----------------------------------------------------------------------------------
 
-METRICS = {"final": 0, "max": 0, "min": 0, "time_of_max": 0, "first_time_above": 1,
-           "first_time_true": 0, "max_abs_error": 0}  # kind -> number of extra arguments
+METRICS = {
+    "final": 0,
+    "max": 0,
+    "min": 0,
+    "time_of_max": 0,
+    "first_time_above": 1,
+    "first_time_true": 0,
+    "max_abs_error": 0,
+}  # kind -> number of extra arguments
 
 
 @dataclasses.dataclass(frozen=True)
 class Metric:
-    text: str          # as given: the CSV column's name
+    text: str  # as given: the CSV column's name
     kind: str
-    variable: str      # component.variable
+    variable: str  # component.variable
     threshold: float | None = None
 
 
@@ -220,8 +231,7 @@ def parse_metric(text: str) -> Metric:
     parts = text.split(":")
     kind = parts[0]
     if kind not in METRICS:
-        raise SweepError(f"--metrics {text!r}: unknown kind {kind!r}; known: "
-                         f"{', '.join(METRICS)}")
+        raise SweepError(f"--metrics {text!r}: unknown kind {kind!r}; known: {', '.join(METRICS)}")
     if len(parts) != 2 + METRICS[kind]:
         form = f"{kind}:component.variable" + (":THRESHOLD" if METRICS[kind] else "")
         raise SweepError(f"--metrics {text!r}: expected {form}")
@@ -232,8 +242,9 @@ def parse_metric(text: str) -> Metric:
         try:
             threshold = float(parts[2])
         except ValueError:
-            raise SweepError(f"--metrics {text!r}: THRESHOLD {parts[2]!r} is not a number") \
-                from None
+            raise SweepError(
+                f"--metrics {text!r}: THRESHOLD {parts[2]!r} is not a number"
+            ) from None
     return Metric(text, kind, variable, threshold)
 
 
@@ -251,7 +262,9 @@ def first_time(times: ndarray, mask: ndarray) -> float:
     return float(times[hits[0]]) if hits.size else math.nan
 
 
-def evaluate_metric(metric: Metric, times: Any, values: Any, reference: tuple[Any, Any] | None=None) -> float:
+def evaluate_metric(
+    metric: Metric, times: Any, values: Any, reference: tuple[Any, Any] | None = None
+) -> float:
     """The metric's value for one signal; ``reference`` = (times, values) for max_abs_error."""
     times, values = np.asarray(times, float), np.asarray(values, float)
     if values.size == 0:
@@ -284,16 +297,26 @@ def evaluate_metric(metric: Metric, times: Any, values: Any, reference: tuple[An
 
 # --- scenes ------------------------------------------------------------------------------------
 
-def point_values(varies: list[Vary], links: tuple[()] | list[Link], kinds: dict[str, tuple[str, str]], values: list[float] | ndarray) -> dict[str, float]:
+
+def point_values(
+    varies: list[Vary],
+    links: tuple[()] | list[Link],
+    kinds: dict[str, tuple[str, str]],
+    values: list[float] | ndarray,
+) -> dict[str, float]:
     """{component.variable: value} of one point: the varied values and the linked ones,
     as the FMI type wants them (Integer rounded)."""
     named = dict(zip((v.name for v in varies), (float(v) for v in values)))
     named.update({link.name: link.factor * named[link.source] for link in links})
-    return {name: int(round(value)) if kinds[name][1] == "Integer" else value
-            for name, value in named.items()}
+    return {
+        name: int(round(value)) if kinds[name][1] == "Integer" else value
+        for name, value in named.items()
+    }
 
 
-def point_scene(scene: Scene, kinds: dict[str, tuple[str, str]], assigned: dict[str, float | bool]) -> Scene:
+def point_scene(
+    scene: Scene, kinds: dict[str, tuple[str, str]], assigned: dict[str, float | bool]
+) -> Scene:
     """A copy of ``scene`` with each parameter or constant input in ``assigned``
     ({component.variable: value}) set to its value."""
     components = {name: copy.deepcopy(spec) for name, spec in scene.components.items()}
@@ -304,75 +327,105 @@ def point_scene(scene: Scene, kinds: dict[str, tuple[str, str]], assigned: dict[
     return dataclasses.replace(scene, components=components)
 
 
-def _sweepable(scene: Scene, descriptions: dict[str, ModelDescription], option: str, component: str, variable: str) -> tuple[str, str]:
+def _sweepable(
+    scene: Scene,
+    descriptions: dict[str, ModelDescription],
+    option: str,
+    component: str,
+    variable: str,
+) -> tuple[str, str]:
     """('parameter' | 'input', FMI type) of a variable a sweep may set, or SweepError."""
     name = f"{component}.{variable}"
     if component not in scene.components:
-        raise SweepError(f"{option} {name}: no component {component!r}; "
-                         f"components: {', '.join(scene.components)}")
+        raise SweepError(
+            f"{option} {name}: no component {component!r}; "
+            f"components: {', '.join(scene.components)}"
+        )
     variables = {v.name: v for v in descriptions[component].modelVariables}
     found = variables.get(variable)
     if found is None:
-        raise SweepError(f"{option} {name}: {component!r} has no variable {variable!r}; "
-                         f"parameters: " + ", ".join(sorted(
-                             v.name for v in variables.values() if v.causality == "parameter")))
+        raise SweepError(
+            f"{option} {name}: {component!r} has no variable {variable!r}; "
+            f"parameters: "
+            + ", ".join(sorted(v.name for v in variables.values() if v.causality == "parameter"))
+        )
     if found.type not in ("Real", "Integer"):
-        raise SweepError(f"{option} {name}: a {found.type} cannot be swept "
-                         f"(only Real and Integer)")
+        raise SweepError(f"{option} {name}: a {found.type} cannot be swept (only Real and Integer)")
     if found.causality == "parameter":
         return "parameter", found.type
     if found.causality == "input" and variable in scene.components[component].inputs:
         return "input", found.type
-    raise SweepError(f"{option} {name}: is a {found.causality}; only parameters and inputs "
-                     f"given as constants under [components.{component}.inputs] can be swept")
+    raise SweepError(
+        f"{option} {name}: is a {found.causality}; only parameters and inputs "
+        f"given as constants under [components.{component}.inputs] can be swept"
+    )
 
 
-def check_sweep(scene: Scene, varies: list[Vary], metrics: list[Metric], fmu_dir: str | Path, links: tuple[()] | list[Link]=()) -> tuple:
+def check_sweep(
+    scene: Scene,
+    varies: list[Vary],
+    metrics: list[Metric],
+    fmu_dir: str | Path,
+    links: tuple[()] | list[Link] = (),
+) -> tuple:
     """Check the sweep against the scene's FMUs before anything runs.
 
     Returns ({varied or linked name: ('parameter' | 'input', FMI type)},
     {metric text: reference signal}).
     """
     from ..cosim import master
+
     simulation = master.Simulation(scene, fmu_dir)  # checks the scene itself
-    descriptions = {name: master.model_description(master.resolve_fmu(spec, scene, fmu_dir))
-                    for name, spec in scene.components.items()}
+    descriptions = {
+        name: master.model_description(master.resolve_fmu(spec, scene, fmu_dir))
+        for name, spec in scene.components.items()
+    }
     kinds = {}
     for option, items in (("--vary", varies), ("--link", links)):
         for item in items:
             if item.name in kinds:
                 raise SweepError(f"{option} {item.name}: already varied or linked")
             if isinstance(item, Link) and item.source not in {v.name for v in varies}:
-                raise SweepError(f"--link {item.name}: its source {item.source} is not "
-                                 f"varied; varied: {', '.join(v.name for v in varies)}")
-            kinds[item.name] = _sweepable(scene, descriptions, option, item.component,
-                                          item.variable)
+                raise SweepError(
+                    f"--link {item.name}: its source {item.source} is not "
+                    f"varied; varied: {', '.join(v.name for v in varies)}"
+                )
+            kinds[item.name] = _sweepable(
+                scene, descriptions, option, item.component, item.variable
+            )
     recorded = [name for name, _, _ in simulation.recorded]
     references = {}
     reference_data = None
     for metric in metrics:
         if metric.variable not in recorded:
-            raise SweepError(f"--metrics {metric.text}: {metric.variable} is not recorded by "
-                             f"the scene; recorded: {', '.join(recorded)}")
+            raise SweepError(
+                f"--metrics {metric.text}: {metric.variable} is not recorded by "
+                f"the scene; recorded: {', '.join(recorded)}"
+            )
         if metric.kind == "max_abs_error":
             if scene.reference is None:
                 raise SweepError(f"--metrics {metric.text}: the scene has no reference CSV")
             if reference_data is None:
                 from ..io import read_result
+
                 try:
                     reference_data = read_result(scene.reference)
                 except ValueError as error:  # ResultFileError names the file
-                    raise SweepError(f"--metrics {metric.text}: cannot read the reference: "
-                                     f"{error}") from None
+                    raise SweepError(
+                        f"--metrics {metric.text}: cannot read the reference: {error}"
+                    ) from None
             ref_times, ref_columns = reference_data.index.to_numpy(), reference_data
             if metric.variable not in ref_columns:
-                raise SweepError(f"--metrics {metric.text}: the reference {scene.reference} "
-                                 f"has no column {metric.variable}")
+                raise SweepError(
+                    f"--metrics {metric.text}: the reference {scene.reference} "
+                    f"has no column {metric.variable}"
+                )
             references[metric.text] = (ref_times, ref_columns[metric.variable].to_numpy())
     return kinds, references
 
 
 # --- the worker --------------------------------------------------------------------------------
+
 
 def _worker_init() -> None:
     """Per local worker process: ignore Ctrl-C (the parent handles it)."""
@@ -388,6 +441,7 @@ def worker_instances() -> Instances:
     pool = getattr(_THREAD, "instances", None)
     if pool is None:
         from ..cosim.master import Instances
+
         pool = _THREAD.instances = Instances(keep=True)
         atexit.register(pool.close)
         # multiprocessing workers leave through os._exit: only its finalisers run there
@@ -420,7 +474,13 @@ def worker_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def run_point(index: int, scene: Scene, metrics: list[Metric], references: dict[Any, Any], fmu_files: dict | None=None) -> tuple[int, dict[str, float], str | None, float, str]:
+def run_point(
+    index: int,
+    scene: Scene,
+    metrics: list[Metric],
+    references: dict[Any, Any],
+    fmu_files: dict | None = None,
+) -> tuple[int, dict[str, float], str | None, float, str]:
     """Run one point; returns (index, {metric text: value}, error message or None, wall s,
     worker name).
 
@@ -428,14 +488,17 @@ def run_point(index: int, scene: Scene, metrics: list[Metric], references: dict[
     ``fmu_files`` (a remote cluster) the worker uses its copies of the shipped files.
     """
     from ..cosim.master import Simulation
+
     started = time.perf_counter()
     try:
         if fmu_files is not None:
             scene = shipped_scene(scene, fmu_files)
         result = Simulation(scene).run(instances=worker_instances())
         times = result.times
-        values = {m.text: evaluate_metric(m, times, result.columns[m.variable],
-                                          references.get(m.text)) for m in metrics}
+        values = {
+            m.text: evaluate_metric(m, times, result.columns[m.variable], references.get(m.text))
+            for m in metrics
+        }
         error = None
     except Exception as failure:  # SceneError, SimulationError, anything: the sweep goes on
         values, error = {}, f"{type(failure).__name__}: {failure}"
@@ -446,13 +509,16 @@ def resolve_fmus(scene: Scene, fmu_dir: str | Path) -> Scene:
     """``scene`` with every component's FMU as an absolute path (workers may run elsewhere
     than the current folder)."""
     from ..cosim.master import resolve_fmu
-    components = {name: dataclasses.replace(spec, fmu=str(resolve_fmu(spec, scene, fmu_dir)
-                                                         .resolve()))
-                  for name, spec in scene.components.items()}
+
+    components = {
+        name: dataclasses.replace(spec, fmu=str(resolve_fmu(spec, scene, fmu_dir).resolve()))
+        for name, spec in scene.components.items()
+    }
     return dataclasses.replace(scene, components=components)
 
 
 # --- where the points run ----------------------------------------------------------------------
+
 
 class DaskCluster:
     """An existing Dask cluster (``--scheduler tcp://HOST:PORT``). The FMUs are sent to the
@@ -461,19 +527,23 @@ class DaskCluster:
     dies (up to its distributed.scheduler.allowed-failures, then KilledWorker: the point's
     error)."""
 
-    def __init__(self, address: str, timeout: float=10.0) -> None:
+    def __init__(self, address: str, timeout: float = 10.0) -> None:
         try:
             from distributed import Client
         except ImportError:  # an optional dependency: the extra mechfmu[cluster]
-            raise SweepError(f"--scheduler {address} needs Dask's 'distributed' package, "
-                             f"which the base install leaves out: pip install "
-                             f"'mechfmu[cluster]'") from None
+            raise SweepError(
+                f"--scheduler {address} needs Dask's 'distributed' package, "
+                f"which the base install leaves out: pip install "
+                f"'mechfmu[cluster]'"
+            ) from None
         probe_scheduler(address, timeout)
         try:
             self.client = Client(address, timeout=timeout, set_as_default=False)
         except (OSError, TimeoutError, ValueError) as error:
-            raise SweepError(f"--scheduler {address}: cannot reach a Dask scheduler there "
-                             f"within {timeout:g} s: {error}") from None
+            raise SweepError(
+                f"--scheduler {address}: cannot reach a Dask scheduler there "
+                f"within {timeout:g} s: {error}"
+            ) from None
         threads = self.client.nthreads()
         if not threads:
             self.client.close()
@@ -531,9 +601,12 @@ def probe_scheduler(address: str, timeout: float) -> None:
     try:
         socket.create_connection((host.strip("[]"), int(port)), timeout=timeout).close()
     except (OSError, ValueError) as error:
-        raise SweepError(f"--scheduler {address}: cannot reach a Dask scheduler there within "
-                         f"{timeout:g} s: {error}") from None
+        raise SweepError(
+            f"--scheduler {address}: cannot reach a Dask scheduler there within "
+            f"{timeout:g} s: {error}"
+        ) from None
     from concurrent.futures import ThreadPoolExecutor  # own event loop, whoever calls us
+
     with ThreadPoolExecutor(1) as thread:
         problem = thread.submit(_handshake_problem, f"tcp://{location}", timeout).result()
     if problem:
@@ -550,19 +623,25 @@ def _handshake_problem(address: Any, timeout: float):
     async def handshake() -> None:
         comm = await connect(address, timeout=timeout)
         await comm.close()
+
     try:
         asyncio.run(asyncio.wait_for(handshake(), timeout))
     except (asyncio.TimeoutError, TimeoutError):
-        return (f"something accepted the connection but sent no Dask handshake within "
-                f"{timeout:g} s: is it a Dask scheduler?")
+        return (
+            f"something accepted the connection but sent no Dask handshake within "
+            f"{timeout:g} s: is it a Dask scheduler?"
+        )
     except Exception as error:  # garbage parsed as Dask frames fails in many ways
         text = " ".join(f"{type(error).__name__}: {error}".split())
-        return (f"something answered there, but not a Dask scheduler (its first message "
-                f"is not a Dask handshake: {text[:200]})")
+        return (
+            f"something answered there, but not a Dask scheduler (its first message "
+            f"is not a Dask handshake: {text[:200]})"
+        )
     return None
 
 
 # --- the runner --------------------------------------------------------------------------------
+
 
 def _now() -> str:
     return datetime.now(timezone.utc).isoformat(timespec="seconds")
@@ -583,8 +662,18 @@ def safe_name(text: str) -> str:
 DEFAULT_RETRIES = 2  # extra attempts of a point whose worker process died; the last one alone
 # What a resumed sweep must share with the stopped one (its sweep.json): the points and
 # what is computed at each, including the FMU files' contents.
-RESUME_KEYS = ("scene_file", "overrides", "varies", "links", "method", "seed", "samples",
-               "metrics", "points", "fmus")
+RESUME_KEYS = (
+    "scene_file",
+    "overrides",
+    "varies",
+    "links",
+    "method",
+    "seed",
+    "samples",
+    "metrics",
+    "points",
+    "fmus",
+)
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -608,21 +697,32 @@ def at_least(option: str, value: int, minimum: int) -> int:
 
 def fmu_digests(scene: Scene) -> dict[str, str]:
     """{component: SHA-256 of its FMU file} (resolved paths): what a resumed sweep checks."""
-    return {name: hashlib.sha256(Path(spec.fmu).read_bytes()).hexdigest()
-            for name, spec in scene.components.items()}
+    return {
+        name: hashlib.sha256(Path(spec.fmu).read_bytes()).hexdigest()
+        for name, spec in scene.components.items()
+    }
 
 
 @dataclasses.dataclass
 class _Task:
     """One point to run: its index, its varied and linked values (the CSV's order), its
     scene, and how many times it was sent to a worker."""
+
     index: int
     point: list
     scene: object
     attempts: int = 0
 
 
-def _run_points(runner: Any, tasks: list[_Task], arguments: tuple, retries: int, guard: InterruptGuard, record: Callable, summary: dict[str, Any]) -> None:
+def _run_points(
+    runner: Any,
+    tasks: list[_Task],
+    arguments: tuple,
+    retries: int,
+    guard: InterruptGuard,
+    record: Callable,
+    summary: dict[str, Any],
+) -> None:
     """Run every task on ``runner``, calling ``record(task, (values, error, wall, worker))``
     as each finishes.
 
@@ -641,8 +741,7 @@ def _run_points(runner: Any, tasks: list[_Task], arguments: tuple, retries: int,
             pool, batch = runner.alone(), [last_chance.pop(0)]
         lost = []
         try:
-            pending = {pool.submit(task.index, task.scene, *arguments): task
-                       for task in batch}
+            pending = {pool.submit(task.index, task.scene, *arguments): task for task in batch}
             while pending:
                 if guard.requested:
                     raise _Stopped()
@@ -655,8 +754,7 @@ def _run_points(runner: Any, tasks: list[_Task], arguments: tuple, retries: int,
                         if pool.lost(failure):
                             lost.append(task)
                             continue
-                        outcome = ({}, f"worker: {type(failure).__name__}: {failure}", None,
-                                   None)
+                        outcome = ({}, f"worker: {type(failure).__name__}: {failure}", None, None)
                     record(task, outcome)
         finally:
             if pool is not runner:
@@ -669,8 +767,15 @@ def _run_points(runner: Any, tasks: list[_Task], arguments: tuple, retries: int,
         for task in sorted(lost, key=lambda task: task.index):
             if task.attempts > retries:
                 alone = ", the last one alone" if retries else " (--retries 0)"
-                record(task, ({}, f"worker: its process died on each of {task.attempts} "
-                                  f"attempt(s){alone}", None, None))
+                record(
+                    task,
+                    (
+                        {},
+                        f"worker: its process died on each of {task.attempts} attempt(s){alone}",
+                        None,
+                        None,
+                    ),
+                )
                 continue
             summary["retried"] += 1
             (last_chance if task.attempts == retries else waiting).append(task)
@@ -681,27 +786,45 @@ def _resumed_rows(csv_path: Any, json_path: Any, summary: Any, header: Any):
     error), after checking that its sweep.json defines the same sweep (RESUME_KEYS) and its
     header is ``header``; SweepError otherwise."""
     if not json_path.is_file() or not csv_path.is_file():
-        raise SweepError(f"nothing to resume in {csv_path.parent}: no sweep.json and "
-                         f"sweep.csv of a stopped sweep there")
+        raise SweepError(
+            f"nothing to resume in {csv_path.parent}: no sweep.json and "
+            f"sweep.csv of a stopped sweep there"
+        )
     try:
         previous = json.loads(json_path.read_text(encoding="utf-8"))
-        lines = pandas.read_csv(csv_path, header=None, dtype=str, na_filter=False,
-                                on_bad_lines="skip", encoding="utf-8").to_numpy().tolist()
+        lines = (
+            pandas.read_csv(
+                csv_path,
+                header=None,
+                dtype=str,
+                na_filter=False,
+                on_bad_lines="skip",
+                encoding="utf-8",
+            )
+            .to_numpy()
+            .tolist()
+        )
     except (OSError, ValueError, pandas.errors.ParserError) as error:
         raise SweepError(f"cannot resume from {csv_path.parent}: {error}") from None
     current = json.loads(json.dumps(summary, default=str))
     differ = [key for key in RESUME_KEYS if previous.get(key) != current.get(key)]
     if differ or not lines or lines[0] != header:
         what = ", ".join(differ) or "CSV columns"
-        raise SweepError(f"cannot resume the sweep in {csv_path.parent}: its {what} differ "
-                         f"from this one's; run it without --resume, or into another --out")
+        raise SweepError(
+            f"cannot resume the sweep in {csv_path.parent}: its {what} differ "
+            f"from this one's; run it without --resume, or into another --out"
+        )
     # a finished point's row has its worker (the last column); a row cut short by a crash
     # (pandas pads it with empty cells; longer ones are skipped) has not
     kept: dict[Any, Any] = {}
     error_column, worker_column = header.index("error"), header.index("worker")
     for line in lines[1:]:
-        if not line[error_column] and line[worker_column] and line[0].isdigit() \
-                and int(line[0]) < summary["points"]:
+        if (
+            not line[error_column]
+            and line[worker_column]
+            and line[0].isdigit()
+            and int(line[0]) < summary["points"]
+        ):
             kept.setdefault(int(line[0]), line)
     return list(kept.values())
 
@@ -712,10 +835,27 @@ def _csv_text(header: list[str], lines: list[Any]) -> str:
     return handle.getvalue()
 
 
-def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_dir: Path | str | None=None, jobs: int | None=None, samples: int | None=None, seed: int | None=None,
-              method: str="lhs", fmu_dir: str="fmus", plot: bool=False, on_point: Callable | None=None, progress: bool=True,
-              scheduler: str | None=None, links: tuple[()] | list[Link]=(), overrides: dict[str, str] | dict[str, float] | None=None, name: str | None=None, resume: bool=False,
-              retries: int=DEFAULT_RETRIES, guard: InterruptGuard | None=None) -> dict[str, Any]:
+def run_sweep(
+    scene_path: Path,
+    varies: list[Vary],
+    metrics: list[Metric],
+    out_dir: Path | str | None = None,
+    jobs: int | None = None,
+    samples: int | None = None,
+    seed: int | None = None,
+    method: str = "lhs",
+    fmu_dir: str = "fmus",
+    plot: bool = False,
+    on_point: Callable | None = None,
+    progress: bool = True,
+    scheduler: str | None = None,
+    links: tuple[()] | list[Link] = (),
+    overrides: dict[str, str] | dict[str, float] | None = None,
+    name: str | None = None,
+    resume: bool = False,
+    retries: int = DEFAULT_RETRIES,
+    guard: InterruptGuard | None = None,
+) -> dict[str, Any]:
     """Run the sweep; returns the summary dict written to sweep.json.
 
     The points run on ``jobs`` local worker processes, or on the Dask cluster whose
@@ -734,11 +874,14 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
     from ..cosim.files import output_folder
     from ..cosim.interrupt import InterruptGuard, signal_name
     from ..cosim.scene import load_scene
+
     scene_path = Path(scene_path)
     unknown = set(overrides or {}) - SCENE_OVERRIDES
     if unknown:
-        raise SweepError(f"cannot override the scene's {', '.join(sorted(unknown))}; "
-                         f"only {', '.join(sorted(SCENE_OVERRIDES))}")
+        raise SweepError(
+            f"cannot override the scene's {', '.join(sorted(unknown))}; "
+            f"only {', '.join(sorted(SCENE_OVERRIDES))}"
+        )
     scene = load_scene(scene_path, overrides)
     if not varies:
         raise SweepError("give at least one --vary")
@@ -765,19 +908,56 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
     names = [v.name for v in varies] + [k.name for k in links]
     header = ["index", *names, *(m.text for m in metrics), "error", "wall_time_s", "worker"]
     summary: dict[str, Any] = {
-        "name": name, "scene": scene.name, "scene_file": str(scene_path.resolve()),
+        "name": name,
+        "scene": scene.name,
+        "scene_file": str(scene_path.resolve()),
         "overrides": dict(overrides or {}),
-        "varies": [{"name": v.name, "kind": kinds[v.name][0], "type": kinds[v.name][1],
-                    "start": v.start, "stop": v.stop, "count": v.count} for v in varies],
-        "links": [{"name": k.name, "kind": kinds[k.name][0], "type": kinds[k.name][1],
-                   "factor": k.factor, "source": k.source} for k in links],
-        "method": method_name, "seed": seed, "samples": samples,
-        "metrics": [m.text for m in metrics], "fmus": fmu_digests(scene), "jobs": None,
-        "scheduler": scheduler, "where": None, "fmu_dir": str(fmu_dir),
-        "points": len(points), "started": _now(), "finished": None, "done": 0, "failed": 0,
-        "failed_indices": [], "resumed": 0, "retries": retries, "retried": 0,
-        "pool_restarts": 0, "interrupted": False, "signal": None, "wall_time_s": None,
-        "scenes_per_s": None, "csv": str(csv_path), "command": sys.argv,
+        "varies": [
+            {
+                "name": v.name,
+                "kind": kinds[v.name][0],
+                "type": kinds[v.name][1],
+                "start": v.start,
+                "stop": v.stop,
+                "count": v.count,
+            }
+            for v in varies
+        ],
+        "links": [
+            {
+                "name": k.name,
+                "kind": kinds[k.name][0],
+                "type": kinds[k.name][1],
+                "factor": k.factor,
+                "source": k.source,
+            }
+            for k in links
+        ],
+        "method": method_name,
+        "seed": seed,
+        "samples": samples,
+        "metrics": [m.text for m in metrics],
+        "fmus": fmu_digests(scene),
+        "jobs": None,
+        "scheduler": scheduler,
+        "where": None,
+        "fmu_dir": str(fmu_dir),
+        "points": len(points),
+        "started": _now(),
+        "finished": None,
+        "done": 0,
+        "failed": 0,
+        "failed_indices": [],
+        "resumed": 0,
+        "retries": retries,
+        "retried": 0,
+        "pool_restarts": 0,
+        "interrupted": False,
+        "signal": None,
+        "wall_time_s": None,
+        "scenes_per_s": None,
+        "csv": str(csv_path),
+        "command": sys.argv,
     }
     kept = _resumed_rows(csv_path, json_path, summary, header) if resume else []
     runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs, run_point, _worker_init)
@@ -787,8 +967,9 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
     for index, values in enumerate(points):
         if index not in finished:
             assigned = point_values(varies, links, kinds, values)
-            tasks.append(_Task(index, [assigned[n] for n in names],
-                               point_scene(scene, kinds, assigned)))
+            tasks.append(
+                _Task(index, [assigned[n] for n in names], point_scene(scene, kinds, assigned))
+            )
     atomic_write(csv_path, _csv_text(header, kept))  # the header and the rows kept
     write_json(json_path, summary)
     started = time.perf_counter()
@@ -798,8 +979,14 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
 
     def record(task: Any, outcome: Any) -> None:
         values, error, wall, worker = outcome
-        row = {"index": task.index, **dict(zip(names, task.point)), **values,
-               "error": error, "wall_time_s": wall, "worker": worker}
+        row = {
+            "index": task.index,
+            **dict(zip(names, task.point)),
+            **values,
+            "error": error,
+            "wall_time_s": wall,
+            "worker": worker,
+        }
         writer.writerow([_format(row.get(key)) for key in header])
         handle.flush()
         summary["done"] += 1
@@ -816,11 +1003,11 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         try:
             shipped = runner.ship(sorted({spec.fmu for spec in scene.components.values()}))
-            _run_points(runner, tasks, (metrics, references, shipped), retries, guard, record,
-                        summary)
+            _run_points(
+                runner, tasks, (metrics, references, shipped), retries, guard, record, summary
+            )
         except (KeyboardInterrupt, _Stopped) as stop:
-            stopped_by = guard.take() if guard.requested else getattr(stop, "signum",
-                                                                      signal.SIGINT)
+            stopped_by = guard.take() if guard.requested else getattr(stop, "signum", signal.SIGINT)
             summary["interrupted"], summary["signal"] = True, signal_name(stopped_by)
         finally:
             handle.close()
@@ -831,19 +1018,27 @@ def run_sweep(scene_path: Path, varies: list[Vary], metrics: list[Metric], out_d
             if meter and summary["interrupted"]:
                 meter.stream.write("\n")
             if plot and summary["done"]:
-                summary["plots"] = [str(p) for p in write_plots(
-                    out_dir, read_sweep_csv(csv_path), names[:len(varies)], metrics)]
+                summary["plots"] = [
+                    str(p)
+                    for p in write_plots(
+                        out_dir, read_sweep_csv(csv_path), names[: len(varies)], metrics
+                    )
+                ]
             write_json(json_path, summary)
     if stopped_by is not None:
         raise SweepInterrupted(stopped_by)
     return summary
 
 
-def write_plots(out_dir: Path, rows: list[dict[str, Any]], names: list[str], metrics: list[Metric]) -> list[Path]:
+def write_plots(
+    out_dir: Path, rows: list[dict[str, Any]], names: list[str], metrics: list[Metric]
+) -> list[Path]:
     """One PNG per (metric, varied parameter): the metric of every successful point."""
     import matplotlib
+
     matplotlib.use("Agg")
     from matplotlib import pyplot
+
     paths = []
     good = [row for row in rows if row["error"] is None]
     for metric in metrics:
@@ -873,24 +1068,44 @@ def read_sweep_table(path: Path | str, missing: float | None = math.nan) -> pand
     for an empty cell (a failed point's metrics). ResultFileError (a ValueError) naming the
     file, line and column for a malformed file."""
     from ..io import read_table
-    return read_table(path, text=TEXT_COLUMNS, integers=("index",),
-                      required=("index", *TEXT_COLUMNS), missing=missing)
+
+    return read_table(
+        path,
+        text=TEXT_COLUMNS,
+        integers=("index",),
+        required=("index", *TEXT_COLUMNS),
+        missing=missing,
+    )
 
 
 def read_sweep_csv(path: Path | str) -> list[dict[str, Any]]:
     """Rows of a sweep.csv as dicts (numbers as floats, empty cells as None), in file order."""
     table = read_sweep_table(path, missing=None)
-    return [{str(key): (int(value) if key == "index" else value) for key, value in row.items()}
-            for row in table.to_dict("records")]
+    return [
+        {str(key): (int(value) if key == "index" else value) for key, value in row.items()}
+        for row in table.to_dict("records")
+    ]
 
 
 # --- sweep files -------------------------------------------------------------------------------
 
-SWEEP_KEYS = {"description", "scene", "vary", "link", "metrics", "samples", "seed", "method",
-              "stop_time", "step"}
+SWEEP_KEYS = {
+    "description",
+    "scene",
+    "vary",
+    "link",
+    "metrics",
+    "samples",
+    "seed",
+    "method",
+    "stop_time",
+    "step",
+}
 
 
-def is_sweep_file(data: dict[str, float | list[str] | dict[str, dict[str, str | dict[str, float]]]]) -> bool:
+def is_sweep_file(
+    data: dict[str, float | list[str] | dict[str, dict[str, str | dict[str, float]]]],
+) -> bool:
     """A sweep file names its scene; a scene file has components."""
     return "scene" in data and "components" not in data
 
@@ -918,10 +1133,12 @@ def load_sweep_file(path: Path) -> dict[str, Any]:
             "varies": [parse_vary(text) for text in data.get("vary", [])],
             "links": [parse_link(text) for text in data.get("link", [])],
             "metrics": [parse_metric(text) for text in data.get("metrics", [])],
-            "samples": data.get("samples"), "seed": data.get("seed"),
+            "samples": data.get("samples"),
+            "seed": data.get("seed"),
             "method": data.get("method", "lhs"),
             "overrides": {key: data[key] for key in SCENE_OVERRIDES if key in data},
-            "name": path.stem, "description": data.get("description", ""),
+            "name": path.stem,
+            "description": data.get("description", ""),
         }
     except SweepError as error:
         raise SweepError(f"{path}: {error}") from None
@@ -942,9 +1159,17 @@ def settings(args: Namespace) -> dict[str, Any]:
     if is_sweep_file(data):
         chosen = load_sweep_file(path)
     else:
-        chosen = {"scene_path": path, "varies": [], "links": [], "metrics": [],
-                  "samples": None, "seed": None, "method": "lhs", "overrides": {},
-                  "name": None}
+        chosen = {
+            "scene_path": path,
+            "varies": [],
+            "links": [],
+            "metrics": [],
+            "samples": None,
+            "seed": None,
+            "method": "lhs",
+            "overrides": {},
+            "name": None,
+        }
     chosen.pop("description", None)
     if args.vary:
         chosen["varies"] = [parse_vary(text) for text in args.vary]
@@ -960,15 +1185,18 @@ def settings(args: Namespace) -> dict[str, Any]:
 
 # --- command line (mechfmu sweep; its options are declared in mechfmu/cli.py) ------------
 
-def failure_line(summary: dict[str, Any], csv_path: str, shown: int=20) -> str:
+
+def failure_line(summary: dict[str, Any], csv_path: str, shown: int = 20) -> str:
     """'N of M point(s) failed (index ...); index I: <its error>' for a sweep with failures."""
     indices = summary["failed_indices"]
     listed = ", ".join(str(i) for i in indices[:shown])
     if len(indices) > shown:
         listed += f", ... ({len(indices) - shown} more in the CSV)"
     first = next(row for row in read_sweep_csv(csv_path) if row["index"] == indices[0])
-    return (f"{summary['failed']} of {summary['points']} point(s) failed (index {listed}); "
-            f"index {indices[0]}: {first['error']}")
+    return (
+        f"{summary['failed']} of {summary['points']} point(s) failed (index {listed}); "
+        f"index {indices[0]}: {first['error']}"
+    )
 
 
 def command(args: Namespace) -> int:
@@ -978,27 +1206,43 @@ def command(args: Namespace) -> int:
     from ..cosim.files import OutputError
     from ..cosim.interrupt import InterruptGuard, exit_code, signal_name
     from ..cosim.scene import SceneError
+
     with InterruptGuard() as guard:  # SIGINT and SIGTERM: taken between points
         try:
-            summary = run_sweep(**settings(args), out_dir=args.out, jobs=args.jobs,
-                                fmu_dir=args.fmu_dir, plot=args.plot, scheduler=args.scheduler,
-                                resume=args.resume, guard=guard,
-                                retries=DEFAULT_RETRIES if args.retries is None else args.retries)
+            summary = run_sweep(
+                **settings(args),
+                out_dir=args.out,
+                jobs=args.jobs,
+                fmu_dir=args.fmu_dir,
+                plot=args.plot,
+                scheduler=args.scheduler,
+                resume=args.resume,
+                guard=guard,
+                retries=DEFAULT_RETRIES if args.retries is None else args.retries,
+            )
         except (SweepError, SceneError, OutputError) as error:
             print(f"sweep error: {error}", file=sys.stderr)
             return exit_code(guard.take()) if guard.requested else 2
         except KeyboardInterrupt as stop:
             signum = getattr(stop, "signum", signal.SIGINT)
-            print(f"sweep interrupted by {signal_name(signum)}; the rows done are kept (run "
-                  f"again with --resume to finish it)", file=sys.stderr)
+            print(
+                f"sweep interrupted by {signal_name(signum)}; the rows done are kept (run "
+                f"again with --resume to finish it)",
+                file=sys.stderr,
+            )
             return exit_code(signum)
         if guard.requested:  # after the last point, while the files were written
-            print(f"sweep interrupted by {signal_name(guard.take())} after the last point; "
-                  f"the sweep is complete: {summary['csv']}", file=sys.stderr)
+            print(
+                f"sweep interrupted by {signal_name(guard.take())} after the last point; "
+                f"the sweep is complete: {summary['csv']}",
+                file=sys.stderr,
+            )
             return exit_code(guard.signum)
-    print(f"{summary['name']}: {summary['done']} point(s), {summary['failed']} failed, "
-          f"{summary['wall_time_s']:.2f} s ({summary['scenes_per_s']:.1f} scenes/s) on "
-          f"{summary['where']}")
+    print(
+        f"{summary['name']}: {summary['done']} point(s), {summary['failed']} failed, "
+        f"{summary['wall_time_s']:.2f} s ({summary['scenes_per_s']:.1f} scenes/s) on "
+        f"{summary['where']}"
+    )
     print(f"csv: {summary['csv']}")
     for plot in summary.get("plots", []):
         print(f"png: {plot}")

@@ -51,24 +51,34 @@ FLOAT_GRID = 20001
 
 # --- validation -----------------------------------------------------------------------------
 
-def _non_negative(name: str, value: float, unit: str="") -> float:
+
+def _non_negative(name: str, value: float, unit: str = "") -> float:
     return require_between(name, value, 0.0, math.inf, unit)
 
 
-def _spring(spring_free_length: float, spring_stiffness: float, spring_base_offset: float) -> tuple[float, float, float]:
+def _spring(
+    spring_free_length: float, spring_stiffness: float, spring_base_offset: float
+) -> tuple[float, float, float]:
     L = require_positive("spring_free_length", spring_free_length, "m")
     k = require_positive("spring_stiffness", spring_stiffness, "N/m")
     d = require_positive("spring_base_offset", spring_base_offset, "m")
     if not d < L:
-        raise ValueError(f"spring_base_offset = {spring_base_offset!r} m must be below "
-                         f"spring_free_length = {spring_free_length!r} m")
+        raise ValueError(
+            f"spring_base_offset = {spring_base_offset!r} m must be below "
+            f"spring_free_length = {spring_free_length!r} m"
+        )
     return L, k, d
 
 
 # --- suspension: static and sudden snap-through -----------------------------------------------
 
-def static_snap_through_mass(spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                             spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY) -> float:
+
+def static_snap_through_mass(
+    spring_free_length: float = 0.5,
+    spring_stiffness: float = 1e4,
+    spring_base_offset: float = 0.2,
+    gravity: float = STANDARD_GRAVITY,
+) -> float:
     """Sprung mass (kg) whose weight equals the static limit load F* of the near branch.
 
     A quasi-static load m g snaps through for every m above F*/g (the near equilibrium
@@ -96,12 +106,18 @@ def _saddle(W: float, L: float, k: float, d: float) -> float:
     h = float(statics.rest_height(L, d))
     if W >= F_star:
         return u_star
-    return brentq(lambda u: float(statics.spring_force(u, L, k, d)) - W, u_star, h,
-                  xtol=1e-15, rtol=4.0 * np.finfo(float).eps)
+    return brentq(
+        lambda u: float(statics.spring_force(u, L, k, d)) - W,
+        u_star,
+        h,
+        xtol=1e-15,
+        rtol=4.0 * np.finfo(float).eps,
+    )
 
 
-def sudden_snap_through_load_undamped(spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                                      spring_base_offset: float=0.2) -> float:
+def sudden_snap_through_load_undamped(
+    spring_free_length: float = 0.5, spring_stiffness: float = 1e4, spring_base_offset: float = 0.2
+) -> float:
     """Smallest suddenly applied constant load W (N) that snaps the undamped spring pair
     through, starting at rest unstressed: the energy closed form.
 
@@ -122,8 +138,14 @@ def sudden_snap_through_load_undamped(spring_free_length: float=0.5, spring_stif
     return float(statics.spring_force(u2, L, k, d))
 
 
-def sudden_load_snaps(mass: float, damping_coefficient: float, spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                      spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY) -> bool:
+def sudden_load_snaps(
+    mass: float,
+    damping_coefficient: float,
+    spring_free_length: float = 0.5,
+    spring_stiffness: float = 1e4,
+    spring_base_offset: float = 0.2,
+    gravity: float = STANDARD_GRAVITY,
+) -> bool:
     """True if the load W = m g, applied at t = 0 to the mass m at rest (u = 0, u' = 0) and
     held, snaps the suspension through as the Suspension FMU's dynamics mode defines it:
     the deflection rises through the start of the far stable region, 2h - u*.
@@ -155,30 +177,47 @@ def sudden_load_snaps(mass: float, damping_coefficient: float, spring_free_lengt
 
     def snap(t: float, x: Any):
         return x[0] - far_start
+
     ivp_event(snap, terminal=True, direction=1.0)
 
     # Both "no snap" events count only before the saddle: max(., u - u2) stays positive past
     # it and is still continuous, so solve_ivp's root finding applies.
     def turn(t: float, x: Any):
         return max(x[1], x[0] - u2)
+
     ivp_event(turn, terminal=True, direction=-1.0)
 
     def below_saddle(t: float, x: Any):
         energy = 0.5 * m * x[1] * x[1] + _spring_energy(x[0], L, k, d) - W * x[0]
         return max(energy - saddle_level, x[0] - u2)
+
     ivp_event(below_saddle, terminal=True, direction=-1.0)
 
-    solution = solve_ivp(system, (0.0, SUSPENSION_MAX_TIME), system.initial(0.0, 0.0, 0.0),
-                         method="DOP853", rtol=SUSPENSION_TOLERANCE, atol=SUSPENSION_TOLERANCE,
-                         events=(snap, turn, below_saddle))
+    solution = solve_ivp(
+        system,
+        (0.0, SUSPENSION_MAX_TIME),
+        system.initial(0.0, 0.0, 0.0),
+        method="DOP853",
+        rtol=SUSPENSION_TOLERANCE,
+        atol=SUSPENSION_TOLERANCE,
+        events=(snap, turn, below_saddle),
+    )
     if solution.status == 1:
         return len(solution.t_events[0]) > 0
-    raise RuntimeError(f"sudden load {W!r} N on {m!r} kg, c = {c!r} N s/m: undecided after "
-                       f"{SUSPENSION_MAX_TIME} s ({solution.message})")
+    raise RuntimeError(
+        f"sudden load {W!r} N on {m!r} kg, c = {c!r} N s/m: undecided after "
+        f"{SUSPENSION_MAX_TIME} s ({solution.message})"
+    )
 
 
-def sudden_snap_through_mass(damping_coefficient: float, spring_free_length: float=0.5, spring_stiffness: float=1e4,
-                             spring_base_offset: float=0.2, gravity: float=STANDARD_GRAVITY, tolerance: float=1e-6) -> float:
+def sudden_snap_through_mass(
+    damping_coefficient: float,
+    spring_free_length: float = 0.5,
+    spring_stiffness: float = 1e4,
+    spring_base_offset: float = 0.2,
+    gravity: float = STANDARD_GRAVITY,
+    tolerance: float = 1e-6,
+) -> float:
     """Threshold sprung mass (kg) for a suddenly applied weight m g (Suspension FMU with the
     dynamics effect, damping c in N s/m): m above it snaps through, below it does not.
 
@@ -206,18 +245,23 @@ def sudden_snap_through_mass(damping_coefficient: float, spring_free_length: flo
 
 # --- landing gear: retraction time against supply pressure --------------------------------------
 
-def gear_scene_values(scene_file: Path=GEAR_SCENE, **overrides: Any) -> tuple[dict[str, float], float]:
+
+def gear_scene_values(
+    scene_file: Path = GEAR_SCENE, **overrides: Any
+) -> tuple[dict[str, float], float]:
     """(LandingGear values, stop time in s) of a dynamic gear scene: the FMU's defaults, the
     scene's parameters, effects and inputs (as generate.gear_dynamics_scene applies them),
     then ``overrides`` (any gear parameter or input, e.g. supply_pressure, airspeed)."""
     from ..cosim.scene import load_scene
+
     scene = load_scene(scene_file)
     specs = [spec for spec in scene.components.values() if Path(spec.fmu).stem == "LandingGear"]
     if len(specs) != 1:
         raise ValueError(f"scene {scene_file} has {len(specs)} LandingGear components, not 1")
     spec = specs[0]
-    values = gear_reference.gear_values(start_values("LandingGear"), spec.parameters, spec.effects,
-                                        spec.inputs)
+    values = gear_reference.gear_values(
+        start_values("LandingGear"), spec.parameters, spec.effects, spec.inputs
+    )
     unknown = sorted(set(overrides) - set(values))
     if unknown:
         raise ValueError(f"unknown LandingGear variable(s) {', '.join(unknown)}")
@@ -225,8 +269,14 @@ def gear_scene_values(scene_file: Path=GEAR_SCENE, **overrides: Any) -> tuple[di
     return values, float(scene.stop_time)
 
 
-def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method: str="LSODA", tolerance: float=1e-12,
-                    stop_time: float | None=None, **overrides: Any) -> float:
+def retraction_time(
+    supply_pressure: float,
+    scene_file: Path = GEAR_SCENE,
+    method: str = "LSODA",
+    tolerance: float = 1e-12,
+    stop_time: float | None = None,
+    **overrides: Any,
+) -> float:
     """Retraction time (s) of the gear_retraction_dynamic scene at ``supply_pressure`` (Pa):
     the first time the piston rises through stroke_max, as the FMU's retraction_time output
     reports it; math.nan if that does not happen by the scene's stop time.
@@ -247,6 +297,7 @@ def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method:
     # Validation of the gear values is the FMU's (require_* raise MechanismError/RangeError,
     # both ValueErrors), exactly as for the scene reference.
     from ..references.gear_dynamics import SURFACE_RTOL, dynamics_model, stroke_crossings
+
     model = dynamics_model(values)
 
     def rhs(t: float, y: Any):
@@ -256,8 +307,15 @@ def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method:
     high = model.stroke[1]
     surface = SURFACE_RTOL * (high - model.stroke[0])
     for _ in range(10_000):
-        solution = solve_ivp(rhs, (t, stop_time), y, method=method, rtol=tol, atol=tol,
-                             events=stroke_crossings(model))
+        solution = solve_ivp(
+            rhs,
+            (t, stop_time),
+            y,
+            method=method,
+            rtol=tol,
+            atol=tol,
+            events=stroke_crossings(model),
+        )
         if solution.status == -1:
             raise RuntimeError(f"solve_ivp failed at t = {t} s: {solution.message}")
         start_length = model.piston_length(list(y))
@@ -271,13 +329,16 @@ def retraction_time(supply_pressure: float, scene_file: Path=GEAR_SCENE, method:
         t_next = min(t + GEAR_EVENT_OFFSET, stop_time)
         step = solve_ivp(rhs, (t, t_next), y, method="DOP853", rtol=tol, atol=tol)
         if step.status == -1:
-            raise RuntimeError(f"solve_ivp failed stepping off the stroke surface at "
-                               f"t = {t} s: {step.message}")
+            raise RuntimeError(
+                f"solve_ivp failed stepping off the stroke surface at t = {t} s: {step.message}"
+            )
         t, y = t_next, step.y[:, -1]
     raise RuntimeError("more than 10000 stroke crossings")
 
 
-def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bool=False, **overrides: Any) -> float:
+def minimum_retraction_pressure(
+    scene_file: Path = GEAR_SCENE, include_coulomb: bool = False, **overrides: Any
+) -> float:
     """Lowest supply pressure (Pa) at which the stalled actuator holds the gear at every angle
     from its start to stroke_max (static moment balance, numpy closed forms).
 
@@ -300,20 +361,26 @@ def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bo
     L = require_positive("bar_length", v["bar_length"], "m")
     lever = v["bar_mass"] * L / 2.0 + v["wheel_mass"] * L
     x_high = require_positive("stroke_max", v["stroke_max"], "m")
-    bore, rod = require_positive("bore", v["bore"], "m"), _non_negative("rod_diameter", v["rod_diameter"],
-                                                                  "m")
-    cap_area = np.pi * bore ** 2 / 4.0
-    rod_area = cap_area - np.pi * rod ** 2 / 4.0
+    bore, rod = (
+        require_positive("bore", v["bore"], "m"),
+        _non_negative("rod_diameter", v["rod_diameter"], "m"),
+    )
+    cap_area = np.pi * bore**2 / 4.0
+    rod_area = cap_area - np.pi * rod**2 / 4.0
     cos_end = (d * d + h * h - x_high * x_high) / (2.0 * d * h)
     if not -1.0 < cos_end < 1.0:
         raise ValueError(f"stroke_max = {x_high!r} m is not reachable by the linkage")
     start, end = float(v["initial_angle"]), float(np.arccos(cos_end))
     if not start < end:
-        raise ValueError(f"initial_angle = {start!r} rad is not below the retracted angle "
-                         f"{end!r} rad")
+        raise ValueError(
+            f"initial_angle = {start!r} rad is not below the retracted angle {end!r} rad"
+        )
     airspeed = float(v["airspeed"])
-    drag = (0.5 * v["air_density"] * v["drag_area"] * airspeed * abs(airspeed) * L
-            if v["aero_drag"] else 0.0)
+    drag = (
+        0.5 * v["air_density"] * v["drag_area"] * airspeed * abs(airspeed) * L
+        if v["aero_drag"]
+        else 0.0
+    )
     weight = lever * v["gravity_acceleration"] if v["gravity"] else 0.0
     friction = v["coulomb_friction"] if (include_coulomb and v["pivot_friction"]) else 0.0
 
@@ -330,13 +397,19 @@ def minimum_retraction_pressure(scene_file: Path=GEAR_SCENE, include_coulomb: bo
     i = int(np.argmax(values))
     lo, hi = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
     # The maximum can sit at an end of the stroke; refine inside the bracketing cells.
-    refined = minimize_scalar(lambda th: -float(required(th)), bounds=(lo, hi), method="bounded",
-                              options={"xatol": 1e-13})
+    refined = minimize_scalar(
+        lambda th: -float(required(th)), bounds=(lo, hi), method="bounded", options={"xatol": 1e-13}
+    )
     return float(max(values[i], -refined.fun))
 
 
-def lowest_retracting_pressure(low: Any, high: Any, scene_file: Any=GEAR_SCENE, relative_width: float=1e-4,
-                               **overrides: Any) -> Any:
+def lowest_retracting_pressure(
+    low: Any,
+    high: Any,
+    scene_file: Any = GEAR_SCENE,
+    relative_width: float = 1e-4,
+    **overrides: Any,
+) -> Any:
     """Lowest supply pressure (Pa) in [low, high] whose scene run retracts by the stop time,
     by bisection on retraction_time being finite (one gear run per halving, ~0.5 s each)."""
     low = require_positive("low", low, "Pa")
@@ -356,11 +429,12 @@ def lowest_retracting_pressure(low: Any, high: Any, scene_file: Any=GEAR_SCENE, 
 
 # --- valve train: float speed ---------------------------------------------------------------
 
-_CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle",
-               "return_angle")
+_CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle", "return_angle")
 
 
-def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam: Any) -> tuple[float, float]:
+def valve_float_point(
+    spring_preload: float, valve_mass: float = 0.1, spring_stiffness: float = 5e4, **cam: Any
+) -> tuple[float, float]:
     """(camshaft speed in rad/s, camshaft angle in rad) where the valve first floats at
     constant camshaft speed; (inf, nan) if the valve never decelerates.
 
@@ -386,12 +460,16 @@ def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiff
     if law not in valve_reference.CAM_LAWS:
         raise ValueError(f"cam_law = {law!r} is not one of {', '.join(valve_reference.CAM_LAWS)}")
     lift = require_positive("lift", p["lift"], "m")
-    rise, ret = require_positive("rise_angle", p["rise_angle"], "rad"), require_positive(
-        "return_angle", p["return_angle"], "rad")
+    rise, ret = (
+        require_positive("rise_angle", p["rise_angle"], "rad"),
+        require_positive("return_angle", p["return_angle"], "rad"),
+    )
     dwell = _non_negative("high_dwell_angle", p["high_dwell_angle"], "rad")
     if rise + dwell + ret > 2.0 * np.pi:
-        raise ValueError(f"rise_angle + high_dwell_angle + return_angle = {rise + dwell + ret!r} "
-                         f"rad exceeds one revolution")
+        raise ValueError(
+            f"rise_angle + high_dwell_angle + return_angle = {rise + dwell + ret!r} "
+            f"rad exceeds one revolution"
+        )
     geometry = {key: require_finite(key, p[key], "m") for key in valve_reference.GEOMETRY_FIELDS}
     segments = (("rise", rise, 0.0), ("return", ret, rise + dwell))
 
@@ -400,10 +478,10 @@ def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiff
         f, f1, f2 = valve_reference.normalized(law, x)
         if segment == "rise":
             beta = rise
-            s, s1, s2 = lift * f, lift * f1 / beta, lift * f2 / beta ** 2
+            s, s1, s2 = lift * f, lift * f1 / beta, lift * f2 / beta**2
         else:
             beta = ret
-            s, s1, s2 = lift * (1.0 - f), -lift * f1 / beta, -lift * f2 / beta ** 2
+            s, s1, s2 = lift * (1.0 - f), -lift * f1 / beta, -lift * f2 / beta**2
         motion = valve_reference.forward(geometry, s, s1, s2)  # unit camshaft speed
         L, accel = motion["valve_lift"], motion["valve_acceleration"]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -416,12 +494,17 @@ def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiff
         if np.any(np.isnan(values)):
             raise ValueError("the valve-train geometry does not assemble along the cam law")
         padded = np.concatenate(([np.inf], values, [np.inf]))
-        minima = np.flatnonzero(np.isfinite(values) & (values <= padded[:-2])
-                                & (values <= padded[2:]))
+        minima = np.flatnonzero(
+            np.isfinite(values) & (values <= padded[:-2]) & (values <= padded[2:])
+        )
         for i in minima:
             lo, hi = x[max(i - 1, 0)], x[min(i + 1, x.size - 1)]
-            found = minimize_scalar(lambda z: float(ratio(segment, z)), bounds=(lo, hi),
-                                    method="bounded", options={"xatol": 1e-14})
+            found = minimize_scalar(
+                lambda z: float(ratio(segment, z)),
+                bounds=(lo, hi),
+                method="bounded",
+                options={"xatol": 1e-14},
+            )
             candidates = [(float(values[i]), float(x[i]))]
             if found.success and math.isfinite(found.fun):
                 candidates.append((float(found.fun), float(found.x)))
@@ -433,7 +516,9 @@ def valve_float_point(spring_preload: float, valve_mass: float=0.1, spring_stiff
     return math.sqrt(best[0]), best[1]
 
 
-def valve_float_speed(spring_preload: float, valve_mass: float=0.1, spring_stiffness: float=5e4, **cam: Any) -> float:
+def valve_float_speed(
+    spring_preload: float, valve_mass: float = 0.1, spring_stiffness: float = 5e4, **cam: Any
+) -> float:
     """Constant camshaft speed (rad/s) at which the ValveTrain FMU's valve (forward drive,
     valve_spring effect) starts to float: see valve_float_point. math.inf if it never does."""
     return valve_float_point(spring_preload, valve_mass, spring_stiffness, **cam)[0]

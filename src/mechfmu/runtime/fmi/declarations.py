@@ -64,11 +64,34 @@ class Variable:
     value does not tell it (an input that starts at 0).
     """
 
-    __slots__ = ("name", "kind", "causality", "start", "unit", "min", "max",
-                 "description", "depends", "values", "nominal")
+    __slots__ = (
+        "name",
+        "kind",
+        "causality",
+        "start",
+        "unit",
+        "min",
+        "max",
+        "description",
+        "depends",
+        "values",
+        "nominal",
+    )
 
-    def __init__(self, name: str, kind: type, causality: str, start: Value, description: str, unit: str | None=None,
-                 min: float | None=None, max: float | None=None, depends: tuple[str, ...]=(), values: tuple[str, ...] | None=None, nominal: float | None=None) -> None:
+    def __init__(
+        self,
+        name: str,
+        kind: type,
+        causality: str,
+        start: Value,
+        description: str,
+        unit: str | None = None,
+        min: float | None = None,
+        max: float | None = None,
+        depends: tuple[str, ...] = (),
+        values: tuple[str, ...] | None = None,
+        nominal: float | None = None,
+    ) -> None:
         if unit is not None and unit not in UNITS:
             raise ValueError(f"unit {unit!r} of {name} is not in UNITS")
         self.name, self.kind, self.causality, self.start = name, kind, causality, start
@@ -76,19 +99,43 @@ class Variable:
         self.depends, self.values, self.nominal = tuple(depends), values, nominal
 
 
-def parameter(name: str, start: Value, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, values: tuple[str, ...] | None=None) -> Variable:
+def parameter(
+    name: str,
+    start: Value,
+    description: str,
+    unit: str | None = None,
+    min: float | None = None,
+    max: float | None = None,
+    values: tuple[str, ...] | None = None,
+) -> Variable:
     """A fixed parameter; its type follows the start value."""
-    return Variable(name, type(start), "parameter", start, description, unit, min, max,
-                    values=values)
+    return Variable(
+        name, type(start), "parameter", start, description, unit, min, max, values=values
+    )
 
 
-def input_(name: str, start: Value, description: str, unit: str | None=None, min: float | None=None, max: float | None=None, nominal: float | None=None) -> Variable:
+def input_(
+    name: str,
+    start: Value,
+    description: str,
+    unit: str | None = None,
+    min: float | None = None,
+    max: float | None = None,
+    nominal: float | None = None,
+) -> Variable:
     """A continuous input with a start value (and a typical magnitude: nominal)."""
-    return Variable(name, type(start), "input", start, description, unit, min, max,
-                    nominal=nominal)
+    return Variable(name, type(start), "input", start, description, unit, min, max, nominal=nominal)
 
 
-def output(name: str, start: Value, description: str, unit: str | None=None, depends: tuple[str, ...]=(), min: float | None=None, max: float | None=None) -> Variable:
+def output(
+    name: str,
+    start: Value,
+    description: str,
+    unit: str | None = None,
+    depends: tuple[str, ...] = (),
+    min: float | None = None,
+    max: float | None = None,
+) -> Variable:
     """An output computed from inputs and parameters (initial = calculated)."""
     return Variable(name, type(start), "output", start, description, unit, min, max, depends)
 
@@ -108,7 +155,9 @@ INTEGRATORS = ("euler", "rk4", "dopri5", "radau")
 MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 
 
-def integrator_variables(default: str="dopri5", rtol: float=1e-8, atol: float=1e-10, max_substep: float=1e-3) -> tuple[Variable, ...]:
+def integrator_variables(
+    default: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-10, max_substep: float = 1e-3
+) -> tuple[Variable, ...]:
     """The parameters and counters every integrating model declares, by the same names.
 
     A model that declares them is an IntegratingSlave, which keeps its integrator in
@@ -116,18 +165,38 @@ def integrator_variables(default: str="dopri5", rtol: float=1e-8, atol: float=1e
     bounds the wall-clock time of each communication step by ``max_wall_time``.
     """
     return (
-        parameter("integrator", default, "Integration method inside each communication step: "
-                  + ", ".join(INTEGRATORS) + " (euler, rk4: fixed sub-step max_substep; "
-                  "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases)",
-                  values=INTEGRATORS),
+        parameter(
+            "integrator",
+            default,
+            "Integration method inside each communication step: "
+            + ", ".join(INTEGRATORS)
+            + " (euler, rk4: fixed sub-step max_substep; "
+            "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases)",
+            values=INTEGRATORS,
+        ),
         parameter("rtol", rtol, "Relative tolerance of the adaptive methods", unit="1", min=0.0),
-        parameter("atol", atol, "Absolute tolerance of the adaptive methods, in the units of "
-                  "each state variable", unit="1", min=0.0),
-        parameter("max_substep", max_substep, "Largest internal sub-step (the fixed sub-step "
-                  "of euler and rk4)", unit="s", min=0.0),
-        parameter("max_wall_time", MAX_WALL_TIME, "Wall-clock bound of one communication "
-                  "step; a step that takes longer is discarded with an error (inf: no bound)",
-                  unit="s", min=0.0),
+        parameter(
+            "atol",
+            atol,
+            "Absolute tolerance of the adaptive methods, in the units of each state variable",
+            unit="1",
+            min=0.0,
+        ),
+        parameter(
+            "max_substep",
+            max_substep,
+            "Largest internal sub-step (the fixed sub-step of euler and rk4)",
+            unit="s",
+            min=0.0,
+        ),
+        parameter(
+            "max_wall_time",
+            MAX_WALL_TIME,
+            "Wall-clock bound of one communication "
+            "step; a step that takes longer is discarded with an error (inf: no bound)",
+            unit="s",
+            min=0.0,
+        ),
         output("rhs_evaluations", 0, "Right-hand-side evaluations so far"),
         output("substeps", 0, "Accepted internal sub-steps so far"),
     )
@@ -141,8 +210,11 @@ def unit_definitions(units: Any) -> Any:
         return None
     units = Element("UnitDefinitions")
     for unit in used:
-        SubElement(SubElement(units, "Unit", name=unit), "BaseUnit",
-                   {key: str(value) for key, value in UNITS[unit].items()})
+        SubElement(
+            SubElement(units, "Unit", name=unit),
+            "BaseUnit",
+            {key: str(value) for key, value in UNITS[unit].items()},
+        )
     return units
 
 
@@ -177,7 +249,15 @@ def fmi_attributes(variable: Variable) -> tuple:
     return variability, ("calculated" if variable.causality == "output" else None)
 
 
-def registered(variable: Variable, types: dict[Any, Any], causalities: Any, variabilities: Any, initials: Any, getter: Callable, setter: Callable) -> Any:
+def registered(
+    variable: Variable,
+    types: dict[Any, Any],
+    causalities: Any,
+    variabilities: Any,
+    initials: Any,
+    getter: Callable,
+    setter: Callable,
+) -> Any:
     """The pythonfmu or pythonfmu3 variable object of a declared variable.
 
     types: {float, int, bool, str: that package's variable class}; causalities,
@@ -187,16 +267,23 @@ def registered(variable: Variable, types: dict[Any, Any], causalities: Any, vari
     options = dict(variability=getattr(variabilities, variability))
     if initial is not None:
         options["initial"] = getattr(initials, initial)
-    return types[variable.kind](variable.name, causality=getattr(causalities, variable.causality),
-                                description=variable.description, getter=getter, setter=setter,
-                                **options)
+    return types[variable.kind](
+        variable.name,
+        causality=getattr(causalities, variable.causality),
+        description=variable.description,
+        getter=getter,
+        setter=setter,
+        **options,
+    )
 
 
 def reading_initial_outputs(read: Callable) -> Callable:
     """A binding's get method: ``read`` (the package's own) after refreshing the outputs in
     initialisation mode (MechSlave.refresh_initial_outputs)."""
+
     def get(self: Any, vrs: Any):
         self.refresh_initial_outputs()
         return read(self, vrs)
+
     get.__name__ = read.__name__
     return get

@@ -9,8 +9,16 @@ InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared`
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu import (Boolean, Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability, Integer,
-                       Real, String)
+from pythonfmu import (
+    Boolean,
+    Fmi2Causality,
+    Fmi2Initial,
+    Fmi2Slave,
+    Fmi2Variability,
+    Integer,
+    Real,
+    String,
+)
 
 from .declarations import describe, reading_initial_outputs, registered, unit_definitions
 from .declarations import Variable
@@ -24,17 +32,26 @@ class Fmi2Binding(Fmi2Slave):
     def register_declared(self, variable: Variable) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
-        self.register_variable(registered(
-            variable, _FMI_TYPES, Fmi2Causality, Fmi2Variability, Fmi2Initial,
-            getter=lambda: values[name], setter=lambda value: self._set(name, value)))
+        self.register_variable(
+            registered(
+                variable,
+                _FMI_TYPES,
+                Fmi2Causality,
+                Fmi2Variability,
+                Fmi2Initial,
+                getter=lambda: values[name],
+                setter=lambda value: self._set(name, value),
+            )
+        )
 
     def finish_registration(self) -> None:
         """Tables for the per-step get and set of Reals: value reference -> name of every
         Real, and of every Real input (what a host sets between steps)."""
         reals = {vr: v.name for vr, v in self.vars.items() if isinstance(v, Real)}
         self._real_names = reals
-        self._real_input_names = {vr: name for vr, name in reals.items()
-                                  if self.declared[name].causality == "input"}
+        self._real_input_names = {
+            vr: name for vr, name in reals.items() if self.declared[name].causality == "input"
+        }
 
     def get_real(self, vrs: list[int]) -> list[float]:
         """fmi2GetReal: one dict look-up per variable (pythonfmu's own calls a getter
@@ -59,10 +76,11 @@ class Fmi2Binding(Fmi2Slave):
             else:
                 store[name] = float(value)
                 self.stale = True
+
     get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
     get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
 
-    def to_xml(self, model_options: Any=dict()) -> Any:
+    def to_xml(self, model_options: Any = dict()) -> Any:
         root = super().to_xml(model_options)
         for element in root.iter("ScalarVariable"):
             variable = self.declared.get(element.get("name"))
@@ -84,8 +102,7 @@ class Fmi2Binding(Fmi2Slave):
             node = SubElement(structure, "Outputs")
             for variable in outputs:
                 depends = " ".join(str(index[name]) for name in variable.depends)
-                SubElement(node, "Unknown", index=str(index[variable.name]),
-                           dependencies=depends)
+                SubElement(node, "Unknown", index=str(index[variable.name]), dependencies=depends)
             # Calculated outputs are initial unknowns; without a dependencies attribute
             # they may depend on every known (parameters and inputs).
             node = SubElement(structure, "InitialUnknowns")

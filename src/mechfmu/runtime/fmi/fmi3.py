@@ -12,8 +12,16 @@ on the MechSlave above it for ``values``, ``declared``, ``VARIABLES``, ``_set``,
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu3 import (Boolean, Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Variability,
-                        Float64, Int32, String)
+from pythonfmu3 import (
+    Boolean,
+    Fmi3Causality,
+    Fmi3Initial,
+    Fmi3Slave,
+    Fmi3Variability,
+    Float64,
+    Int32,
+    String,
+)
 
 from .declarations import describe, reading_initial_outputs, registered, unit_definitions
 
@@ -27,23 +35,37 @@ class Fmi3Binding(Fmi3Slave):
     def register_declared(self, variable: Any) -> None:
         """Register one declared variable; its value lives in self.values."""
         name, values = variable.name, self.values
-        self.register_variable(registered(
-            variable, _FMI_TYPES, Fmi3Causality, Fmi3Variability, Fmi3Initial,
-            getter=lambda: values[name], setter=lambda value: self._set(name, value)))
+        self.register_variable(
+            registered(
+                variable,
+                _FMI_TYPES,
+                Fmi3Causality,
+                Fmi3Variability,
+                Fmi3Initial,
+                getter=lambda: values[name],
+                setter=lambda value: self._set(name, value),
+            )
+        )
 
     def finish_registration(self) -> None:
         """The independent variable: the instance's time, the end of its last step (s)."""
-        self.register_variable(Float64("time", causality=Fmi3Causality.independent,
-                                       variability=Fmi3Variability.continuous,
-                                       description="Simulation time", unit="s",
-                                       getter=lambda: self.time_reached))
+        self.register_variable(
+            Float64(
+                "time",
+                causality=Fmi3Causality.independent,
+                variability=Fmi3Variability.continuous,
+                description="Simulation time",
+                unit="s",
+                getter=lambda: self.time_reached,
+            )
+        )
 
     # Outputs read in initialisation mode are computed from what the host has set so far.
     get_float64 = reading_initial_outputs(Fmi3Slave.get_float64)
     get_int32 = reading_initial_outputs(Fmi3Slave.get_int32)
     get_boolean = reading_initial_outputs(Fmi3Slave.get_boolean)
 
-    def to_xml(self, model_options: Any=dict()) -> Any:
+    def to_xml(self, model_options: Any = dict()) -> Any:
         root = super().to_xml(model_options)
         for attribute in _MODEL_ATTRIBUTES:  # class attributes of the model
             value = getattr(type(self), attribute, None)
@@ -65,10 +87,13 @@ class Fmi3Binding(Fmi3Slave):
         structure = Element("ModelStructure")
         outputs = [v for v in self.VARIABLES if v.causality == "output"]
         for variable in outputs:
-            SubElement(structure, "Output", valueReference=str(reference[variable.name]),
-                       dependencies=" ".join(str(reference[name]) for name in variable.depends))
+            SubElement(
+                structure,
+                "Output",
+                valueReference=str(reference[variable.name]),
+                dependencies=" ".join(str(reference[name]) for name in variable.depends),
+            )
         # Without a dependencies attribute an initial unknown may depend on every known.
         for variable in outputs:
             SubElement(structure, "InitialUnknown", valueReference=str(reference[variable.name]))
         return structure
-

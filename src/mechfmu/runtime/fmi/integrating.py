@@ -80,8 +80,9 @@ class IntegratingSlave(MechSlave):
         self.integrator = None
         if self.set_up():
             v = self.values
-            self.integrator = make_integrator(v["integrator"], v["rtol"], v["atol"],
-                                              v["max_substep"])
+            self.integrator = make_integrator(
+                v["integrator"], v["rtol"], v["atol"], v["max_substep"]
+            )
 
     def outputs_at_start(self, time: float) -> None:
         if self.integrator is None:
@@ -106,14 +107,19 @@ class IntegratingSlave(MechSlave):
         assert self.integrator is not None  # only integrating configurations publish counters
         self.publish(time)
         stats = self.integrator.stats
-        self.values["rhs_evaluations"], self.values["substeps"] = (stats.rhs_evaluations,
-                                                                   stats.substeps)
+        self.values["rhs_evaluations"], self.values["substeps"] = (
+            stats.rhs_evaluations,
+            stats.substeps,
+        )
 
     def internal_state(self) -> dict[str, Any]:
         saved = dict(self.extra_state())
         if self.integrator is not None and self.state is not None:
-            saved.update(state=list(self.state), held_inputs=list(self.held_inputs),
-                         integrator=self.integrator.snapshot())
+            saved.update(
+                state=list(self.state),
+                held_inputs=list(self.held_inputs),
+                integrator=self.integrator.snapshot(),
+            )
         return saved
 
     def restore_internal_state(self, saved: dict[str, Any]) -> None:

@@ -23,8 +23,18 @@ from operator import itemgetter
 from ..errors import MechanismError, require_finite
 from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
-    EFFECT_PREFIX, INTEGRATORS, MAX_WALL_TIME, UNITS, Status, Variable, effect, input_,
-    integrator_variables, output, parameter)
+    EFFECT_PREFIX,
+    INTEGRATORS,
+    MAX_WALL_TIME,
+    UNITS,
+    Status,
+    Variable,
+    effect,
+    input_,
+    integrator_variables,
+    output,
+    parameter,
+)
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -67,11 +77,15 @@ class MechSlave(Binding):
         self.start_time = 0.0
         self.time_reached = 0.0  # end of the last step taken (s): where the next must start
         self.pending_error: str | None = None  # reported by the next doStep
-        self.integrator: Any = None  # an Integrator, set by IntegratingSlave.check_parameters (fmi/integrating.py)
-        self.real_inputs = tuple(v.name for v in self.VARIABLES
-                                 if v.causality == "input" and v.kind is float)
-        self.real_outputs = tuple(v.name for v in self.VARIABLES
-                                  if v.causality == "output" and v.kind is float)
+        self.integrator: Any = (
+            None  # an Integrator, set by IntegratingSlave.check_parameters (fmi/integrating.py)
+        )
+        self.real_inputs = tuple(
+            v.name for v in self.VARIABLES if v.causality == "input" and v.kind is float
+        )
+        self.real_outputs = tuple(
+            v.name for v in self.VARIABLES if v.causality == "output" and v.kind is float
+        )
         self._inputs_of = _tuple_getter(self.real_inputs)
         self._outputs_of = _tuple_getter(self.real_outputs)
         for variable in self.VARIABLES:
@@ -84,8 +98,10 @@ class MechSlave(Binding):
         if variable.causality == "output":
             return  # outputs are never set by a host; pythonfmu's state restore calls this
         if variable.causality == "parameter" and self.initialized:
-            self.pending_error = (f"{name} is a fixed parameter and cannot be changed after "
-                                  f"initialisation (attempted {value!r}); value ignored")
+            self.pending_error = (
+                f"{name} is a fixed parameter and cannot be changed after "
+                f"initialisation (attempted {value!r}); value ignored"
+            )
             self.log(self.pending_error, Status.error)
             return
         self.values[name] = variable.kind(value) if variable.kind is not float else float(value)
@@ -104,7 +120,9 @@ class MechSlave(Binding):
         self.update(time, 0.0)
 
     # --- FMI calls (never raise) ----------------------------------------------------
-    def setup_experiment(self, start_time: float, stop_time: None=None, tolerance: None=None) -> None:
+    def setup_experiment(
+        self, start_time: float, stop_time: None = None, tolerance: None = None
+    ) -> None:
         self.start_time = self.time_reached = float(start_time)
 
     def enter_initialization_mode(self) -> None:
@@ -153,10 +171,12 @@ class MechSlave(Binding):
         bad = [name for name in self.real_outputs if not math.isfinite(values[name])]
         if bad:
             raise MechanismError(
-                "non-finite outputs " + ", ".join(f"{name} = {values[name]!r}" for name in bad)
-                + " from inputs " + ", ".join(f"{name} = {values_before[name]!r}"
-                                              for name in self.real_inputs)
-                + "; the parameters or inputs are probably beyond the model's numerical range")
+                "non-finite outputs "
+                + ", ".join(f"{name} = {values[name]!r}" for name in bad)
+                + " from inputs "
+                + ", ".join(f"{name} = {values_before[name]!r}" for name in self.real_inputs)
+                + "; the parameters or inputs are probably beyond the model's numerical range"
+            )
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         """One communication step: all of it, or nothing.
@@ -166,8 +186,13 @@ class MechSlave(Binding):
         inputs, or roll back with fmi2SetFMUstate.
         """
         values = self.values
-        if (self.pending_error is None and self.initialized and 0.0 < step_size < math.inf
-                and self.integrator is None and math.isfinite(sum(self._inputs_of(values)))):
+        if (
+            self.pending_error is None
+            and self.initialized
+            and 0.0 < step_size < math.inf
+            and self.integrator is None
+            and math.isfinite(sum(self._inputs_of(values)))
+        ):
             # The usual step, with the checks of _checked_step passed in one test each (a
             # finite sum: no input is NaN or infinite). The same all-or-nothing contract.
             values_before, internal_before = values.copy(), self.internal_state()
@@ -193,18 +218,22 @@ class MechSlave(Binding):
                 self.log(self.pending_error, Status.error)
                 return False
             if not self.initialized:
-                raise MechanismError("doStep before initialisation: call "
-                                     "fmi2EnterInitializationMode and "
-                                     "fmi2ExitInitializationMode first")
+                raise MechanismError(
+                    "doStep before initialisation: call "
+                    "fmi2EnterInitializationMode and "
+                    "fmi2ExitInitializationMode first"
+                )
             if not (math.isfinite(step_size) and step_size > 0.0):
-                raise MechanismError(f"communication step size = {step_size!r} s must be "
-                                     f"finite and > 0")
+                raise MechanismError(
+                    f"communication step size = {step_size!r} s must be finite and > 0"
+                )
             if self.integrator is not None and not _same_time(current_time, self.time_reached):
                 raise MechanismError(
                     f"doStep from t = {current_time!r} s, but this instance's state is at "
                     f"t = {self.time_reached!r} s: a communication step must start where the "
                     "last one ended (roll back with fmi2SetFMUstate to step again from an "
-                    "earlier time)")
+                    "earlier time)"
+                )
             values = self.values
             if not _all_finite(self._inputs_of(values)):
                 for name in self.real_inputs:
@@ -240,10 +269,14 @@ class MechSlave(Binding):
     def _get_fmu_state(self) -> dict[str, Any]:
         # A failed initialisation leaves no internal state to save (nor to step from).
         internal = None if self.pending_error is not None else self.internal_state()
-        return {"values": dict(self.values), "internal": internal,
-                "initialized": self.initialized, "start_time": self.start_time,
-                "time_reached": self.time_reached,
-                "pending_error": self.pending_error}
+        return {
+            "values": dict(self.values),
+            "internal": internal,
+            "initialized": self.initialized,
+            "start_time": self.start_time,
+            "time_reached": self.time_reached,
+            "pending_error": self.pending_error,
+        }
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
         self.values.update(state["values"])  # in place: the registered getters hold this dict

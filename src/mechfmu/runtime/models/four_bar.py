@@ -18,46 +18,76 @@ class FourBar(LinkageSlave):
     as in Norton: crank O2 -> A, coupler A -> B, rocker O4 -> B; reported in (-pi, pi].
     """
 
-    description = ("Four-bar linkage (Norton's conventions): crank motion in, coupler and "
-                   "rocker motion out; Freudenstein closed form or the planar constraint solver")
+    description = (
+        "Four-bar linkage (Norton's conventions): crank motion in, coupler and "
+        "rocker motion out; Freudenstein closed form or the planar constraint solver"
+    )
     DRIVE_INPUTS = _CRANK
     VARIABLES = (
-        parameter("ground_length", COURSEWORK.ground, "d: crank pivot O2 to rocker pivot O4",
-                  unit="m", min=0.0),
+        parameter(
+            "ground_length",
+            COURSEWORK.ground,
+            "d: crank pivot O2 to rocker pivot O4",
+            unit="m",
+            min=0.0,
+        ),
         parameter("crank_length", COURSEWORK.crank, "a: crank O2 -> A", unit="m", min=0.0),
-        parameter("coupler_length", COURSEWORK.coupler, "b: coupler A -> B", unit="m",
-                  min=0.0),
+        parameter("coupler_length", COURSEWORK.coupler, "b: coupler A -> B", unit="m", min=0.0),
         parameter("rocker_length", COURSEWORK.rocker, "c: rocker O4 -> B", unit="m", min=0.0),
-        parameter("circuit", 0, "Assembly circuit: 0 open (sin(theta4 - theta3) > 0), "
-                  "1 crossed", min=0, max=1),
+        parameter(
+            "circuit",
+            0,
+            "Assembly circuit: 0 open (sin(theta4 - theta3) > 0), 1 crossed",
+            min=0,
+            max=1,
+        ),
         *solver_variables("closed_form"),
         input_("crank_angle", fb.COURSEWORK_CRANK_ANGLE, "theta2: crank angle", unit="rad"),
         input_("crank_speed", 0.0, "omega2 = d(theta2)/dt", unit="rad/s"),
         input_("crank_acceleration", 0.0, "alpha2 = d(omega2)/dt", unit="rad/s2"),
-        output("coupler_angle", 0.0, "theta3: angle of the coupler A -> B", unit="rad",
-               depends=_CRANK[:1]),
-        output("rocker_angle", 0.0, "theta4: angle of the rocker O4 -> B", unit="rad",
-               depends=_CRANK[:1]),
+        output(
+            "coupler_angle",
+            0.0,
+            "theta3: angle of the coupler A -> B",
+            unit="rad",
+            depends=_CRANK[:1],
+        ),
+        output(
+            "rocker_angle",
+            0.0,
+            "theta4: angle of the rocker O4 -> B",
+            unit="rad",
+            depends=_CRANK[:1],
+        ),
         output("coupler_angular_velocity", 0.0, "omega3", unit="rad/s", depends=_CRANK[:2]),
         output("rocker_angular_velocity", 0.0, "omega4", unit="rad/s", depends=_CRANK[:2]),
         output("coupler_angular_acceleration", 0.0, "alpha3", unit="rad/s2", depends=_CRANK),
         output("rocker_angular_acceleration", 0.0, "alpha4", unit="rad/s2", depends=_CRANK),
-        output("transmission_angle", 0.0, "mu: acute angle between coupler and rocker "
-               "(0 at a toggle position)", unit="rad", depends=_CRANK[:1], min=0.0),
-        output("grashof_class", 0, "Grashof class: " + "; ".join(
-            f"{c.code} {c.name}" for c in fb.GRASHOF_CLASSES)),
+        output(
+            "transmission_angle",
+            0.0,
+            "mu: acute angle between coupler and rocker (0 at a toggle position)",
+            unit="rad",
+            depends=_CRANK[:1],
+            min=0.0,
+        ),
+        output(
+            "grashof_class",
+            0,
+            "Grashof class: " + "; ".join(f"{c.code} {c.name}" for c in fb.GRASHOF_CLASSES),
+        ),
     )
 
     def _lengths(self) -> tuple[float, float, float, float]:
         v = self.values
-        return (v["ground_length"], v["crank_length"], v["coupler_length"],
-                v["rocker_length"])
+        return (v["ground_length"], v["crank_length"], v["coupler_length"], v["rocker_length"])
 
     def check_geometry(self) -> Any:
         fb.check_four_bar(*self._lengths())
         if self.values["circuit"] not in fb.CIRCUITS:
-            raise RangeError("circuit", self.values["circuit"], "{0, 1}", "",
-                             "0 = open, 1 = crossed")
+            raise RangeError(
+                "circuit", self.values["circuit"], "{0, 1}", "", "0 = open, 1 = crossed"
+            )
         self.values["grashof_class"] = fb.grashof_class(*self._lengths())
         self.lengths = fb.check_four_bar(*self._lengths())
 
@@ -79,8 +109,12 @@ class FourBar(LinkageSlave):
         q, qdot, qddot = solution.q, solution.qdot, solution.qddot
         coupler = constraint_models.wrap_angle(q[5])
         rocker = constraint_models.wrap_angle(q[8])
-        return {"coupler_angle": coupler, "rocker_angle": rocker,
-                "coupler_angular_velocity": qdot[5], "rocker_angular_velocity": qdot[8],
-                "coupler_angular_acceleration": qddot[5],
-                "rocker_angular_acceleration": qddot[8],
-                "transmission_angle": fb.transmission_angle(coupler, rocker)}
+        return {
+            "coupler_angle": coupler,
+            "rocker_angle": rocker,
+            "coupler_angular_velocity": qdot[5],
+            "rocker_angular_velocity": qdot[8],
+            "coupler_angular_acceleration": qddot[5],
+            "rocker_angular_acceleration": qddot[8],
+            "transmission_angle": fb.transmission_angle(coupler, rocker),
+        }

@@ -10,23 +10,45 @@ from ..physics.landing_gear import COURSEWORK_EXTENDED_LENGTH, COURSEWORK_RETRAC
 
 # The actuator's parameters, declared once: LandingGear's hydraulics effect uses them too.
 HYDRAULIC_PARAMETERS = (
-    parameter("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure",
-              unit="Pa", min=0.0),
-    parameter("return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Return pressure",
-              unit="Pa", min=0.0),
+    parameter(
+        "supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure", unit="Pa", min=0.0
+    ),
+    parameter(
+        "return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Return pressure", unit="Pa", min=0.0
+    ),
     parameter("bore", hydraulics.DEFAULT_BORE, "Piston bore", unit="m", min=0.0),
-    parameter("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", unit="m",
-              min=0.0),
-    parameter("bulk_modulus", hydraulics.DEFAULT_BULK_MODULUS, "Effective bulk modulus",
-              unit="Pa", min=0.0),
-    parameter("dead_volume", hydraulics.DEFAULT_DEAD_VOLUME, "Fluid volume of each chamber "
-              "and its line at the end of the stroke", unit="m3", min=0.0),
-    parameter("valve_rated_flow", hydraulics.DEFAULT_RATED_FLOW, "Flow through a fully "
-              "open valve edge at the rated pressure drop", unit="m3/s", min=0.0),
-    parameter("valve_rated_pressure_drop", hydraulics.DEFAULT_RATED_PRESSURE_DROP,
-              "Pressure drop at which valve_rated_flow is rated", unit="Pa", min=0.0),
-    parameter("max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line",
-              unit="m3/s", min=0.0),
+    parameter("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", unit="m", min=0.0),
+    parameter(
+        "bulk_modulus",
+        hydraulics.DEFAULT_BULK_MODULUS,
+        "Effective bulk modulus",
+        unit="Pa",
+        min=0.0,
+    ),
+    parameter(
+        "dead_volume",
+        hydraulics.DEFAULT_DEAD_VOLUME,
+        "Fluid volume of each chamber and its line at the end of the stroke",
+        unit="m3",
+        min=0.0,
+    ),
+    parameter(
+        "valve_rated_flow",
+        hydraulics.DEFAULT_RATED_FLOW,
+        "Flow through a fully open valve edge at the rated pressure drop",
+        unit="m3/s",
+        min=0.0,
+    ),
+    parameter(
+        "valve_rated_pressure_drop",
+        hydraulics.DEFAULT_RATED_PRESSURE_DROP,
+        "Pressure drop at which valve_rated_flow is rated",
+        unit="Pa",
+        min=0.0,
+    ),
+    parameter(
+        "max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line", unit="m3/s", min=0.0
+    ),
 )
 
 
@@ -37,29 +59,43 @@ class HydraulicActuator(IntegratingSlave):
     can close the loop gear -> actuator -> gear without an algebraic loop.
     """
 
-    description = ("Double-acting hydraulic actuator with a 4-way valve, flow limit and fluid "
-                   "compressibility: valve command and piston motion in, piston force out")
+    description = (
+        "Double-acting hydraulic actuator with a 4-way valve, flow limit and fluid "
+        "compressibility: valve command and piston motion in, piston force out"
+    )
     VARIABLES = (
         *HYDRAULIC_PARAMETERS,
-        parameter("stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length",
-                  unit="m", min=0.0),
-        parameter("stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length",
-                  unit="m", min=0.0),
-        parameter("initial_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Pressure in both "
-                  "chambers at the start", unit="Pa", min=0.0),
+        parameter(
+            "stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length", unit="m", min=0.0
+        ),
+        parameter(
+            "stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length", unit="m", min=0.0
+        ),
+        parameter(
+            "initial_pressure",
+            hydraulics.DEFAULT_RETURN_PRESSURE,
+            "Pressure in both chambers at the start",
+            unit="Pa",
+            min=0.0,
+        ),
         *integrator_variables(default="radau", rtol=1e-8, atol=1.0),
-        input_("valve_command", 0.0, "Valve opening in [-1, 1], positive extends the piston",
-               unit="1", min=-1.0, max=1.0),
-        input_("piston_extension", COURSEWORK_RETRACTED_LENGTH, "Piston length", unit="m",
-               min=0.0),
+        input_(
+            "valve_command",
+            0.0,
+            "Valve opening in [-1, 1], positive extends the piston",
+            unit="1",
+            min=-1.0,
+            max=1.0,
+        ),
+        input_("piston_extension", COURSEWORK_RETRACTED_LENGTH, "Piston length", unit="m", min=0.0),
         input_("piston_speed", 0.0, "Piston length rate", unit="m/s"),
         output("piston_force", 0.0, "p_cap A_cap - p_rod A_rod, positive extending", unit="N"),
         output("cap_pressure", 0.0, "Cap-side chamber pressure", unit="Pa"),
         output("rod_pressure", 0.0, "Rod-side chamber pressure", unit="Pa"),
-        output("cap_flow", 0.0, "Flow into the cap side", unit="m3/s",
-               depends=("valve_command",)),
-        output("rod_flow", 0.0, "Flow out of the rod side", unit="m3/s",
-               depends=("valve_command",)),
+        output("cap_flow", 0.0, "Flow into the cap side", unit="m3/s", depends=("valve_command",)),
+        output(
+            "rod_flow", 0.0, "Flow out of the rod side", unit="m3/s", depends=("valve_command",)
+        ),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -70,9 +106,18 @@ class HydraulicActuator(IntegratingSlave):
     def set_up(self) -> bool:
         v = self.values
         self.actuator = hydraulics.make_actuator(
-            v["supply_pressure"], v["return_pressure"], v["bore"], v["rod_diameter"],
-            v["bulk_modulus"], v["dead_volume"], v["valve_rated_flow"],
-            v["valve_rated_pressure_drop"], v["max_flow"], v["stroke_min"], v["stroke_max"])
+            v["supply_pressure"],
+            v["return_pressure"],
+            v["bore"],
+            v["rod_diameter"],
+            v["bulk_modulus"],
+            v["dead_volume"],
+            v["valve_rated_flow"],
+            v["valve_rated_pressure_drop"],
+            v["max_flow"],
+            v["stroke_min"],
+            v["stroke_max"],
+        )
         require_finite("initial_pressure", v["initial_pressure"], "Pa")
         return True
 
@@ -87,8 +132,10 @@ class HydraulicActuator(IntegratingSlave):
         speed = require_finite("piston_speed", v["piston_speed"], "m/s")
 
         def rhs(t: float, y: Any):
-            return list(hydraulics.pressure_rates(command, y[0], y[1], length, speed,
-                                                  self.actuator))
+            return list(
+                hydraulics.pressure_rates(command, y[0], y[1], length, speed, self.actuator)
+            )
+
         return self.integrator.advance(rhs, start, self.state, time).y, None
 
     def publish(self, time: float) -> None:

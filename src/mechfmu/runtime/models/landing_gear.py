@@ -8,8 +8,12 @@ from ..physics import gear_dynamics as gd
 from ..physics import hydraulics
 from ..physics import landing_gear as gear
 from ..errors import MechanismError, require_finite
-from ..physics.landing_gear import (COURSEWORK_BAR_LENGTH, COURSEWORK_EXTENDED_LENGTH,
-                                    COURSEWORK_RETRACTED_LENGTH, DEFAULT_GEOMETRY)
+from ..physics.landing_gear import (
+    COURSEWORK_BAR_LENGTH,
+    COURSEWORK_EXTENDED_LENGTH,
+    COURSEWORK_RETRACTED_LENGTH,
+    DEFAULT_GEOMETRY,
+)
 from .hydraulic_actuator import HYDRAULIC_PARAMETERS
 from typing import Any
 
@@ -32,103 +36,264 @@ class LandingGear(IntegratingSlave):
     force of the built-in actuator driven by ``valve_command``.
     """
 
-    description = ("Retractable nose landing gear: kinematic (piston motion in, closed forms) "
-                   "or dynamic (piston force or valve command in) with selectable effects")
+    description = (
+        "Retractable nose landing gear: kinematic (piston motion in, closed forms) "
+        "or dynamic (piston force or valve command in) with selectable effects"
+    )
     VARIABLES = (
-        parameter("attachment_distance", DEFAULT_GEOMETRY.attachment_distance,
-                  "d: distance from the bar pivot B to the piston attachment on the bar",
-                  unit="m", min=0.0),
-        parameter("pivot_height", DEFAULT_GEOMETRY.pivot_height,
-                  "h: distance from the bar pivot B to the piston's fixed pivot",
-                  unit="m", min=0.0),
-        parameter("bar_length", COURSEWORK_BAR_LENGTH,
-                  "Length of bar AB from pivot B to the wheel axle A", unit="m", min=0.0),
-        parameter("drive", "motion", "motion: prescribed piston motion (kinematics); "
-                  "dynamics: integrate the gear from the piston force", values=DRIVES),
-        effect("inertia", "bar and wheel inertia about B (needed by the dynamics drive; in the "
-               "motion drive adds I alpha to the required piston force)"),
+        parameter(
+            "attachment_distance",
+            DEFAULT_GEOMETRY.attachment_distance,
+            "d: distance from the bar pivot B to the piston attachment on the bar",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "pivot_height",
+            DEFAULT_GEOMETRY.pivot_height,
+            "h: distance from the bar pivot B to the piston's fixed pivot",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "bar_length",
+            COURSEWORK_BAR_LENGTH,
+            "Length of bar AB from pivot B to the wheel axle A",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "drive",
+            "motion",
+            "motion: prescribed piston motion (kinematics); "
+            "dynamics: integrate the gear from the piston force",
+            values=DRIVES,
+        ),
+        effect(
+            "inertia",
+            "bar and wheel inertia about B (needed by the dynamics drive; in the "
+            "motion drive adds I alpha to the required piston force)",
+        ),
         effect("gravity", "weight of bar and wheel, airframe pitched by airframe_pitch"),
         effect("aero_drag", "aerodynamic drag on the wheel from the input airspeed"),
         effect("pivot_friction", "viscous and smoothed Coulomb friction at B"),
-        effect("end_stops", "stiff contacts with restitution at the piston stroke limits "
-               "(dynamics drive)"),
-        effect("hydraulics", "built-in hydraulic actuator driven by valve_command (dynamics "
-               "drive): supply pressure, valve, flow limit, fluid compressibility"),
-        parameter("bar_mass", gd.DEFAULT_BAR_MASS, "Mass of bar and strut (uniform)",
-                  unit="kg", min=0.0),
-        parameter("wheel_mass", gd.DEFAULT_WHEEL_MASS, "Mass of wheel and tyre at A",
-                  unit="kg", min=0.0),
-        parameter("down_angle", DEFAULT_GEOMETRY.start_angle, "Gear angle at which the bar "
-                  "hangs vertically (airframe level)", unit="rad"),
+        effect(
+            "end_stops",
+            "stiff contacts with restitution at the piston stroke limits (dynamics drive)",
+        ),
+        effect(
+            "hydraulics",
+            "built-in hydraulic actuator driven by valve_command (dynamics "
+            "drive): supply pressure, valve, flow limit, fluid compressibility",
+        ),
+        parameter(
+            "bar_mass", gd.DEFAULT_BAR_MASS, "Mass of bar and strut (uniform)", unit="kg", min=0.0
+        ),
+        parameter(
+            "wheel_mass", gd.DEFAULT_WHEEL_MASS, "Mass of wheel and tyre at A", unit="kg", min=0.0
+        ),
+        parameter(
+            "down_angle",
+            DEFAULT_GEOMETRY.start_angle,
+            "Gear angle at which the bar hangs vertically (airframe level)",
+            unit="rad",
+        ),
         parameter("airframe_pitch", 0.0, "Nose-up pitch of the airframe", unit="rad"),
         parameter("gravity_acceleration", gd.STANDARD_GRAVITY, "g", unit="m/s2", min=0.0),
         parameter("air_density", gd.DEFAULT_AIR_DENSITY, "rho", unit="kg/m3", min=0.0),
-        parameter("drag_area", gd.DEFAULT_DRAG_AREA, "Cd times frontal area of the wheel",
-                  unit="m2", min=0.0),
-        parameter("viscous_friction", gd.DEFAULT_VISCOUS_FRICTION, "Viscous friction "
-                  "coefficient at B", unit="N.m.s/rad", min=0.0),
-        parameter("coulomb_friction", gd.DEFAULT_COULOMB_FRICTION, "Coulomb friction moment "
-                  "at B", unit="N.m", min=0.0),
-        parameter("friction_speed", gd.DEFAULT_FRICTION_SPEED, "Angular speed over which the "
-                  "Coulomb friction is smoothed (tanh)", unit="rad/s", min=0.0),
-        parameter("stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length (stop; "
-                  "gear down)", unit="m", min=0.0),
-        parameter("stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length (stop; "
-                  "gear up)", unit="m", min=0.0),
-        parameter("stop_stiffness", gd.DEFAULT_STOP_STIFFNESS, "End-stop contact stiffness on "
-                  "the piston length", unit="N/m", min=0.0),
-        parameter("restitution", gd.DEFAULT_RESTITUTION, "End-stop coefficient of restitution",
-                  unit="1", min=0.0, max=1.0),
+        parameter(
+            "drag_area",
+            gd.DEFAULT_DRAG_AREA,
+            "Cd times frontal area of the wheel",
+            unit="m2",
+            min=0.0,
+        ),
+        parameter(
+            "viscous_friction",
+            gd.DEFAULT_VISCOUS_FRICTION,
+            "Viscous friction coefficient at B",
+            unit="N.m.s/rad",
+            min=0.0,
+        ),
+        parameter(
+            "coulomb_friction",
+            gd.DEFAULT_COULOMB_FRICTION,
+            "Coulomb friction moment at B",
+            unit="N.m",
+            min=0.0,
+        ),
+        parameter(
+            "friction_speed",
+            gd.DEFAULT_FRICTION_SPEED,
+            "Angular speed over which the Coulomb friction is smoothed (tanh)",
+            unit="rad/s",
+            min=0.0,
+        ),
+        parameter(
+            "stroke_min",
+            COURSEWORK_RETRACTED_LENGTH,
+            "Shortest piston length (stop; gear down)",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "stroke_max",
+            COURSEWORK_EXTENDED_LENGTH,
+            "Longest piston length (stop; gear up)",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "stop_stiffness",
+            gd.DEFAULT_STOP_STIFFNESS,
+            "End-stop contact stiffness on the piston length",
+            unit="N/m",
+            min=0.0,
+        ),
+        parameter(
+            "restitution",
+            gd.DEFAULT_RESTITUTION,
+            "End-stop coefficient of restitution",
+            unit="1",
+            min=0.0,
+            max=1.0,
+        ),
         *HYDRAULIC_PARAMETERS,
-        parameter("initial_angle", DEFAULT_GEOMETRY.start_angle, "Gear angle at the start "
-                  "(dynamics drive)", unit="rad"),
-        parameter("initial_angular_velocity", 0.0, "Angular velocity at the start (dynamics "
-                  "drive)", unit="rad/s"),
-        parameter("initial_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Pressure in both "
-                  "chambers at the start (hydraulics)", unit="Pa", min=0.0),
+        parameter(
+            "initial_angle",
+            DEFAULT_GEOMETRY.start_angle,
+            "Gear angle at the start (dynamics drive)",
+            unit="rad",
+        ),
+        parameter(
+            "initial_angular_velocity",
+            0.0,
+            "Angular velocity at the start (dynamics drive)",
+            unit="rad/s",
+        ),
+        parameter(
+            "initial_pressure",
+            hydraulics.DEFAULT_RETURN_PRESSURE,
+            "Pressure in both chambers at the start (hydraulics)",
+            unit="Pa",
+            min=0.0,
+        ),
         *integrator_variables(default="dopri5"),
-        input_("piston_extension", COURSEWORK_RETRACTED_LENGTH,
-               "x: piston length between its two pivots, within [|h - d|, h + d] (motion drive)",
-               unit="m", min=0.0),
+        input_(
+            "piston_extension",
+            COURSEWORK_RETRACTED_LENGTH,
+            "x: piston length between its two pivots, within [|h - d|, h + d] (motion drive)",
+            unit="m",
+            min=0.0,
+        ),
         input_("piston_speed", 0.0, "dx/dt (motion drive)", unit="m/s"),
         input_("piston_acceleration", 0.0, "d2x/dt2 (motion drive)", unit="m/s2"),
-        input_("piston_force", 0.0, "Force along the piston, positive extending (dynamics "
-               "drive without hydraulics)", unit="N"),
-        input_("valve_command", 0.0, "Valve opening in [-1, 1], positive extends the piston "
-               "(dynamics drive with hydraulics)", unit="1", min=-1.0, max=1.0),
+        input_(
+            "piston_force",
+            0.0,
+            "Force along the piston, positive extending (dynamics drive without hydraulics)",
+            unit="N",
+        ),
+        input_(
+            "valve_command",
+            0.0,
+            "Valve opening in [-1, 1], positive extends the piston "
+            "(dynamics drive with hydraulics)",
+            unit="1",
+            min=-1.0,
+            max=1.0,
+        ),
         input_("airspeed", 0.0, "Airspeed for the drag on the wheel (aero_drag)", unit="m/s"),
-        output("gear_angle", 0.0, "theta: angle at B between the bar and the line to the "
-               "piston's fixed pivot", unit="rad", depends=_PISTON[:1], min=0.0,
-               max=math.pi),
-        output("gear_angular_velocity", 0.0, "omega = d(theta)/dt", unit="rad/s",
-               depends=_PISTON[:2]),
-        output("gear_angular_acceleration", 0.0, "alpha = d(omega)/dt", unit="rad/s2",
-               depends=_PISTON + _FORCES),
-        output("piston_moment_arm", 0.0, "Moment arm of the piston force about B: "
-               "d h sin(theta) / x", unit="m", depends=_PISTON[:1], min=0.0),
-        output("wheel_speed", 0.0, "Speed of the wheel axle A: bar_length * omega",
-               unit="m/s", depends=_PISTON[:2]),
-        output("piston_length", 0.0, "Piston length (equals piston_extension in the motion "
-               "drive; integrated in the dynamics drive)", unit="m", depends=_PISTON[:1]),
+        output(
+            "gear_angle",
+            0.0,
+            "theta: angle at B between the bar and the line to the piston's fixed pivot",
+            unit="rad",
+            depends=_PISTON[:1],
+            min=0.0,
+            max=math.pi,
+        ),
+        output(
+            "gear_angular_velocity", 0.0, "omega = d(theta)/dt", unit="rad/s", depends=_PISTON[:2]
+        ),
+        output(
+            "gear_angular_acceleration",
+            0.0,
+            "alpha = d(omega)/dt",
+            unit="rad/s2",
+            depends=_PISTON + _FORCES,
+        ),
+        output(
+            "piston_moment_arm",
+            0.0,
+            "Moment arm of the piston force about B: d h sin(theta) / x",
+            unit="m",
+            depends=_PISTON[:1],
+            min=0.0,
+        ),
+        output(
+            "wheel_speed",
+            0.0,
+            "Speed of the wheel axle A: bar_length * omega",
+            unit="m/s",
+            depends=_PISTON[:2],
+        ),
+        output(
+            "piston_length",
+            0.0,
+            "Piston length (equals piston_extension in the motion "
+            "drive; integrated in the dynamics drive)",
+            unit="m",
+            depends=_PISTON[:1],
+        ),
         output("piston_rate", 0.0, "Piston length rate", unit="m/s", depends=_PISTON[:2]),
-        output("piston_force_required", 0.0, "Motion drive: piston force that produces the "
-               "prescribed motion against the enabled effects (inverse dynamics)", unit="N",
-               depends=_PISTON + ("airspeed",)),
-        output("piston_force_applied", 0.0, "Dynamics drive: piston force acting on the gear "
-               "(input or hydraulic), without the end-stop force", unit="N",
-               depends=("piston_force",)),
+        output(
+            "piston_force_required",
+            0.0,
+            "Motion drive: piston force that produces the "
+            "prescribed motion against the enabled effects (inverse dynamics)",
+            unit="N",
+            depends=_PISTON + ("airspeed",),
+        ),
+        output(
+            "piston_force_applied",
+            0.0,
+            "Dynamics drive: piston force acting on the gear "
+            "(input or hydraulic), without the end-stop force",
+            unit="N",
+            depends=("piston_force",),
+        ),
         output("cap_pressure", 0.0, "Hydraulics: cap-side chamber pressure", unit="Pa"),
         output("rod_pressure", 0.0, "Hydraulics: rod-side chamber pressure", unit="Pa"),
-        output("kinetic_energy", 0.0, "1/2 I_B omega^2 (inertia on)", unit="J",
-               depends=_PISTON[:2]),
-        output("potential_energy", 0.0, "Gravity potential relative to the bar hanging "
-               "vertically (gravity on)", unit="J", depends=_PISTON[:1]),
-        output("piston_work", 0.0, "Dynamics drive: work done on the gear by the piston force "
-               "since the start", unit="J"),
-        output("retraction_time", -1.0, "Time the piston first reached stroke_max (gear up); "
-               "-1 until then (dynamics drive)", unit="s"),
-        output("extension_time", -1.0, "Time the piston first reached stroke_min (gear "
-               "down) moving inwards; -1 until then (dynamics drive)", unit="s"),
+        output(
+            "kinetic_energy", 0.0, "1/2 I_B omega^2 (inertia on)", unit="J", depends=_PISTON[:2]
+        ),
+        output(
+            "potential_energy",
+            0.0,
+            "Gravity potential relative to the bar hanging vertically (gravity on)",
+            unit="J",
+            depends=_PISTON[:1],
+        ),
+        output(
+            "piston_work",
+            0.0,
+            "Dynamics drive: work done on the gear by the piston force since the start",
+            unit="J",
+        ),
+        output(
+            "retraction_time",
+            -1.0,
+            "Time the piston first reached stroke_max (gear up); -1 until then (dynamics drive)",
+            unit="s",
+        ),
+        output(
+            "extension_time",
+            -1.0,
+            "Time the piston first reached stroke_min (gear "
+            "down) moving inwards; -1 until then (dynamics drive)",
+            unit="s",
+        ),
         output("stop_contacts", 0, "End-stop contacts started so far"),
     )
 
@@ -143,14 +308,20 @@ class LandingGear(IntegratingSlave):
         v = self.values
         d, h = gear.check_geometry(v["attachment_distance"], v["pivot_height"])
         body = gd.make_body(v["bar_length"], v["bar_mass"], v["wheel_mass"])
-        geometry = gd.Geometry(d, h, require_finite("down_angle", v["down_angle"], "rad"),
-                               require_finite("airframe_pitch", v["airframe_pitch"], "rad"))
+        geometry = gd.Geometry(
+            d,
+            h,
+            require_finite("down_angle", v["down_angle"], "rad"),
+            require_finite("airframe_pitch", v["airframe_pitch"], "rad"),
+        )
         if v["drive"] not in DRIVES:
             raise MechanismError(f"drive = {v['drive']!r} is not one of {', '.join(DRIVES)}")
         if v["drive"] == "dynamics":
             if not v["inertia"]:
-                raise MechanismError("drive = 'dynamics' needs the inertia effect: without "
-                                     "inertia the gear has no equation of motion")
+                raise MechanismError(
+                    "drive = 'dynamics' needs the inertia effect: without "
+                    "inertia the gear has no equation of motion"
+                )
             self.model = gd.Dynamics(v, body, geometry)
             return True
         self.model = gd.InverseDynamics(v, body, geometry)
@@ -172,8 +343,7 @@ class LandingGear(IntegratingSlave):
         v = self.values
         if v["drive"] == "dynamics":
             given = [name for name in _PISTON if v[name] != _STARTS[name]]
-            used = ("the piston force (piston_force, or valve_command with the hydraulics "
-                    "effect)")
+            used = "the piston force (piston_force, or valve_command with the hydraulics effect)"
             other = "motion"
         else:
             given = [name for name in _FORCE_DRIVE if v[name] != _STARTS[name]]
@@ -183,12 +353,15 @@ class LandingGear(IntegratingSlave):
             values = ", ".join(f"{name} = {v[name]!r} {_UNITS[name]}".rstrip() for name in given)
             starts = ", ".join(f"{name} = {_STARTS[name]!r}" for name in given)
             plural = len(given) > 1
-            self.log(f"{self.instance_name} at t = {time!r} s: both drivers given: "
-                     f"drive = {v['drive']!r} moves the gear by {used} and takes precedence; "
-                     f"the {other} drive's input{'s' if plural else ''} {values} "
-                     f"{'are' if plural else 'is'} ignored (leave "
-                     f"{'them at their start values' if plural else 'it at its start value'} "
-                     f"({starts}) or choose drive = {other!r})", Status.warning)
+            self.log(
+                f"{self.instance_name} at t = {time!r} s: both drivers given: "
+                f"drive = {v['drive']!r} moves the gear by {used} and takes precedence; "
+                f"the {other} drive's input{'s' if plural else ''} {values} "
+                f"{'are' if plural else 'is'} ignored (leave "
+                f"{'them at their start values' if plural else 'it at its start value'} "
+                f"({starts}) or choose drive = {other!r})",
+                Status.warning,
+            )
         self.ignored_inputs = tuple(given)
 
     def extra_state(self) -> dict[str, list[Any]]:
@@ -202,7 +375,9 @@ class LandingGear(IntegratingSlave):
         self._note_other_driver(time)
         super().update(time, step_size)
 
-    def advance(self, start: float, time: float, inputs: tuple[()]) -> tuple[list[float], list[Any]]:
+    def advance(
+        self, start: float, time: float, inputs: tuple[()]
+    ) -> tuple[list[float], list[Any]]:
         """Dynamics drive: (state at ``time``, stroke limits crossed); the inputs
         piston_force, valve_command and airspeed are held over the step."""
         return self.model.advance(self.integrator, start, self.state, time, self.values)
@@ -218,8 +393,10 @@ class LandingGear(IntegratingSlave):
                 v["extension_time"] = when
             if self.model.stops:
                 v["stop_contacts"] += 1
-            self.log(f"{self.instance_name} at t = {when!r} s: piston reached {name} "
-                     f"({length!r} m)", Status.ok)
+            self.log(
+                f"{self.instance_name} at t = {when!r} s: piston reached {name} ({length!r} m)",
+                Status.ok,
+            )
 
     def publish(self, time: float) -> None:
         self.model.publish(self.values, time, self.state)
@@ -228,8 +405,9 @@ class LandingGear(IntegratingSlave):
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
         v = self.values
         d, h = v["attachment_distance"], v["pivot_height"]
-        motion = gear.gear_motion(v["piston_extension"], v["piston_speed"],
-                                  v["piston_acceleration"], d, h)
+        motion = gear.gear_motion(
+            v["piston_extension"], v["piston_speed"], v["piston_acceleration"], d, h
+        )
         v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = motion
         v["piston_moment_arm"] = gear.piston_moment_arm(v["piston_extension"], d, h)
         v["wheel_speed"] = v["bar_length"] * motion.angular_velocity
@@ -237,8 +415,10 @@ class LandingGear(IntegratingSlave):
         self.model.publish(v, motion)
 
 
-
 # Start values and units of the inputs, for the other-driver warning.
 _STARTS = {v.name: v.start for v in LandingGear.VARIABLES if v.causality == "input"}
-_UNITS = {v.name: "" if v.unit in (None, "1") else v.unit
-          for v in LandingGear.VARIABLES if v.causality == "input"}
+_UNITS = {
+    v.name: "" if v.unit in (None, "1") else v.unit
+    for v in LandingGear.VARIABLES
+    if v.causality == "input"
+}

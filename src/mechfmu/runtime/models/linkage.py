@@ -21,24 +21,53 @@ from ..fmi.declarations import Variable
 SOLVERS = ("closed_form", "constraint_solver")
 
 
-def solver_variables(default: str) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable]:
+def solver_variables(
+    default: str,
+) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable]:
     """The parameters and counters of every model that offers both solvers."""
     return (
-        parameter("solver", default, "closed_form: the mechanism's closed-form solution; "
-                  "constraint_solver: Newton-Raphson on the joints' constraint equations "
-                  "(Haug), velocities and accelerations by linear solves", values=SOLVERS),
-        parameter("solver_tolerance", planar.DEFAULT_TOLERANCE, "Newton tolerance on the "
-                  "constraint residual (lengths divided by the mechanism's length scale, "
-                  "angles in rad)", unit="1", min=0.0),
-        parameter("max_iterations", planar.DEFAULT_MAX_ITERATIONS, "Newton iteration limit "
-                  "per solve (before continuation splits the step)", min=1),
-        parameter("singularity_threshold", planar.DEFAULT_SINGULARITY_THRESHOLD,
-                  "Largest accepted condition number of the scaled constraint Jacobian; "
-                  "above it the position is reported as singular", unit="1", min=1.0),
-        output("newton_iterations", 0, "Newton iterations of the last communication step "
-               "(0 with the closed form)"),
-        output("constraint_residual", 0.0, "Largest scaled constraint residual after the last "
-               "solve (0 with the closed form)", unit="1"),
+        parameter(
+            "solver",
+            default,
+            "closed_form: the mechanism's closed-form solution; "
+            "constraint_solver: Newton-Raphson on the joints' constraint equations "
+            "(Haug), velocities and accelerations by linear solves",
+            values=SOLVERS,
+        ),
+        parameter(
+            "solver_tolerance",
+            planar.DEFAULT_TOLERANCE,
+            "Newton tolerance on the "
+            "constraint residual (lengths divided by the mechanism's length scale, "
+            "angles in rad)",
+            unit="1",
+            min=0.0,
+        ),
+        parameter(
+            "max_iterations",
+            planar.DEFAULT_MAX_ITERATIONS,
+            "Newton iteration limit per solve (before continuation splits the step)",
+            min=1,
+        ),
+        parameter(
+            "singularity_threshold",
+            planar.DEFAULT_SINGULARITY_THRESHOLD,
+            "Largest accepted condition number of the scaled constraint Jacobian; "
+            "above it the position is reported as singular",
+            unit="1",
+            min=1.0,
+        ),
+        output(
+            "newton_iterations",
+            0,
+            "Newton iterations of the last communication step (0 with the closed form)",
+        ),
+        output(
+            "constraint_residual",
+            0.0,
+            "Largest scaled constraint residual after the last solve (0 with the closed form)",
+            unit="1",
+        ),
     )
 
 
@@ -46,7 +75,9 @@ class LinkageSlave(MechSlave):
     """Subclasses implement check_geometry, drive, closed_form, mechanism, guess and
     from_solution; each returns or writes values keyed by output name."""
 
-    DRIVE_INPUTS: tuple[str, ...] = ()  # (value, rate, acceleration) input names of the mechanism's driver
+    DRIVE_INPUTS: tuple[
+        str, ...
+    ] = ()  # (value, rate, acceleration) input names of the mechanism's driver
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
@@ -101,8 +132,8 @@ class LinkageSlave(MechSlave):
         self.model = self.mechanism()
         if v["solver"] == "constraint_solver":
             self.follower = planar.BranchFollower(
-                self.model, v["solver_tolerance"], v["max_iterations"],
-                v["singularity_threshold"])
+                self.model, v["solver_tolerance"], v["max_iterations"], v["singularity_threshold"]
+            )
 
     def _drive_now(self, time: float):
         return [tuple(map(float, d)) for d in self.drive(time)]
@@ -114,8 +145,7 @@ class LinkageSlave(MechSlave):
                 self.last_drive = self._drive_now(time)
         else:
             solution = self.follower.assemble(self.guess(time), self.drive(time))
-            self._write(self.from_solution(solution, time), solution.iterations,
-                        solution.residual)
+            self._write(self.from_solution(solution, time), solution.iterations, solution.residual)
         self.after_update(time)
 
     def update(self, time: float, step_size: float) -> Any:
@@ -130,8 +160,7 @@ class LinkageSlave(MechSlave):
                 self.last_drive = drive
         else:
             solution = self.follower.follow(self.drive(time), step_size)
-            self._write(self.from_solution(solution, time), solution.iterations,
-                        solution.residual)
+            self._write(self.from_solution(solution, time), solution.iterations, solution.residual)
         self.after_update(time)
 
     def _write(self, values: Any, iterations: Any, residual: Any) -> None:
@@ -142,9 +171,10 @@ class LinkageSlave(MechSlave):
 
     # --- FMU state ----------------------------------------------------------------------
     def internal_state(self) -> Any:
-        return {"follower": None if self.follower is None else self.follower.snapshot(),
-                "last_drive": None if self.last_drive is None
-                else [list(d) for d in self.last_drive]}
+        return {
+            "follower": None if self.follower is None else self.follower.snapshot(),
+            "last_drive": None if self.last_drive is None else [list(d) for d in self.last_drive],
+        }
 
     def restore_internal_state(self, state: Any) -> None:
         if self.follower is not None and state.get("follower") is not None:

@@ -17,29 +17,48 @@ class _ShaftDrive(MechSlave):
 
     def check_parameters(self) -> None:
         v = self.values
-        profiles.check_rotation(v["initial_angle"], v["initial_speed"], v["speed"],
-                                v["ramp_time"])
+        profiles.check_rotation(v["initial_angle"], v["initial_speed"], v["speed"], v["ramp_time"])
 
     def update(self, time: float, step_size: float) -> None:
         v = self.values
-        sample = profiles.rotation(time, v["initial_angle"], self.RATIO * v["initial_speed"],
-                                   self.RATIO * v["speed"], v["ramp_time"], v["start_time"])
+        sample = profiles.rotation(
+            time,
+            v["initial_angle"],
+            self.RATIO * v["initial_speed"],
+            self.RATIO * v["speed"],
+            v["ramp_time"],
+            v["start_time"],
+        )
         prefix = self.PREFIX
         v[prefix + "_angle"], v[prefix + "_speed"], v[prefix + "_acceleration"] = sample
 
 
-def _variables(prefix: str, shaft: str, speed_description: str) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable, Variable, Variable]:
+def _variables(
+    prefix: str, shaft: str, speed_description: str
+) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable, Variable, Variable]:
     return (
         parameter("initial_angle", 0.0, f"{shaft} angle at start_time", unit="rad"),
-        parameter("initial_speed", 0.0, speed_description + " before and at the start of the "
-                  "ramp", unit="rad/s"),
-        parameter("speed", 10.0, speed_description + " after the ramp (constant speed: set "
-                  "ramp_time = 0)", unit="rad/s"),
-        parameter("ramp_time", 0.0, "Duration of the linear speed ramp (0: constant speed)",
-                  unit="s", min=0.0),
+        parameter(
+            "initial_speed",
+            0.0,
+            speed_description + " before and at the start of the ramp",
+            unit="rad/s",
+        ),
+        parameter(
+            "speed",
+            10.0,
+            speed_description + " after the ramp (constant speed: set ramp_time = 0)",
+            unit="rad/s",
+        ),
+        parameter(
+            "ramp_time",
+            0.0,
+            "Duration of the linear speed ramp (0: constant speed)",
+            unit="s",
+            min=0.0,
+        ),
         parameter("start_time", 0.0, "Time at which the ramp starts", unit="s"),
-        output(prefix + "_angle", 0.0, f"{shaft} angle, continuous over revolutions",
-               unit="rad"),
+        output(prefix + "_angle", 0.0, f"{shaft} angle, continuous over revolutions", unit="rad"),
         output(prefix + "_speed", 0.0, f"{shaft} angular speed", unit="rad/s"),
         output(prefix + "_acceleration", 0.0, f"{shaft} angular acceleration", unit="rad/s2"),
     )
@@ -57,9 +76,12 @@ class CamshaftDrive(_ShaftDrive):
     """Camshaft angle source for ValveTrain; speeds are given for the crankshaft (engine)
     and the camshaft turns at half of them (four-stroke engine: one cycle in two turns)."""
 
-    description = ("Camshaft drive: camshaft angle, speed and acceleration at half the given "
-                   "engine (crankshaft) speed, constant or ramped")
+    description = (
+        "Camshaft drive: camshaft angle, speed and acceleration at half the given "
+        "engine (crankshaft) speed, constant or ramped"
+    )
     PREFIX = "camshaft"
     RATIO = 0.5
-    VARIABLES = _variables("camshaft", "Camshaft", "Engine (crankshaft) speed; the camshaft "
-                           "turns at half of it,")
+    VARIABLES = _variables(
+        "camshaft", "Camshaft", "Engine (crankshaft) speed; the camshaft turns at half of it,"
+    )

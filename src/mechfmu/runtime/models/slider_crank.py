@@ -19,28 +19,53 @@ class SliderCrank(LinkageSlave):
     +x, coupler angle of A -> B, reported in (-pi, pi].
     """
 
-    description = ("Offset slider-crank: crank motion in, slider and coupler motion out; "
-                   "closed form or the planar constraint solver")
+    description = (
+        "Offset slider-crank: crank motion in, slider and coupler motion out; "
+        "closed form or the planar constraint solver"
+    )
     DRIVE_INPUTS = _CRANK
     VARIABLES = (
-        parameter("crank_length", DEFAULT.crank, "a: crank pivot -> crank pin A", unit="m",
-                  min=0.0),
-        parameter("coupler_length", DEFAULT.coupler, "b: connecting rod A -> slider pin B",
-                  unit="m", min=0.0),
-        parameter("offset", DEFAULT.offset, "Height of the slider axis above the crank pivot",
-                  unit="m"),
-        parameter("circuit", 0, "0: slider on the +x side of the crank pin (cos theta3 > 0); "
-                  "1: mirror branch on the -x side", min=0, max=1),
+        parameter(
+            "crank_length", DEFAULT.crank, "a: crank pivot -> crank pin A", unit="m", min=0.0
+        ),
+        parameter(
+            "coupler_length",
+            DEFAULT.coupler,
+            "b: connecting rod A -> slider pin B",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "offset", DEFAULT.offset, "Height of the slider axis above the crank pivot", unit="m"
+        ),
+        parameter(
+            "circuit",
+            0,
+            "0: slider on the +x side of the crank pin (cos theta3 > 0); "
+            "1: mirror branch on the -x side",
+            min=0,
+            max=1,
+        ),
         *solver_variables("closed_form"),
         input_("crank_angle", 0.0, "theta2: crank angle", unit="rad"),
         input_("crank_speed", 0.0, "omega2 = d(theta2)/dt", unit="rad/s"),
         input_("crank_acceleration", 0.0, "alpha2 = d(omega2)/dt", unit="rad/s2"),
-        output("slider_position", 0.0, "x of the slider pin B along the slider axis, from the "
-               "crank pivot", unit="m", depends=_CRANK[:1]),
+        output(
+            "slider_position",
+            0.0,
+            "x of the slider pin B along the slider axis, from the crank pivot",
+            unit="m",
+            depends=_CRANK[:1],
+        ),
         output("slider_speed", 0.0, "d(slider_position)/dt", unit="m/s", depends=_CRANK[:2]),
         output("slider_acceleration", 0.0, "d(slider_speed)/dt", unit="m/s2", depends=_CRANK),
-        output("coupler_angle", 0.0, "theta3: angle of the connecting rod A -> B", unit="rad",
-               depends=_CRANK[:1]),
+        output(
+            "coupler_angle",
+            0.0,
+            "theta3: angle of the connecting rod A -> B",
+            unit="rad",
+            depends=_CRANK[:1],
+        ),
         output("coupler_angular_velocity", 0.0, "omega3", unit="rad/s", depends=_CRANK[:2]),
         output("coupler_angular_acceleration", 0.0, "alpha3", unit="rad/s2", depends=_CRANK),
     )
@@ -69,7 +94,11 @@ class SliderCrank(LinkageSlave):
 
     def from_solution(self, solution: Any, time: float) -> Any:
         q, qdot, qddot = solution.q, solution.qdot, solution.qddot
-        return {"slider_position": q[6], "slider_speed": qdot[6], "slider_acceleration": qddot[6],
-                "coupler_angle": constraint_models.wrap_angle(q[5]),
-                "coupler_angular_velocity": qdot[5],
-                "coupler_angular_acceleration": qddot[5]}
+        return {
+            "slider_position": q[6],
+            "slider_speed": qdot[6],
+            "slider_acceleration": qddot[6],
+            "coupler_angle": constraint_models.wrap_angle(q[5]),
+            "coupler_angular_velocity": qdot[5],
+            "coupler_angular_acceleration": qddot[5],
+        }

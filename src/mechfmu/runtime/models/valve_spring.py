@@ -4,8 +4,7 @@ contact and stopped by a compliant seat, integrated inside each communication st
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.slave import Status, input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
-from ..errors import (IntegrationError, MechanismError, RangeError, require_finite,
-                      require_positive)
+from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
 from ..numerics.stepping import advance_through_events
 from ..physics.valve_spring import Happening
 from typing import Any
@@ -33,78 +32,193 @@ class ValveSpring(IntegratingSlave):
     down without the rocker bounces on its seat (a warning per impact).
     """
 
-    description = ("Valve dynamics: valve mass on its spring, driven by the rocker's valve end "
-                   "through a compliant contact (Kelvin-Voigt) and stopped by a compliant "
-                   "seat; integrated free flight, float and seat bounce")
+    description = (
+        "Valve dynamics: valve mass on its spring, driven by the rocker's valve end "
+        "through a compliant contact (Kelvin-Voigt) and stopped by a compliant "
+        "seat; integrated free flight, float and seat bounce"
+    )
     VARIABLES = (
-        parameter("valve_mass", vs.DEFAULT_MASS, "m: moving mass at the valve: valve, "
-                  "retainer and a third of the spring (ValveTrain's default)", unit="kg",
-                  min=0.0),
-        parameter("spring_stiffness", vs.DEFAULT_SPRING_STIFFNESS, "k: valve spring "
-                  "stiffness (ValveTrain's default)", unit="N/m", min=0.0),
-        parameter("spring_preload", vs.DEFAULT_SPRING_PRELOAD, "F0: valve spring force with "
-                  "the valve closed (ValveTrain's default)", unit="N", min=0.0),
-        parameter("contact_stiffness", vs.DEFAULT_CONTACT_STIFFNESS, "k_c: stiffness of the "
-                  "rocker-valve contact, lumping the pushrod chain referred to the valve "
-                  "(pushrod valve trains: 1e6 .. 1e7 N/m; 1.6 kHz with the default mass)",
-                  unit="N/m", min=0.0),
-        parameter("contact_damping", vs.DEFAULT_CONTACT_DAMPING, "c_c: damping of the "
-                  "rocker-valve contact (default: damping ratio 0.05 with k_c and m); the "
-                  "contact force max(0, k_c d + c_c d') never pulls", unit="N.s/m", min=0.0),
-        parameter("seat_stiffness", vs.DEFAULT_SEAT_STIFFNESS, "k_s: stiffness of the valve "
-                  "seat (an order above the pushrod chain; 5 kHz with the default mass)",
-                  unit="N/m", min=0.0),
-        parameter("seat_damping", vs.DEFAULT_SEAT_DAMPING, "c_s: damping of the valve seat "
-                  "(default: damping ratio 0.047, restitution about 0.86); the seat force "
-                  "max(0, -k_s x - c_s v) never pulls", unit="N.s/m", min=0.0),
-        parameter("lash", vs.DEFAULT_LASH, "Clearance between the rocker end and the valve "
-                  "tip with the valve closed (0: hydraulic lash adjuster)", unit="m",
-                  min=0.0),
-        parameter("max_valve_lift", vs.DEFAULT_MAX_LIFT, "Travel limit: the valve lift at "
-                  "which the spring retainer meets the valve guide (coil bind); a step that "
-                  "would reach it is refused with an error (default: the default cam's "
-                  "10.5 mm plus 2 mm)", unit="m", min=0.0),
-        parameter("stop_on_float", False, "true: the valve leaving the rocker (float) "
-                  "discards the step with an error instead of a warning"),
-        parameter("input_interpolation", "interpolate", "The rocker motion inside a step, "
-                  "from the inputs at both ends: interpolate (quintic Hermite through lift, "
-                  "velocity and acceleration) or hold (the values at the start of the step, "
-                  "acceleration held)", values=vs.INPUT_MODES),
+        parameter(
+            "valve_mass",
+            vs.DEFAULT_MASS,
+            "m: moving mass at the valve: valve, "
+            "retainer and a third of the spring (ValveTrain's default)",
+            unit="kg",
+            min=0.0,
+        ),
+        parameter(
+            "spring_stiffness",
+            vs.DEFAULT_SPRING_STIFFNESS,
+            "k: valve spring stiffness (ValveTrain's default)",
+            unit="N/m",
+            min=0.0,
+        ),
+        parameter(
+            "spring_preload",
+            vs.DEFAULT_SPRING_PRELOAD,
+            "F0: valve spring force with the valve closed (ValveTrain's default)",
+            unit="N",
+            min=0.0,
+        ),
+        parameter(
+            "contact_stiffness",
+            vs.DEFAULT_CONTACT_STIFFNESS,
+            "k_c: stiffness of the "
+            "rocker-valve contact, lumping the pushrod chain referred to the valve "
+            "(pushrod valve trains: 1e6 .. 1e7 N/m; 1.6 kHz with the default mass)",
+            unit="N/m",
+            min=0.0,
+        ),
+        parameter(
+            "contact_damping",
+            vs.DEFAULT_CONTACT_DAMPING,
+            "c_c: damping of the "
+            "rocker-valve contact (default: damping ratio 0.05 with k_c and m); the "
+            "contact force max(0, k_c d + c_c d') never pulls",
+            unit="N.s/m",
+            min=0.0,
+        ),
+        parameter(
+            "seat_stiffness",
+            vs.DEFAULT_SEAT_STIFFNESS,
+            "k_s: stiffness of the valve "
+            "seat (an order above the pushrod chain; 5 kHz with the default mass)",
+            unit="N/m",
+            min=0.0,
+        ),
+        parameter(
+            "seat_damping",
+            vs.DEFAULT_SEAT_DAMPING,
+            "c_s: damping of the valve seat "
+            "(default: damping ratio 0.047, restitution about 0.86); the seat force "
+            "max(0, -k_s x - c_s v) never pulls",
+            unit="N.s/m",
+            min=0.0,
+        ),
+        parameter(
+            "lash",
+            vs.DEFAULT_LASH,
+            "Clearance between the rocker end and the valve "
+            "tip with the valve closed (0: hydraulic lash adjuster)",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "max_valve_lift",
+            vs.DEFAULT_MAX_LIFT,
+            "Travel limit: the valve lift at "
+            "which the spring retainer meets the valve guide (coil bind); a step that "
+            "would reach it is refused with an error (default: the default cam's "
+            "10.5 mm plus 2 mm)",
+            unit="m",
+            min=0.0,
+        ),
+        parameter(
+            "stop_on_float",
+            False,
+            "true: the valve leaving the rocker (float) "
+            "discards the step with an error instead of a warning",
+        ),
+        parameter(
+            "input_interpolation",
+            "interpolate",
+            "The rocker motion inside a step, "
+            "from the inputs at both ends: interpolate (quintic Hermite through lift, "
+            "velocity and acceleration) or hold (the values at the start of the step, "
+            "acceleration held)",
+            values=vs.INPUT_MODES,
+        ),
         *integrator_variables(default="dopri5", rtol=1e-10, atol=1e-12, max_substep=2e-5),
         # nominal: the magnitude of a valve lift (the default cam's is 10.5 mm), not 1 m
-        input_("rocker_lift", 0.0, "L: position of the rocker's valve end, the kinematic "
-               "valve lift (opening positive)", unit="m", nominal=0.01),
+        input_(
+            "rocker_lift",
+            0.0,
+            "L: position of the rocker's valve end, the kinematic valve lift (opening positive)",
+            unit="m",
+            nominal=0.01,
+        ),
         input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s"),
-        input_("rocker_acceleration", 0.0, "L'' = d(rocker_velocity)/dt (for the "
-               "interpolation inside the step)", unit="m/s2"),
-        output("valve_lift", 0.0, "x: valve opening from the closed valve on its undeformed "
-               "seat (negative: pressed into the seat)", unit="m"),
+        input_(
+            "rocker_acceleration",
+            0.0,
+            "L'' = d(rocker_velocity)/dt (for the interpolation inside the step)",
+            unit="m/s2",
+        ),
+        output(
+            "valve_lift",
+            0.0,
+            "x: valve opening from the closed valve on its undeformed "
+            "seat (negative: pressed into the seat)",
+            unit="m",
+        ),
         output("valve_velocity", 0.0, "v = dx/dt", unit="m/s"),
-        output("valve_acceleration", 0.0, "dv/dt = (contact_force + seat_force - "
-               "spring_force) / valve_mass", unit="m/s2", depends=_INPUTS[:2]),
-        output("contact_force", 0.0, "F_c: force of the rocker on the valve, "
-               "max(0, k_c d + c_c d') where d > 0", unit="N", min=0.0, depends=_INPUTS[:2]),
-        output("seat_force", 0.0, "F_seat: force of the seat on the valve, "
-               "max(0, -k_s x - c_s v) where x < 0", unit="N", min=0.0),
+        output(
+            "valve_acceleration",
+            0.0,
+            "dv/dt = (contact_force + seat_force - spring_force) / valve_mass",
+            unit="m/s2",
+            depends=_INPUTS[:2],
+        ),
+        output(
+            "contact_force",
+            0.0,
+            "F_c: force of the rocker on the valve, max(0, k_c d + c_c d') where d > 0",
+            unit="N",
+            min=0.0,
+            depends=_INPUTS[:2],
+        ),
+        output(
+            "seat_force",
+            0.0,
+            "F_seat: force of the seat on the valve, max(0, -k_s x - c_s v) where x < 0",
+            unit="N",
+            min=0.0,
+        ),
         output("spring_force", 0.0, "F_s = F0 + k x: valve spring force, closing", unit="N"),
-        output("penetration", 0.0, "d = rocker_lift - valve_lift - lash: how far the rocker "
-               "presses into the valve tip (negative: a gap)", unit="m",
-               depends=_INPUTS[:1]),
-        output("contact_lost", False, "The valve is off the rocker (d <= 0) while the rocker "
-               "holds it open (rocker_lift > lash): float, or a bounce at the closing",
-               depends=_INPUTS[:1]),
-        output("float_events", 0, "Separations of valve and rocker with the rocker open, "
-               "before the valve closed (float) so far; a valve rebounding from its seat is "
-               "a bounce, not float"),
-        output("seat_impacts", 0, "Arrivals of the valve on its seat moving down so far "
-               "(closings and bounces)"),
+        output(
+            "penetration",
+            0.0,
+            "d = rocker_lift - valve_lift - lash: how far the rocker "
+            "presses into the valve tip (negative: a gap)",
+            unit="m",
+            depends=_INPUTS[:1],
+        ),
+        output(
+            "contact_lost",
+            False,
+            "The valve is off the rocker (d <= 0) while the rocker "
+            "holds it open (rocker_lift > lash): float, or a bounce at the closing",
+            depends=_INPUTS[:1],
+        ),
+        output(
+            "float_events",
+            0,
+            "Separations of valve and rocker with the rocker open, "
+            "before the valve closed (float) so far; a valve rebounding from its seat is "
+            "a bounce, not float",
+        ),
+        output(
+            "seat_impacts",
+            0,
+            "Arrivals of the valve on its seat moving down so far (closings and bounces)",
+        ),
         output("kinetic_energy", 0.0, "m v^2 / 2", unit="J"),
-        output("elastic_energy", 0.0, "F0 x + k x^2 / 2 + k_c d^2 / 2 (d > 0) + k_s x^2 / 2 "
-               "(x < 0): valve spring (relative to the closed valve), contact and seat",
-               unit="J", depends=_INPUTS[:1]),
-        output("contact_work", 0.0, "Work of the rocker on the valve through the contact "
-               "since the start, integral of F_c L' dt (equals the change of kinetic plus "
-               "elastic energy when both dampings are 0)", unit="J"),
+        output(
+            "elastic_energy",
+            0.0,
+            "F0 x + k x^2 / 2 + k_c d^2 / 2 (d > 0) + k_s x^2 / 2 "
+            "(x < 0): valve spring (relative to the closed valve), contact and seat",
+            unit="J",
+            depends=_INPUTS[:1],
+        ),
+        output(
+            "contact_work",
+            0.0,
+            "Work of the rocker on the valve through the contact "
+            "since the start, integral of F_c L' dt (equals the change of kinetic plus "
+            "elastic energy when both dampings are 0)",
+            unit="J",
+        ),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -116,8 +230,8 @@ class ValveSpring(IntegratingSlave):
         self.events: Any = None  # {vs.Engaged: (Event, ...)}
         self.phase: Any = None  # vs.Phase at the last communication point
         self.engaged: Any = None  # vs.Engaged at the last communication point
-        self.created = 0.0       # J: energy the integration has gained so far (see ENERGY_GROWTH)
-        self.peak_energy = 0.0   # J: largest energy in play so far
+        self.created = 0.0  # J: energy the integration has gained so far (see ENERGY_GROWTH)
+        self.peak_energy = 0.0  # J: largest energy in play so far
         self.max_lift: Any = None  # m: max_valve_lift, the travel limit
         self.last_float: Any = None  # s: when the valve last left the rocker (float), for messages
 
@@ -125,9 +239,15 @@ class ValveSpring(IntegratingSlave):
     def set_up(self) -> bool:
         v = self.values
         self.parameters = vs.make_parameters(
-            v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
-            v["contact_stiffness"], v["contact_damping"], v["seat_stiffness"],
-            v["seat_damping"], v["lash"])
+            v["valve_mass"],
+            v["spring_stiffness"],
+            v["spring_preload"],
+            v["contact_stiffness"],
+            v["contact_damping"],
+            v["seat_stiffness"],
+            v["seat_damping"],
+            v["lash"],
+        )
         self.max_lift = require_positive("max_valve_lift", v["max_valve_lift"], "m")
         self.drive = vs.StepDrive(v["input_interpolation"])
         self.modes = vs.Modes()
@@ -145,10 +265,13 @@ class ValveSpring(IntegratingSlave):
         return y
 
     def extra_state(self) -> dict[str, list[bool] | float | None]:
-        return {"phase": None if self.phase is None else list(self.phase),
-                "engaged": None if self.engaged is None else list(self.engaged),
-                "created": self.created, "peak_energy": self.peak_energy,
-                "last_float": self.last_float}
+        return {
+            "phase": None if self.phase is None else list(self.phase),
+            "engaged": None if self.engaged is None else list(self.engaged),
+            "created": self.created,
+            "peak_energy": self.peak_energy,
+            "last_float": self.last_float,
+        }
 
     def restore_extra_state(self, saved: dict[str, Any]) -> None:
         if saved["phase"] is not None:
@@ -159,8 +282,9 @@ class ValveSpring(IntegratingSlave):
 
     # --- stepping ----------------------------------------------------------------------------
     def read_inputs(self) -> tuple[float, ...]:
-        return tuple(require_finite(name, self.values[name], unit)
-                     for name, unit in zip(_INPUTS, _UNITS))
+        return tuple(
+            require_finite(name, self.values[name], unit) for name, unit in zip(_INPUTS, _UNITS)
+        )
 
     def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
         """Integrate to ``time`` through the contact events; return (state, (the float,
@@ -180,19 +304,27 @@ class ValveSpring(IntegratingSlave):
         def on_event(event: Any, t: float, y: Any):
             if event.name == vs.TRAVEL_LIMIT:
                 floated = [h.time for h in found if h.kind == vs.FLOAT]
-                self._refuse_travel(t, y, vs.drive_at(self.drive, t),
-                                    floated[-1] if floated else self.last_float)
+                self._refuse_travel(
+                    t, y, vs.drive_at(self.drive, t), floated[-1] if floated else self.last_float
+                )
             if event.name in vs.SWITCH_EVENTS:
                 L, rate, _ = vs.drive_at(self.drive, t)
-                self.modes.engaged = vs.after_switch(p, self.modes.engaged,
-                                                     vs.SWITCH_EVENTS.index(event.name),
-                                                     L, rate, y[0], y[1])
+                self.modes.engaged = vs.after_switch(
+                    p, self.modes.engaged, vs.SWITCH_EVENTS.index(event.name), L, rate, y[0], y[1]
+                )
             judge(t, y)
             return y
 
         self.modes.engaged = vs.resume(p, self.engaged, *self.held_inputs[:2], *self.state[:2])
-        y = advance_through_events(self.integrator, self.rhs, start, self.state, time,
-                                   lambda: self.events[self.modes.engaged], on_event)
+        y = advance_through_events(
+            self.integrator,
+            self.rhs,
+            start,
+            self.state,
+            time,
+            lambda: self.events[self.modes.engaged],
+            on_event,
+        )
         judge(time, y)
         created, peak = self._check_energy(start, self.state, time, y)
         return y, (found, phase[0], self.modes.engaged, created, peak)
@@ -207,23 +339,38 @@ class ValveSpring(IntegratingSlave):
             elif happening.kind == vs.SEAT_IMPACT:
                 v["seat_impacts"] += 1
                 continue  # a closing: counted, not reported
-            self.log(f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}",
-                     Status.warning)
+            self.log(
+                f"{self.instance_name}: {_MESSAGES[happening.kind](happening)}", Status.warning
+            )
 
-    def _refuse_travel(self, t: float, y: list[float], drive: tuple[float, float, float], floated: float | None=None):
+    def _refuse_travel(
+        self,
+        t: float,
+        y: list[float],
+        drive: tuple[float, float, float],
+        floated: float | None = None,
+    ):
         """RangeError: the valve lift reaches max_valve_lift at time t (state y, rocker end
         ``drive`` = (L, L', L''))."""
-        cause = (f"the valve left the rocker (float) at t = {floated!r} s and flew on"
-                 if floated is not None else
-                 f"the rocker pushes it there (rocker lift {drive[0]:.6g} m)")
+        cause = (
+            f"the valve left the rocker (float) at t = {floated!r} s and flew on"
+            if floated is not None
+            else f"the rocker pushes it there (rocker lift {drive[0]:.6g} m)"
+        )
         raise RangeError(
-            "valve_lift", y[0], f"(-inf, {self.max_lift!r}]", "m",
+            "valve_lift",
+            y[0],
+            f"(-inf, {self.max_lift!r}]",
+            "m",
             f"max_valve_lift, the travel limit: the spring retainer meets the valve guide at "
             f"t = {t!r} s with the valve moving at {y[1]:.6g} m/s; {cause}; beyond it the "
             f"valve train is damaged and the model does not apply: lower the camshaft speed, "
-            f"stiffen or preload the spring, or raise max_valve_lift")
+            f"stiffen or preload the spring, or raise max_valve_lift",
+        )
 
-    def _check_energy(self, t0: float, y0: list[float], t1: float, y1: list[float]) -> tuple[float, float]:
+    def _check_energy(
+        self, t0: float, y0: list[float], t1: float, y1: list[float]
+    ) -> tuple[float, float]:
         """(energy created so far, largest energy in play) after a step, or IntegrationError
         when the step or the run gained more energy than a passive valve can."""
         gain, scale = vs.energy_gain(self.parameters, self.drive, t0, y0, t1, y1)
@@ -237,7 +384,8 @@ class ValveSpring(IntegratingSlave):
                 f"{scale:.6g} J; gains since the start {created:.6g} J, largest energy in "
                 f"play {peak:.6g} J; a passive valve cannot gain energy): unstable: the "
                 f"sub-step max_substep = {v['max_substep']!r} s exceeds the method's "
-                f"stability limit; reduce max_substep or use radau")
+                f"stability limit; reduce max_substep or use radau"
+            )
         return created, peak
 
     def publish(self, time: float) -> None:
@@ -246,9 +394,15 @@ class ValveSpring(IntegratingSlave):
         lift, velocity, work = self.state
         L, rate, _ = self.held_inputs
         f = vs.forces(p, L, rate, lift, velocity)
-        (v["valve_lift"], v["valve_velocity"], v["valve_acceleration"], v["contact_force"],
-         v["seat_force"], v["spring_force"], v["penetration"]) = (
-            lift, velocity, f.acceleration, f.contact, f.seat, f.spring, f.penetration)
+        (
+            v["valve_lift"],
+            v["valve_velocity"],
+            v["valve_acceleration"],
+            v["contact_force"],
+            v["seat_force"],
+            v["spring_force"],
+            v["penetration"],
+        ) = (lift, velocity, f.acceleration, f.contact, f.seat, f.spring, f.penetration)
         v["contact_lost"] = f.penetration <= 0.0 and L - p.lash > 0.0
         v["kinetic_energy"] = vs.kinetic_energy(p, velocity)
         v["elastic_energy"] = vs.elastic_energy(p, L, lift)
@@ -257,26 +411,30 @@ class ValveSpring(IntegratingSlave):
 
 def _drive_text(happening: Happening) -> str:
     L, rate, acceleration = happening.drive
-    return (f"rocker lift {L:.6g} m, velocity {rate:.6g} m/s, acceleration "
-            f"{acceleration:.6g} m/s^2")
+    return f"rocker lift {L:.6g} m, velocity {rate:.6g} m/s, acceleration {acceleration:.6g} m/s^2"
 
 
 def _float_message(happening: Happening) -> str:
-    return (f"valve float at t = {happening.time!r} s: the valve left the rocker at valve "
-            f"lift {happening.lift:.6g} m, valve velocity {happening.velocity:.6g} m/s; "
-            f"{_drive_text(happening)} (the spring cannot keep the valve on the rocker)")
+    return (
+        f"valve float at t = {happening.time!r} s: the valve left the rocker at valve "
+        f"lift {happening.lift:.6g} m, valve velocity {happening.velocity:.6g} m/s; "
+        f"{_drive_text(happening)} (the spring cannot keep the valve on the rocker)"
+    )
 
 
 def _rebound_message(happening: Happening) -> str:
-    return (f"valve bounce at t = {happening.time!r} s: rebounding from its seat the valve "
-            f"left the closing rocker at valve lift {happening.lift:.6g} m, valve velocity "
-            f"{happening.velocity:.6g} m/s; {_drive_text(happening)}")
+    return (
+        f"valve bounce at t = {happening.time!r} s: rebounding from its seat the valve "
+        f"left the closing rocker at valve lift {happening.lift:.6g} m, valve velocity "
+        f"{happening.velocity:.6g} m/s; {_drive_text(happening)}"
+    )
 
 
 def _bounce_message(happening: Happening) -> str:
-    return (f"valve bounce at t = {happening.time!r} s: the valve hit its seat at "
-            f"{happening.velocity:.6g} m/s without the rocker; {_drive_text(happening)}")
+    return (
+        f"valve bounce at t = {happening.time!r} s: the valve hit its seat at "
+        f"{happening.velocity:.6g} m/s without the rocker; {_drive_text(happening)}"
+    )
 
 
-_MESSAGES = {vs.FLOAT: _float_message, vs.REBOUND: _rebound_message,
-             vs.BOUNCE: _bounce_message}
+_MESSAGES = {vs.FLOAT: _float_message, vs.REBOUND: _rebound_message, vs.BOUNCE: _bounce_message}

@@ -16,7 +16,7 @@ CAM = cam_laws.DEFAULT_CAM_PROFILE
 
 _GEOMETRY_DESCRIPTIONS = {
     "cam_base_radius": "Cam base (prime) circle radius: tappet foot height at zero lift above "
-                       "the camshaft centre",
+    "the camshaft centre",
     "pushrod_length": "Pushrod length from the tappet foot P to the rocker's tappet end T",
     "rocker_pivot_x": "Rocker pivot x (right of the tappet axis)",
     "rocker_pivot_y": "Rocker pivot y (above the camshaft centre)",
@@ -38,96 +38,182 @@ class ValveTrain(LinkageSlave):
     rocker): reported as a warning (or, with stop_on_float, as an error).
     """
 
-    description = ("Cam-driven pushrod valve train (tappet, rocker, valve) on the planar "
-                   "constraint solver: forward (cam law on the tappet) or inverse (desired "
-                   "valve motion in, cam displacement diagram out); valve spring and float")
+    description = (
+        "Cam-driven pushrod valve train (tappet, rocker, valve) on the planar "
+        "constraint solver: forward (cam law on the tappet) or inverse (desired "
+        "valve motion in, cam displacement diagram out); valve spring and float"
+    )
     VARIABLES = (
-        *(parameter(name, value, _GEOMETRY_DESCRIPTIONS[name], unit="m",
-                    min=None if name.startswith("rocker_pivot") or name == "valve_axis_x"
-                    else 0.0)
-          for name, value in GEOMETRY._asdict().items()),
-        parameter("mode", "forward", "forward: the cam law is the tappet lift; inverse: the "
-                  "cam law is the valve lift and the tappet lift is computed", values=MODES),
-        parameter("cam_law", CAM.law, "Follower law of rise and return: "
-                  + ", ".join(cam_laws.CAM_LAWS), values=cam_laws.CAM_LAWS),
-        parameter("lift", CAM.lift, "Peak lift of the cam law: tappet lift (forward) or "
-                  "valve lift (inverse)", unit="m", min=0.0),
-        parameter("rise_start", CAM.rise_start, "Camshaft angle where the rise starts",
-                  unit="rad"),
-        parameter("rise_angle", CAM.rise_angle, "Camshaft angle of the rise", unit="rad",
-                  min=0.0),
-        parameter("high_dwell_angle", CAM.high_dwell_angle, "Camshaft angle of the dwell at "
-                  "full lift", unit="rad", min=0.0),
-        parameter("return_angle", CAM.return_angle, "Camshaft angle of the return; the low "
-                  "dwell fills the rest of the revolution", unit="rad", min=0.0),
+        *(
+            parameter(
+                name,
+                value,
+                _GEOMETRY_DESCRIPTIONS[name],
+                unit="m",
+                min=None if name.startswith("rocker_pivot") or name == "valve_axis_x" else 0.0,
+            )
+            for name, value in GEOMETRY._asdict().items()
+        ),
+        parameter(
+            "mode",
+            "forward",
+            "forward: the cam law is the tappet lift; inverse: the "
+            "cam law is the valve lift and the tappet lift is computed",
+            values=MODES,
+        ),
+        parameter(
+            "cam_law",
+            CAM.law,
+            "Follower law of rise and return: " + ", ".join(cam_laws.CAM_LAWS),
+            values=cam_laws.CAM_LAWS,
+        ),
+        parameter(
+            "lift",
+            CAM.lift,
+            "Peak lift of the cam law: tappet lift (forward) or valve lift (inverse)",
+            unit="m",
+            min=0.0,
+        ),
+        parameter("rise_start", CAM.rise_start, "Camshaft angle where the rise starts", unit="rad"),
+        parameter("rise_angle", CAM.rise_angle, "Camshaft angle of the rise", unit="rad", min=0.0),
+        parameter(
+            "high_dwell_angle",
+            CAM.high_dwell_angle,
+            "Camshaft angle of the dwell at full lift",
+            unit="rad",
+            min=0.0,
+        ),
+        parameter(
+            "return_angle",
+            CAM.return_angle,
+            "Camshaft angle of the return; the low dwell fills the rest of the revolution",
+            unit="rad",
+            min=0.0,
+        ),
         *solver_variables("constraint_solver"),
-        effect("valve_spring", "valve mass, valve spring stiffness and preload: contact force "
-               "between rocker and valve, valve float detection"),
-        parameter("valve_mass", 0.1, "Moving mass at the valve: valve, retainer and a third "
-                  "of the spring", unit="kg", min=0.0),
+        effect(
+            "valve_spring",
+            "valve mass, valve spring stiffness and preload: contact force "
+            "between rocker and valve, valve float detection",
+        ),
+        parameter(
+            "valve_mass",
+            0.1,
+            "Moving mass at the valve: valve, retainer and a third of the spring",
+            unit="kg",
+            min=0.0,
+        ),
         parameter("spring_stiffness", 50e3, "Valve spring stiffness", unit="N/m", min=0.0),
-        parameter("spring_preload", 300.0, "Valve spring force with the valve closed",
-                  unit="N", min=0.0),
-        parameter("stop_on_float", False, "valve_spring: treat loss of contact as an error "
-                  "(the step is discarded) instead of a warning"),
+        parameter(
+            "spring_preload", 300.0, "Valve spring force with the valve closed", unit="N", min=0.0
+        ),
+        parameter(
+            "stop_on_float",
+            False,
+            "valve_spring: treat loss of contact as an error "
+            "(the step is discarded) instead of a warning",
+        ),
         input_("camshaft_angle", 0.0, "Camshaft angle", unit="rad"),
         input_("camshaft_speed", 0.0, "Camshaft angular speed", unit="rad/s"),
         input_("camshaft_acceleration", 0.0, "Camshaft angular acceleration", unit="rad/s2"),
-        output("tappet_lift", 0.0, "Tappet lift above the cam base circle", unit="m",
-               depends=_CAM[:1]),
+        output(
+            "tappet_lift", 0.0, "Tappet lift above the cam base circle", unit="m", depends=_CAM[:1]
+        ),
         output("tappet_velocity", 0.0, "d(tappet_lift)/dt", unit="m/s", depends=_CAM[:2]),
-        output("tappet_acceleration", 0.0, "d(tappet_velocity)/dt", unit="m/s2",
-               depends=_CAM),
-        output("rocker_angle", 0.0, "Rocker angle from +x (counter-clockwise)", unit="rad",
-               depends=_CAM[:1]),
-        output("rocker_angular_velocity", 0.0, "d(rocker_angle)/dt", unit="rad/s",
-               depends=_CAM[:2]),
-        output("rocker_angular_acceleration", 0.0, "d(rocker_angular_velocity)/dt",
-               unit="rad/s2", depends=_CAM),
-        output("valve_lift", 0.0, "Valve opening (downward displacement from closed)",
-               unit="m", depends=_CAM[:1]),
+        output("tappet_acceleration", 0.0, "d(tappet_velocity)/dt", unit="m/s2", depends=_CAM),
+        output(
+            "rocker_angle",
+            0.0,
+            "Rocker angle from +x (counter-clockwise)",
+            unit="rad",
+            depends=_CAM[:1],
+        ),
+        output(
+            "rocker_angular_velocity", 0.0, "d(rocker_angle)/dt", unit="rad/s", depends=_CAM[:2]
+        ),
+        output(
+            "rocker_angular_acceleration",
+            0.0,
+            "d(rocker_angular_velocity)/dt",
+            unit="rad/s2",
+            depends=_CAM,
+        ),
+        output(
+            "valve_lift",
+            0.0,
+            "Valve opening (downward displacement from closed)",
+            unit="m",
+            depends=_CAM[:1],
+        ),
         output("valve_velocity", 0.0, "d(valve_lift)/dt", unit="m/s", depends=_CAM[:2]),
         output("valve_acceleration", 0.0, "d(valve_velocity)/dt", unit="m/s2", depends=_CAM),
-        output("contact_force", 0.0, "valve_spring: force the rocker must push on the valve, "
-               "m a + k lift + F0 (negative: the valve floats)", unit="N", depends=_CAM),
-        output("contact_lost", False, "valve_spring: the required contact force is negative "
-               "(valve float)", depends=_CAM),
+        output(
+            "contact_force",
+            0.0,
+            "valve_spring: force the rocker must push on the valve, "
+            "m a + k lift + F0 (negative: the valve floats)",
+            unit="N",
+            depends=_CAM,
+        ),
+        output(
+            "contact_lost",
+            False,
+            "valve_spring: the required contact force is negative (valve float)",
+            depends=_CAM,
+        ),
         output("float_events", 0, "valve_spring: losses of contact so far"),
-        output("float_camshaft_speed", -1.0, "valve_spring: constant camshaft speed at which "
-               "the valve starts to float with this cam and spring (-1: effect off)",
-               unit="rad/s"),
+        output(
+            "float_camshaft_speed",
+            -1.0,
+            "valve_spring: constant camshaft speed at which "
+            "the valve starts to float with this cam and spring (-1: effect off)",
+            unit="rad/s",
+        ),
     )
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.geometry = GEOMETRY
         self.profile = CAM
-        self.closed_height = 0.0   # m, valve foot height with the valve closed
+        self.closed_height = 0.0  # m, valve foot height with the valve closed
 
     # --- parameters -------------------------------------------------------------------
     def check_geometry(self) -> Any:
         v = self.values
         if v["mode"] not in MODES:
             raise RangeError("mode", v["mode"], "{" + ", ".join(MODES) + "}")
-        self.geometry = vt.check_geometry(vt.ValveGeometry(
-            *(v[name] for name in vt.ValveGeometry._fields)))
-        self.profile = cam_laws.check_profile(v["cam_law"], v["lift"], v["rise_start"],
-                                              v["rise_angle"], v["high_dwell_angle"],
-                                              v["return_angle"])
+        self.geometry = vt.check_geometry(
+            vt.ValveGeometry(*(v[name] for name in vt.ValveGeometry._fields))
+        )
+        self.profile = cam_laws.check_profile(
+            v["cam_law"],
+            v["lift"],
+            v["rise_start"],
+            v["rise_angle"],
+            v["high_dwell_angle"],
+            v["return_angle"],
+        )
         self.closed_height = vt.rest_position(self.geometry)[1]
         v["float_camshaft_speed"] = -1.0
         if v["valve_spring"]:
-            speed = vt.float_speed(self.geometry, self.profile, v["valve_mass"],
-                                   v["spring_stiffness"], v["spring_preload"],
-                                   valve_law=v["mode"] == "inverse")
-            v["float_camshaft_speed"] = speed.camshaft_speed if math.isfinite(
-                speed.camshaft_speed) else -1.0
+            speed = vt.float_speed(
+                self.geometry,
+                self.profile,
+                v["valve_mass"],
+                v["spring_stiffness"],
+                v["spring_preload"],
+                valve_law=v["mode"] == "inverse",
+            )
+            v["float_camshaft_speed"] = (
+                speed.camshaft_speed if math.isfinite(speed.camshaft_speed) else -1.0
+            )
 
     # --- kinematics -------------------------------------------------------------------
     def _law(self):
         v = self.values
-        return cam_laws.follower_motion(self.profile, v["camshaft_angle"], v["camshaft_speed"],
-                                        v["camshaft_acceleration"])
+        return cam_laws.follower_motion(
+            self.profile, v["camshaft_angle"], v["camshaft_speed"], v["camshaft_acceleration"]
+        )
 
     def closed_form(self, time: float) -> Any:
         law = self._law()
@@ -149,40 +235,59 @@ class ValveTrain(LinkageSlave):
 
     def from_solution(self, solution: Any, time: float) -> Any:
         q, qdot, qddot = solution.q, solution.qdot, solution.qddot
-        tappet, rocker, valve = (constraint_models.TAPPET, constraint_models.ROCKER,
-                                 constraint_models.VALVE)
-        return {"tappet_lift": q[3 * tappet + 1] - self.geometry.cam_base_radius,
-                "tappet_velocity": qdot[3 * tappet + 1],
-                "tappet_acceleration": qddot[3 * tappet + 1],
-                "rocker_angle": q[3 * rocker + 2],
-                "rocker_angular_velocity": qdot[3 * rocker + 2],
-                "rocker_angular_acceleration": qddot[3 * rocker + 2],
-                "valve_lift": self.closed_height - q[3 * valve + 1],
-                "valve_velocity": -qdot[3 * valve + 1],
-                "valve_acceleration": -qddot[3 * valve + 1]}
+        tappet, rocker, valve = (
+            constraint_models.TAPPET,
+            constraint_models.ROCKER,
+            constraint_models.VALVE,
+        )
+        return {
+            "tappet_lift": q[3 * tappet + 1] - self.geometry.cam_base_radius,
+            "tappet_velocity": qdot[3 * tappet + 1],
+            "tappet_acceleration": qddot[3 * tappet + 1],
+            "rocker_angle": q[3 * rocker + 2],
+            "rocker_angular_velocity": qdot[3 * rocker + 2],
+            "rocker_angular_acceleration": qddot[3 * rocker + 2],
+            "valve_lift": self.closed_height - q[3 * valve + 1],
+            "valve_velocity": -qdot[3 * valve + 1],
+            "valve_acceleration": -qddot[3 * valve + 1],
+        }
 
     # --- valve spring -----------------------------------------------------------------
     def after_update(self, time: float) -> Any:
         v = self.values
         if not v["valve_spring"]:
             return
-        force = vt.contact_force(v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
-                                 v["valve_lift"], v["valve_acceleration"])
-        lost = vt.contact_lost(v["valve_mass"], v["spring_stiffness"], v["spring_preload"],
-                               v["valve_lift"], v["valve_acceleration"])
+        force = vt.contact_force(
+            v["valve_mass"],
+            v["spring_stiffness"],
+            v["spring_preload"],
+            v["valve_lift"],
+            v["valve_acceleration"],
+        )
+        lost = vt.contact_lost(
+            v["valve_mass"],
+            v["spring_stiffness"],
+            v["spring_preload"],
+            v["valve_lift"],
+            v["valve_acceleration"],
+        )
         v["contact_force"] = force
         if lost and not v["contact_lost"]:
             v["float_events"] += 1
-            message = (f"valve float at t = {time!r} s: the required contact force is "
-                       f"{force:.6g} N < 0 at camshaft angle {v['camshaft_angle']:.6g} rad, "
-                       f"camshaft speed {v['camshaft_speed']:.6g} rad/s; with this cam law "
-                       f"and spring the valve stays on the rocker only below "
-                       f"{v['float_camshaft_speed']:.6g} rad/s (constant speed)")
+            message = (
+                f"valve float at t = {time!r} s: the required contact force is "
+                f"{force:.6g} N < 0 at camshaft angle {v['camshaft_angle']:.6g} rad, "
+                f"camshaft speed {v['camshaft_speed']:.6g} rad/s; with this cam law "
+                f"and spring the valve stays on the rocker only below "
+                f"{v['float_camshaft_speed']:.6g} rad/s (constant speed)"
+            )
             if v["stop_on_float"]:
                 v["contact_lost"] = True
                 raise MechanismError(message)
             self.log(message, Status.warning)
         elif not lost and v["contact_lost"]:
-            self.log(f"valve contact restored at t = {time!r} s (contact force {force:.6g} N)",
-                     Status.warning)
+            self.log(
+                f"valve contact restored at t = {time!r} s (contact force {force:.6g} N)",
+                Status.warning,
+            )
         v["contact_lost"] = lost

@@ -118,24 +118,36 @@ class Event:
 
     __slots__ = ("name", "function", "direction", "terminal")
 
-    def __init__(self, name: str, function: Callable, direction: int=0, terminal: bool=True) -> None:
+    def __init__(
+        self, name: str, function: Callable, direction: int = 0, terminal: bool = True
+    ) -> None:
         if not callable(function):
-            raise MechanismError(f"event {name!r}: function {function!r} is not callable; "
-                                 "pass a function g(t, y) -> float")
+            raise MechanismError(
+                f"event {name!r}: function {function!r} is not callable; "
+                "pass a function g(t, y) -> float"
+            )
         if direction not in (-1, 0, 1):
-            raise RangeError("direction", direction, "{-1, 0, 1}", "",
-                             f"event {name!r}: +1 rising, -1 falling, 0 both")
+            raise RangeError(
+                "direction",
+                direction,
+                "{-1, 0, 1}",
+                "",
+                f"event {name!r}: +1 rising, -1 falling, 0 both",
+            )
         self.name = name
         self.function = function
         self.direction = int(direction)
         self.terminal = bool(terminal)
 
     def __repr__(self) -> str:
-        return (f"Event({self.name!r}, {self.function!r}, direction={self.direction}, "
-                f"terminal={self.terminal})")
+        return (
+            f"Event({self.name!r}, {self.function!r}, direction={self.direction}, "
+            f"terminal={self.terminal})"
+        )
 
 
 # --- small numerical helpers ---------------------------------------------------------------
+
 
 def _rms(values: list[float]) -> float:
     """Root mean square (the error norm of [HNW] II.4, eq. 4.11)."""
@@ -167,7 +179,9 @@ def _all_finite(values: list[float]) -> bool:
     return all(math.isfinite(v) for v in values)
 
 
-def _scaled_rms(err: list[float], y_old: list[float], y_new: list[float], rtol: float, atol: float) -> float:
+def _scaled_rms(
+    err: list[float], y_old: list[float], y_new: list[float], rtol: float, atol: float
+) -> float:
     """RMS of err_i / (atol + rtol * max(|y_old_i|, |y_new_i|)); inf if anything is NaN."""
     total = 0.0
     for e, a, b in zip(err, y_old, y_new):
@@ -188,6 +202,7 @@ def _fmt_step(x: float) -> str:
 
 # --- the contract ----------------------------------------------------------------------------
 
+
 class Integrator:
     """Base class: advance(), event location, validation and counters.
 
@@ -207,13 +222,23 @@ class Integrator:
 
     method: str | None = None
 
-    def __init__(self, rtol: float=1e-8, atol: float=1e-10, max_substep: float=math.inf) -> None:
+    def __init__(
+        self, rtol: float = 1e-8, atol: float = 1e-10, max_substep: float = math.inf
+    ) -> None:
         self.rtol = _check_tolerance("rtol", rtol)
         self.atol = _check_tolerance("atol", atol)
-        if isinstance(max_substep, bool) or not isinstance(max_substep, (int, float)) \
-                or not max_substep > 0.0:  # also rejects NaN
-            raise RangeError("max_substep", max_substep, "(0, inf]", "s",
-                             "the largest internal sub-step must be positive (inf: none)")
+        if (
+            isinstance(max_substep, bool)
+            or not isinstance(max_substep, (int, float))
+            or not max_substep > 0.0
+        ):  # also rejects NaN
+            raise RangeError(
+                "max_substep",
+                max_substep,
+                "(0, inf]",
+                "s",
+                "the largest internal sub-step must be positive (inf: none)",
+            )
         self.max_substep = float(max_substep)
         self.stats = Stats()
         self._budget = MAX_SUBSTEPS
@@ -223,8 +248,10 @@ class Integrator:
         self.restart()
 
     def __repr__(self) -> str:
-        return (f"{type(self).__name__}(rtol={self.rtol!r}, atol={self.atol!r}, "
-                f"max_substep={self.max_substep!r})")
+        return (
+            f"{type(self).__name__}(rtol={self.rtol!r}, atol={self.atol!r}, "
+            f"max_substep={self.max_substep!r})"
+        )
 
     def snapshot(self) -> dict[str, Any]:
         """Everything the integrator carries between calls (step size, Jacobian, counters),
@@ -240,15 +267,28 @@ class Integrator:
     def start_clock(self, seconds: float) -> None:
         """Bound the wall-clock time from now until the next start_clock to ``seconds``
         (inf: no bound). A call that passes it raises IntegrationError: never a hang."""
-        if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) \
-                or not seconds > 0.0:  # also rejects NaN
-            raise RangeError("max_wall_time", seconds, "(0, inf]", "s",
-                             "the wall-clock bound of a communication step must be positive")
+        if (
+            isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0.0
+        ):  # also rejects NaN
+            raise RangeError(
+                "max_wall_time",
+                seconds,
+                "(0, inf]",
+                "s",
+                "the wall-clock bound of a communication step must be positive",
+            )
         self.time_limit = float(seconds)
         self.deadline = time.monotonic() + seconds if math.isfinite(seconds) else None
 
     # --- the one public operation -----------------------------------------------------------
-    def advance(self, rhs: Callable, t: float, y: list[float], t_end: float, events: tuple | list[Event]=()) -> "Advance":
+    def advance(
+        self,
+        rhs: Callable,
+        t: float,
+        y: list[float],
+        t_end: float,
+        events: tuple | list[Event] = (),
+    ) -> "Advance":
         """Integrate y' = rhs(t, y) from t to t_end (> t); see the module docstring.
 
         Returns Advance(t_end, y(t_end), None), or Advance(t_event, y(t_event), event) at
@@ -270,7 +310,8 @@ class Integrator:
                 f"{self.method}: integrating from t = {_fmt(t)} s to t_end = {_fmt(t_end)} s "
                 f"needs at least {needed:.3g} sub-steps of max_substep = "
                 f"{_fmt_step(self.max_substep)} s, more than the bound of {MAX_SUBSTEPS}: "
-                + self._too_many_advice)
+                + self._too_many_advice
+            )
         for _ in range(MAX_SUBSTEPS):
             remaining = t_end - t
             if remaining <= self.max_substep * (1.0 + _SLIVER):
@@ -280,7 +321,8 @@ class Integrator:
                 if t_limit <= t:
                     raise IntegrationError(
                         f"{self.method}: max_substep = {_fmt_step(self.max_substep)} s is "
-                        f"below the resolution of t = {_fmt(t)} s; increase max_substep")
+                        f"below the resolution of t = {_fmt(t)} s; increase max_substep"
+                    )
             t1, y1, start = self._substep(f, t, y, t_limit)
             if not _all_finite(y1):  # safety net: subclasses reject or raise before this
                 raise self._unstable(t1, t1 - t)
@@ -295,33 +337,41 @@ class Integrator:
         raise self._too_many(t, t_end)
 
     # --- checks and bookkeeping ------------------------------------------------------------
-    def _check_call(self, t: float, y: list[float], t_end: float) -> tuple[float, list[float], float]:
+    def _check_call(
+        self, t: float, y: list[float], t_end: float
+    ) -> tuple[float, list[float], float]:
         name = self.method
         try:
             t = float(t)
             t_end = float(t_end)
         except (TypeError, ValueError):
-            raise IntegrationError(f"{name}: t = {t!r} and t_end = {t_end!r} must be "
-                                   "numbers (s)") from None
+            raise IntegrationError(
+                f"{name}: t = {t!r} and t_end = {t_end!r} must be numbers (s)"
+            ) from None
         if not (math.isfinite(t) and math.isfinite(t_end)):
-            raise IntegrationError(f"{name}: t = {t!r} s and t_end = {t_end!r} s must be "
-                                   "finite")
+            raise IntegrationError(f"{name}: t = {t!r} s and t_end = {t_end!r} s must be finite")
         if not t_end > t:
-            raise IntegrationError(f"{name}: t_end = {_fmt(t_end)} s is not after "
-                                   f"t = {_fmt(t)} s; advance needs t_end > t (a positive "
-                                   "interval to integrate over)")
+            raise IntegrationError(
+                f"{name}: t_end = {_fmt(t_end)} s is not after "
+                f"t = {_fmt(t)} s; advance needs t_end > t (a positive "
+                "interval to integrate over)"
+            )
         try:
             y = [float(v) for v in y]
         except (TypeError, ValueError):
-            raise IntegrationError(f"{name}: the state y = {y!r} at t = {_fmt(t)} s must be "
-                                   "a list of numbers") from None
+            raise IntegrationError(
+                f"{name}: the state y = {y!r} at t = {_fmt(t)} s must be a list of numbers"
+            ) from None
         if not y:
-            raise IntegrationError(f"{name}: the state y at t = {_fmt(t)} s is empty; "
-                                   "pass at least one state variable")
+            raise IntegrationError(
+                f"{name}: the state y at t = {_fmt(t)} s is empty; pass at least one state variable"
+            )
         for i, v in enumerate(y):
             if not math.isfinite(v):
-                raise IntegrationError(f"{name}: y[{i}] = {v!r} at t = {_fmt(t)} s is not "
-                                       "finite; the state must be finite before integrating")
+                raise IntegrationError(
+                    f"{name}: y[{i}] = {v!r} at t = {_fmt(t)} s is not "
+                    "finite; the state must be finite before integrating"
+                )
         return t, y, t_end
 
     def _counted(self, rhs: Callable, n: int) -> Callable:
@@ -335,12 +385,16 @@ class Integrator:
             try:
                 values = [float(v) for v in out]
             except (TypeError, ValueError):
-                raise IntegrationError(f"{name}: rhs returned {out!r} at t = {_fmt(t)} s; it "
-                                       "must return a list of numbers, one per state") from None
+                raise IntegrationError(
+                    f"{name}: rhs returned {out!r} at t = {_fmt(t)} s; it "
+                    "must return a list of numbers, one per state"
+                ) from None
             if len(values) != n:
-                raise IntegrationError(f"{name}: rhs returned {len(values)} values at "
-                                       f"t = {_fmt(t)} s for a state of {n}; return one "
-                                       "derivative per state")
+                raise IntegrationError(
+                    f"{name}: rhs returned {len(values)} values at "
+                    f"t = {_fmt(t)} s for a state of {n}; return one "
+                    "derivative per state"
+                )
             return values
 
         return f
@@ -348,40 +402,52 @@ class Integrator:
     def _check_derivative(self, t: float, values: list[float]) -> None:
         """The derivative at an accepted (finite) state must be finite: else the model's."""
         if not _all_finite(values):
-            raise IntegrationError(f"{self.method}: rhs returned a non-finite derivative "
-                                   f"{values!r} at t = {_fmt(t)} s for a finite state; check "
-                                   "the model and its inputs at that time")
+            raise IntegrationError(
+                f"{self.method}: rhs returned a non-finite derivative "
+                f"{values!r} at t = {_fmt(t)} s for a finite state; check "
+                "the model and its inputs at that time"
+            )
 
-    def _spend(self, t: float, t_end_hint: float | None=None) -> None:
+    def _spend(self, t: float, t_end_hint: float | None = None) -> None:
         """Count one attempted sub-step against the per-call budget."""
         self._budget -= 1
         if self._budget < 0:
             raise self._too_many(t, t_end_hint)
-        if self._budget % _CLOCK_EVERY == 0 and self.deadline is not None \
-                and time.monotonic() > self.deadline:
+        if (
+            self._budget % _CLOCK_EVERY == 0
+            and self.deadline is not None
+            and time.monotonic() > self.deadline
+        ):
             raise IntegrationError(
                 f"{self.method}: stopped at t = {_fmt(t)} s after more than the wall-clock "
                 f"bound of {self.time_limit:g} s (max_wall_time) for one communication step; "
-                "shorten the communication step, loosen rtol and atol, or raise max_wall_time")
+                "shorten the communication step, loosen rtol and atol, or raise max_wall_time"
+            )
 
     def _too_many(self, t: float, t_end: float | None):
         where = f" (t_end = {_fmt(t_end)} s)" if t_end is not None else ""
-        return IntegrationError(f"{self.method}: more than {MAX_SUBSTEPS} sub-steps in one "
-                                f"advance call, stopped at t = {_fmt(t)} s{where}: "
-                                + self._too_many_advice)
+        return IntegrationError(
+            f"{self.method}: more than {MAX_SUBSTEPS} sub-steps in one "
+            f"advance call, stopped at t = {_fmt(t)} s{where}: " + self._too_many_advice
+        )
 
     _too_many_advice = "shorten the communication step"
 
     def _unstable(self, t: float, h: float) -> IntegrationError:
-        return IntegrationError(f"{self.method}: solution blew up at t = {_fmt(t)} s with "
-                                f"sub-step {_fmt_step(h)} s (unstable: the step exceeds the "
-                                "method's stability limit; reduce max_substep or use radau)")
+        return IntegrationError(
+            f"{self.method}: solution blew up at t = {_fmt(t)} s with "
+            f"sub-step {_fmt_step(h)} s (unstable: the step exceeds the "
+            "method's stability limit; reduce max_substep or use radau)"
+        )
 
     def _underflow(self, t: float, h: float, why: str) -> IntegrationError:
-        return IntegrationError(f"{self.method}: step size {_fmt_step(h)} s underflows at "
-                                f"t = {_fmt(t)} s: {why}")
+        return IntegrationError(
+            f"{self.method}: step size {_fmt_step(h)} s underflows at t = {_fmt(t)} s: {why}"
+        )
 
-    def _initial_step(self, f: Callable, t: float, y: list[float], f0: list[float], h_limit: float, order: int) -> float:
+    def _initial_step(
+        self, f: Callable, t: float, y: list[float], f0: list[float], h_limit: float, order: int
+    ) -> float:
         """Starting step size by the heuristic of [HNW] II.4 (p. 169), as in SciPy.
 
         order is the order of the error estimator; one extra rhs evaluation.
@@ -417,12 +483,24 @@ class Integrator:
         except (TypeError, ValueError):
             g = math.nan
         if not math.isfinite(g):
-            raise IntegrationError(f"{self.method}: event {event.name!r} returned {g!r} at "
-                                   f"t = {_fmt(t)} s; event functions must return finite "
-                                   "numbers")
+            raise IntegrationError(
+                f"{self.method}: event {event.name!r} returned {g!r} at "
+                f"t = {_fmt(t)} s; event functions must return finite "
+                "numbers"
+            )
         return g
 
-    def _find_event(self, f: Callable, watched: list[Event], g_old: list[float], t0: float, y0: list[float], t1: float, y1: list[float], start: list[float] | tuple[list[float], float, list[list[float]]]) -> Advance | None:
+    def _find_event(
+        self,
+        f: Callable,
+        watched: list[Event],
+        g_old: list[float],
+        t0: float,
+        y0: list[float],
+        t1: float,
+        y1: list[float],
+        start: list[float] | tuple[list[float], float, list[list[float]]],
+    ) -> Advance | None:
         """Earliest terminal crossing in (t0, t1] or None; g_old is updated in place."""
         best = None  # (t, y, event)
         g_new = [self._event_value(e, t1, y1) for e in watched]
@@ -444,7 +522,18 @@ class Integrator:
             return None
         return Advance(best[0], best[1], best[2])
 
-    def _locate(self, f: Callable, event: Event, t0: float, y0: list[float], g0: float, b: float, y_b: list[float], g_b: float, start: Any) -> tuple[float, list[float]]:
+    def _locate(
+        self,
+        f: Callable,
+        event: Event,
+        t0: float,
+        y0: list[float],
+        g0: float,
+        b: float,
+        y_b: list[float],
+        g_b: float,
+        start: Any,
+    ) -> tuple[float, list[float]]:
         """Root of g in (t0, b] by the Illinois method [DJ] with bisection safeguard.
 
         Keeps the bracket [a, b]: g(a) has the old (nonzero) sign, g(b) the new sign or 0.
@@ -478,9 +567,11 @@ class Integrator:
             tau = min(max(tau, a + margin), b - margin)
             y_tau = self._trial(f, t0, y0, tau, start)
             if not _all_finite(y_tau):
-                raise IntegrationError(f"{self.method}: the state became non-finite at "
-                                       f"t = {_fmt(tau)} s while locating event "
-                                       f"{event.name!r}; reduce max_substep or the tolerances")
+                raise IntegrationError(
+                    f"{self.method}: the state became non-finite at "
+                    f"t = {_fmt(tau)} s while locating event "
+                    f"{event.name!r}; reduce max_substep or the tolerances"
+                )
             g_tau = self._event_value(event, tau, y_tau)
             if g_tau != 0.0 and (g_tau > 0.0) == (g0 > 0.0):  # still the old sign
                 a, g_a, w_a = tau, g_tau, g_tau
@@ -521,15 +612,29 @@ def _is_terminal(event: Event) -> bool:
 
 
 def _check_tolerance(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) \
-            or not math.isfinite(value) or value < 0.0:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not math.isfinite(value)
+        or value < 0.0
+    ):
         raise RangeError(name, value, "[0, inf)", "", "a tolerance must be finite and >= 0")
     return float(value)
 
 
 # --- explicit Runge-Kutta ------------------------------------------------------------------
 
-def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[float], A: tuple, C: tuple[float, ...], t_new: float) -> list[list[float]]:
+
+def _explicit_stages(
+    f: Callable,
+    t: float,
+    y: list[float],
+    h: float,
+    k1: list[float],
+    A: tuple,
+    C: tuple[float, ...],
+    t_new: float,
+) -> list[list[float]]:
     """Stages K_1..K_s of an explicit Runge-Kutta method (K_1 = k1 given) [HNW] II.1."""
     K = [k1]
     n = len(y)
@@ -547,7 +652,9 @@ def _explicit_stages(f: Callable, t: float, y: list[float], h: float, k1: list[f
     return K
 
 
-def _combine(y: list[float], h: float, weights: tuple[float, ...], K: list[list[float]]) -> list[float]:
+def _combine(
+    y: list[float], h: float, weights: tuple[float, ...], K: list[list[float]]
+) -> list[float]:
     """y + h * sum_i weights_i K_i."""
     out = list(y)
     n = len(y)
@@ -581,7 +688,9 @@ class FixedStepRungeKutta(Integrator):
     order: int | None = None
     _too_many_advice = "increase max_substep or shorten the communication step"
 
-    def _substep(self, f: Callable, t: float, y: list[float], t_limit: float) -> tuple[float, list[float], list[float]]:
+    def _substep(
+        self, f: Callable, t: float, y: list[float], t_limit: float
+    ) -> tuple[float, list[float], list[float]]:
         self._spend(t)
         h = t_limit - t
         k1 = f(t, y)
@@ -593,10 +702,14 @@ class FixedStepRungeKutta(Integrator):
             raise self._unstable(t_limit, h)
         return t_limit, y1, k1
 
-    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: list[float]) -> list[float]:
+    def _trial(
+        self, f: Callable, t0: float, y0: list[float], tau: float, start: list[float]
+    ) -> list[float]:
         return self._finish(f, t0, y0, tau - t0, start, tau)
 
-    def _finish(self, f: Callable, t: float, y: list[float], h: float, k1: list[float], t_new: float) -> list[float]:
+    def _finish(
+        self, f: Callable, t: float, y: list[float], h: float, k1: list[float], t_new: float
+    ) -> list[float]:
         K = _explicit_stages(f, t, y, h, k1, self.A, self.C, t_new)
         return _combine(y, h, self.B, K)
 
@@ -617,10 +730,7 @@ class RK4(FixedStepRungeKutta):
     method = "rk4"
     order = 4
     C = (0.0, 0.5, 0.5, 1.0)
-    A = ((),
-         (0.5,),
-         (0.0, 0.5),
-         (0.0, 0.0, 1.0))
+    A = ((), (0.5,), (0.0, 0.5), (0.0, 0.0, 1.0))
     B = (1 / 6, 1 / 3, 1 / 3, 1 / 6)
 
 
@@ -650,16 +760,20 @@ class DormandPrince45(_Adaptive):
     order = 5
     error_estimator_order = 4
     C = (0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0)
-    A = ((),
-         (1 / 5,),
-         (3 / 40, 9 / 40),
-         (44 / 45, -56 / 15, 32 / 9),
-         (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729),
-         (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656))
+    A = (
+        (),
+        (1 / 5,),
+        (3 / 40, 9 / 40),
+        (44 / 45, -56 / 15, 32 / 9),
+        (19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729),
+        (9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656),
+    )
     B = (35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84)
     E = (-71 / 57600, 0.0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40)
-    _too_many_advice = ("the problem is probably stiff (an explicit method needs tiny steps "
-                        "to stay stable), use radau")
+    _too_many_advice = (
+        "the problem is probably stiff (an explicit method needs tiny steps "
+        "to stay stable), use radau"
+    )
 
     def restart(self) -> None:
         self._h: float | None = None
@@ -668,7 +782,9 @@ class DormandPrince45(_Adaptive):
     def _begin_call(self) -> None:
         self._k1 = None
 
-    def _substep(self, f: Callable, t: float, y: list[float], t_limit: float) -> tuple[float, list[float], list[float]]:
+    def _substep(
+        self, f: Callable, t: float, y: list[float], t_limit: float
+    ) -> tuple[float, list[float], list[float]]:
         k1 = self._k1
         if k1 is None:
             k1 = f(t, y)
@@ -683,8 +799,9 @@ class DormandPrince45(_Adaptive):
             self._spend(t)
             min_step = 10.0 * math.ulp(t)
             if h < min_step:
-                raise self._underflow(t, h, "the problem is too stiff for an explicit "
-                                      "method, use radau")
+                raise self._underflow(
+                    t, h, "the problem is too stiff for an explicit method, use radau"
+                )
             limited = h * _STRETCH >= t_limit - t
             t_new = t_limit if limited else t + h
             h_try = t_new - t
@@ -697,8 +814,11 @@ class DormandPrince45(_Adaptive):
             if not (_all_finite(y_new) and _all_finite(k7)):
                 error = math.inf
             if error <= 1.0:
-                factor = (self.MAX_FACTOR if error == 0.0
-                          else min(self.MAX_FACTOR, self.SAFETY * error ** exponent))
+                factor = (
+                    self.MAX_FACTOR
+                    if error == 0.0
+                    else min(self.MAX_FACTOR, self.SAFETY * error**exponent)
+                )
                 if rejected:
                     factor = min(1.0, factor)
                 self._h = self._carry(h, h_try, factor, limited)
@@ -706,11 +826,16 @@ class DormandPrince45(_Adaptive):
                 return t_new, y_new, k1
             self.stats.rejected += 1
             rejected = True
-            factor = self.MIN_FACTOR if error == math.inf else \
-                max(self.MIN_FACTOR, self.SAFETY * error ** exponent)
+            factor = (
+                self.MIN_FACTOR
+                if error == math.inf
+                else max(self.MIN_FACTOR, self.SAFETY * error**exponent)
+            )
             h = h_try * factor
 
-    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: list[float]) -> list[float]:
+    def _trial(
+        self, f: Callable, t0: float, y0: list[float], tau: float, start: list[float]
+    ) -> list[float]:
         h = tau - t0
         K = _explicit_stages(f, t0, y0, h, start, self.A, self.C, tau)
         return _combine(y0, h, self.B, K)
@@ -718,7 +843,7 @@ class DormandPrince45(_Adaptive):
 
 # --- Radau IIA -------------------------------------------------------------------------------
 
-_S6 = 6 ** 0.5
+_S6 = 6**0.5
 
 
 class RadauIIA5(_Adaptive):
@@ -746,25 +871,34 @@ class RadauIIA5(_Adaptive):
     order = 5
     error_estimator_order = 3
     C = ((4 - _S6) / 10, (4 + _S6) / 10, 1.0)
-    A = (((88 - 7 * _S6) / 360, (296 - 169 * _S6) / 1800, (-2 + 3 * _S6) / 225),
-         ((296 + 169 * _S6) / 1800, (88 + 7 * _S6) / 360, (-2 - 3 * _S6) / 225),
-         ((16 - _S6) / 36, (16 + _S6) / 36, 1 / 9))
+    A = (
+        ((88 - 7 * _S6) / 360, (296 - 169 * _S6) / 1800, (-2 + 3 * _S6) / 225),
+        ((296 + 169 * _S6) / 1800, (88 + 7 * _S6) / 360, (-2 - 3 * _S6) / 225),
+        ((16 - _S6) / 36, (16 + _S6) / 36, 1 / 9),
+    )
     # Error estimate weights (SciPy radau.E: Hairer's e_i divided by gamma_0)
     E = ((-13 - 7 * _S6) / 3, (-13 + 7 * _S6) / 3, -1 / 3)
     # Eigenvalues of A^-1: one real, one complex pair
     MU_REAL = 3 + 3 ** (2 / 3) - 3 ** (1 / 3)
-    MU_COMPLEX = complex(3 + 0.5 * (3 ** (1 / 3) - 3 ** (2 / 3)),
-                         -0.5 * (3 ** (5 / 6) + 3 ** (7 / 6)))
+    MU_COMPLEX = complex(
+        3 + 0.5 * (3 ** (1 / 3) - 3 ** (2 / 3)), -0.5 * (3 ** (5 / 6) + 3 ** (7 / 6))
+    )
     # A^-1 = T diag(mu_real, [[a, -b], [b, a]]) T^-1 (SciPy radau.T, radau.TI)
-    T = ((0.09443876248897524, -0.14125529502095421, 0.03002919410514742),
-         (0.25021312296533332, 0.20412935229379994, -0.38294211275726192),
-         (1.0, 1.0, 0.0))
-    TI = ((4.17871859155190428, 0.32768282076106237, 0.52337644549944951),
-          (-4.17871859155190428, -0.32768282076106237, 0.47662355450055044),
-          (0.50287263494578682, -2.57192694985560522, 0.59603920482822492))
+    T = (
+        (0.09443876248897524, -0.14125529502095421, 0.03002919410514742),
+        (0.25021312296533332, 0.20412935229379994, -0.38294211275726192),
+        (1.0, 1.0, 0.0),
+    )
+    TI = (
+        (4.17871859155190428, 0.32768282076106237, 0.52337644549944951),
+        (-4.17871859155190428, -0.32768282076106237, 0.47662355450055044),
+        (0.50287263494578682, -2.57192694985560522, 0.59603920482822492),
+    )
     MAX_FACTOR = 10.0
-    _too_many_advice = ("the solution varies too fast for the tolerances; check the model "
-                        "for discontinuities or loosen rtol/atol")
+    _too_many_advice = (
+        "the solution varies too fast for the tolerances; check the model "
+        "for discontinuities or loosen rtol/atol"
+    )
 
     def restart(self) -> None:
         self._h: float | None = None
@@ -779,14 +913,18 @@ class RadauIIA5(_Adaptive):
 
     def _begin_call(self) -> None:
         self._f0 = None
-        self._previous: tuple | None = None  # (h, Z) of the last accepted step, for the Newton guess
+        self._previous: tuple | None = (
+            None  # (h, Z) of the last accepted step, for the Newton guess
+        )
         self._J_current = False
 
     @property
     def _newton_tol(self) -> float:
-        return max(10 * _EPS / max(self.rtol, 1e-300), min(0.03, self.rtol ** 0.5))
+        return max(10 * _EPS / max(self.rtol, 1e-300), min(0.03, self.rtol**0.5))
 
-    def _jacobian(self, f: Callable, t: float, y: list[float], f0: list[float]) -> list[list[float]]:
+    def _jacobian(
+        self, f: Callable, t: float, y: list[float], f0: list[float]
+    ) -> list[list[float]]:
         """Forward-difference Jacobian (n rhs evaluations), RADAU5's increments."""
         n = len(y)
         J = [[0.0] * n for _ in range(n)]
@@ -801,9 +939,11 @@ class RadauIIA5(_Adaptive):
         self.stats.jacobians += 1
         for row in J:
             if not _all_finite(row):
-                raise IntegrationError(f"radau: the finite-difference Jacobian is not finite "
-                                       f"at t = {_fmt(t)} s; the model's derivative is not "
-                                       "defined there (check its state and inputs)")
+                raise IntegrationError(
+                    f"radau: the finite-difference Jacobian is not finite "
+                    f"at t = {_fmt(t)} s; the model's derivative is not "
+                    "defined there (check its state and inputs)"
+                )
         self._J = J
         self._J_version += 1
         self._J_current = True
@@ -818,15 +958,26 @@ class RadauIIA5(_Adaptive):
         J = self._J
         assert J is not None  # _jacobian ran before the first factorisation
         n = len(J)
-        real = [[(self.MU_REAL / h if i == j else 0.0) - J[i][j] for j in range(n)]
-                for i in range(n)]
-        cplx = [[(self.MU_COMPLEX / h if i == j else 0.0) - J[i][j] for j in range(n)]
-                for i in range(n)]
+        real = [
+            [(self.MU_REAL / h if i == j else 0.0) - J[i][j] for j in range(n)] for i in range(n)
+        ]
+        cplx = [
+            [(self.MU_COMPLEX / h if i == j else 0.0) - J[i][j] for j in range(n)] for i in range(n)
+        ]
         lu_real, lu_complex = _lu_factor(real), _lu_factor(cplx)
         self._lu = (h, self._J_version, lu_real, lu_complex)
         return lu_real, lu_complex
 
-    def _newton(self, f: Callable, t: float, y: list[float], h: float, Z0: list[list[float]], lu_real: tuple[list[list[float]], list[int]], lu_complex: tuple) -> tuple:
+    def _newton(
+        self,
+        f: Callable,
+        t: float,
+        y: list[float],
+        h: float,
+        Z0: list[list[float]],
+        lu_real: tuple[list[list[float]], list[int]],
+        lu_complex: tuple,
+    ) -> tuple:
         """Simplified Newton on the transformed stage system (SciPy solve_collocation_system).
 
         Returns (converged, iterations, Z, rate).
@@ -837,8 +988,10 @@ class RadauIIA5(_Adaptive):
         m_complex = self.MU_COMPLEX / h
         scale = [self.atol + abs(v) * self.rtol for v in y]
         tol = self._newton_tol
-        W = [[TI[i][0] * Z0[0][j] + TI[i][1] * Z0[1][j] + TI[i][2] * Z0[2][j]
-              for j in range(n)] for i in range(3)]
+        W = [
+            [TI[i][0] * Z0[0][j] + TI[i][1] * Z0[1][j] + TI[i][2] * Z0[2][j] for j in range(n)]
+            for i in range(3)
+        ]
         Z = Z0
         norm_old = None
         rate = None
@@ -850,11 +1003,18 @@ class RadauIIA5(_Adaptive):
                 F.append(f(t + h if C[i] == 1.0 else t + C[i] * h, y_i))
             if not all(_all_finite(row) for row in F):
                 return False, k + 1, Z, rate
-            f_real = [TI[0][0] * F[0][j] + TI[0][1] * F[1][j] + TI[0][2] * F[2][j]
-                      - m_real * W[0][j] for j in range(n)]
-            f_complex = [complex(TI[1][0] * F[0][j] + TI[1][1] * F[1][j] + TI[1][2] * F[2][j],
-                                 TI[2][0] * F[0][j] + TI[2][1] * F[1][j] + TI[2][2] * F[2][j])
-                         - m_complex * complex(W[1][j], W[2][j]) for j in range(n)]
+            f_real = [
+                TI[0][0] * F[0][j] + TI[0][1] * F[1][j] + TI[0][2] * F[2][j] - m_real * W[0][j]
+                for j in range(n)
+            ]
+            f_complex = [
+                complex(
+                    TI[1][0] * F[0][j] + TI[1][1] * F[1][j] + TI[1][2] * F[2][j],
+                    TI[2][0] * F[0][j] + TI[2][1] * F[1][j] + TI[2][2] * F[2][j],
+                )
+                - m_complex * complex(W[1][j], W[2][j])
+                for j in range(n)
+            ]
             d_real = _lu_solve(lu_real, f_real)
             d_complex = _lu_solve(lu_complex, f_complex)
             dW = (d_real, [z.real for z in d_complex], [z.imag for z in d_complex])
@@ -869,14 +1029,21 @@ class RadauIIA5(_Adaptive):
                 W_i, dW_i = W[i], dW[i]
                 for j in range(n):
                     W_i[j] += dW_i[j]
-            Z = [[T[i][0] * W[0][j] + T[i][1] * W[1][j] + T[i][2] * W[2][j]
-                  for j in range(n)] for i in range(3)]
+            Z = [
+                [T[i][0] * W[0][j] + T[i][1] * W[1][j] + T[i][2] * W[2][j] for j in range(n)]
+                for i in range(3)
+            ]
             if norm == 0.0 or (rate is not None and rate / (1 - rate) * norm < tol):
                 return True, k + 1, Z, rate
             norm_old = norm
         return False, k + 1, Z, rate
 
-    def _guess(self, previous: tuple[float, list[list[float]]], s_values: list[float], shift: list[float] | None) -> list[list[float]]:
+    def _guess(
+        self,
+        previous: tuple[float, list[list[float]]],
+        s_values: list[float],
+        shift: list[float] | None,
+    ) -> list[list[float]]:
         """Stage guess from the collocation polynomial of a step (h_p, Z_p): P(s) - shift.
 
         P interpolates 0 at s = 0 and Z_p[i] at s = C[i] (s in units of h_p).
@@ -898,7 +1065,15 @@ class RadauIIA5(_Adaptive):
             out.append(value)
         return out
 
-    def _solve_stages(self, f: Callable, t: float, y: list[float], f0: list[float], h: float, Z0: list[list[float]]) -> tuple:
+    def _solve_stages(
+        self,
+        f: Callable,
+        t: float,
+        y: list[float],
+        f0: list[float],
+        h: float,
+        Z0: list[list[float]],
+    ) -> tuple:
         """Newton with the current J; one retry with a fresh J. Returns (ok, iters, Z, rate)."""
         while True:
             lu_real = None
@@ -912,7 +1087,9 @@ class RadauIIA5(_Adaptive):
                 return converged, n_iter, Z, rate, (lu_real if converged else None)
             self._jacobian(f, t, y, f0)
 
-    def _substep(self, f: Callable, t: float, y: list[float], t_limit: float) -> tuple[float, list[float], tuple[list[float], float, list[list[float]]]]:
+    def _substep(
+        self, f: Callable, t: float, y: list[float], t_limit: float
+    ) -> tuple[float, list[float], tuple[list[float], float, list[list[float]]]]:
         f0 = self._f0
         if f0 is None:
             f0 = f(t, y)
@@ -934,10 +1111,14 @@ class RadauIIA5(_Adaptive):
             self._spend(t)
             min_step = 10.0 * math.ulp(t)
             if h < min_step:
-                raise self._underflow(t, h, "Newton iterations keep failing or the error "
-                                      "test cannot be met; check the model for "
-                                      "discontinuities or non-finite derivatives, or loosen "
-                                      "rtol/atol")
+                raise self._underflow(
+                    t,
+                    h,
+                    "Newton iterations keep failing or the error "
+                    "test cannot be met; check the model for "
+                    "discontinuities or non-finite derivatives, or loosen "
+                    "rtol/atol",
+                )
             limited = h * _STRETCH >= t_limit - t
             t_new = t_limit if limited else t + h
             h_try = t_new - t
@@ -945,8 +1126,7 @@ class RadauIIA5(_Adaptive):
                 Z0 = [[0.0] * n for _ in range(3)]
             else:
                 h_p, Z_p = self._previous
-                Z0 = self._guess(self._previous, [1.0 + c * h_try / h_p for c in self.C],
-                                 Z_p[2])
+                Z0 = self._guess(self._previous, [1.0 + c * h_try / h_p for c in self.C], Z_p[2])
             converged, n_iter, Z, rate, lu_real = self._solve_stages(f, t, y, f0, h_try, Z0)
             if not converged:
                 self.stats.rejected += 1
@@ -987,7 +1167,9 @@ class RadauIIA5(_Adaptive):
         self._previous = (h_try, Z)
         return t_new, y_new, (f0, h_try, Z)
 
-    def _trial(self, f: Callable, t0: float, y0: list[float], tau: float, start: Any) -> list[float]:
+    def _trial(
+        self, f: Callable, t0: float, y0: list[float], tau: float, start: Any
+    ) -> list[float]:
         f0, h_step, Z_step = start
         h = tau - t0
         Z0 = self._guess((h_step, Z_step), [c * h / h_step for c in self.C], None)
@@ -1009,13 +1191,15 @@ def _predict_factor(h: float, h_old: float | None, error: float, error_old: floa
         multiplier = 1.0
     else:
         multiplier = h / h_old * (error_old / error) ** 0.25
-    return min(1.0, multiplier) * error ** -0.25
+    return min(1.0, multiplier) * error**-0.25
 
 
 _CLASSES = {"euler": Euler, "rk4": RK4, "dopri5": DormandPrince45, "radau": RadauIIA5}
 
 
-def make_integrator(method: str, rtol: float=1e-8, atol: float=1e-10, max_substep: float=math.inf) -> Integrator:
+def make_integrator(
+    method: str, rtol: float = 1e-8, atol: float = 1e-10, max_substep: float = math.inf
+) -> Integrator:
     """A new integrator: method in METHODS; rtol, atol >= 0; max_substep in (0, inf] s.
 
     rtol and atol steer the adaptive methods (dopri5, radau); max_substep bounds every
@@ -1023,12 +1207,17 @@ def make_integrator(method: str, rtol: float=1e-8, atol: float=1e-10, max_subste
     """
     cls = _CLASSES.get(method) if isinstance(method, str) else None
     if cls is None:
-        raise MechanismError(f"integrator = {method!r} is not a known method; choose one of "
-                             + ", ".join(METHODS))
+        raise MechanismError(
+            f"integrator = {method!r} is not a known method; choose one of " + ", ".join(METHODS)
+        )
     if method in ("dopri5", "radau"):
         rtol_value = _check_tolerance("rtol", rtol)
         if rtol_value < 100 * _EPS:
-            raise RangeError("rtol", rtol, f"[{100 * _EPS:.3g}, inf)", "",
-                             f"{method} cannot meet a relative tolerance below 100 machine "
-                             "epsilons")
+            raise RangeError(
+                "rtol",
+                rtol,
+                f"[{100 * _EPS:.3g}, inf)",
+                "",
+                f"{method} cannot meet a relative tolerance below 100 machine epsilons",
+            )
     return cls(rtol=rtol, atol=atol, max_substep=max_substep)

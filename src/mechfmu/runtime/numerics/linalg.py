@@ -94,7 +94,9 @@ def one_norm(matrix: list[list[float]]) -> float:
     return max(sum(abs(row[j]) for row in matrix) for j in range(n))
 
 
-def condition_number(matrix: list[list[float]], factored: tuple[list[list[float]], list[int]] | None=None) -> float:
+def condition_number(
+    matrix: list[list[float]], factored: tuple[list[list[float]], list[int]] | None = None
+) -> float:
     """1-norm condition number ||A|| ||A^-1|| (exact: A^-1 column by column; n is small).
 
     Returns math.inf for a singular matrix. ``factored`` may pass lu_factor(A) to reuse it.

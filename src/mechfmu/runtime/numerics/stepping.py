@@ -7,7 +7,15 @@ from collections.abc import Callable
 MAX_EVENTS_PER_STEP = 1000
 
 
-def advance_through_events(integrator: Integrator, rhs: Callable, t: float, y: list[float], t_end: float, events: Callable | list[Event], handle: Callable) -> list[float]:
+def advance_through_events(
+    integrator: Integrator,
+    rhs: Callable,
+    t: float,
+    y: list[float],
+    t_end: float,
+    events: Callable | list[Event],
+    handle: Callable,
+) -> list[float]:
     """Integrate y' = rhs(t, y) from t to t_end, stopping at each terminal event.
 
     At an event the integrator returns the event time and state; ``handle(event, t, y)``
@@ -26,12 +34,15 @@ def advance_through_events(integrator: Integrator, rhs: Callable, t: float, y: l
         y = handle(step.event, t, y)
         if t >= t_end:
             return y
-    raise IntegrationError(f"more than {MAX_EVENTS_PER_STEP} events before t = {t_end!r} s "
-                           f"(last at t = {t!r} s): chattering; reduce the step or soften "
-                           f"the contact")
+    raise IntegrationError(
+        f"more than {MAX_EVENTS_PER_STEP} events before t = {t_end!r} s "
+        f"(last at t = {t!r} s): chattering; reduce the step or soften "
+        f"the contact"
+    )
 
 
 # --- inputs inside one communication step -------------------------------------------------
+
 
 def hermite(step: float, start: tuple[float, ...], end: tuple[float, ...]) -> tuple[float, ...]:
     """Hermite polynomial through an input's values and rates at both ends of a step.
@@ -48,26 +59,36 @@ def hermite(step: float, start: tuple[float, ...], end: tuple[float, ...]) -> tu
     O(step^6) (quintic).
     """
     if len(start) != len(end) or len(start) not in (2, 3):
-        raise ValueError(f"hermite needs (value, rate) or (value, rate, second rate) at both "
-                         f"ends, got {start!r} and {end!r}")
+        raise ValueError(
+            f"hermite needs (value, rate) or (value, rate, second rate) at both "
+            f"ends, got {start!r} and {end!r}"
+        )
     h = step
     if len(start) == 2:
         y0, v0 = start
         y1, v1 = end
         misfit = y1 - y0 - v0 * h
         rate_misfit = (v1 - v0) * h
-        return (y0, v0, (3.0 * misfit - rate_misfit) / (h * h),
-                (rate_misfit - 2.0 * misfit) / (h * h * h))
+        return (
+            y0,
+            v0,
+            (3.0 * misfit - rate_misfit) / (h * h),
+            (rate_misfit - 2.0 * misfit) / (h * h * h),
+        )
     y0, v0, a0 = start
     y1, v1, a1 = end
     misfit = y1 - y0 - v0 * h - 0.5 * a0 * h * h
     rate_misfit = (v1 - v0 - a0 * h) * h
     second_misfit = (a1 - a0) * h * h
     h3 = h * h * h
-    return (y0, v0, 0.5 * a0,
-            (10.0 * misfit - 4.0 * rate_misfit + 0.5 * second_misfit) / h3,
-            (-15.0 * misfit + 7.0 * rate_misfit - second_misfit) / (h3 * h),
-            (6.0 * misfit - 3.0 * rate_misfit + 0.5 * second_misfit) / (h3 * h * h))
+    return (
+        y0,
+        v0,
+        0.5 * a0,
+        (10.0 * misfit - 4.0 * rate_misfit + 0.5 * second_misfit) / h3,
+        (-15.0 * misfit + 7.0 * rate_misfit - second_misfit) / (h3 * h),
+        (6.0 * misfit - 3.0 * rate_misfit + 0.5 * second_misfit) / (h3 * h * h),
+    )
 
 
 def polynomial_motion(coefficients: tuple[float, ...], tau: float) -> tuple[float, float, float]:

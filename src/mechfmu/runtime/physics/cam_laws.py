@@ -40,14 +40,15 @@ NormalizedRise = namedtuple("NormalizedRise", "f f1 f2 f3")
 PeakCoefficients = namedtuple("PeakCoefficients", "velocity acceleration jerk")
 Continuity = namedtuple("Continuity", "velocity acceleration jerk")
 CamProfile = namedtuple(
-    "CamProfile", "law lift rise_start rise_angle high_dwell_angle return_angle")
+    "CamProfile", "law lift rise_start rise_angle high_dwell_angle return_angle"
+)
 CamLift = namedtuple("CamLift", "s s1 s2 s3")
 FollowerMotion = namedtuple("FollowerMotion", "lift velocity acceleration")
 
 # Maxima of |f1|, |f2|, |f3| on [0, 1], in closed form (derivation in peak_coefficients).
 _PEAKS = {
-    "harmonic": PeakCoefficients(math.pi / 2.0, math.pi ** 2 / 2.0, math.pi ** 3 / 2.0),
-    "cycloidal": PeakCoefficients(2.0, 2.0 * math.pi, 4.0 * math.pi ** 2),
+    "harmonic": PeakCoefficients(math.pi / 2.0, math.pi**2 / 2.0, math.pi**3 / 2.0),
+    "cycloidal": PeakCoefficients(2.0, 2.0 * math.pi, 4.0 * math.pi**2),
     "polynomial_345": PeakCoefficients(15.0 / 8.0, 10.0 / math.sqrt(3.0), 60.0),
     "polynomial_4567": PeakCoefficients(35.0 / 16.0, 84.0 / (5.0 * math.sqrt(5.0)), 52.5),
 }
@@ -99,27 +100,35 @@ def _half(law: str, y: float) -> tuple[float, float, float, float]:
     if law == "harmonic":
         half_angle = 0.5 * math.pi * y
         s = math.sin(math.pi * y)
-        return (math.sin(half_angle) ** 2,  # (1 - cos(pi y))/2 without cancellation
-                0.5 * math.pi * s,
-                0.5 * math.pi ** 2 * math.cos(math.pi * y),
-                -0.5 * math.pi ** 3 * s)
+        return (
+            math.sin(half_angle) ** 2,  # (1 - cos(pi y))/2 without cancellation
+            0.5 * math.pi * s,
+            0.5 * math.pi**2 * math.cos(math.pi * y),
+            -0.5 * math.pi**3 * s,
+        )
     if law == "cycloidal":
         u = TAU * y
-        return (_u_minus_sin(u) / TAU,
-                2.0 * math.sin(0.5 * u) ** 2,  # 1 - cos(u)
-                TAU * math.sin(u),
-                TAU * TAU * math.cos(u))
+        return (
+            _u_minus_sin(u) / TAU,
+            2.0 * math.sin(0.5 * u) ** 2,  # 1 - cos(u)
+            TAU * math.sin(u),
+            TAU * TAU * math.cos(u),
+        )
     z = 1.0 - y  # exact for y in [0, 1/2]
     if law == "polynomial_345":
         # factored forms: the roots at 0 and 1 are exact, the cubic terms carry the sign
-        return (y ** 3 * (10.0 + y * (-15.0 + 6.0 * y)),
-                30.0 * (y * z) ** 2,
-                60.0 * y * z * (1.0 - 2.0 * y),
-                60.0 * (1.0 + 6.0 * y * (y - 1.0)))
-    return (y ** 4 * (35.0 + y * (-84.0 + y * (70.0 - 20.0 * y))),
-            140.0 * (y * z) ** 3,
-            420.0 * (y * z) ** 2 * (1.0 - 2.0 * y),
-            840.0 * y * z * (1.0 + 5.0 * y * (y - 1.0)))
+        return (
+            y**3 * (10.0 + y * (-15.0 + 6.0 * y)),
+            30.0 * (y * z) ** 2,
+            60.0 * y * z * (1.0 - 2.0 * y),
+            60.0 * (1.0 + 6.0 * y * (y - 1.0)),
+        )
+    return (
+        y**4 * (35.0 + y * (-84.0 + y * (70.0 - 20.0 * y))),
+        140.0 * (y * z) ** 3,
+        420.0 * (y * z) ** 2 * (1.0 - 2.0 * y),
+        840.0 * y * z * (1.0 + 5.0 * y * (y - 1.0)),
+    )
 
 
 def _rise(law: str, x: float) -> tuple[float, float, float, float, float]:
@@ -173,7 +182,14 @@ def peak_coefficients(law: str) -> "PeakCoefficients":
     return _PEAKS[law]
 
 
-def check_profile(law: str, lift: float, rise_start: float, rise_angle: float, high_dwell_angle: float, return_angle: float) -> "CamProfile":
+def check_profile(
+    law: str,
+    lift: float,
+    rise_start: float,
+    rise_angle: float,
+    high_dwell_angle: float,
+    return_angle: float,
+) -> "CamProfile":
     """Validate a cam profile and return it as a CamProfile of floats (law, m, rad).
 
     law in CAM_LAWS; lift > 0 (m); rise_start any finite angle (the profile is periodic);
@@ -188,9 +204,13 @@ def check_profile(law: str, lift: float, rise_start: float, rise_angle: float, h
     return_angle = require_positive("return_angle", return_angle, "rad")
     total = rise_angle + high_dwell_angle + return_angle
     if total > TAU:
-        raise RangeError("rise_angle + high_dwell_angle + return_angle", total,
-                         f"(0, {TAU!r}]", "rad",
-                         "rise, high dwell and return must fit in one camshaft revolution")
+        raise RangeError(
+            "rise_angle + high_dwell_angle + return_angle",
+            total,
+            f"(0, {TAU!r}]",
+            "rad",
+            "rise, high dwell and return must fit in one camshaft revolution",
+        )
     return CamProfile(law, lift, rise_start, rise_angle, high_dwell_angle, return_angle)
 
 
@@ -225,10 +245,9 @@ def segment_lift(profile: "CamProfile", segment: str, x: float) -> "CamLift":
     lift = profile.lift
     if segment == "rise":
         beta = profile.rise_angle
-        return CamLift(lift * f, lift * f1 / beta, lift * f2 / beta ** 2, lift * f3 / beta ** 3)
+        return CamLift(lift * f, lift * f1 / beta, lift * f2 / beta**2, lift * f3 / beta**3)
     beta = profile.return_angle
-    return CamLift(lift * complement, -lift * f1 / beta, -lift * f2 / beta ** 2,
-                   -lift * f3 / beta ** 3)
+    return CamLift(lift * complement, -lift * f1 / beta, -lift * f2 / beta**2, -lift * f3 / beta**3)
 
 
 def cam_lift(profile: "CamProfile", camshaft_angle: float) -> "CamLift":
@@ -253,7 +272,12 @@ def cam_lift(profile: "CamProfile", camshaft_angle: float) -> "CamLift":
     return CamLift(0.0, 0.0, 0.0, 0.0)
 
 
-def follower_motion(profile: "CamProfile", camshaft_angle: float, camshaft_speed: float, camshaft_acceleration: float) -> "FollowerMotion":
+def follower_motion(
+    profile: "CamProfile",
+    camshaft_angle: float,
+    camshaft_speed: float,
+    camshaft_acceleration: float,
+) -> "FollowerMotion":
     """Follower lift (m), velocity (m/s) and acceleration (m/s^2) by the chain rule.
 
     With the camshaft at angle theta (rad), speed w (rad/s) and acceleration alpha (rad/s^2):

@@ -69,30 +69,46 @@ CHANGE_POINT = "change point: all four links collinear"
 
 GrashofClass = namedtuple("GrashofClass", "code name description")
 GRASHOF_CLASSES = (
-    GrashofClass(1, "crank-rocker",
-                 "Grashof (S + L < P + Q), shortest link is the crank: the crank turns fully, "
-                 "the rocker oscillates"),
-    GrashofClass(2, "double-crank",
-                 "Grashof, shortest link is the ground (drag link): crank and rocker both "
-                 "turn fully"),
-    GrashofClass(3, "double-rocker",
-                 "Grashof, shortest link is the coupler: crank and rocker both oscillate, "
-                 "the coupler turns fully"),
-    GrashofClass(4, "rocker-crank",
-                 "Grashof, shortest link is the rocker (output): the rocker turns fully, the "
-                 "crank oscillates"),
-    GrashofClass(5, "triple-rocker",
-                 "non-Grashof (S + L > P + Q): no link turns fully relative to another"),
-    GrashofClass(6, "change-point",
-                 "S + L = P + Q (parallelogram, antiparallelogram, deltoid): the linkage can "
-                 "pass through a flat position and switch circuits"),
+    GrashofClass(
+        1,
+        "crank-rocker",
+        "Grashof (S + L < P + Q), shortest link is the crank: the crank turns fully, "
+        "the rocker oscillates",
+    ),
+    GrashofClass(
+        2,
+        "double-crank",
+        "Grashof, shortest link is the ground (drag link): crank and rocker both turn fully",
+    ),
+    GrashofClass(
+        3,
+        "double-rocker",
+        "Grashof, shortest link is the coupler: crank and rocker both oscillate, "
+        "the coupler turns fully",
+    ),
+    GrashofClass(
+        4,
+        "rocker-crank",
+        "Grashof, shortest link is the rocker (output): the rocker turns fully, the "
+        "crank oscillates",
+    ),
+    GrashofClass(
+        5, "triple-rocker", "non-Grashof (S + L > P + Q): no link turns fully relative to another"
+    ),
+    GrashofClass(
+        6,
+        "change-point",
+        "S + L = P + Q (parallelogram, antiparallelogram, deltoid): the linkage can "
+        "pass through a flat position and switch circuits",
+    ),
 )
 
 Position = namedtuple("Position", "coupler_angle rocker_angle")
 FourBarMotion = namedtuple(
     "FourBarMotion",
     "coupler_angle rocker_angle coupler_angular_velocity rocker_angular_velocity "
-    "coupler_angular_acceleration rocker_angular_acceleration transmission_angle")
+    "coupler_angular_acceleration rocker_angular_acceleration transmission_angle",
+)
 
 _LINK_NAMES = ("ground", "crank", "coupler", "rocker")
 
@@ -103,14 +119,21 @@ def check_four_bar(ground: float, crank: float, coupler: float, rocker: float) -
     Each must be finite and > 0, and the longest must be shorter than the sum of the other
     three, or the links cannot close a loop (RangeError naming the offending link).
     """
-    lengths = [require_positive(name, value, "m")
-               for name, value in zip(_LINK_NAMES, (ground, crank, coupler, rocker))]
+    lengths = [
+        require_positive(name, value, "m")
+        for name, value in zip(_LINK_NAMES, (ground, crank, coupler, rocker))
+    ]
     longest = max(range(4), key=lambda i: lengths[i])
     others = sum(lengths) - lengths[longest]
     if lengths[longest] >= others:
-        raise RangeError(_LINK_NAMES[longest], lengths[longest], f"(0, {others!r})", "m",
-                         "the links cannot close a loop: the longest link must be shorter "
-                         "than the sum of the other three")
+        raise RangeError(
+            _LINK_NAMES[longest],
+            lengths[longest],
+            f"(0, {others!r})",
+            "m",
+            "the links cannot close a loop: the longest link must be shorter "
+            "than the sum of the other three",
+        )
     return FourBar(*lengths)
 
 
@@ -146,8 +169,9 @@ def _as_lengths(linkage: tuple, count: int) -> tuple[float, float, float, float]
     if len(linkage) == 1:
         linkage = tuple(linkage[0])
     if len(linkage) != count:
-        raise TypeError(f"expected {count} lengths or one sequence of {count}, "
-                        f"got {len(linkage)} arguments")
+        raise TypeError(
+            f"expected {count} lengths or one sequence of {count}, got {len(linkage)} arguments"
+        )
     return linkage
 
 
@@ -197,13 +221,17 @@ def _toggles(d: float, a: float, b: float, c: float) -> list[Any]:
     return found
 
 
-def singular_position_kind(ground: float, crank: float, coupler: float, rocker: float, crank_angle: float) -> str:
+def singular_position_kind(
+    ground: float, crank: float, coupler: float, rocker: float, crank_angle: float
+) -> str:
     """TOGGLE or CHANGE_POINT: the kind of singular position nearest to ``crank_angle`` (rad);
     TOGGLE if the crank has no singular position at all (see _toggles)."""
     nearest = None
     for angle, kind in _toggles(ground, crank, coupler, rocker):
-        distance = min(abs(math.remainder(crank_angle - angle, 2.0 * math.pi)),
-                       abs(math.remainder(crank_angle + angle, 2.0 * math.pi)))
+        distance = min(
+            abs(math.remainder(crank_angle - angle, 2.0 * math.pi)),
+            abs(math.remainder(crank_angle + angle, 2.0 * math.pi)),
+        )
         if nearest is None or distance < nearest[0]:
             nearest = (distance, kind)
     return CHANGE_POINT if nearest is not None and nearest[1] == CHANGE_POINT else TOGGLE
@@ -213,14 +241,17 @@ def change_point_angles(ground: float, crank: float, coupler: float, rocker: flo
     """Crank angles (rad, 0 and/or pi) of the change points: toggle positions with the crank
     on the ground line, all four links collinear, where two assembly branches cross. Empty
     unless S + L = P + Q (within CHANGE_POINT_TOLERANCE times the longest link)."""
-    return sorted(angle for angle, kind in _toggles(ground, crank, coupler, rocker)
-                  if kind == CHANGE_POINT)
+    return sorted(
+        angle for angle, kind in _toggles(ground, crank, coupler, rocker) if kind == CHANGE_POINT
+    )
 
 
 BRANCHES_CROSS = "there two assembly branches cross and the motion may continue on either"
 
 
-def singular_crossing(ground: Any, crank: Any, coupler: Any, rocker: Any, start_angle: Any, end_angle: Any) -> Any:
+def singular_crossing(
+    ground: Any, crank: Any, coupler: Any, rocker: Any, start_angle: Any, end_angle: Any
+) -> Any:
     """The first singular position the crank passes on its way from ``start_angle`` to
     ``end_angle`` (rad, not wrapped: the drive turns through every angle in between), as
     (position, consequence) texts, or None.
@@ -237,8 +268,9 @@ def singular_crossing(ground: Any, crank: Any, coupler: Any, rocker: Any, start_
     return singular_crossings(ground, crank, coupler, rocker)(start_angle, end_angle)
 
 
-def singular_crossings(ground: float, crank: float, coupler: float, rocker: float
-                       ) -> "Callable[[float, float], tuple[str, str] | None]":
+def singular_crossings(
+    ground: float, crank: float, coupler: float, rocker: float
+) -> "Callable[[float, float], tuple[str, str] | None]":
     """singular_crossing for one linkage (lengths in m, validated here once): a function of
     (start_angle, end_angle) in rad, with what depends on the lengths alone worked out once
     (it runs at every communication step)."""
@@ -248,13 +280,19 @@ def singular_crossings(ground: float, crank: float, coupler: float, rocker: floa
     gaps = []  # (centre, half width): cos(theta2) > cos_high around 0, < cos_low around pi
     if interval is not None:
         cos_low, cos_high = interval
-        gaps = [(centre, half) for centre, half, exists in (
-                    (0.0, math.acos(cos_high), cos_high < 1.0),
-                    (math.pi, math.pi - math.acos(cos_low), cos_low > -1.0))
-                if exists and centre not in points]
+        gaps = [
+            (centre, half)
+            for centre, half, exists in (
+                (0.0, math.acos(cos_high), cos_high < 1.0),
+                (math.pi, math.pi - math.acos(cos_low), cos_low > -1.0),
+            )
+            if exists and centre not in points
+        ]
     if not points and not gaps:
+
         def never(start_angle: float, end_angle: float) -> None:
             return None
+
         # nothing to pass: callers may skip the check (a marker attribute mypy cannot see)
         never.never = True  # type: ignore[attr-defined]
         return never
@@ -269,8 +307,13 @@ def singular_crossings(ground: float, crank: float, coupler: float, rocker: floa
             last = centre + turn * math.floor((high - centre) / turn)
             if first <= high:
                 angle = first if rising else last
-                passed.append((abs(angle - start_angle),
-                               f"{CHANGE_POINT} at crank angle {angle!r} rad", BRANCHES_CROSS))
+                passed.append(
+                    (
+                        abs(angle - start_angle),
+                        f"{CHANGE_POINT} at crank angle {angle!r} rad",
+                        BRANCHES_CROSS,
+                    )
+                )
         if gaps and _assembles(lengths, end_angle):
             for centre, half in gaps:
                 first = centre + turn * math.ceil((low - centre) / turn)
@@ -278,14 +321,19 @@ def singular_crossings(ground: float, crank: float, coupler: float, rocker: floa
                 if first <= high:
                     middle = first if rising else last
                     edge = middle - half if rising else middle + half
-                    passed.append((abs(edge - start_angle),
-                                   f"{TOGGLE} at crank angle {edge!r} rad",
-                                   f"the linkage does not assemble between crank angles "
-                                   f"{middle - half!r} and {middle + half!r} rad, so no "
-                                   f"motion joins the two drive values"))
+                    passed.append(
+                        (
+                            abs(edge - start_angle),
+                            f"{TOGGLE} at crank angle {edge!r} rad",
+                            f"the linkage does not assemble between crank angles "
+                            f"{middle - half!r} and {middle + half!r} rad, so no "
+                            f"motion joins the two drive values",
+                        )
+                    )
         if not passed:
             return None
         return min(passed)[1:]
+
     return crossing
 
 
@@ -317,8 +365,8 @@ def _half_angle_root(qa: float, qb: float, qc: float, root: float, sign: float) 
     """
     if root == 0.0:
         if abs(qa) >= abs(qc):
-            return _wrap(2.0 * math.atan2(-qb, 2.0 * qa))   # |x| <= 1
-        return _wrap(2.0 * math.atan2(2.0 * qc, -qb))       # |x| > 1
+            return _wrap(2.0 * math.atan2(-qb, 2.0 * qa))  # |x| <= 1
+        return _wrap(2.0 * math.atan2(2.0 * qc, -qb))  # |x| > 1
     if sign * qb <= 0.0:
         numerator, denominator = -qb + sign * root, 2.0 * qa
     else:
@@ -356,16 +404,20 @@ def _solve(lengths: "FourBar", crank_angle: float, circuit: int) -> tuple[float,
     if to_high < -tolerance or to_low < -tolerance:
         lo, hi = crank_angle_range(d, a, b, c) or (math.nan, math.nan)
         raise RangeError(
-            "crank_angle", t2,
+            "crank_angle",
+            t2,
             f"cos(crank_angle) in [{lo!r}, {hi!r}], i.e. crank_angle (mod 2 pi) in "
-            f"+-[{math.acos(hi)!r}, {math.acos(lo)!r}]", "rad",
+            f"+-[{math.acos(hi)!r}, {math.acos(lo)!r}]",
+            "rad",
             f"no assembly: the crank pin is {f!r} m from the rocker pivot, which must lie "
-            f"in [|coupler - rocker|, coupler + rocker] = [{low!r}, {high!r}] m")
+            f"in [|coupler - rocker|, coupler + rocker] = [{low!r}, {high!r}] m",
+        )
     if f <= tolerance:
         # only possible with coupler == rocker and crank == ground (deltoid): A sits on O4
         raise SingularConfiguration(
             f"crank pin on the rocker pivot at crank angle {t2!r} rad: coupler and rocker "
-            f"angles undefined")
+            f"angles undefined"
+        )
     toggle = min(to_high, to_low) <= tolerance
     # Norton's half-angle quadratics, multiplied through by 2ac (rocker, eqs 4.8-4.10) and
     # 2ab (coupler, eqs 4.11-4.13), which moves neither root. With u = d - a cos(t2) and
@@ -399,7 +451,9 @@ def _check_circuit(circuit: float | None) -> int:
     return int(circuit)
 
 
-def position(ground: float, crank: float, coupler: float, rocker: float, crank_angle: float, circuit: int) -> "Position":
+def position(
+    ground: float, crank: float, coupler: float, rocker: float, crank_angle: float, circuit: int
+) -> "Position":
     """Coupler and rocker angles (rad, in (-pi, pi]) at a crank angle (rad).
 
     Freudenstein's half-angle closed form (Norton eqs 4.8-4.13, coefficients multiplied by
@@ -424,7 +478,9 @@ def transmission_angle(coupler_angle: float, rocker_angle: float) -> float:
     return min(between, math.pi - between)
 
 
-def _rates(lengths: "FourBar", t2: float, t3: float, t4: float, w2: float, al2: float) -> tuple[float, float, float, float]:
+def _rates(
+    lengths: "FourBar", t2: float, t3: float, t4: float, w2: float, al2: float
+) -> tuple[float, float, float, float]:
     """(omega3, omega4, alpha3, alpha4) from the differentiated loop equation.
 
     Velocity (Norton 6.18): omega3 = a w2 sin(t4 - t2) / (b sin(t3 - t4)),
@@ -449,8 +505,16 @@ def _rates(lengths: "FourBar", t2: float, t3: float, t4: float, w2: float, al2: 
     return w3, w4, al3, al4
 
 
-def motion(ground: float, crank: float, coupler: float, rocker: float, circuit: float | None, crank_angle: float, crank_speed: float,
-           crank_acceleration: float) -> "FourBarMotion":
+def motion(
+    ground: float,
+    crank: float,
+    coupler: float,
+    rocker: float,
+    circuit: float | None,
+    crank_angle: float,
+    crank_speed: float,
+    crank_acceleration: float,
+) -> "FourBarMotion":
     """Coupler and rocker motion for a prescribed crank motion.
 
     Inputs: lengths in m, circuit 0 (open) or 1 (crossed), crank angle (rad), speed (rad/s)
@@ -470,8 +534,9 @@ def motion(ground: float, crank: float, coupler: float, rocker: float, circuit: 
     return checked_motion(lengths, circuit, t2, w2, al2)
 
 
-def checked_motion(lengths: "FourBar", circuit: int, t2: float, w2: float, al2: float
-                   ) -> "FourBarMotion":
+def checked_motion(
+    lengths: "FourBar", circuit: int, t2: float, w2: float, al2: float
+) -> "FourBarMotion":
     """``motion`` for lengths from check_four_bar (m), a circuit from CIRCUITS and finite
     crank angle (rad), speed (rad/s) and acceleration (rad/s^2): what an FMU that validated
     them once calls at every step."""
@@ -479,6 +544,7 @@ def checked_motion(lengths: "FourBar", circuit: int, t2: float, w2: float, al2: 
     if toggle:
         raise SingularConfiguration(
             f"{singular_position_kind(*lengths, t2)} at crank angle {t2!r} rad (coupler "
-            f"angle {t3!r} rad, rocker angle {t4!r} rad): angular velocities undefined")
+            f"angle {t3!r} rad, rocker angle {t4!r} rad): angular velocities undefined"
+        )
     w3, w4, al3, al4 = _rates(lengths, t2, t3, t4, w2, al2)
     return FourBarMotion(t3, t4, w3, w4, al3, al4, transmission_angle(t3, t4))

@@ -79,17 +79,20 @@ def bar_from_vertical(angle: float, geometry: "Geometry") -> float:
 
 def moment_arm(angle: Any, geometry: Any) -> Any:
     """Piston moment arm d h sin(theta) / x (m) at a gear angle."""
-    x = kinematics.piston_motion(angle, 0.0, 0.0, geometry.attachment_distance,
-                                 geometry.pivot_height).extension
+    x = kinematics.piston_motion(
+        angle, 0.0, 0.0, geometry.attachment_distance, geometry.pivot_height
+    ).extension
     return geometry.attachment_distance * geometry.pivot_height * math.sin(angle) / x
 
 
-def gravity_moment(angle: Any, body: Any, geometry: Any, gravity: float=STANDARD_GRAVITY) -> Any:
+def gravity_moment(angle: Any, body: Any, geometry: Any, gravity: float = STANDARD_GRAVITY) -> Any:
     """Moment of gravity about B (N m), positive towards retraction."""
     return -gravity_lever(body) * gravity * math.sin(bar_from_vertical(angle, geometry))
 
 
-def gravity_potential(angle: float, body: "Body", geometry: "Geometry", gravity: float=STANDARD_GRAVITY) -> float:
+def gravity_potential(
+    angle: float, body: "Body", geometry: "Geometry", gravity: float = STANDARD_GRAVITY
+) -> float:
     """Potential energy (J) relative to the bar hanging vertically: m g l_cg (1 - cos psi)."""
     return gravity_lever(body) * gravity * (1.0 - math.cos(bar_from_vertical(angle, geometry)))
 
@@ -102,8 +105,10 @@ def drag_moment(angle: Any, airspeed: Any, body: Any, geometry: Any, drag: Any) 
 
 def friction_moment(angular_velocity: Any, friction: Any) -> Any:
     """Pivot friction moment (N m): viscous plus Coulomb smoothed by tanh."""
-    return -(friction.viscous * angular_velocity
-             + friction.coulomb * math.tanh(angular_velocity / friction.smoothing_speed))
+    return -(
+        friction.viscous * angular_velocity
+        + friction.coulomb * math.tanh(angular_velocity / friction.smoothing_speed)
+    )
 
 
 def damping_ratio(restitution: float) -> float:
@@ -127,9 +132,11 @@ def stop_force(length: Any, speed: float, effective_mass: Any, stops: Any) -> An
 
 def make_body(bar_length: float, bar_mass: float, wheel_mass: float) -> "Body":
     """Validated Body: positive bar length and mass, non-negative wheel mass."""
-    return Body(require_positive("bar_length", bar_length, "m"),
-                require_positive("bar_mass", bar_mass, "kg"),
-                require_between("wheel_mass", wheel_mass, 0.0, math.inf, "kg"))
+    return Body(
+        require_positive("bar_length", bar_length, "m"),
+        require_positive("bar_mass", bar_mass, "kg"),
+        require_between("wheel_mass", wheel_mass, 0.0, math.inf, "kg"),
+    )
 
 
 def moment_terms(values: dict[str, float], body: "Body", geometry: "Geometry") -> list[Any]:
@@ -140,12 +147,15 @@ def moment_terms(values: dict[str, float], body: "Body", geometry: "Geometry") -
         terms.append(lambda angle, omega, airspeed: gravity_moment(angle, body, geometry, g))
     if values["aero_drag"]:
         drag = Drag(values["air_density"], values["drag_area"])
-        terms.append(lambda angle, omega, airspeed:
-                     drag_moment(angle, airspeed, body, geometry, drag))
+        terms.append(
+            lambda angle, omega, airspeed: drag_moment(angle, airspeed, body, geometry, drag)
+        )
     if values["pivot_friction"]:
-        friction = Friction(values["viscous_friction"], values["coulomb_friction"],
-                            require_positive("friction_speed", values["friction_speed"],
-                                             "rad/s"))
+        friction = Friction(
+            values["viscous_friction"],
+            values["coulomb_friction"],
+            require_positive("friction_speed", values["friction_speed"], "rad/s"),
+        )
         terms.append(lambda angle, omega, airspeed: friction_moment(omega, friction))
     return terms
 
@@ -165,11 +175,15 @@ class InverseDynamics:
         angle, omega, alpha = motion
         arm = v["piston_moment_arm"]
         external = sum(term(angle, omega, v["airspeed"]) for term in self.terms)
-        v["piston_force_required"] = (self.inertia * alpha - external) / arm if (
-            self.inertia or self.terms) else 0.0
+        v["piston_force_required"] = (
+            (self.inertia * alpha - external) / arm if (self.inertia or self.terms) else 0.0
+        )
         v["kinetic_energy"] = 0.5 * self.inertia * omega * omega
-        v["potential_energy"] = (gravity_potential(angle, self.body, self.geometry, self.gravity)
-                                 if self.gravity is not None else 0.0)
+        v["potential_energy"] = (
+            gravity_potential(angle, self.body, self.geometry, self.gravity)
+            if self.gravity is not None
+            else 0.0
+        )
 
 
 class Dynamics:
@@ -189,21 +203,42 @@ class Dynamics:
         if not low < high:
             raise MechanismError(f"stroke_min = {low!r} m must be below stroke_max = {high!r} m")
         self.stroke = (low, high)
-        self.stops = (Stops(low, high, require_positive("stop_stiffness",
-                                                        values["stop_stiffness"], "N/m"),
-                            damping_ratio(values["restitution"]))
-                      if values["end_stops"] else None)
-        self.actuator = (hydraulics.make_actuator(
-            values["supply_pressure"], values["return_pressure"], values["bore"],
-            values["rod_diameter"], values["bulk_modulus"], values["dead_volume"],
-            values["valve_rated_flow"], values["valve_rated_pressure_drop"],
-            values["max_flow"], low, high) if values["hydraulics"] else None)
-        self.initial = (require_finite("initial_angle", values["initial_angle"], "rad"),
-                        require_finite("initial_angular_velocity",
-                                       values["initial_angular_velocity"], "rad/s"),
-                        require_finite("initial_pressure", values["initial_pressure"], "Pa"))
-        self.events = [Event("stroke_max", lambda t, y: self.piston_length(y) - high, +1),
-                       Event("stroke_min", lambda t, y: self.piston_length(y) - low, -1)]
+        self.stops = (
+            Stops(
+                low,
+                high,
+                require_positive("stop_stiffness", values["stop_stiffness"], "N/m"),
+                damping_ratio(values["restitution"]),
+            )
+            if values["end_stops"]
+            else None
+        )
+        self.actuator = (
+            hydraulics.make_actuator(
+                values["supply_pressure"],
+                values["return_pressure"],
+                values["bore"],
+                values["rod_diameter"],
+                values["bulk_modulus"],
+                values["dead_volume"],
+                values["valve_rated_flow"],
+                values["valve_rated_pressure_drop"],
+                values["max_flow"],
+                low,
+                high,
+            )
+            if values["hydraulics"]
+            else None
+        )
+        self.initial = (
+            require_finite("initial_angle", values["initial_angle"], "rad"),
+            require_finite("initial_angular_velocity", values["initial_angular_velocity"], "rad/s"),
+            require_finite("initial_pressure", values["initial_pressure"], "Pa"),
+        )
+        self.events = [
+            Event("stroke_max", lambda t, y: self.piston_length(y) - high, +1),
+            Event("stroke_min", lambda t, y: self.piston_length(y) - low, -1),
+        ]
 
     def initial_state(self) -> list[float]:
         angle, omega, pressure = self.initial
@@ -214,8 +249,9 @@ class Dynamics:
 
     def piston_length(self, y: list[float]) -> float:
         """Piston length (m) at state y."""
-        return kinematics.piston_motion(y[0], 0.0, 0.0, self.geometry.attachment_distance,
-                                        self.geometry.pivot_height).extension
+        return kinematics.piston_motion(
+            y[0], 0.0, 0.0, self.geometry.attachment_distance, self.geometry.pivot_height
+        ).extension
 
     def piston_kinematics(self, y: list[float]) -> tuple[float, float, float]:
         """Piston length (m), rate (m/s) and moment arm (m) at state y."""
@@ -239,11 +275,19 @@ class Dynamics:
         alpha = moment / self.inertia
         rates = [y[1], alpha, force * rate]
         if self.actuator:
-            rates += hydraulics.pressure_rates(v["valve_command"], y[3], y[4], length, rate,
-                                               self.actuator)
+            rates += hydraulics.pressure_rates(
+                v["valve_command"], y[3], y[4], length, rate, self.actuator
+            )
         return rates, alpha, force
 
-    def advance(self, integrator: DormandPrince45, t: float, y: list[float], t_end: float, v: dict[str, float]) -> tuple[list[float], list[Any]]:
+    def advance(
+        self,
+        integrator: DormandPrince45,
+        t: float,
+        y: list[float],
+        t_end: float,
+        v: dict[str, float],
+    ) -> tuple[list[float], list[Any]]:
         """Integrate from t to t_end (s) with the inputs in ``v`` held; return the state at
         t_end and the stroke limits crossed on the way, as (event name, t, piston length)."""
         for name in ("piston_force", "valve_command", "airspeed"):
@@ -253,21 +297,36 @@ class Dynamics:
         def record(event: Any, time: float, state: Any):
             crossings.append((event.name, time, self.piston_length(state)))
             return state
-        y = advance_through_events(integrator, lambda time, state: self.derivatives(state, v)[0],
-                                   t, y, t_end, self.events, record)
+
+        y = advance_through_events(
+            integrator,
+            lambda time, state: self.derivatives(state, v)[0],
+            t,
+            y,
+            t_end,
+            self.events,
+            record,
+        )
         return y, crossings
 
     def publish(self, v: dict[str, float], time: float, y: list[float]) -> None:
         """The drive's outputs at state y into the values ``v``."""
         length, rate, arm = self.piston_kinematics(y)
         rates, alpha, force = self.derivatives(y, v)
-        v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = y[0], y[1], alpha
+        v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = (
+            y[0],
+            y[1],
+            alpha,
+        )
         v["piston_moment_arm"], v["piston_length"], v["piston_rate"] = arm, length, rate
         v["wheel_speed"] = v["bar_length"] * y[1]
         v["piston_force_applied"] = force
         v["piston_work"] = y[2]
         v["kinetic_energy"] = 0.5 * self.inertia * y[1] * y[1]
-        v["potential_energy"] = (gravity_potential(y[0], self.body, self.geometry, self.gravity)
-                                 if self.gravity is not None else 0.0)
+        v["potential_energy"] = (
+            gravity_potential(y[0], self.body, self.geometry, self.gravity)
+            if self.gravity is not None
+            else 0.0
+        )
         if self.actuator:
             v["cap_pressure"], v["rod_pressure"] = y[3], y[4]

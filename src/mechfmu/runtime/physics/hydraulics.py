@@ -31,13 +31,27 @@ DEFAULT_RATED_PRESSURE_DROP = 7.0e6  # ... at this pressure drop (Pa)
 DEFAULT_MAX_FLOW = 5.0e-5  # restrictor: 3 L/min, about 0.1 m/s of cap-side piston speed
 LAMINAR_PRESSURE = 1.0e4  # Pa, width of the laminar region around zero pressure drop
 
-Actuator = namedtuple("Actuator", "supply_pressure return_pressure cap_area rod_area "
-                      "bulk_modulus dead_volume flow_coefficient max_flow min_length max_length")
+Actuator = namedtuple(
+    "Actuator",
+    "supply_pressure return_pressure cap_area rod_area "
+    "bulk_modulus dead_volume flow_coefficient max_flow min_length max_length",
+)
 Flows = namedtuple("Flows", "cap rod")
 
 
-def make_actuator(supply_pressure: float, return_pressure: float, bore: float, rod: float, bulk_modulus: float, dead_volume: float,
-                  rated_flow: float, rated_pressure_drop: float, max_flow: float, min_length: float, max_length: float) -> "Actuator":
+def make_actuator(
+    supply_pressure: float,
+    return_pressure: float,
+    bore: float,
+    rod: float,
+    bulk_modulus: float,
+    dead_volume: float,
+    rated_flow: float,
+    rated_pressure_drop: float,
+    max_flow: float,
+    min_length: float,
+    max_length: float,
+) -> "Actuator":
     """Validated Actuator; areas from bore and rod diameters (m); the valve's orifice
     coefficient from its rated flow (m^3/s) at a rated pressure drop (Pa)."""
     supply = require_positive("supply_pressure", supply_pressure, "Pa")
@@ -45,16 +59,27 @@ def make_actuator(supply_pressure: float, return_pressure: float, bore: float, r
     bore = require_positive("bore", bore, "m")
     rod = require_between("rod_diameter", rod, 0.0, bore, "m", low_open=True, high_open=True)
     if not min_length < max_length:
-        raise RangeError("max_length", max_length, f"({min_length!r}, inf)", "m",
-                         "the stroke must have positive length")
+        raise RangeError(
+            "max_length",
+            max_length,
+            f"({min_length!r}, inf)",
+            "m",
+            "the stroke must have positive length",
+        )
     cap_area = math.pi * bore * bore / 4.0
-    return Actuator(supply, back, cap_area, cap_area - math.pi * rod * rod / 4.0,
-                    require_positive("bulk_modulus", bulk_modulus, "Pa"),
-                    require_positive("dead_volume", dead_volume, "m^3"),
-                    require_positive("valve_rated_flow", rated_flow, "m^3/s")
-                    / math.sqrt(require_positive("valve_rated_pressure_drop",
-                                                 rated_pressure_drop, "Pa")),
-                    require_positive("max_flow", max_flow, "m^3/s"), min_length, max_length)
+    return Actuator(
+        supply,
+        back,
+        cap_area,
+        cap_area - math.pi * rod * rod / 4.0,
+        require_positive("bulk_modulus", bulk_modulus, "Pa"),
+        require_positive("dead_volume", dead_volume, "m^3"),
+        require_positive("valve_rated_flow", rated_flow, "m^3/s")
+        / math.sqrt(require_positive("valve_rated_pressure_drop", rated_pressure_drop, "Pa")),
+        require_positive("max_flow", max_flow, "m^3/s"),
+        min_length,
+        max_length,
+    )
 
 
 def orifice(pressure_drop: float, coefficient: float) -> float:
@@ -67,7 +92,9 @@ def limited(flow: float, max_flow: float) -> float:
     return max_flow * math.tanh(flow / max_flow)
 
 
-def valve_flows(command: float, cap_pressure: float, rod_pressure: float, actuator: "Actuator") -> "Flows":
+def valve_flows(
+    command: float, cap_pressure: float, rod_pressure: float, actuator: "Actuator"
+) -> "Flows":
     """Flows into the cap side and out of the rod side (m^3/s) for a valve command."""
     u = max(-1.0, min(1.0, command))
     a = actuator
@@ -80,20 +107,25 @@ def valve_flows(command: float, cap_pressure: float, rod_pressure: float, actuat
     return Flows(limited(into_cap, a.max_flow), limited(out_of_rod, a.max_flow))
 
 
-def pressure_rates(command: Any, cap_pressure: Any, rod_pressure: Any, length: Any, speed: float, actuator: Any) -> Any:
+def pressure_rates(
+    command: Any, cap_pressure: Any, rod_pressure: Any, length: Any, speed: float, actuator: Any
+) -> Any:
     """(dp1/dt, dp2/dt) in Pa/s at piston length (m) and speed (m/s)."""
     a = actuator
     flows = valve_flows(command, cap_pressure, rod_pressure, a)
     cap_volume = a.dead_volume + a.cap_area * (length - a.min_length)
     rod_volume = a.dead_volume + a.rod_area * (a.max_length - length)
     if cap_volume <= 0.0 or rod_volume <= 0.0:
-        raise MechanismError(f"piston length {length!r} m empties a chamber "
-                             f"(stroke [{a.min_length!r}, {a.max_length!r}] m plus dead volume)")
-    return (a.bulk_modulus / cap_volume * (flows.cap - a.cap_area * speed),
-            a.bulk_modulus / rod_volume * (a.rod_area * speed - flows.rod))
+        raise MechanismError(
+            f"piston length {length!r} m empties a chamber "
+            f"(stroke [{a.min_length!r}, {a.max_length!r}] m plus dead volume)"
+        )
+    return (
+        a.bulk_modulus / cap_volume * (flows.cap - a.cap_area * speed),
+        a.bulk_modulus / rod_volume * (a.rod_area * speed - flows.rod),
+    )
 
 
 def piston_force(cap_pressure: float, rod_pressure: float, actuator: "Actuator") -> float:
     """Force along the piston, positive extending (N)."""
     return cap_pressure * actuator.cap_area - rod_pressure * actuator.rod_area
-

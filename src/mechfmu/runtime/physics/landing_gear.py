@@ -42,8 +42,9 @@ def design_geometry(retracted_length: float, extended_length: float) -> "Geometr
     x_r = require_positive("retracted_length", retracted_length, "m")
     x_e = require_positive("extended_length", extended_length, "m")
     if x_e <= x_r:
-        raise RangeError("extended_length", x_e, f"({x_r!r}, inf)", "m",
-                         "must exceed the retracted length")
+        raise RangeError(
+            "extended_length", x_e, f"({x_r!r}, inf)", "m", "must exceed the retracted length"
+        )
     # Positive root written without cancellation: -b/2 + sqrt(b^2/4 - c) = -c / (b/2 + sqrt(.))
     half_b = 0.5 * x_r
     c = 0.5 * (x_r * x_r - x_e * x_e)
@@ -59,8 +60,13 @@ def check_geometry(attachment_distance: float, pivot_height: float) -> tuple[flo
     d = require_positive("attachment_distance", attachment_distance, "m")
     h = require_positive("pivot_height", pivot_height, "m")
     if d == h:
-        raise RangeError("attachment_distance", d, f"(0, inf) except {h!r}", "m",
-                         "equal to pivot_height makes |h - d| = 0, a degenerate linkage")
+        raise RangeError(
+            "attachment_distance",
+            d,
+            f"(0, inf) except {h!r}",
+            "m",
+            "equal to pivot_height makes |h - d| = 0, a degenerate linkage",
+        )
     return d, h
 
 
@@ -80,8 +86,13 @@ def _sine_and_cosine_terms(piston_extension: float, d: float, h: float) -> tuple
     x = piston_extension
     low, high = assembly_range(d, h)
     if not (low <= x <= high):
-        raise RangeError("piston_extension", x, f"[{low!r}, {high!r}]", "m",
-                         "outside the assembly range [|h - d|, h + d]")
+        raise RangeError(
+            "piston_extension",
+            x,
+            f"[{low!r}, {high!r}]",
+            "m",
+            "outside the assembly range [|h - d|, h + d]",
+        )
     # h + d and |h - d| are rounded; their rounding errors (exact, by TwoSum) are added
     # back so the distances to the dead centres keep full relative accuracy.
     high_error = _two_sum_error(h, d, high)
@@ -102,8 +113,13 @@ def _two_sum_error(a: float, b: float, rounded: float) -> float:
     return (a - a_virtual) + (b - b_virtual)
 
 
-def gear_motion(piston_extension: float, piston_speed: float, piston_acceleration: float,
-                attachment_distance: float, pivot_height: float) -> "GearMotion":
+def gear_motion(
+    piston_extension: float,
+    piston_speed: float,
+    piston_acceleration: float,
+    attachment_distance: float,
+    pivot_height: float,
+) -> "GearMotion":
     """Gear angle, angular velocity and acceleration for a prescribed piston motion.
 
     theta = angle at B with cos(theta) = (h^2 + d^2 - x^2) / (2 d h),
@@ -123,7 +139,8 @@ def gear_motion(piston_extension: float, piston_speed: float, piston_acceleratio
     if two_dh_sin == 0.0:
         raise SingularConfiguration(
             f"piston_extension = {x!r} m is at a dead centre (sin(gear_angle) = 0, "
-            f"x = {'h + d' if x > abs(h - d) else '|h - d|'}): angular velocity undefined")
+            f"x = {'h + d' if x > abs(h - d) else '|h - d|'}): angular velocity undefined"
+        )
     dh_sin = 0.5 * two_dh_sin
     dh_cos = 0.5 * two_dh_cos
     omega = x * speed / dh_sin
@@ -131,8 +148,13 @@ def gear_motion(piston_extension: float, piston_speed: float, piston_acceleratio
     return GearMotion(angle, omega, alpha)
 
 
-def piston_motion(gear_angle: float, gear_angular_velocity: float, gear_angular_acceleration: float,
-                  attachment_distance: float, pivot_height: float) -> "PistonMotion":
+def piston_motion(
+    gear_angle: float,
+    gear_angular_velocity: float,
+    gear_angular_acceleration: float,
+    attachment_distance: float,
+    pivot_height: float,
+) -> "PistonMotion":
     """Piston length, speed and acceleration for a prescribed gear angle motion.
 
     x = sqrt(h^2 + d^2 - 2 d h cos theta), xdot = d h sin(theta) omega / x,
@@ -155,7 +177,9 @@ def piston_motion(gear_angle: float, gear_angular_velocity: float, gear_angular_
     return PistonMotion(x, speed, accel)
 
 
-def piston_moment_arm(piston_extension: float, attachment_distance: float, pivot_height: float) -> float:
+def piston_moment_arm(
+    piston_extension: float, attachment_distance: float, pivot_height: float
+) -> float:
     """Moment arm of the piston force about B: d h sin(theta) / x (m)."""
     two_dh_sin, _ = _sine_and_cosine_terms(piston_extension, attachment_distance, pivot_height)
     if piston_extension == 0.0:

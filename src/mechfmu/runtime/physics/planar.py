@@ -36,7 +36,7 @@ from typing import Any
 GROUND = None
 X, Y, PHI = 0, 1, 2  # coordinate offsets within a body's triple
 
-DEFAULT_TOLERANCE = 1e-12          # scaled residual: lengths / length_scale, angles in rad
+DEFAULT_TOLERANCE = 1e-12  # scaled residual: lengths / length_scale, angles in rad
 DEFAULT_MAX_ITERATIONS = 25
 DEFAULT_SINGULARITY_THRESHOLD = 1e8
 MAX_CONTINUATION_HALVINGS = 10
@@ -95,13 +95,21 @@ class _Frames:
 # Each joint has ``equations`` rows, ``kinds`` ("length" or "angle" per row, for scaling) and
 # fills its rows of Phi, Phi_q, -Phi_t (velocity right-hand side) and gamma.
 
+
 class Revolute:
     """Point ``point_i`` of body i coincides with point ``point_j`` of body j (2 equations)."""
 
     equations = 2
     kinds = ("length", "length")
 
-    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float]) -> None:
+    def __init__(
+        self,
+        name: str,
+        body_i: int,
+        point_i: tuple[float, float],
+        body_j: int | None,
+        point_j: tuple[float, float],
+    ) -> None:
         self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
         self.body_j, self.point_j = body_j, tuple(point_j)
 
@@ -110,8 +118,10 @@ class Revolute:
         return [p[0] - r[0], p[1] - r[1]]
 
     def jacobian(self, f: _Frames, rows: list[list[float]]) -> None:
-        for body, local, sign in ((self.body_i, self.point_i, 1.0),
-                                  (self.body_j, self.point_j, -1.0)):
+        for body, local, sign in (
+            (self.body_i, self.point_i, 1.0),
+            (self.body_j, self.point_j, -1.0),
+        ):
             if body is GROUND:
                 continue
             d = _perp(f.rotate(body, local))
@@ -139,7 +149,15 @@ class PointOnLine:
     equations = 1
     kinds = ("length",)
 
-    def __init__(self, name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[float, float]) -> None:
+    def __init__(
+        self,
+        name: str,
+        body_i: int,
+        point_i: tuple[float, float],
+        body_j: int | None,
+        point_j: tuple[float, float],
+        direction_j: tuple[float, float],
+    ) -> None:
         norm = math.hypot(*direction_j)
         if not norm > 0.0:
             raise ValueError(f"{name}: direction must be non-zero")
@@ -178,10 +196,14 @@ class PointOnLine:
         a_i, a_j = f.rotate(self.body_i, self.point_i), f.rotate(self.body_j, self.point_j)
         w_i, w_j = f.angular_velocity(self.body_i), f.angular_velocity(self.body_j)
         v_i, v_j = f.velocity(self.body_i), f.velocity(self.body_j)
-        ddot = (v_i[0] + _perp(a_i)[0] * w_i - v_j[0] - _perp(a_j)[0] * w_j,
-                v_i[1] + _perp(a_i)[1] * w_i - v_j[1] - _perp(a_j)[1] * w_j)
-        centripetal = (a_i[0] * w_i * w_i - a_j[0] * w_j * w_j,
-                       a_i[1] * w_i * w_i - a_j[1] * w_j * w_j)
+        ddot = (
+            v_i[0] + _perp(a_i)[0] * w_i - v_j[0] - _perp(a_j)[0] * w_j,
+            v_i[1] + _perp(a_i)[1] * w_i - v_j[1] - _perp(a_j)[1] * w_j,
+        )
+        centripetal = (
+            a_i[0] * w_i * w_i - a_j[0] * w_j * w_j,
+            a_i[1] * w_i * w_i - a_j[1] * w_j * w_j,
+        )
         return [_dot(n, d) * w_j * w_j - 2.0 * w_j * _dot(_perp(n), ddot) + _dot(n, centripetal)]
 
 
@@ -191,7 +213,7 @@ class RelativeAngle:
     equations = 1
     kinds = ("angle",)
 
-    def __init__(self, name: str, body_i: int, body_j: int | None, angle: float=0.0) -> None:
+    def __init__(self, name: str, body_i: int, body_j: int | None, angle: float = 0.0) -> None:
         self.name, self.body_i, self.body_j, self.angle = name, body_i, body_j, float(angle)
 
     def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
@@ -210,10 +232,20 @@ class RelativeAngle:
         return [0.0]
 
 
-def translational(name: str, body_i: int, point_i: tuple[float, float], body_j: int | None, point_j: tuple[float, float], direction_j: tuple[float, float], angle: float=0.0) -> tuple[PointOnLine, RelativeAngle]:
+def translational(
+    name: str,
+    body_i: int,
+    point_i: tuple[float, float],
+    body_j: int | None,
+    point_j: tuple[float, float],
+    direction_j: tuple[float, float],
+    angle: float = 0.0,
+) -> tuple[PointOnLine, RelativeAngle]:
     """A prismatic joint: point-on-line plus a locked relative angle (2 equations)."""
-    return (PointOnLine(name + " (line)", body_i, point_i, body_j, point_j, direction_j),
-            RelativeAngle(name + " (angle)", body_i, body_j, angle))
+    return (
+        PointOnLine(name + " (line)", body_i, point_i, body_j, point_j, direction_j),
+        RelativeAngle(name + " (angle)", body_i, body_j, angle),
+    )
 
 
 class Driver:
@@ -225,7 +257,14 @@ class Driver:
 
     equations = 1
 
-    def __init__(self, name: str, terms: tuple[tuple[int, int, float], ...], index: int=0, offset: float=0.0, kind: str="angle") -> None:
+    def __init__(
+        self,
+        name: str,
+        terms: tuple[tuple[int, int, float], ...],
+        index: int = 0,
+        offset: float = 0.0,
+        kind: str = "angle",
+    ) -> None:
         self.name, self.terms, self.index = name, tuple(terms), index
         self.offset, self.kinds = float(offset), (kind,)
 
@@ -266,22 +305,32 @@ class Mechanism:
     range where the mechanism does not assemble), or None (see crossing_error).
     """
 
-    def __init__(self, name: str, bodies: tuple, joints: list[Any], length_scale: float, diagnose: Callable | None=None, singularity: Callable | None=None,
-                 crossing: Callable | None=None) -> None:
+    def __init__(
+        self,
+        name: str,
+        bodies: tuple,
+        joints: list[Any],
+        length_scale: float,
+        diagnose: Callable | None = None,
+        singularity: Callable | None = None,
+        crossing: Callable | None = None,
+    ) -> None:
         self.name, self.bodies = name, tuple(bodies)
-        self.joints = tuple(j for joint in joints
-                            for j in (joint if isinstance(joint, tuple) else (joint,)))
+        self.joints = tuple(
+            j for joint in joints for j in (joint if isinstance(joint, tuple) else (joint,))
+        )
         self.size = 3 * len(self.bodies)
         rows = sum(j.equations for j in self.joints)
         if rows != self.size:
-            raise ValueError(f"{name}: {rows} constraint equations for {self.size} coordinates "
-                             f"({len(self.bodies)} bodies); a kinematically driven mechanism "
-                             f"needs as many equations as coordinates")
+            raise ValueError(
+                f"{name}: {rows} constraint equations for {self.size} coordinates "
+                f"({len(self.bodies)} bodies); a kinematically driven mechanism "
+                f"needs as many equations as coordinates"
+            )
         self.length_scale = float(length_scale)
         kinds = [kind for j in self.joints for kind in j.kinds]
         self.row_scale = [1.0 / self.length_scale if k == "length" else 1.0 for k in kinds]
-        self.column_scale = [self.length_scale if c % 3 == PHI else 1.0
-                             for c in range(self.size)]
+        self.column_scale = [self.length_scale if c % 3 == PHI else 1.0 for c in range(self.size)]
         self.diagnose = diagnose or (lambda q: "q = [" + ", ".join(f"{v:.6g}" for v in q) + "]")
         self.singularity = singularity or (lambda q: "constraint Jacobian rank loss")
         self.crossing = crossing or (lambda start, end: None)
@@ -304,14 +353,18 @@ class Mechanism:
             rows = [[0.0] * self.size for _ in range(joint.equations)]
             joint.jacobian(f, rows)
             matrix.extend(rows)
-        return [[v * r * c for v, c in zip(row, self.column_scale)]
-                for row, r in zip(matrix, self.row_scale)]
+        return [
+            [v * r * c for v, c in zip(row, self.column_scale)]
+            for row, r in zip(matrix, self.row_scale)
+        ]
 
     def velocity_rhs(self, drive: Sequence[tuple[float, ...]]) -> list[float]:
         values = [v for j in self.joints for v in j.velocity_rhs(drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
 
-    def gamma(self, q: list[float], qdot: list[float], drive: Sequence[tuple[float, ...]]) -> list[float]:
+    def gamma(
+        self, q: list[float], qdot: list[float], drive: Sequence[tuple[float, ...]]
+    ) -> list[float]:
         f = _Frames(q, qdot)
         values = [v for j in self.joints for v in j.gamma(f, drive)]
         return [v * s for v, s in zip(values, self.row_scale)]
@@ -333,8 +386,13 @@ def _factor(mechanism: Mechanism, q: list[float]) -> tuple[list[list[float]], An
         return matrix, None
 
 
-def solve_position(mechanism: Mechanism, guess: list[float], drive: Sequence[tuple[float, ...]], tolerance: float=DEFAULT_TOLERANCE,
-                   max_iterations: int=DEFAULT_MAX_ITERATIONS) -> tuple[list[float], int, float]:
+def solve_position(
+    mechanism: Mechanism,
+    guess: list[float],
+    drive: Sequence[tuple[float, ...]],
+    tolerance: float = DEFAULT_TOLERANCE,
+    max_iterations: int = DEFAULT_MAX_ITERATIONS,
+) -> tuple[list[float], int, float]:
     """Newton-Raphson on Phi(q) = 0 from ``guess``. Returns (q, iterations, residual).
 
     Stops when the scaled residual is below ``tolerance`` after at least one correction and
@@ -352,7 +410,8 @@ def solve_position(mechanism: Mechanism, guess: list[float], drive: Sequence[tup
         if factored is None:
             raise SingularConfiguration(
                 f"{mechanism.name}: singular constraint Jacobian during Newton iteration "
-                f"{iteration}, {mechanism.singular_position(q)}")
+                f"{iteration}, {mechanism.singular_position(q)}"
+            )
         step = mechanism.unscale(lu_solve(factored, residual))
         q = [a - b for a, b in zip(q, step)]
         residual = mechanism.residual(q, drive)
@@ -383,14 +442,21 @@ def solve_position(mechanism: Mechanism, guess: list[float], drive: Sequence[tup
             f"Newton-Raphson converges only linearly here (residual {size:.3g} below the "
             f"tolerance, but the corrections still {small:.3g} after {max_iterations} "
             f"iterations; constraint Jacobian condition number {condition:.3g}): the drive "
-            f"is at a singular position, where velocities are unbounded")
+            f"is at a singular position, where velocities are unbounded"
+        )
     raise NoConvergence(
         f"{mechanism.name}: Newton-Raphson did not converge in {max_iterations} iterations "
         f"(scaled residual {_max_abs(residual):.3g} > tolerance {tolerance:.3g}) "
-        f"near {mechanism.diagnose(q)}")
+        f"near {mechanism.diagnose(q)}"
+    )
 
 
-def analyse(mechanism: Mechanism, q: list[float], drive: Sequence[tuple[float, ...]], singularity_threshold: float=DEFAULT_SINGULARITY_THRESHOLD) -> tuple[list[float], list[float], float, int]:
+def analyse(
+    mechanism: Mechanism,
+    q: list[float],
+    drive: Sequence[tuple[float, ...]],
+    singularity_threshold: float = DEFAULT_SINGULARITY_THRESHOLD,
+) -> tuple[list[float], list[float], float, int]:
     """Velocities and accelerations at a solved position q; returns (qdot, qddot, condition,
     determinant sign). Raises SingularConfiguration when the scaled Jacobian's condition
     number exceeds ``singularity_threshold``."""
@@ -401,13 +467,16 @@ def analyse(mechanism: Mechanism, q: list[float], drive: Sequence[tuple[float, .
             f"{mechanism.name}: singular position, {mechanism.singular_position(q)} "
             f"(constraint Jacobian condition number {condition:.3g} > "
             f"{singularity_threshold:.3g}); velocities are unbounded here and the next "
-            f"position may lie on either branch")
+            f"position may lie on either branch"
+        )
     qdot = mechanism.unscale(lu_solve(factored, mechanism.velocity_rhs(drive)))
     qddot = mechanism.unscale(lu_solve(factored, mechanism.gamma(q, qdot, drive)))
     return qdot, qddot, condition, determinant_sign(factored)
 
 
-def crossing_error(mechanism: Mechanism, start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]]) -> "SingularConfiguration | None":
+def crossing_error(
+    mechanism: Mechanism, start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]]
+) -> "SingularConfiguration | None":
     """SingularConfiguration for a drive change from ``start`` to ``end`` (lists of (value,
     rate, acceleration)) that passes a singular position the mechanism cannot be followed
     through (``mechanism.crossing``), or None. One message for the solver and for a
@@ -418,7 +487,8 @@ def crossing_error(mechanism: Mechanism, start: Sequence[tuple[float, ...]], end
     position, consequence = passed
     return SingularConfiguration(
         f"{mechanism.name}: the drive passes through a singular position, {position}, "
-        f"between {[d[0] for d in start]} and {[d[0] for d in end]}: {consequence}")
+        f"between {[d[0] for d in start]} and {[d[0] for d in end]}: {consequence}"
+    )
 
 
 class BranchFollower:
@@ -431,9 +501,13 @@ class BranchFollower:
     it reports an error. The last solution and drive are the state (``snapshot``/``restore``).
     """
 
-    def __init__(self, mechanism: Mechanism, tolerance: float=DEFAULT_TOLERANCE,
-                 max_iterations: int=DEFAULT_MAX_ITERATIONS,
-                 singularity_threshold: float=DEFAULT_SINGULARITY_THRESHOLD) -> None:
+    def __init__(
+        self,
+        mechanism: Mechanism,
+        tolerance: float = DEFAULT_TOLERANCE,
+        max_iterations: int = DEFAULT_MAX_ITERATIONS,
+        singularity_threshold: float = DEFAULT_SINGULARITY_THRESHOLD,
+    ) -> None:
         self.mechanism = mechanism
         self.tolerance, self.max_iterations = tolerance, max_iterations
         self.singularity_threshold = singularity_threshold
@@ -462,9 +536,15 @@ class BranchFollower:
     def snapshot(self) -> dict[str, Any]:
         """The branch state. Solutions and drives are never changed in place, so the
         snapshot shares them (JSON writes the tuples as arrays)."""
-        return {"solution": self.solution, "drive": self.drive, "sign": self.sign,
-                "order": self.order, "column": self.column, "history": self.history,
-                "factored_at": self.factored_at}
+        return {
+            "solution": self.solution,
+            "drive": self.drive,
+            "sign": self.sign,
+            "order": self.order,
+            "column": self.column,
+            "history": self.history,
+            "factored_at": self.factored_at,
+        }
 
     def restore(self, state: Any) -> None:
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
@@ -476,11 +556,13 @@ class BranchFollower:
         self.factored_at = state.get("factored_at")
         self.factored = None  # worked out again from factored_at and order when needed
 
-    def _solve(self, guess: list[float], drive: Sequence[tuple[float, ...]]) -> tuple[Solution, int]:
-        q, iterations, residual = solve_position(self.mechanism, guess, drive, self.tolerance,
-                                                 self.max_iterations)
-        qdot, qddot, condition, sign = analyse(self.mechanism, q, drive,
-                                               self.singularity_threshold)
+    def _solve(
+        self, guess: list[float], drive: Sequence[tuple[float, ...]]
+    ) -> tuple[Solution, int]:
+        q, iterations, residual = solve_position(
+            self.mechanism, guess, drive, self.tolerance, self.max_iterations
+        )
+        qdot, qddot, condition, sign = analyse(self.mechanism, q, drive, self.singularity_threshold)
         return Solution(q, qdot, qddot, iterations, residual, condition), sign
 
     def assemble(self, guess: list[float], drive: Sequence[tuple[float, ...]]) -> "Solution":
@@ -531,8 +613,9 @@ class BranchFollower:
         self.solution, self.drive = solution, drive
         return solution
 
-    def _lu(self, kernel: "planar_kernel.MechanismKernel", values: Sequence[float]
-            ) -> "tuple[planar_kernel.LuKernel, planar_kernel.Factors] | None":
+    def _lu(
+        self, kernel: "planar_kernel.MechanismKernel", values: Sequence[float]
+    ) -> "tuple[planar_kernel.LuKernel, planar_kernel.Factors] | None":
         """The LU kernel and factors of the scaled Jacobian ``values`` (non-zeros): in the
         row order of the last step while its pivots stay within a factor 2 of their
         columns' largest, else in partial pivoting's order here. None if singular."""
@@ -554,28 +637,34 @@ class BranchFollower:
         self.order, self.lu_kernel = lu.order, lu
         return lu, factors
 
-    def _fast_guess(self, kernel: "planar_kernel.MechanismKernel", last: Solution, dt: float
-                    ) -> list[float]:
+    def _fast_guess(
+        self, kernel: "planar_kernel.MechanismKernel", last: Solution, dt: float
+    ) -> list[float]:
         """Predictor q + q' dt + q'' dt^2/2 + j dt^3/6 + s dt^4/24, the jerk j and snap s
         from the rates at the last two solutions (Taylor's expansion of q' and q'' back over
         the last step h: a(-h) - a = -j h + s h^2/2, v(-h) - v + a h = j h^2/2 - s h^3/6).
         Without history: the generic path's q + q' dt + q'' dt^2/2. ``last``: the last
         solution."""
         if self.history is None or not dt > 0.0:
-            return [q + v * dt + 0.5 * a * dt * dt
-                    for q, v, a in zip(last.q, last.qdot, last.qddot)]
+            return [
+                q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)
+            ]
         v_before, a_before, h = self.history
         # With da = a(-h) - a and db = v(-h) - v + a h: j = (6 db + 2 da h)/h^2 and
         # s = 6 da/h^2 + 12 db/h^3, so the guess is linear in q, v, a, v(-h) and a(-h).
-        c3, c4 = dt ** 3 / 6.0, dt ** 4 / 24.0
-        ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)          # coefficient of da
-        kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h ** 3    # coefficient of db
+        c3, c4 = dt**3 / 6.0, dt**4 / 24.0
+        ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)  # coefficient of da
+        kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h**3  # coefficient of db
         cv, ca = dt - kb, 0.5 * dt * dt - ka + kb * h
-        return kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before,
-                                   cv, ca, ka, kb)
+        return kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before, cv, ca, ka, kb)
 
-    def _fast_solve(self, kernel: "planar_kernel.MechanismKernel", previous: Solution,
-                    guess: list[float], drive: Sequence[tuple[float, ...]]) -> Solution | None:
+    def _fast_solve(
+        self,
+        kernel: "planar_kernel.MechanismKernel",
+        previous: Solution,
+        guess: list[float],
+        drive: Sequence[tuple[float, ...]],
+    ) -> Solution | None:
         """solve_position and analyse on the compiled kernels, for the regular case.
 
         The first corrections reuse the factors of Phi_q at the last solution (the chord
@@ -647,7 +736,8 @@ class BranchFollower:
         if lu.sign(factors) != self.sign:
             return None
         inverse_norm, column = self.kernel_module.inverse_one_norm(
-            lu, factors, kernel.size, self.column)
+            lu, factors, kernel.size, self.column
+        )
         condition = kernel.one_norm(values) * inverse_norm
         if not condition <= self.singularity_threshold:
             return None
@@ -673,13 +763,15 @@ class BranchFollower:
         last_error: SingularConfiguration | NoConvergence | None = None
         furthest = (0.0, self.solution)  # furthest fraction of the change reached, and where
         for halvings in range(1, MAX_CONTINUATION_HALVINGS + 1):
-            pieces = 2 ** halvings
+            pieces = 2**halvings
             q, sign, iterations = list(self.solution.q), self.sign, 0
             try:
                 for k in range(1, pieces + 1):
                     s = k / pieces
-                    target = [tuple(a + s * (b - a) for a, b in zip(d0, d1))
-                              for d0, d1 in zip(start, drive)]
+                    target = [
+                        tuple(a + s * (b - a) for a, b in zip(d0, d1))
+                        for d0, d1 in zip(start, drive)
+                    ]
                     guess = self._tangent_predictor(q, start, drive, 1.0 / pieces)
                     solution, new_sign = self._solve(guess, target)
                     if new_sign != sign:
@@ -688,7 +780,8 @@ class BranchFollower:
                             f"between {self.mechanism.diagnose(q)} and "
                             f"{self.mechanism.diagnose(solution.q)} (det of the constraint "
                             f"Jacobian changed sign): the motion passes through a singular "
-                            f"position, {self.mechanism.singular_position(solution.q)}")
+                            f"position, {self.mechanism.singular_position(solution.q)}"
+                        )
                     q, iterations = solution.q, iterations + solution.iterations
                     if s > furthest[0]:
                         furthest = (s, solution)
@@ -699,8 +792,9 @@ class BranchFollower:
                 last_error = error
         reached, solution = furthest
         if isinstance(last_error, NoConvergence) and (
-                solution.condition > 10.0 * self.solution.condition
-                or solution.condition > math.sqrt(self.singularity_threshold)):
+            solution.condition > 10.0 * self.solution.condition
+            or solution.condition > math.sqrt(self.singularity_threshold)
+        ):
             # The Jacobian degrades along the way (or the last position was already next to
             # a singular one: a toggle approached closely, where no piece gets further) and
             # Newton fails beyond: the drive asks for a position past a singular one, where
@@ -710,11 +804,18 @@ class BranchFollower:
                 f"{[d[0] for d in drive]}: the motion reaches a singular position, "
                 f"{self.mechanism.singular_position(solution.q)} (condition number "
                 f"{solution.condition:.3g}, {reached:.4g} of the way from the last step), and "
-                f"Newton-Raphson finds no position beyond it") from last_error
+                f"Newton-Raphson finds no position beyond it"
+            ) from last_error
         assert last_error is not None  # every halving raised one
         raise last_error
 
-    def _tangent_predictor(self, q: list[float], start: Sequence[tuple[float, ...]], end: Sequence[tuple[float, ...]], fraction: float) -> list[float]:
+    def _tangent_predictor(
+        self,
+        q: list[float],
+        start: Sequence[tuple[float, ...]],
+        end: Sequence[tuple[float, ...]],
+        fraction: float,
+    ) -> list[float]:
         mechanism = self.mechanism
         _, factored = _factor(mechanism, q)
         if factored is None:

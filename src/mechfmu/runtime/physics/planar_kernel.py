@@ -70,11 +70,13 @@ class _Body:
         self.ground = body is GROUND
         self.index: int | None = None if self.ground else body
         b = body
-        self.x, self.y, self.phi = (f"x{b}", f"y{b}", f"p{b}") if not self.ground else (
-            "0.0", "0.0", "0.0")
+        self.x, self.y, self.phi = (
+            (f"x{b}", f"y{b}", f"p{b}") if not self.ground else ("0.0", "0.0", "0.0")
+        )
         self.c, self.s = (f"c{b}", f"s{b}") if not self.ground else ("1.0", "0.0")
-        self.vx, self.vy, self.w = (f"vx{b}", f"vy{b}", f"w{b}") if not self.ground else (
-            "0.0", "0.0", "0.0")
+        self.vx, self.vy, self.w = (
+            (f"vx{b}", f"vy{b}", f"w{b}") if not self.ground else ("0.0", "0.0", "0.0")
+        )
 
     def rotate(self, local: Sequence[float]) -> tuple[str, str]:
         """Source of A(phi) local, (x, y)."""
@@ -98,7 +100,7 @@ class _Emitter:
     """Source lines and Jacobian entries of every joint of a mechanism, in row order."""
 
     def __init__(self, mechanism: Any) -> None:
-        self.residual: list[str] = []   # statements
+        self.residual: list[str] = []  # statements
         self.jacobian: list[str] = []
         self.gamma: list[str] = []
         self.residual_rows: list[str] = []  # one expression per row
@@ -171,8 +173,10 @@ def _point_on_line(e: _Emitter, k: int, row: int, joint: Any) -> None:
     pjx, pjy = bj.point(joint.point_j)
     aix, aiy = bi.rotate(joint.point_i)
     ajx, ajy = bj.rotate(joint.point_j)
-    parts = (f"n{k}x = {nx}; n{k}y = {ny}; d{k}x = {pix} - {pjx}; d{k}y = {piy} - {pjy}; "
-             f"a{k}ix = {aix}; a{k}iy = {aiy}; a{k}jx = {ajx}; a{k}jy = {ajy}")
+    parts = (
+        f"n{k}x = {nx}; n{k}y = {ny}; d{k}x = {pix} - {pjx}; d{k}y = {piy} - {pjy}; "
+        f"a{k}ix = {aix}; a{k}iy = {aiy}; a{k}jx = {ajx}; a{k}jy = {ajy}"
+    )
     e.residual.append(f"n{k}x = {nx}; n{k}y = {ny}")
     e.residual_rows.append(f"n{k}x * ({pix} - {pjx}) + n{k}y * ({piy} - {pjy})")
     e.jacobian.append(parts)
@@ -186,18 +190,27 @@ def _point_on_line(e: _Emitter, k: int, row: int, joint: Any) -> None:
         e.entry(row, bj.column(0), f"-{n[0]}")
         e.entry(row, bj.column(1), f"-{n[1]}")
         # perp(n) . d - n . perp(a_j), perp(n) = (-n_y, n_x)
-        e.entry(row, bj.column(2), f"(n{k}x * d{k}y - n{k}y * d{k}x"
-                                   f" - (n{k}y * a{k}jx - n{k}x * a{k}jy))")
+        e.entry(
+            row,
+            bj.column(2),
+            f"(n{k}x * d{k}y - n{k}y * d{k}x - (n{k}y * a{k}jx - n{k}x * a{k}jy))",
+        )
     wi, wj = bi.w, bj.w
     e.gamma.append(parts)
     # ddot = v_i + perp(a_i) w_i - v_j - perp(a_j) w_j; centripetal = a_i w_i^2 - a_j w_j^2
-    e.gamma.append(f"dd{k}x = {bi.vx} - a{k}iy * {wi} - {bj.vx} + a{k}jy * {wj}; "
-                   f"dd{k}y = {bi.vy} + a{k}ix * {wi} - {bj.vy} - a{k}jx * {wj}")
-    e.gamma.append(f"ce{k}x = a{k}ix * {wi} * {wi} - a{k}jx * {wj} * {wj}; "
-                   f"ce{k}y = a{k}iy * {wi} * {wi} - a{k}jy * {wj} * {wj}")
-    e.gamma_rows.append(f"(n{k}x * d{k}x + n{k}y * d{k}y) * {wj} * {wj}"
-                        f" - 2.0 * {wj} * (n{k}x * dd{k}y - n{k}y * dd{k}x)"
-                        f" + n{k}x * ce{k}x + n{k}y * ce{k}y")
+    e.gamma.append(
+        f"dd{k}x = {bi.vx} - a{k}iy * {wi} - {bj.vx} + a{k}jy * {wj}; "
+        f"dd{k}y = {bi.vy} + a{k}ix * {wi} - {bj.vy} - a{k}jx * {wj}"
+    )
+    e.gamma.append(
+        f"ce{k}x = a{k}ix * {wi} * {wi} - a{k}jx * {wj} * {wj}; "
+        f"ce{k}y = a{k}iy * {wi} * {wi} - a{k}jy * {wj} * {wj}"
+    )
+    e.gamma_rows.append(
+        f"(n{k}x * d{k}x + n{k}y * d{k}y) * {wj} * {wj}"
+        f" - 2.0 * {wj} * (n{k}x * dd{k}y - n{k}y * dd{k}x)"
+        f" + n{k}x * ce{k}x + n{k}y * ce{k}y"
+    )
 
 
 def _relative_angle(e: _Emitter, k: int, row: int, joint: Any) -> None:
@@ -219,8 +232,12 @@ def _driver(e: _Emitter, k: int, row: int, joint: Any) -> None:
     e.gamma_rows.append(f"d[{joint.index}][2]")
 
 
-_JOINTS: dict[type, Callable[[_Emitter, int, int, Any], None]] = {Revolute: _revolute, PointOnLine: _point_on_line, RelativeAngle: _relative_angle,
-           Driver: _driver}
+_JOINTS: dict[type, Callable[[_Emitter, int, int, Any], None]] = {
+    Revolute: _revolute,
+    PointOnLine: _point_on_line,
+    RelativeAngle: _relative_angle,
+    Driver: _driver,
+}
 
 
 def _unpack(size: int, rates: bool = False) -> list[str]:
@@ -247,44 +264,72 @@ class MechanismKernel:
         namespace: dict[str, Any] = {"cos": math.cos, "sin": math.sin}
         lines = ["def residual(q, d):", *_unpack(n)]
         lines += [f"    {s}" for s in e.residual]
-        lines.append("    return [" + ", ".join(
-            f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows)) + "]")
+        lines.append(
+            "    return ["
+            + ", ".join(f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows))
+            + "]"
+        )
         lines += ["def jacobian(q):", *_unpack(n)]
         lines += [f"    {s}" for s in e.jacobian]
-        lines.append("    return (" + ", ".join(
-            f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
-            for key in self.pattern) + ",)")
+        lines.append(
+            "    return ("
+            + ", ".join(
+                f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
+                for key in self.pattern
+            )
+            + ",)"
+        )
         lines += ["def predict(q, v, a, vb, ab, cv, ca, ka, kb):"]
-        lines += [f"    return [{', '.join(f'q[{j}] + cv * v[{j}] + ca * a[{j}] + ka * ab[{j}] + kb * vb[{j}]' for j in range(n))}]"]
+        lines += [
+            f"    return [{', '.join(f'q[{j}] + cv * v[{j}] + ca * a[{j}] + ka * ab[{j}] + kb * vb[{j}]' for j in range(n))}]"
+        ]
         lines += ["def residual_jacobian(q, d):", *_unpack(n)]
         lines += [f"    {s}" for s in e.residual + e.jacobian]
-        lines.append("    return [" + ", ".join(
-            f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows)) + "], (" +
-            ", ".join(f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
-                      for key in self.pattern) + ",)")
+        lines.append(
+            "    return ["
+            + ", ".join(f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows))
+            + "], ("
+            + ", ".join(
+                f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
+                for key in self.pattern
+            )
+            + ",)"
+        )
         lines += ["def gamma(q, qd, d):", *_unpack(n, rates=True)]
         lines += [f"    {s}" for s in e.gamma]
-        lines.append("    return [" + ", ".join(
-            f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.gamma_rows)) + "]")
+        lines.append(
+            "    return ["
+            + ", ".join(f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.gamma_rows))
+            + "]"
+        )
         columns: dict[int, list[str]] = {}
         for m, (_, j) in enumerate(self.pattern):
             columns.setdefault(j, []).append(f"abs(v[{m}])")
-        lines += ["def one_norm(v):", "    return max(" + ", ".join(
-            " + ".join(terms) for terms in columns.values()) + ")"]
-        lines += ["def rates(d):", "    return [" + ", ".join(
-            f"d[{e.rate_rows[i]}][1] * {_num(rs[i])}" if i in e.rate_rows else "0.0"
-            for i in range(n)) + "]"]
+        lines += [
+            "def one_norm(v):",
+            "    return max(" + ", ".join(" + ".join(terms) for terms in columns.values()) + ")",
+        ]
+        lines += [
+            "def rates(d):",
+            "    return ["
+            + ", ".join(
+                f"d[{e.rate_rows[i]}][1] * {_num(rs[i])}" if i in e.rate_rows else "0.0"
+                for i in range(n)
+            )
+            + "]",
+        ]
         source = "\n".join(lines) + "\n"  # generated here from the joints, nothing read in
         exec(compile(source, f"<{mechanism.name} kernel>", "exec"), namespace)  # noqa: S102
         # The generated functions (their signatures are the ``def`` lines above).
         self.residual: Callable[[Sequence[float], Drive], list[float]] = namespace["residual"]
         self.jacobian: Callable[[Sequence[float]], tuple[float, ...]] = namespace["jacobian"]
-        self.gamma: Callable[[Sequence[float], Sequence[float], Drive], list[float]] = (
-            namespace["gamma"])
+        self.gamma: Callable[[Sequence[float], Sequence[float], Drive], list[float]] = namespace[
+            "gamma"
+        ]
         self.rates: Callable[[Drive], list[float]] = namespace["rates"]
         self.residual_jacobian: Callable[
-            [Sequence[float], Drive], tuple[list[float], tuple[float, ...]]] = (
-            namespace["residual_jacobian"])
+            [Sequence[float], Drive], tuple[list[float], tuple[float, ...]]
+        ] = namespace["residual_jacobian"]
         # the fast path's predictor, unrolled
         self.predict: Callable[..., list[float]] = namespace["predict"]
         # 1-norm of the scaled Jacobian's non-zeros
@@ -302,8 +347,9 @@ class MechanismKernel:
         """The LuKernel for row order ``order`` (compiled once, then cached)."""
         kernel = self.orders.get(order)
         if kernel is None:
-            kernel = self.orders[order] = LuKernel(self.pattern, self.size, order,
-                                                   self.column_scale)
+            kernel = self.orders[order] = LuKernel(
+                self.pattern, self.size, order, self.column_scale
+            )
         return kernel
 
 
@@ -312,8 +358,13 @@ class LuKernel:
     another candidate of its column); ``solve(F, b)``, ``solve_t(F, c)`` (A^T x = c);
     ``sign(F)``: sign of det(A)."""
 
-    def __init__(self, pattern: Sequence[tuple[int, int]], n: int, order: tuple[int, ...],
-                 scale: Sequence[float]) -> None:
+    def __init__(
+        self,
+        pattern: Sequence[tuple[int, int]],
+        n: int,
+        order: tuple[int, ...],
+        scale: Sequence[float],
+    ) -> None:
         self.order = order
         position = {row: k for k, row in enumerate(order)}  # original row -> position
         index = {key: m for m, key in enumerate(pattern)}
@@ -329,7 +380,9 @@ class LuKernel:
             below = [i for i in range(k + 1, n) if (i, k) in nonzero]
             right = [j for j in range(k + 1, n) if (k, j) in nonzero]
             for i in below:
-                lines.append(f"    if a{k}_{k} * a{k}_{k} < 0.25 * a{i}_{k} * a{i}_{k}: return None")
+                lines.append(
+                    f"    if a{k}_{k} * a{k}_{k} < 0.25 * a{i}_{k} * a{i}_{k}: return None"
+                )
             if not below:
                 lines.append(f"    if a{k}_{k} == 0.0: return None")
             for i in below:
@@ -343,12 +396,14 @@ class LuKernel:
                         lines.append(f"    a{i}_{j} = -a{i}_{k} * a{k}_{j}")
             upper += [(k, j) for j in [k] + right]
         names = [f"a{i}_{j}" for i, j in multipliers + upper]
-        lines.append(f"    if not isfinite({' + '.join(f'a{k}_{k}' for k in range(n))}):"
-                     " return None")
+        lines.append(
+            f"    if not isfinite({' + '.join(f'a{k}_{k}' for k in range(n))}): return None"
+        )
         parity = _parity(order)
         lines.append(f"    negative = {' + '.join(f'(a{k}_{k} < 0.0)' for k in range(n))}")
-        lines.append(f"    return ({', '.join(names)}, "
-                     f"{parity} if negative % 2 == 0 else {-parity})")
+        lines.append(
+            f"    return ({', '.join(names)}, {parity} if negative % 2 == 0 else {-parity})"
+        )
         unpack = f"    {', '.join(names)}, _ = F"
         lower_of = {i: [k for (r, k) in multipliers if r == i] for i in range(n)}
         upper_of = {k: [j for (r, j) in upper if r == k and j != k] for k in range(n)}
@@ -361,20 +416,26 @@ class LuKernel:
             terms = "".join(f" - a{k}_{j} * y{j}" for j in upper_of[k])
             lines.append(f"    y{k} = (y{k}{terms}) / a{k}_{k}")
         lines.append(f"    return [{', '.join(f'y{j}' for j in range(n))}]")
-        body = lines[lines.index("def solve(F, b):") + 1:-1]
+        body = lines[lines.index("def solve(F, b):") + 1 : -1]
         # The same substitutions, the solution scaled by ``scale`` (the coordinates of a
         # scaled system), and a Newton correction q - scale x with max |x|.
-        lines += ["def solve_scaled(F, b):", *body,
-                  f"    return [{', '.join(f'y{j} * {scale[j]!r}' for j in range(n))}]"]
+        lines += [
+            "def solve_scaled(F, b):",
+            *body,
+            f"    return [{', '.join(f'y{j} * {scale[j]!r}' for j in range(n))}]",
+        ]
         corrected = ", ".join(f"q[{j}] - y{j} * {scale[j]!r}" for j in range(n))
         largest = ", ".join(f"abs(y{j})" for j in range(n))
-        lines += ["def correct(F, b, q):", *body,
-                  f"    return ([{corrected}], max({largest}))"]
+        lines += ["def correct(F, b, q):", *body, f"    return ([{corrected}], max({largest}))"]
         # The final correction and the velocity: two right-hand sides, one unpacking.
         second = [line.replace("y", "v").replace("b[", "r[") for line in body[1:]]
         velocity = ", ".join(f"v{j} * {scale[j]!r}" for j in range(n))
-        lines += ["def correct_and_solve(F, b, q, r):", *body, *second,
-                  f"    return [{corrected}], max({largest}), [{velocity}]"]
+        lines += [
+            "def correct_and_solve(F, b, q, r):",
+            *body,
+            *second,
+            f"    return [{corrected}], max({largest}), [{velocity}]",
+        ]
         # A^T x = c: U^T w = c, L^T z = w, x[order[k]] = z[k].
         lines += ["def solve_t(F, c):", unpack]
         upper_col = {j: [k for (k, jj) in upper if jj == j and k != j] for j in range(n)}
@@ -389,13 +450,16 @@ class LuKernel:
         for k, row in enumerate(order):
             inverse[row] = k
         lines.append(f"    return [{', '.join(f'w{inverse[r]}' for r in range(n))}]")
-        transposed = lines[lines.index("def solve_t(F, c):") + 2:]
+        transposed = lines[lines.index("def solve_t(F, c):") + 2 :]
         # One step of Hager's estimator: y = A^-1 x, its 1-norm, and z = A^-T sign(y).
-        lines += ["def hager_step(F, b):", *body,
-                  f"    c = ({', '.join(f'1.0 if y{j} >= 0.0 else -1.0' for j in range(n))},)",
-                  *transposed[:-1],
-                  f"    return {' + '.join(f'abs(y{j})' for j in range(n))}, "
-                  + transposed[-1].strip()[len("return "):]]
+        lines += [
+            "def hager_step(F, b):",
+            *body,
+            f"    c = ({', '.join(f'1.0 if y{j} >= 0.0 else -1.0' for j in range(n))},)",
+            *transposed[:-1],
+            f"    return {' + '.join(f'abs(y{j})' for j in range(n))}, "
+            + transposed[-1].strip()[len("return ") :],
+        ]
         namespace: dict[str, Any] = {"isfinite": math.isfinite}
         source = "\n".join(lines) + "\n"  # generated here from the pattern, nothing read in
         exec(compile(source, "<planar LU kernel>", "exec"), namespace)  # noqa: S102
@@ -405,15 +469,18 @@ class LuKernel:
         self.solve: Callable[[Factors, Sequence[float]], list[float]] = namespace["solve"]
         self.solve_t: Callable[[Factors, Sequence[float]], list[float]] = namespace["solve_t"]
         self.hager_step: Callable[[Factors, Sequence[float]], tuple[float, list[float]]] = (
-            namespace["hager_step"])
-        self.solve_scaled: Callable[[Factors, Sequence[float]], list[float]] = (
-            namespace["solve_scaled"])
+            namespace["hager_step"]
+        )
+        self.solve_scaled: Callable[[Factors, Sequence[float]], list[float]] = namespace[
+            "solve_scaled"
+        ]
         self.correct: Callable[
-            [Factors, Sequence[float], Sequence[float]], tuple[list[float], float]] = (
-            namespace["correct"])
+            [Factors, Sequence[float], Sequence[float]], tuple[list[float], float]
+        ] = namespace["correct"]
         self.correct_and_solve: Callable[
             [Factors, Sequence[float], Sequence[float], Sequence[float]],
-            tuple[list[float], float, list[float]]] = namespace["correct_and_solve"]
+            tuple[list[float], float, list[float]],
+        ] = namespace["correct_and_solve"]
 
     @staticmethod
     def sign(F: Factors) -> int:
@@ -435,8 +502,9 @@ def _parity(order: Sequence[int]) -> int:
     return sign
 
 
-def inverse_one_norm(lu: LuKernel, F: Factors, n: int, start: int | None = None,
-                     iterations: int = 5) -> tuple[float, int]:
+def inverse_one_norm(
+    lu: LuKernel, F: Factors, n: int, start: int | None = None, iterations: int = 5
+) -> tuple[float, int]:
     """Estimate of ||A^-1||_1 from the factors (Hager 1984, Higham 1988: LAPACK's xLACON
     without its extra test vector), a lower bound that is exact unless A is contrived. Starts
     from the unit vector e_start (the column that attained the estimate at the previous

@@ -34,20 +34,38 @@ def _phase(time: float, start_time: float, duration: float) -> float:
     return tau
 
 
-def check_stroke(start_extension: float, end_extension: float, stroke_time: float, profile: str | None, start_time: float=0.0) -> None:
+def check_stroke(
+    start_extension: float,
+    end_extension: float,
+    stroke_time: float,
+    profile: str | None,
+    start_time: float = 0.0,
+) -> None:
     """Validate stroke parameters; stroke_time must lie in (0, 4] s."""
     require_finite("start_extension", start_extension, "m")
     require_finite("end_extension", end_extension, "m")
     require_positive("stroke_time", stroke_time, "s")
     require_finite("start_time", start_time, "s")
     if stroke_time > MAX_STROKE_TIME:
-        raise RangeError("stroke_time", stroke_time, f"(0, {MAX_STROKE_TIME}]", "s",
-                         "the gear must retract in under 4 s")
+        raise RangeError(
+            "stroke_time",
+            stroke_time,
+            f"(0, {MAX_STROKE_TIME}]",
+            "s",
+            "the gear must retract in under 4 s",
+        )
     if profile not in STROKE_PROFILES:
         raise MechanismError(f"profile = {profile!r} is not one of {', '.join(STROKE_PROFILES)}")
 
 
-def stroke(time: float, start_extension: float, end_extension: float, stroke_time: float, profile: str, start_time: float=0.0) -> "Sample":
+def stroke(
+    time: float,
+    start_extension: float,
+    end_extension: float,
+    stroke_time: float,
+    profile: str,
+    start_time: float = 0.0,
+) -> "Sample":
     """Piston extension (m), speed (m/s) and acceleration (m/s^2) at ``time`` (s).
 
     constant_speed: x moves linearly from start to end over stroke_time, then holds
@@ -68,9 +86,11 @@ def stroke(time: float, start_extension: float, end_extension: float, stroke_tim
     if tau in (0.0, 1.0):  # sin(2 pi) is not 0 in floating point; the ends are exact rests
         return Sample(start_extension if tau == 0.0 else end_extension, 0.0, 0.0)
     angle = 2.0 * math.pi * tau
-    return Sample(start_extension + travel * (tau - math.sin(angle) / (2.0 * math.pi)),
-                  travel * (1.0 - math.cos(angle)) / stroke_time,
-                  travel * 2.0 * math.pi * math.sin(angle) / stroke_time ** 2)
+    return Sample(
+        start_extension + travel * (tau - math.sin(angle) / (2.0 * math.pi)),
+        travel * (1.0 - math.cos(angle)) / stroke_time,
+        travel * 2.0 * math.pi * math.sin(angle) / stroke_time**2,
+    )
 
 
 def check_shape(shape: Any, shapes: Any, finite: Any) -> Any:
@@ -82,16 +102,32 @@ def check_shape(shape: Any, shapes: Any, finite: Any) -> Any:
         require_finite(name, value, unit)
 
 
-def check_load(shape: str, initial_value: float, final_value: float, start_time: float, duration: float) -> None:
+def check_load(
+    shape: str, initial_value: float, final_value: float, start_time: float, duration: float
+) -> None:
     """Validate load-shape parameters."""
-    check_shape(shape, LOAD_SHAPES, (("initial_value", initial_value, "N"),
-                                     ("final_value", final_value, "N"),
-                                     ("start_time", start_time, "s")))
+    check_shape(
+        shape,
+        LOAD_SHAPES,
+        (
+            ("initial_value", initial_value, "N"),
+            ("final_value", final_value, "N"),
+            ("start_time", start_time, "s"),
+        ),
+    )
     if shape == "ramp":
         require_positive("duration", duration, "s")
 
 
-def load(time: float, shape: str, initial_value: float, final_value: float, start_time: float, duration: float, table: tuple[list[float], list[float]] | None=None) -> "Sample":
+def load(
+    time: float,
+    shape: str,
+    initial_value: float,
+    final_value: float,
+    start_time: float,
+    duration: float,
+    table: tuple[list[float], list[float]] | None = None,
+) -> "Sample":
     """Load value (N), rate (N/s) and second rate (N/s^2) at ``time`` (s).
 
     constant: initial_value. step: initial_value before start_time, final_value from it on.
@@ -134,13 +170,16 @@ def read_table(path: Any) -> tuple[list[float], list[float]]:
                     if not times and not header_seen:
                         header_seen = True  # the first row that is not a comment
                         continue
-                    raise MechanismError(f"{path}, line {number}: expected 'time,value', "
-                                         f"got {','.join(row)!r}") from None
+                    raise MechanismError(
+                        f"{path}, line {number}: expected 'time,value', got {','.join(row)!r}"
+                    ) from None
                 if not (math.isfinite(time) and math.isfinite(value)):
                     raise MechanismError(f"{path}, line {number}: non-finite number")
                 if times and time <= times[-1]:
-                    raise MechanismError(f"{path}, line {number}: time {time!r} s is not "
-                                         f"after {times[-1]!r} s (times must increase)")
+                    raise MechanismError(
+                        f"{path}, line {number}: time {time!r} s is not "
+                        f"after {times[-1]!r} s (times must increase)"
+                    )
                 times.append(time)
                 values.append(value)
     except OSError as error:
@@ -172,7 +211,14 @@ def check_rotation(initial_angle: Any, initial_speed: Any, final_speed: Any, ram
         raise RangeError("ramp_time", ramp, "[0, inf)", "s")
 
 
-def rotation(time: float, initial_angle: Any, initial_speed: Any, final_speed: Any, ramp_time: Any, start_time: float=0.0) -> Any:
+def rotation(
+    time: float,
+    initial_angle: Any,
+    initial_speed: Any,
+    final_speed: Any,
+    ramp_time: Any,
+    start_time: float = 0.0,
+) -> Any:
     """Shaft angle (rad), speed (rad/s) and angular acceleration (rad/s^2) at ``time`` (s).
 
     The speed ramps linearly from initial_speed to final_speed over ramp_time from
@@ -187,7 +233,10 @@ def rotation(time: float, initial_angle: Any, initial_speed: Any, final_speed: A
         return Sample(initial_angle + initial_speed * elapsed, initial_speed, 0.0)
     if ramping:
         rate = (final_speed - initial_speed) / ramp_time
-        return Sample(initial_angle + elapsed * (initial_speed + 0.5 * rate * elapsed),
-                      initial_speed + rate * elapsed, rate)
+        return Sample(
+            initial_angle + elapsed * (initial_speed + 0.5 * rate * elapsed),
+            initial_speed + rate * elapsed,
+            rate,
+        )
     ramped = 0.5 * (initial_speed + final_speed) * ramp_time
     return Sample(initial_angle + ramped + final_speed * (elapsed - ramp_time), final_speed, 0.0)

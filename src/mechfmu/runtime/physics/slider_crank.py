@@ -44,7 +44,8 @@ SliderCrankPosition = namedtuple("SliderCrankPosition", "coupler_angle slider_po
 SliderCrankMotion = namedtuple(
     "SliderCrankMotion",
     "slider_position slider_speed slider_acceleration coupler_angle coupler_angular_velocity "
-    "coupler_angular_acceleration")
+    "coupler_angular_acceleration",
+)
 
 
 def check_slider_crank(crank: float, coupler: float, offset: float) -> "SliderCrank":
@@ -57,9 +58,13 @@ def check_slider_crank(crank: float, coupler: float, offset: float) -> "SliderCr
     b = require_positive("coupler", coupler, "m")
     e = require_finite("offset", offset, "m")
     if abs(e) >= a + b:
-        raise RangeError("offset", e, f"({-(a + b)!r}, {a + b!r})", "m",
-                         "the coupler cannot reach the slider axis: |offset| must be below "
-                         "crank + coupler")
+        raise RangeError(
+            "offset",
+            e,
+            f"({-(a + b)!r}, {a + b!r})",
+            "m",
+            "the coupler cannot reach the slider axis: |offset| must be below crank + coupler",
+        )
     return SliderCrank(a, b, e)
 
 
@@ -67,8 +72,9 @@ def _as_lengths(values: tuple) -> tuple[float, float, float]:
     if len(values) == 1:
         values = tuple(values[0])
     if len(values) != 3:
-        raise TypeError(f"expected crank, coupler, offset or one sequence of them, "
-                        f"got {len(values)} arguments")
+        raise TypeError(
+            f"expected crank, coupler, offset or one sequence of them, got {len(values)} arguments"
+        )
     return values
 
 
@@ -92,7 +98,9 @@ def _wrap(angle: float) -> float:
     return math.pi if angle <= -math.pi else angle
 
 
-def _solve(geometry: "SliderCrank", crank_angle: float, circuit: int) -> tuple[float, float, float, float, bool]:
+def _solve(
+    geometry: "SliderCrank", crank_angle: float, circuit: int
+) -> tuple[float, float, float, float, bool]:
     """(theta3, b sin(theta3), b cos(theta3), s, singular) for validated geometry."""
     a, b, e = geometry
     t2 = crank_angle
@@ -103,12 +111,15 @@ def _solve(geometry: "SliderCrank", crank_angle: float, circuit: int) -> tuple[f
     if margin < -tolerance:
         low, high = crank_angle_range(a, b, e) or (math.nan, math.nan)
         raise RangeError(
-            "crank_angle", t2,
+            "crank_angle",
+            t2,
             f"sin(crank_angle) in [{low!r}, {high!r}], i.e. crank_angle (mod 2 pi) in "
             f"[{math.asin(low)!r}, {math.asin(high)!r}] or "
-            f"[{math.pi - math.asin(high)!r}, {math.pi - math.asin(low)!r}]", "rad",
+            f"[{math.pi - math.asin(high)!r}, {math.pi - math.asin(low)!r}]",
+            "rad",
             f"no assembly: offset - crank sin(crank_angle) = {rise!r} m, but the coupler "
-            f"reaches only {b!r} m from the slider axis")
+            f"reaches only {b!r} m from the slider axis",
+        )
     singular = margin <= tolerance
     # b cos(theta3) = +-sqrt((b - rise)(b + rise)): no cancellation next to the singularity
     run = 0.0 if singular else math.sqrt((b - rise) * (b + rise))
@@ -120,12 +131,19 @@ def _solve(geometry: "SliderCrank", crank_angle: float, circuit: int) -> tuple[f
 
 def _check_circuit(circuit: float | None) -> int:
     if isinstance(circuit, bool) or circuit not in CIRCUITS:
-        raise RangeError("circuit", circuit, "{0, 1}", "",
-                         "0 = slider on the +x side of the crank pin, 1 = mirror branch")
+        raise RangeError(
+            "circuit",
+            circuit,
+            "{0, 1}",
+            "",
+            "0 = slider on the +x side of the crank pin, 1 = mirror branch",
+        )
     return int(circuit)
 
 
-def position(crank: float, coupler: float, offset: float, crank_angle: float, circuit: int) -> "SliderCrankPosition":
+def position(
+    crank: float, coupler: float, offset: float, crank_angle: float, circuit: int
+) -> "SliderCrankPosition":
     """Coupler angle (rad, in (-pi, pi]) and slider position (m) at a crank angle (rad).
 
     Returns SliderCrankPosition(coupler_angle, slider_position). Raises RangeError where the
@@ -138,7 +156,15 @@ def position(crank: float, coupler: float, offset: float, crank_angle: float, ci
     return SliderCrankPosition(t3, s)
 
 
-def motion(crank: float, coupler: float, offset: float, circuit: float | None, crank_angle: float, crank_speed: float, crank_acceleration: float) -> "SliderCrankMotion":
+def motion(
+    crank: float,
+    coupler: float,
+    offset: float,
+    circuit: float | None,
+    crank_angle: float,
+    crank_speed: float,
+    crank_acceleration: float,
+) -> "SliderCrankMotion":
     """Slider and coupler motion for a prescribed crank motion.
 
     Differentiating a sin(t2) + b sin(t3) = offset and s = a cos(t2) + b cos(t3):
@@ -162,7 +188,8 @@ def motion(crank: float, coupler: float, offset: float, circuit: float | None, c
     if singular:
         raise SingularConfiguration(
             f"coupler perpendicular to the slider axis at crank angle {t2!r} rad "
-            f"(coupler angle {t3!r} rad): slider speed and coupler angular velocity infinite")
+            f"(coupler angle {t3!r} rad): slider speed and coupler angular velocity infinite"
+        )
     a = geometry.crank
     cos2, sin2 = math.cos(t2), math.sin(t2)
     w3 = -a * w2 * cos2 / b_cos3

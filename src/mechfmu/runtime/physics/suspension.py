@@ -56,17 +56,26 @@ MAX_DEFLECTION = 1e150
 Spring = namedtuple("Spring", "free_length stiffness base_offset")
 LimitPoint = namedtuple("LimitPoint", "deflection load")
 Equilibrium = namedtuple(
-    "Equilibrium", "deflection spring_force secant_stiffness tangent_stiffness stable branch marginal")
+    "Equilibrium",
+    "deflection spring_force secant_stiffness tangent_stiffness stable branch marginal",
+)
 
 
-def make_spring(spring_free_length: float, spring_stiffness: float, spring_base_offset: float) -> "Spring":
+def make_spring(
+    spring_free_length: float, spring_stiffness: float, spring_base_offset: float
+) -> "Spring":
     """Validated Spring(L [m], k [N/m], d [m]); requires L > 0, k > 0, 0 < d < L."""
     L = require_positive("spring_free_length", spring_free_length, "m")
     k = require_positive("spring_stiffness", spring_stiffness, "N/m")
     d = require_finite("spring_base_offset", spring_base_offset, "m")
     if not 0.0 < d < L:
-        raise RangeError("spring_base_offset", d, f"(0, {L!r})", "m",
-                         "must lie strictly between 0 and spring_free_length")
+        raise RangeError(
+            "spring_base_offset",
+            d,
+            f"(0, {L!r})",
+            "m",
+            "must lie strictly between 0 and spring_free_length",
+        )
     return Spring(L, k, d)
 
 
@@ -126,7 +135,9 @@ def _branch_interval(branch: int, spring: "Spring") -> tuple[float, float]:
     return 2.0 * rest_height(spring) - u_star, math.inf
 
 
-def solve_on_branch(load: float, branch: int, spring: "Spring", guess: float | None=None, tolerance: float=1e-13) -> float:
+def solve_on_branch(
+    load: float, branch: int, spring: "Spring", guess: float | None = None, tolerance: float = 1e-13
+) -> float:
     """Equilibrium deflection (m) on one stable branch for a load W (N).
 
     F is strictly increasing on a stable branch, so a bracket plus safeguarded Newton
@@ -145,18 +156,28 @@ def solve_on_branch(load: float, branch: int, spring: "Spring", guess: float | N
     if branch == FAR and abs(W + limit.load) <= band:
         return low
     if branch == NEAR and W > limit.load:
-        raise SnapThrough(f"load = {W!r} N exceeds the limit load {limit.load!r} N "
-                          f"of the near branch (at deflection {limit.deflection!r} m)")
+        raise SnapThrough(
+            f"load = {W!r} N exceeds the limit load {limit.load!r} N "
+            f"of the near branch (at deflection {limit.deflection!r} m)"
+        )
     if branch == FAR and W < -limit.load:
-        raise SnapThrough(f"load = {W!r} N is below {-limit.load!r} N, "
-                          f"the far branch's limit (at deflection "
-                          f"{_branch_interval(FAR, spring)[0]!r} m)")
+        raise SnapThrough(
+            f"load = {W!r} N is below {-limit.load!r} N, "
+            f"the far branch's limit (at deflection "
+            f"{_branch_interval(FAR, spring)[0]!r} m)"
+        )
     load_bound = 2.0 * spring.stiffness * MAX_DEFLECTION
     valid = f"[{-load_bound!r}, {load_bound!r}]"
     if abs(W) > load_bound:
-        raise RangeError("load", W, valid, "N", f"the equilibrium deflection would lie "
-                         f"beyond {MAX_DEFLECTION!r} m from the rest height, where the spring "
-                         f"force overflows")
+        raise RangeError(
+            "load",
+            W,
+            valid,
+            "N",
+            f"the equilibrium deflection would lie "
+            f"beyond {MAX_DEFLECTION!r} m from the rest height, where the spring "
+            f"force overflows",
+        )
     # Far out on a branch |F| ~ 2 k (|h - u| - L): starting there, doubling from the free
     # length alone would need log2(|W| / (k L)) steps and run out of them for loads above
     # 2^200 k L, returning a deflection that is no equilibrium.
@@ -179,11 +200,16 @@ def solve_on_branch(load: float, branch: int, spring: "Spring", guess: float | N
             scale *= 2.0
             high = low + scale
     if not bracketed:
-        raise RangeError("load", W, valid, "N",
-                         f"no equilibrium bracket on the {('near', 'far')[branch]} "
-                         f"branch within MAX_ITERATIONS = {MAX_ITERATIONS} doublings of the "
-                         f"search interval: the spring force overflows before it balances "
-                         f"the load")
+        raise RangeError(
+            "load",
+            W,
+            valid,
+            "N",
+            f"no equilibrium bracket on the {('near', 'far')[branch]} "
+            f"branch within MAX_ITERATIONS = {MAX_ITERATIONS} doublings of the "
+            f"search interval: the spring force overflows before it balances "
+            f"the load",
+        )
     u = guess if guess is not None and low <= guess <= high else 0.5 * (low + high)
     for _ in range(MAX_ITERATIONS):
         residual = spring_force(u, spring) - W
@@ -201,12 +227,16 @@ def solve_on_branch(load: float, branch: int, spring: "Spring", guess: float | N
         if abs(candidate - u) <= tolerance * max(1.0, abs(u)) or high - low <= tolerance:
             return _polish(candidate, W, spring, low, high)
         u = candidate
-    raise IntegrationError(f"load = {W!r} N: the equilibrium deflection did not converge "
-                           f"within MAX_ITERATIONS = {MAX_ITERATIONS} safeguarded Newton "
-                           f"iterations (bracket [{low!r}, {high!r}] m)")
+    raise IntegrationError(
+        f"load = {W!r} N: the equilibrium deflection did not converge "
+        f"within MAX_ITERATIONS = {MAX_ITERATIONS} safeguarded Newton "
+        f"iterations (bracket [{low!r}, {high!r}] m)"
+    )
 
 
-def _polish(u: float, load: float, spring: "Spring", low: float, high: float, steps: int=3) -> float:
+def _polish(
+    u: float, load: float, spring: "Spring", low: float, high: float, steps: int = 3
+) -> float:
     """A few extra Newton steps, each kept only if it reduces the residual.
 
     The stopping test above is on the step size; these steps take the residual down to
@@ -229,11 +259,24 @@ def equilibrium(deflection: float, spring: "Spring", branch: int | None) -> "Equ
     """All outputs of the static model at a known deflection."""
     tangent = tangent_stiffness(deflection, spring)
     stable, marginal = stability(tangent, spring)
-    return Equilibrium(deflection, spring_force(deflection, spring),
-                       secant_stiffness(deflection, spring), tangent, stable, branch, marginal)
+    return Equilibrium(
+        deflection,
+        spring_force(deflection, spring),
+        secant_stiffness(deflection, spring),
+        tangent,
+        stable,
+        branch,
+        marginal,
+    )
 
 
-def follow_load(load: float, branch: int, spring: "Spring", guess: float | None=None, continue_past_limit: bool=True) -> tuple[Equilibrium, bool]:
+def follow_load(
+    load: float,
+    branch: int,
+    spring: "Spring",
+    guess: float | None = None,
+    continue_past_limit: bool = True,
+) -> tuple[Equilibrium, bool]:
     """Continuation step: equilibrium for ``load`` starting from ``branch``.
 
     Stays on the current stable branch while it has an equilibrium; when the load passes

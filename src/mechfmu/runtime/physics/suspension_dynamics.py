@@ -69,27 +69,43 @@ NEAR, FAR, BETWEEN = statics.NEAR, statics.FAR, 2
 Effects = namedtuple("Effects", "damping tyre road_input")
 Model = namedtuple("Model", "spring mass damping tyre_stiffness unsprung_mass effects")
 Motion = namedtuple(
-    "Motion", "deflection velocity acceleration sprung_displacement unsprung_displacement "
-              "tyre_force kinetic_energy potential_energy")
+    "Motion",
+    "deflection velocity acceleration sprung_displacement unsprung_displacement "
+    "tyre_force kinetic_energy potential_energy",
+)
 
 
-def make_model(spring: Spring, mass: float, damping: float=0.0, tyre_stiffness: float=DEFAULT_TYRE_STIFFNESS,
-               unsprung_mass: float=DEFAULT_UNSPRUNG_MASS, effects: "Effects"=Effects(False, False, False)) -> "Model":
+def make_model(
+    spring: Spring,
+    mass: float,
+    damping: float = 0.0,
+    tyre_stiffness: float = DEFAULT_TYRE_STIFFNESS,
+    unsprung_mass: float = DEFAULT_UNSPRUNG_MASS,
+    effects: "Effects" = Effects(False, False, False),
+) -> "Model":
     """Validated Model; only the parameters of enabled effects are checked."""
     mass = require_positive("mass", mass, "kg")
     if effects.damping:
         damping = require_finite("damping_coefficient", damping, "N.s/m")
         if damping < 0.0:
-            raise RangeError("damping_coefficient", damping, "[0, inf)", "N.s/m",
-                             "must not be negative")
+            raise RangeError(
+                "damping_coefficient", damping, "[0, inf)", "N.s/m", "must not be negative"
+            )
     if effects.tyre:
         tyre_stiffness = require_positive("tyre_stiffness", tyre_stiffness, "N/m")
         unsprung_mass = require_positive("unsprung_mass", unsprung_mass, "kg")
-    return Model(spring, mass, float(damping), float(tyre_stiffness), float(unsprung_mass),
-                 Effects(*(bool(e) for e in effects)))
+    return Model(
+        spring,
+        mass,
+        float(damping),
+        float(tyre_stiffness),
+        float(unsprung_mass),
+        Effects(*(bool(e) for e in effects)),
+    )
 
 
 # --- the terms: one small function each ----------------------------------------------------
+
 
 def spring_force_term(deflection: float, spring: Spring) -> float:
     """F(u) (N), the static model's spring force."""
@@ -117,6 +133,7 @@ def spring_energy(deflection: float, spring: Spring) -> float:
 
 # --- inputs inside one communication step -------------------------------------------------
 
+
 class StepInputs:
     """Load W(t) and road r(t), r'(t), r''(t) over one communication step [t0, t1].
 
@@ -126,10 +143,11 @@ class StepInputs:
 
     __slots__ = ("mode", "t0", "load0", "load_slope", "road")
 
-    def __init__(self, mode: str="interpolate") -> None:
+    def __init__(self, mode: str = "interpolate") -> None:
         if mode not in INPUT_MODES:
-            raise MechanismError(f"input_interpolation = {mode!r} is not one of "
-                                 f"{', '.join(INPUT_MODES)}")
+            raise MechanismError(
+                f"input_interpolation = {mode!r} is not one of {', '.join(INPUT_MODES)}"
+            )
         self.mode = mode
         self.set_constant(0.0, 0.0, 0.0, 0.0)
 
@@ -138,7 +156,13 @@ class StepInputs:
         self.t0, self.load0, self.load_slope = t, load, 0.0
         self.road: tuple[float, ...] = (road_height, road_rate, 0.0, 0.0)
 
-    def set_step(self, t0: float, t1: float, start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
+    def set_step(
+        self,
+        t0: float,
+        t1: float,
+        start: tuple[float, float, float],
+        end: tuple[float, float, float],
+    ) -> None:
         """Inputs over [t0, t1] from (load, road_height, road_rate) at t0 and at t1."""
         load0, r0, rate0 = start
         load1, r1, rate1 = end
@@ -164,6 +188,7 @@ def road_at(inputs: Any, t: float) -> Any:
 
 # --- the system built from the enabled effects --------------------------------------------
 
+
 def state_size(model: Any) -> Any:
     return 4 if model.effects.tyre else 2
 
@@ -178,6 +203,7 @@ def build_rhs(model: "Model", inputs: StepInputs) -> Callable:
         def suspension(u: Any, v: Any):
             return force(u, spring) + damp(c, v)
     else:
+
         def suspension(u: Any, v: Any):
             return force(u, spring)
 
@@ -189,13 +215,22 @@ def build_rhs(model: "Model", inputs: StepInputs) -> Callable:
 
             def rhs(t: float, y: Any):
                 f = suspension(y[0] - y[2], y[1] - y[3])
-                return [y[1], (load(inputs, t) - f) / m,
-                        y[3], (f + weight - tyre(kt, y[2], road(inputs, t)[0])) / mu]
+                return [
+                    y[1],
+                    (load(inputs, t) - f) / m,
+                    y[3],
+                    (f + weight - tyre(kt, y[2], road(inputs, t)[0])) / mu,
+                ]
         else:
+
             def rhs(t: float, y: Any):
                 f = suspension(y[0] - y[2], y[1] - y[3])
-                return [y[1], (load(inputs, t) - f) / m,
-                        y[3], (f + weight - tyre(kt, y[2], 0.0)) / mu]
+                return [
+                    y[1],
+                    (load(inputs, t) - f) / m,
+                    y[3],
+                    (f + weight - tyre(kt, y[2], 0.0)) / mu,
+                ]
     elif effects.road_input:
         road = road_at
 
@@ -203,8 +238,10 @@ def build_rhs(model: "Model", inputs: StepInputs) -> Callable:
             r, rate, _ = road(inputs, t)
             return [y[1], (load(inputs, t) - suspension(y[0] + r, y[1] + rate)) / m]
     else:
+
         def rhs(t: float, y: Any):
             return [y[1], (load(inputs, t) - suspension(y[0], y[1])) / m]
+
     return rhs
 
 
@@ -228,7 +265,9 @@ def base_motion(model: "Model", inputs: StepInputs, t: float, y: list[float]) ->
     return 0.0, 0.0, 0.0
 
 
-def initial_state(model: "Model", deflection: float, velocity: float, inputs: StepInputs, t: float) -> list[float]:
+def initial_state(
+    model: "Model", deflection: float, velocity: float, inputs: StepInputs, t: float
+) -> list[float]:
     """State for a spring deflection u and rate u' at time t.
 
     Without the tyre the base is where the road puts it. With the tyre the unsprung mass
@@ -240,22 +279,28 @@ def initial_state(model: "Model", deflection: float, velocity: float, inputs: St
     v = require_finite("initial_velocity", velocity, "m/s")
     r = road_at(inputs, t)[:2] if model.effects.road_input else (0.0, 0.0)
     if model.effects.tyre:
-        z = ((statics.spring_force(u, model.spring) + model.unsprung_mass * GRAVITY)
-             / model.tyre_stiffness - r[0])
+        z = (
+            statics.spring_force(u, model.spring) + model.unsprung_mass * GRAVITY
+        ) / model.tyre_stiffness - r[0]
         return [u + z, v, z, 0.0]
     if model.effects.road_input:
         return [u - r[0], v - r[1]]
     return [u, v]
 
 
-def energy(model: "Model", inputs: StepInputs, t: float, y: list[float]) -> tuple[float, float, float]:
+def energy(
+    model: "Model", inputs: StepInputs, t: float, y: list[float]
+) -> tuple[float, float, float]:
     """(kinetic T, potential V, scale) in J at state y and time t.
 
     scale is the sum of the magnitudes of the terms of T + V, a measure of the energy in
     play against which a change of T + V can be judged.
     """
-    z = y[2] if model.effects.tyre else (-road_at(inputs, t)[0] if model.effects.road_input
-                                         else 0.0)
+    z = (
+        y[2]
+        if model.effects.tyre
+        else (-road_at(inputs, t)[0] if model.effects.road_input else 0.0)
+    )
     kinetic = 0.5 * model.mass * y[1] * y[1]
     elastic = spring_energy(y[0] - z, model.spring)
     load = load_at(inputs, t) * y[0]
@@ -283,8 +328,9 @@ def motion(model: "Model", inputs: StepInputs, rhs: Callable, t: float, y: list[
         r = road_at(inputs, t)[0] if model.effects.road_input else 0.0
         tyre = tyre_force(model.tyre_stiffness, z, r)
     kinetic, potential, _ = energy(model, inputs, t, y)
-    return Motion(y[0] - z, y[1] - z_rate, derivative[1] - z_rate2, y[0], z, tyre, kinetic,
-                  potential)
+    return Motion(
+        y[0] - z, y[1] - z_rate, derivative[1] - z_rate2, y[0], z, tyre, kinetic, potential
+    )
 
 
 def passive(model: "Model", inputs: StepInputs) -> bool:

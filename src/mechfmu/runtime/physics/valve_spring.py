@@ -86,8 +86,10 @@ DEFAULT_MAX_LIFT = 0.0125
 INPUT_MODES = ("interpolate", "hold")
 
 Parameters = namedtuple(
-    "Parameters", "mass spring_stiffness spring_preload contact_stiffness contact_damping "
-                  "seat_stiffness seat_damping lash")
+    "Parameters",
+    "mass spring_stiffness spring_preload contact_stiffness contact_damping "
+    "seat_stiffness seat_damping lash",
+)
 Forces = namedtuple("Forces", "acceleration contact seat spring penetration")
 Phase = namedtuple("Phase", "touching open landed")
 Engaged = namedtuple("Engaged", "contact seat")
@@ -105,12 +107,16 @@ def _non_negative(name: str, value: float, unit: str) -> float:
     return number
 
 
-def make_parameters(mass: float=DEFAULT_MASS, spring_stiffness: float=DEFAULT_SPRING_STIFFNESS,
-                    spring_preload: float=DEFAULT_SPRING_PRELOAD,
-                    contact_stiffness: float=DEFAULT_CONTACT_STIFFNESS,
-                    contact_damping: float=DEFAULT_CONTACT_DAMPING,
-                    seat_stiffness: float=DEFAULT_SEAT_STIFFNESS, seat_damping: float=DEFAULT_SEAT_DAMPING,
-                    lash: float=DEFAULT_LASH) -> "Parameters":
+def make_parameters(
+    mass: float = DEFAULT_MASS,
+    spring_stiffness: float = DEFAULT_SPRING_STIFFNESS,
+    spring_preload: float = DEFAULT_SPRING_PRELOAD,
+    contact_stiffness: float = DEFAULT_CONTACT_STIFFNESS,
+    contact_damping: float = DEFAULT_CONTACT_DAMPING,
+    seat_stiffness: float = DEFAULT_SEAT_STIFFNESS,
+    seat_damping: float = DEFAULT_SEAT_DAMPING,
+    lash: float = DEFAULT_LASH,
+) -> "Parameters":
     """Validated Parameters; RangeError names the parameter, its value and its range.
 
     The mass and the three stiffnesses must be positive (without them there is no equation
@@ -124,10 +130,12 @@ def make_parameters(mass: float=DEFAULT_MASS, spring_stiffness: float=DEFAULT_SP
         _non_negative("contact_damping", contact_damping, "N.s/m"),
         require_positive("seat_stiffness", seat_stiffness, "N/m"),
         _non_negative("seat_damping", seat_damping, "N.s/m"),
-        _non_negative("lash", lash, "m"))
+        _non_negative("lash", lash, "m"),
+    )
 
 
 # --- the force laws: one small function each ---------------------------------------------
+
 
 def spring_force(p: "Parameters", lift: float) -> float:
     """Valve spring force F0 + k x (N), closing the valve."""
@@ -167,7 +175,9 @@ def seat_switch(p: "Parameters", lift: float, velocity: float) -> float:
     return min(spring, spring - p.seat_damping * velocity)
 
 
-def forces(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Forces":
+def forces(
+    p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float
+) -> "Forces":
     """Forces (acceleration m/s^2, contact N, seat N, spring N, penetration m) at a state."""
     depth = penetration(p, rocker_lift, lift)
     contact = contact_force(p, depth, rocker_velocity - velocity)
@@ -197,8 +207,9 @@ def energy_scale(p: "Parameters", rocker_lift: float, lift: float, velocity: flo
     """Sum of the magnitudes of the energy terms (J): the energy in play at a state, against
     which a change of T + V is judged."""
     depth = penetration(p, rocker_lift, lift)
-    scale = kinetic_energy(p, velocity) + abs(lift * (p.spring_preload
-                                                      + 0.5 * p.spring_stiffness * lift))
+    scale = kinetic_energy(p, velocity) + abs(
+        lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift)
+    )
     if depth > 0.0:
         scale += 0.5 * p.contact_stiffness * depth * depth
     if lift < 0.0:
@@ -206,7 +217,9 @@ def energy_scale(p: "Parameters", rocker_lift: float, lift: float, velocity: flo
     return scale
 
 
-def energy_gain(p: "Parameters", drive: "StepDrive", t0: float, y0: list[float], t1: float, y1: list[float]) -> tuple[float, float]:
+def energy_gain(
+    p: "Parameters", drive: "StepDrive", t0: float, y0: list[float], t1: float, y1: list[float]
+) -> tuple[float, float]:
     """(gain, scale) in J over [t0, t1]: the growth of T + V beyond the contact work,
     (T + V)(t1) - (T + V)(t0) - (W(t1) - W(t0)), which the exact solution keeps <= 0 (the
     dashpots only dissipate), and the energy in play it is judged against (the largest
@@ -215,12 +228,14 @@ def energy_gain(p: "Parameters", drive: "StepDrive", t0: float, y0: list[float],
     start = kinetic_energy(p, y0[1]) + elastic_energy(p, rocker0, y0[0])
     end = kinetic_energy(p, y1[1]) + elastic_energy(p, rocker1, y1[0])
     work = y1[2] - y0[2]
-    scale = max(energy_scale(p, rocker0, y0[0], y0[1]), energy_scale(p, rocker1, y1[0], y1[1]),
-                abs(work))
+    scale = max(
+        energy_scale(p, rocker0, y0[0], y0[1]), energy_scale(p, rocker1, y1[0], y1[1]), abs(work)
+    )
     return end - start - work, scale
 
 
 # --- static equilibrium ------------------------------------------------------------------
+
 
 def static_equilibrium(p: "Parameters", rocker_lift: float, rocker_velocity: float) -> float:
     """Valve lift x (m) where the forces balance with the valve moving with the rocker.
@@ -249,13 +264,15 @@ def static_equilibrium(p: "Parameters", rocker_lift: float, rocker_velocity: flo
                 numerator -= p.seat_damping * rate
                 stiffness += p.seat_stiffness
             x = numerator / stiffness
-            if ((contact_switch(p, penetration(p, L, x), 0.0) > 0.0) == contact
-                    and (seat_switch(p, x, rate) > 0.0) == seat):
+            if (contact_switch(p, penetration(p, L, x), 0.0) > 0.0) == contact and (
+                seat_switch(p, x, rate) > 0.0
+            ) == seat:
                 return x
     return 0.0
 
 
 # --- the drive inside one communication step ---------------------------------------------
+
 
 class StepDrive:
     """The rocker-end motion L(t), L'(t), L''(t) over one communication step [t0, t1].
@@ -272,10 +289,11 @@ class StepDrive:
 
     __slots__ = ("mode", "t0", "coefficients")
 
-    def __init__(self, mode: str="interpolate") -> None:
+    def __init__(self, mode: str = "interpolate") -> None:
         if mode not in INPUT_MODES:
-            raise MechanismError(f"input_interpolation = {mode!r} is not one of "
-                                 f"{', '.join(INPUT_MODES)}")
+            raise MechanismError(
+                f"input_interpolation = {mode!r} is not one of {', '.join(INPUT_MODES)}"
+            )
         self.mode = mode
         self.set_constant(0.0, (0.0, 0.0, 0.0))
 
@@ -285,7 +303,13 @@ class StepDrive:
         self.t0 = t
         self.coefficients: tuple[float, ...] = (lift, rate, 0.5 * acceleration)
 
-    def set_step(self, t0: float, t1: float, start: tuple[float, float, float], end: tuple[float, float, float]) -> None:
+    def set_step(
+        self,
+        t0: float,
+        t1: float,
+        start: tuple[float, float, float],
+        end: tuple[float, float, float],
+    ) -> None:
         """The motion over [t0, t1] from (L, L', L'') at t0 and at t1."""
         if self.mode == "hold" or not t1 > t0:
             self.set_constant(t0, start)
@@ -300,41 +324,72 @@ def drive_at(drive: StepDrive, t: float) -> tuple[float, float, float]:
 
 # --- the system for the integrator: contacts engaged or not -------------------------------
 
-def switches(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> tuple[float, float]:
+
+def switches(
+    p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float
+) -> tuple[float, float]:
     """(contact, seat) switch functions (N) at a state: positive where the force pushes."""
-    return (contact_switch(p, penetration(p, rocker_lift, lift), rocker_velocity - velocity),
-            seat_switch(p, lift, velocity))
+    return (
+        contact_switch(p, penetration(p, rocker_lift, lift), rocker_velocity - velocity),
+        seat_switch(p, lift, velocity),
+    )
 
 
-def engagement(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Engaged":
+def engagement(
+    p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float
+) -> "Engaged":
     """Engaged(contact, seat) at a state: each contact engaged where its force pushes."""
     contact, seat = switches(p, rocker_lift, rocker_velocity, lift, velocity)
     return Engaged(contact > 0.0, seat > 0.0)
 
 
-def resume(p: "Parameters", engaged: "Engaged", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Engaged":
+def resume(
+    p: "Parameters",
+    engaged: "Engaged",
+    rocker_lift: float,
+    rocker_velocity: float,
+    lift: float,
+    velocity: float,
+) -> "Engaged":
     """Engaged at the start of a step: each contact as its switch function's sign says, or as
     ``engaged`` (the end of the last step) where the function is exactly 0. They agree
     unless the drive jumps at the communication point (input_interpolation = hold: the
     step starts from the inputs given for its start, not from the last step's
     extrapolation), which may engage or release a contact without a crossing to see."""
     values = switches(p, rocker_lift, rocker_velocity, lift, velocity)
-    return Engaged(*(value > 0.0 if value != 0.0 else mode
-                     for value, mode in zip(values, engaged)))
+    return Engaged(*(value > 0.0 if value != 0.0 else mode for value, mode in zip(values, engaged)))
 
 
-def engaged_forces(p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float, engaged: "Engaged") -> "Forces":
+def engaged_forces(
+    p: "Parameters",
+    rocker_lift: float,
+    rocker_velocity: float,
+    lift: float,
+    velocity: float,
+    engaged: "Engaged",
+) -> "Forces":
     """Forces with the contacts ``engaged`` (Engaged) acting by their unclipped Kelvin-Voigt
     law and the others idle: the smooth right-hand side of one integration segment."""
     depth = penetration(p, rocker_lift, lift)
-    contact = (p.contact_stiffness * depth + p.contact_damping * (rocker_velocity - velocity)
-               if engaged.contact else 0.0)
+    contact = (
+        p.contact_stiffness * depth + p.contact_damping * (rocker_velocity - velocity)
+        if engaged.contact
+        else 0.0
+    )
     seat = -p.seat_stiffness * lift - p.seat_damping * velocity if engaged.seat else 0.0
     spring = spring_force(p, lift)
     return Forces((contact + seat - spring) / p.mass, contact, seat, spring, depth)
 
 
-def after_switch(p: "Parameters", engaged: "Engaged", fired: int, rocker_lift: float, rocker_velocity: float, lift: float, velocity: float) -> "Engaged":
+def after_switch(
+    p: "Parameters",
+    engaged: "Engaged",
+    fired: int,
+    rocker_lift: float,
+    rocker_velocity: float,
+    lift: float,
+    velocity: float,
+) -> "Engaged":
     """Engaged after the switch function ``fired`` (CONTACT or SEAT) crossed zero at a state.
 
     The fired contact flips. The other one keeps following its own sign, which is far from
@@ -385,14 +440,18 @@ def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
         contact = kc * (L - x - lash) + cc * (rate - v) if contact_on else 0.0
         seat = -ks * x - cs * v if seat_on else 0.0
         return [v, (contact + seat - (preload + k * x)) / m, contact * rate]
+
     return rhs
 
 
-def build_events(p: "Parameters", drive: StepDrive, max_lift: float | None=None) -> dict[Engaged, tuple[Event, ...]]:
+def build_events(
+    p: "Parameters", drive: StepDrive, max_lift: float | None = None
+) -> dict[Engaged, tuple[Event, ...]]:
     """{Engaged: events to watch in that mode}: each contact's switch function crossing
     towards the other mode (falling while engaged, rising while idle) ends the segment, and
     d falling through 0 (the valve leaving the rocker) is located for the float report;
     with ``max_lift`` (m), the valve lift rising through it (TRAVEL_LIMIT) as well."""
+
     def contact(t: float, y: Any):
         L, rate, _ = drive_at(drive, t)
         return contact_switch(p, penetration(p, L, y[0]), rate - y[1])
@@ -406,9 +465,15 @@ def build_events(p: "Parameters", drive: StepDrive, max_lift: float | None=None)
     always = [Event("separation", separation, -1)]
     if max_lift is not None:
         always.append(Event(TRAVEL_LIMIT, lambda t, y: y[0] - max_lift, 1))
-    return {Engaged(c, s): (Event(SWITCH_EVENTS[CONTACT], contact, -1 if c else 1),
-                            Event(SWITCH_EVENTS[SEAT], seat, -1 if s else 1), *always)
-            for c in (False, True) for s in (False, True)}
+    return {
+        Engaged(c, s): (
+            Event(SWITCH_EVENTS[CONTACT], contact, -1 if c else 1),
+            Event(SWITCH_EVENTS[SEAT], seat, -1 if s else 1),
+            *always,
+        )
+        for c in (False, True)
+        for s in (False, True)
+    }
 
 
 def initial_state(p: "Parameters", rocker_lift: float, rocker_velocity: float) -> list[float]:
@@ -418,14 +483,25 @@ def initial_state(p: "Parameters", rocker_lift: float, rocker_velocity: float) -
 
 # --- what happened inside a step -----------------------------------------------------------
 
-def contact_phase(p: "Parameters", rocker_lift: float, lift: float, landed: bool=False) -> "Phase":
+
+def contact_phase(
+    p: "Parameters", rocker_lift: float, lift: float, landed: bool = False
+) -> "Phase":
     """Phase(touching: d > 0, open: x > 0, landed) at a state; ``landed``: the valve has
     come down on its seat since the rocker last sat on its base circle (L <= lash)."""
-    return Phase(penetration(p, rocker_lift, lift) > 0.0, lift > 0.0,
-                 landed and rocker_lift - p.lash > 0.0)
+    return Phase(
+        penetration(p, rocker_lift, lift) > 0.0, lift > 0.0, landed and rocker_lift - p.lash > 0.0
+    )
 
 
-def next_phase(p: "Parameters", before: "Phase", t: float, lift: float, velocity: float, drive: tuple[float, float, float]) -> tuple:
+def next_phase(
+    p: "Parameters",
+    before: "Phase",
+    t: float,
+    lift: float,
+    velocity: float,
+    drive: tuple[float, float, float],
+) -> tuple:
     """(Phase at time t, [Happening]) for a state reached from the Phase ``before``.
 
     Happenings, each Happening(kind, t, x, v, (L, L', L'')):

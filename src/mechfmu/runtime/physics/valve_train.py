@@ -53,19 +53,26 @@ from collections import namedtuple
 from typing import Any
 
 from . import cam_laws
-from ..errors import (RangeError, SingularConfiguration, require_between, require_finite,
-                     require_positive)
+from ..errors import (
+    RangeError,
+    SingularConfiguration,
+    require_between,
+    require_finite,
+    require_positive,
+)
 from .cam_laws import CamProfile
 from collections.abc import Callable
 
 ValveGeometry = namedtuple(
     "ValveGeometry",
     "cam_base_radius pushrod_length rocker_pivot_x rocker_pivot_y tappet_arm valve_arm "
-    "valve_axis_x valve_link_length")
+    "valve_axis_x valve_link_length",
+)
 ValveTrainMotion = namedtuple(
     "ValveTrainMotion",
     "tappet_lift tappet_velocity tappet_acceleration rocker_angle rocker_angular_velocity "
-    "rocker_angular_acceleration valve_lift valve_velocity valve_acceleration")
+    "rocker_angular_acceleration valve_lift valve_velocity valve_acceleration",
+)
 FloatSpeed = namedtuple("FloatSpeed", "camshaft_speed camshaft_angle")
 WorkingRange = namedtuple("WorkingRange", "tappet_low tappet_high valve_low valve_high")
 
@@ -77,8 +84,15 @@ WorkingRange = namedtuple("WorkingRange", "tappet_low tappet_high valve_low valv
 # 10.50 mm of valve lift (instantaneous ratio d(valve lift)/d(tappet lift) 1.503 at rest,
 # 1.497 at 7 mm).
 DEFAULT_VALVE_GEOMETRY = ValveGeometry(
-    cam_base_radius=0.015, pushrod_length=0.200, rocker_pivot_x=0.030, rocker_pivot_y=0.2185,
-    tappet_arm=0.028, valve_arm=0.042, valve_axis_x=0.072, valve_link_length=0.050)
+    cam_base_radius=0.015,
+    pushrod_length=0.200,
+    rocker_pivot_x=0.030,
+    rocker_pivot_y=0.2185,
+    tappet_arm=0.028,
+    valve_arm=0.042,
+    valve_axis_x=0.072,
+    valve_link_length=0.050,
+)
 
 SINGULAR_ULPS = 4  # triangle factors this small (in units of eps * perimeter) are dead centres
 _EPS = sys.float_info.epsilon
@@ -86,6 +100,7 @@ GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # 0.618...
 
 
 # --- geometry checks and ranges ----------------------------------------------------------
+
 
 def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     """Validate a ValveGeometry and return it with float fields.
@@ -102,14 +117,24 @@ def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     a = require_positive("rocker_pivot_x", g.rocker_pivot_x, "m")
     b = require_finite("rocker_pivot_y", g.rocker_pivot_y, "m")
     if b <= r_b:
-        raise RangeError("rocker_pivot_y", b, f"({r_b!r}, inf)", "m",
-                         "the rocker pivot must lie above the tappet (cam_base_radius)")
+        raise RangeError(
+            "rocker_pivot_y",
+            b,
+            f"({r_b!r}, inf)",
+            "m",
+            "the rocker pivot must lie above the tappet (cam_base_radius)",
+        )
     arm_t = require_positive("tappet_arm", g.tappet_arm, "m")
     arm_v = require_positive("valve_arm", g.valve_arm, "m")
     c = require_finite("valve_axis_x", g.valve_axis_x, "m")
     if c <= a:
-        raise RangeError("valve_axis_x", c, f"({a!r}, inf)", "m",
-                         "the valve axis must lie beyond the rocker pivot, under the valve arm")
+        raise RangeError(
+            "valve_axis_x",
+            c,
+            f"({a!r}, inf)",
+            "m",
+            "the valve axis must lie beyond the rocker pivot, under the valve arm",
+        )
     length_3 = require_positive("valve_link_length", g.valve_link_length, "m")
     checked = ValveGeometry(r_b, length_1, a, b, arm_t, arm_v, c, length_3)
 
@@ -121,9 +146,14 @@ def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     low = abs(math.hypot(a, w0) - arm_t)
     high = math.hypot(a, w0 + arm_t)
     if not low < length_1 < high:
-        raise RangeError("pushrod_length", length_1, f"({low!r}, {high!r})", "m",
-                         "at zero tappet lift the rocker must assemble off the dead centres "
-                         "with its tappet arm left of the pivot")
+        raise RangeError(
+            "pushrod_length",
+            length_1,
+            f"({low!r}, {high!r})",
+            "m",
+            "at zero tappet lift the rocker must assemble off the dead centres "
+            "with its tappet arm left of the pivot",
+        )
 
     # Valve side at rest: with dx = c - V_x and h = sqrt(L3^2 - dx^2), the valve triangle's
     # orientation is lv (dx sin(phi0) + h cos(phi0)); it must be > 0 (V counter-clockwise
@@ -132,16 +162,27 @@ def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     dx = c - (a + arm_v * math.cos(phi0))
     bound = abs(dx) if dx * math.sin(phi0) >= 0.0 else abs(dx) / math.cos(phi0)
     if not length_3 > bound:
-        raise RangeError("valve_link_length", length_3, f"({bound!r}, inf)", "m",
-                         "at zero tappet lift the valve link must reach below the valve "
-                         "arm's end, neither horizontal nor in line with the arm")
+        raise RangeError(
+            "valve_link_length",
+            length_3,
+            f"({bound!r}, inf)",
+            "m",
+            "at zero tappet lift the valve link must reach below the valve "
+            "arm's end, neither horizontal nor in line with the arm",
+        )
     return checked
 
 
-def _triangle_factors(side: float, arm: float, distance: float) -> tuple[float, float, float, float]:
+def _triangle_factors(
+    side: float, arm: float, distance: float
+) -> tuple[float, float, float, float]:
     """(L + l - R, R + l - L, R + L - l, perimeter) of the triangle link L, arm l, distance R."""
-    return (side + arm - distance, distance + arm - side, distance + side - arm,
-            distance + side + arm)
+    return (
+        side + arm - distance,
+        distance + arm - side,
+        distance + side - arm,
+        distance + side + arm,
+    )
 
 
 def _phi_from_y1(g: "ValveGeometry", y1: float) -> float:
@@ -160,8 +201,11 @@ def _y3_from_phi(g: "ValveGeometry", phi: float) -> float:
     """Valve-link foot height y3 (m) for rocker angle phi, no checks."""
     dx = g.valve_axis_x - (g.rocker_pivot_x + g.valve_arm * math.cos(phi))
     length = g.valve_link_length
-    return (g.rocker_pivot_y + g.valve_arm * math.sin(phi)
-            - math.sqrt(max((length - dx) * (length + dx), 0.0)))
+    return (
+        g.rocker_pivot_y
+        + g.valve_arm * math.sin(phi)
+        - math.sqrt(max((length - dx) * (length + dx), 0.0))
+    )
 
 
 def rest_position(g: "ValveGeometry") -> tuple[float, float]:
@@ -266,8 +310,12 @@ def working_range(g: "ValveGeometry") -> "WorkingRange":
     candidates = [(-1.0, u / (arm_v + length_3))]
     if arm_v != length_3:
         candidates.append((1.0, u / (arm_v - length_3)))
-    for cosine in ((a - length_1) / arm_t, (a + length_1) / arm_t,
-                   (u - length_3) / arm_v, (u + length_3) / arm_v):
+    for cosine in (
+        (a - length_1) / arm_t,
+        (a + length_1) / arm_t,
+        (u - length_3) / arm_v,
+        (u + length_3) / arm_v,
+    ):
         candidates += [(-1.0, cosine), (1.0, cosine)]
     for sign, cosine in candidates:
         if not -1.0 < cosine < 1.0:
@@ -276,8 +324,12 @@ def working_range(g: "ValveGeometry") -> "WorkingRange":
         tx = a - arm_t * math.cos(phi)
         if abs(tx) > length_1:
             continue
-        lift = (g.rocker_pivot_y - arm_t * math.sin(phi)
-                - math.sqrt((length_1 - tx) * (length_1 + tx)) - g.cam_base_radius)
+        lift = (
+            g.rocker_pivot_y
+            - arm_t * math.sin(phi)
+            - math.sqrt((length_1 - tx) * (length_1 + tx))
+            - g.cam_base_radius
+        )
         # only a point the tappet side reaches on its own branch bounds the range
         if not low < lift < high or abs(_phi_from_y1(g, g.cam_base_radius + lift) - phi) > 1e-9:
             continue
@@ -286,18 +338,24 @@ def working_range(g: "ValveGeometry") -> "WorkingRange":
         elif lift < 0.0:
             low = max(low, lift)
     y3_closed = rest_position(g)[1]
-    return WorkingRange(low, high,
-                        y3_closed - _y3_from_phi(g, _phi_from_y1(g, g.cam_base_radius + low)),
-                        y3_closed - _y3_from_phi(g, _phi_from_y1(g, g.cam_base_radius + high)))
+    return WorkingRange(
+        low,
+        high,
+        y3_closed - _y3_from_phi(g, _phi_from_y1(g, g.cam_base_radius + low)),
+        y3_closed - _y3_from_phi(g, _phi_from_y1(g, g.cam_base_radius + high)),
+    )
 
 
 # --- positions ------------------------------------------------------------------------------
+
 
 def _singular_tolerance(perimeter: float) -> float:
     return SINGULAR_ULPS * _EPS * perimeter
 
 
-def _require_inside(name: str, value: float, low: float, high: float, unit: str, scale: float, why: str) -> None:
+def _require_inside(
+    name: str, value: float, low: float, high: float, unit: str, scale: float, why: str
+) -> None:
     """RangeError unless low <= value <= high, give or take a few rounding units of ``scale``.
 
     A value that misses an end only by rounding (e.g. y3_closed - valve_lift at the end of
@@ -316,21 +374,31 @@ def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
     """
     lift = require_finite("tappet_lift", tappet_lift, "m")
     low, high = tappet_lift_range(g)
-    _require_inside("tappet_lift", lift, low, high, "m",
-                    g.rocker_pivot_y + g.pushrod_length + g.tappet_arm,
-                    "the pushrod cannot reach the rocker's tappet arm")
+    _require_inside(
+        "tappet_lift",
+        lift,
+        low,
+        high,
+        "m",
+        g.rocker_pivot_y + g.pushrod_length + g.tappet_arm,
+        "the pushrod cannot reach the rocker's tappet arm",
+    )
     y1 = g.cam_base_radius + lift
     distance = math.hypot(g.rocker_pivot_x, g.rocker_pivot_y - y1)
     stretched, folded_a, folded_b, perimeter = _triangle_factors(
-        g.pushrod_length, g.tappet_arm, distance)
+        g.pushrod_length, g.tappet_arm, distance
+    )
     tolerance = _singular_tolerance(perimeter)
     if min(stretched, folded_a, folded_b) <= tolerance:
-        kind = ("stretched out: pivot distance = pushrod_length + tappet_arm"
-                if stretched <= tolerance else
-                "folded: pivot distance = |pushrod_length - tappet_arm|")
+        kind = (
+            "stretched out: pivot distance = pushrod_length + tappet_arm"
+            if stretched <= tolerance
+            else "folded: pivot distance = |pushrod_length - tappet_arm|"
+        )
         raise SingularConfiguration(
             f"tappet_lift = {lift!r} m puts the pushrod and the tappet arm in line ({kind}): "
-            "dead centre, the rocker's angular rate is undefined")
+            "dead centre, the rocker's angular rate is undefined"
+        )
     return _phi_from_y1(g, y1)
 
 
@@ -343,14 +411,20 @@ def valve_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     phi = require_finite("rocker_angle", rocker_angle, "rad")
     low, high = rocker_angle_range(g)
     if not low <= phi <= high:
-        raise RangeError("rocker_angle", phi, f"[{low!r}, {high!r}]", "rad",
-                         "the valve link cannot reach the valve axis")
+        raise RangeError(
+            "rocker_angle",
+            phi,
+            f"[{low!r}, {high!r}]",
+            "rad",
+            "the valve link cannot reach the valve axis",
+        )
     dx = g.valve_axis_x - (g.rocker_pivot_x + g.valve_arm * math.cos(phi))
     length = g.valve_link_length
     if min(length - dx, length + dx) <= _singular_tolerance(length):
         raise SingularConfiguration(
             f"rocker_angle = {phi!r} rad turns the valve link perpendicular to the valve axis "
-            "(horizontal): the valve's rate is undefined")
+            "(horizontal): the valve's rate is undefined"
+        )
     return _y3_from_phi(g, phi)
 
 
@@ -362,9 +436,15 @@ def rocker_from_valve(g: "ValveGeometry", valve_position: float) -> float:
     """
     y3 = require_finite("valve_position", valve_position, "m")
     low, high = valve_position_range(g)
-    _require_inside("valve_position", y3, low, high, "m",
-                    abs(g.rocker_pivot_y) + g.valve_link_length + g.valve_arm,
-                    "the valve link cannot reach the rocker's valve arm")
+    _require_inside(
+        "valve_position",
+        y3,
+        low,
+        high,
+        "m",
+        abs(g.rocker_pivot_y) + g.valve_link_length + g.valve_arm,
+        "the valve link cannot reach the rocker's valve arm",
+    )
     u = g.valve_axis_x - g.rocker_pivot_x
     w = y3 - g.rocker_pivot_y
     distance = math.hypot(u, w)
@@ -372,10 +452,11 @@ def rocker_from_valve(g: "ValveGeometry", valve_position: float) -> float:
     f1, f2, f3, perimeter = _triangle_factors(side, arm, distance)
     tolerance = _singular_tolerance(perimeter)
     if min(f1, f2, f3) <= tolerance:
-        kind = ("stretched out" if f1 <= tolerance else "folded")
+        kind = "stretched out" if f1 <= tolerance else "folded"
         raise SingularConfiguration(
             f"valve_position = {y3!r} m puts the valve link and the valve arm in line "
-            f"({kind}): dead centre, the rocker's angular rate is undefined")
+            f"({kind}): dead centre, the rocker's angular rate is undefined"
+        )
     k = ((distance - side) * (distance + side) + arm * arm) / (2.0 * arm)
     s = math.sqrt(f1 * f2 * f3 * perimeter) / (2.0 * arm)
     return math.atan2(w, u) + math.atan2(s, k)
@@ -390,21 +471,31 @@ def tappet_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     phi = require_finite("rocker_angle", rocker_angle, "rad")
     low, high = tappet_rocker_angle_range(g)
     if not low <= phi <= high:
-        raise RangeError("rocker_angle", phi, f"[{low!r}, {high!r}]", "rad",
-                         "the pushrod cannot reach the tappet axis")
+        raise RangeError(
+            "rocker_angle",
+            phi,
+            f"[{low!r}, {high!r}]",
+            "rad",
+            "the pushrod cannot reach the tappet axis",
+        )
     tx = g.rocker_pivot_x - g.tappet_arm * math.cos(phi)
     length = g.pushrod_length
     if min(length - tx, length + tx) <= _singular_tolerance(length):
         raise SingularConfiguration(
             f"rocker_angle = {phi!r} rad turns the pushrod perpendicular to the tappet axis "
-            "(horizontal): the tappet's rate is undefined")
-    return (g.rocker_pivot_y - g.tappet_arm * math.sin(phi)
-            - math.sqrt((length - tx) * (length + tx)))
+            "(horizontal): the tappet's rate is undefined"
+        )
+    return (
+        g.rocker_pivot_y - g.tappet_arm * math.sin(phi) - math.sqrt((length - tx) * (length + tx))
+    )
 
 
 # --- rates ------------------------------------------------------------------------------------
 
-def _tappet_vectors(g: "ValveGeometry", phi: float, y1: float) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+
+def _tappet_vectors(
+    g: "ValveGeometry", phi: float, y1: float
+) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
     """e = T - P, t1 = dT/dphi, t2 = d2T/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.tappet_arm
@@ -412,12 +503,16 @@ def _tappet_vectors(g: "ValveGeometry", phi: float, y1: float) -> tuple[tuple[fl
     return e, (arm * sin_phi, -arm * cos_phi), (arm * cos_phi, arm * sin_phi)
 
 
-def _valve_vectors(g: "ValveGeometry", phi: float, y3: float) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+def _valve_vectors(
+    g: "ValveGeometry", phi: float, y3: float
+) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
     """g = V - Q, v1 = dV/dphi, v2 = d2V/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.valve_arm
-    link = (g.rocker_pivot_x + arm * cos_phi - g.valve_axis_x,
-            g.rocker_pivot_y + arm * sin_phi - y3)
+    link = (
+        g.rocker_pivot_x + arm * cos_phi - g.valve_axis_x,
+        g.rocker_pivot_y + arm * sin_phi - y3,
+    )
     return link, (-arm * sin_phi, arm * cos_phi), (-arm * cos_phi, -arm * sin_phi)
 
 
@@ -425,7 +520,14 @@ def _dot(p: tuple[float, float], q: tuple[float, float]) -> float:
     return p[0] * q[0] + p[1] * q[1]
 
 
-def _rocker_rates(link: tuple[float, float], t1: tuple[float, float], t2: tuple[float, float], slider_rate: float, slider_accel: float, singular: str) -> tuple[float, float]:
+def _rocker_rates(
+    link: tuple[float, float],
+    t1: tuple[float, float],
+    t2: tuple[float, float],
+    slider_rate: float,
+    slider_accel: float,
+    singular: str,
+) -> tuple[float, float]:
     """Rocker rates (rad/s, rad/s^2) from the rates of a link end sliding vertically.
 
     The link vector e = (rocker end) - (slider end) has constant length, with the rocker end
@@ -441,18 +543,33 @@ def _rocker_rates(link: tuple[float, float], t1: tuple[float, float], t2: tuple[
     return omega, (link[1] * slider_accel - omega * omega * _dot(link, t2) - _dot(rel, rel)) / e_t1
 
 
-def _slider_rates(link: tuple[float, float], t1: tuple[float, float], t2: tuple[float, float], omega: float, alpha: float, singular: str) -> tuple[float, float]:
+def _slider_rates(
+    link: tuple[float, float],
+    t1: tuple[float, float],
+    t2: tuple[float, float],
+    omega: float,
+    alpha: float,
+    singular: str,
+) -> tuple[float, float]:
     """Rates (m/s, m/s^2) of a vertically sliding link end driven by the rocker: the same
     two equations solved for y' and y''. ``singular``: the message when e_y = 0."""
     if link[1] == 0.0:
         raise SingularConfiguration(singular)
     rate = omega * _dot(link, t1) / link[1]
     rel = (omega * t1[0], omega * t1[1] - rate)
-    return rate, (alpha * _dot(link, t1) + omega * omega * _dot(link, t2) + _dot(rel, rel)) / link[1]
+    return rate, (alpha * _dot(link, t1) + omega * omega * _dot(link, t2) + _dot(rel, rel)) / link[
+        1
+    ]
 
 
-def _chain_rates(driving: tuple[Any, Any, Any], driven: tuple[Any, Any, Any], rate: float, acceleration: float,
-                 driving_singular: str, driven_singular: str) -> tuple[float, float, float, float]:
+def _chain_rates(
+    driving: tuple[Any, Any, Any],
+    driven: tuple[Any, Any, Any],
+    rate: float,
+    acceleration: float,
+    driving_singular: str,
+    driven_singular: str,
+) -> tuple[float, float, float, float]:
     """Through the rocker: its (omega, alpha) from the driving slider's ``rate`` and
     ``acceleration`` (vectors ``driving``), then the driven slider's (rate, acceleration)
     (vectors ``driven``); the messages name each singular position."""
@@ -461,20 +578,29 @@ def _chain_rates(driving: tuple[Any, Any, Any], driven: tuple[Any, Any, Any], ra
     return omega, alpha, driven_rate, driven_acceleration
 
 
-def _motion_from_tappet(g: "ValveGeometry", y3_closed: float, lift: float, velocity: float, acceleration: float) -> "ValveTrainMotion":
+def _motion_from_tappet(
+    g: "ValveGeometry", y3_closed: float, lift: float, velocity: float, acceleration: float
+) -> "ValveTrainMotion":
     """forward without the input checks (float_speed calls it many times)."""
     y1 = g.cam_base_radius + lift
     phi = rocker_from_tappet(g, lift)
     y3 = valve_from_rocker(g, phi)
     omega, alpha, y3_rate, y3_accel = _chain_rates(
-        _tappet_vectors(g, phi, y1), _valve_vectors(g, phi, y3), velocity, acceleration,
+        _tappet_vectors(g, phi, y1),
+        _valve_vectors(g, phi, y3),
+        velocity,
+        acceleration,
         f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined",
-        f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined")
-    return ValveTrainMotion(lift, velocity, acceleration, phi, omega, alpha,
-                            y3_closed - y3, -y3_rate, -y3_accel)
+        f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined",
+    )
+    return ValveTrainMotion(
+        lift, velocity, acceleration, phi, omega, alpha, y3_closed - y3, -y3_rate, -y3_accel
+    )
 
 
-def forward(g: "ValveGeometry", tappet_lift: float, tappet_velocity: float, tappet_acceleration: float) -> "ValveTrainMotion":
+def forward(
+    g: "ValveGeometry", tappet_lift: float, tappet_velocity: float, tappet_acceleration: float
+) -> "ValveTrainMotion":
     """Rocker and valve motion for a prescribed tappet motion (m, m/s, m/s^2).
 
     Returns ValveTrainMotion (m, m/s, m/s^2; rad, rad/s, rad/s^2; m, m/s, m/s^2). Raises the
@@ -486,7 +612,9 @@ def forward(g: "ValveGeometry", tappet_lift: float, tappet_velocity: float, tapp
     return _motion_from_tappet(g, rest_position(g)[1], lift, velocity, acceleration)
 
 
-def inverse(g: "ValveGeometry", valve_lift: float, valve_velocity: float, valve_acceleration: float) -> "ValveTrainMotion":
+def inverse(
+    g: "ValveGeometry", valve_lift: float, valve_velocity: float, valve_acceleration: float
+) -> "ValveTrainMotion":
     """Rocker and tappet motion for a prescribed valve motion (m, m/s, m/s^2).
 
     Returns ValveTrainMotion. Raises the errors of rocker_from_valve (naming valve_position
@@ -499,21 +627,33 @@ def inverse(g: "ValveGeometry", valve_lift: float, valve_velocity: float, valve_
     phi = rocker_from_valve(g, y3)
     y1 = tappet_from_rocker(g, phi)
     omega, alpha, y1_rate, y1_accel = _chain_rates(
-        _valve_vectors(g, phi, y3), _tappet_vectors(g, phi, y1), -velocity, -acceleration,
+        _valve_vectors(g, phi, y3),
+        _tappet_vectors(g, phi, y1),
+        -velocity,
+        -acceleration,
         f"valve_lift = {lift!r} m: valve link and valve arm in line, rates undefined",
-        f"valve_lift = {lift!r} m: pushrod horizontal, tappet rates undefined")
-    return ValveTrainMotion(y1 - g.cam_base_radius, y1_rate, y1_accel, phi, omega, alpha,
-                            lift, velocity, acceleration)
+        f"valve_lift = {lift!r} m: pushrod horizontal, tappet rates undefined",
+    )
+    return ValveTrainMotion(
+        y1 - g.cam_base_radius, y1_rate, y1_accel, phi, omega, alpha, lift, velocity, acceleration
+    )
 
 
-def rocker_ratio(g: "ValveGeometry", tappet_lift: float=0.0) -> float:
+def rocker_ratio(g: "ValveGeometry", tappet_lift: float = 0.0) -> float:
     """Instantaneous ratio d(valve lift) / d(tappet lift) at ``tappet_lift`` (m)."""
     return forward(g, tappet_lift, 1.0, 0.0).valve_velocity
 
 
 # --- valve spring and float -------------------------------------------------------------------
 
-def contact_force(valve_mass: float, spring_stiffness: float, spring_preload: float, valve_lift: float, valve_acceleration: float) -> float:
+
+def contact_force(
+    valve_mass: float,
+    spring_stiffness: float,
+    spring_preload: float,
+    valve_lift: float,
+    valve_acceleration: float,
+) -> float:
     """Force (N) the rocker must push on the valve along its axis: m a + k lift + F0.
 
     valve_mass m (kg) lumps valve, retainer and the moving part of the spring; the spring
@@ -546,10 +686,14 @@ def contact_lost(
     """True if the rocker would have to pull the valve (contact force below
     -FLOAT_RTOL times the terms' magnitude, N): the valve floats. Arguments as
     contact_force (kg, N/m, N, m, m/s^2)."""
-    force = contact_force(valve_mass, spring_stiffness, spring_preload, valve_lift,
-                          valve_acceleration)
-    scale = (abs(valve_mass * valve_acceleration) + abs(spring_stiffness * valve_lift)
-             + abs(spring_preload))
+    force = contact_force(
+        valve_mass, spring_stiffness, spring_preload, valve_lift, valve_acceleration
+    )
+    scale = (
+        abs(valve_mass * valve_acceleration)
+        + abs(spring_stiffness * valve_lift)
+        + abs(spring_preload)
+    )
     return force < -FLOAT_RTOL * scale
 
 
@@ -575,8 +719,15 @@ def _golden_minimum(function: Callable, low: float, high: float) -> tuple[float,
     return best
 
 
-def float_speed(g: "ValveGeometry", profile: CamProfile, valve_mass: float, spring_stiffness: float, spring_preload: float, samples: int=720,
-                valve_law: bool=False) -> "FloatSpeed":
+def float_speed(
+    g: "ValveGeometry",
+    profile: CamProfile,
+    valve_mass: float,
+    spring_stiffness: float,
+    spring_preload: float,
+    samples: int = 720,
+    valve_law: bool = False,
+) -> "FloatSpeed":
     """Lowest constant camshaft speed (rad/s) at which the valve floats, and where.
 
     At constant speed w the valve acceleration is L'' w^2 (L'' = d2(valve lift)/dtheta2 in
@@ -627,8 +778,9 @@ def float_speed(g: "ValveGeometry", profile: CamProfile, valve_mass: float, spri
             left = values[i - 1] if i > 0 else math.inf
             right = values[i + 1] if i < count else math.inf
             if value <= left and value <= right:
-                found = _golden_minimum(lambda x: ratio(segment, x),
-                                        grid[max(i - 1, 0)], grid[min(i + 1, count)])
+                found = _golden_minimum(
+                    lambda x: ratio(segment, x), grid[max(i - 1, 0)], grid[min(i + 1, count)]
+                )
                 found = min(found, (value, grid[i]))
                 if found[0] < best[0]:
                     best = (found[0], profile.rise_start + starts[segment] + found[1] * beta)

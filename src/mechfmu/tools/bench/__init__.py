@@ -7,8 +7,15 @@ asserted: they depend on the machine. suite.py runs them; this module holds thei
 
 from dataclasses import dataclass
 
-BENCHMARKS = ("master_overhead", "model_cost", "effects", "floor", "sweep", "dynamic_scenes",
-              "growth")
+BENCHMARKS = (
+    "master_overhead",
+    "model_cost",
+    "effects",
+    "floor",
+    "sweep",
+    "dynamic_scenes",
+    "growth",
+)
 
 
 @dataclass(frozen=True)
@@ -26,6 +33,12 @@ class Settings:
 
 FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
 # The master's lengths stay: a shorter span makes the slope noisy, and the runs are cheap.
-QUICK = Settings(repeats=2, master_lengths_s=FULL.master_lengths_s, model_steps=200,
-                 effects_stop_time_s=0.5, sweep_scenes=16, dynamic_stop_fraction=0.1,
-                 growth_base_s=0.25)
+QUICK = Settings(
+    repeats=2,
+    master_lengths_s=FULL.master_lengths_s,
+    model_steps=200,
+    effects_stop_time_s=0.5,
+    sweep_scenes=16,
+    dynamic_stop_fraction=0.1,
+    growth_base_s=0.25,
+)

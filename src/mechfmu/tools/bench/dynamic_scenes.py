@@ -48,26 +48,43 @@ def _loop(simulation: Any):
     return {"loop": simulation.run().meta["loop_time_s"]}
 
 
-def measure(scene_dir: Any, fmu_dir: Any, repeats: int, stop_fraction: "float | None" = None) -> list:
+def measure(
+    scene_dir: Any, fmu_dir: Any, repeats: int, stop_fraction: "float | None" = None
+) -> list:
     """Rows of benchmark 6: per dynamic scene, loop wall time (s) / simulated time (s).
     ``stop_fraction`` (0, 1] shortens each scene to that part of its span (None: as
     written)."""
     scenes = dynamic_scenes(scene_dir)
     if stop_fraction is not None:
-        scenes = [dataclasses.replace(
-            scene, stop_time=scene.start_time + _whole_steps(scene, stop_fraction))
-            for scene in scenes]
+        scenes = [
+            dataclasses.replace(
+                scene, stop_time=scene.start_time + _whole_steps(scene, stop_fraction)
+            )
+            for scene in scenes
+        ]
     simulations = {scene.name: Simulation(scene, fmu_dir) for scene in scenes}
     medians = side_by_side_medians(
-        {name: (lambda simulation=simulation: _loop(simulation))
-         for name, simulation in simulations.items()}, repeats)
+        {
+            name: (lambda simulation=simulation: _loop(simulation))
+            for name, simulation in simulations.items()
+        },
+        repeats,
+    )
     rows = []
     for scene in scenes:
         span = scene.stop_time - scene.start_time
-        rows.append(Row(BENCHMARK, f"{scene.name}{CASE_SUFFIX}",
-                        medians[scene.name]["loop"] / span, "s/s", repeats, TARGET,
-                        f"stepping loop {medians[scene.name]['loop'] * 1e3:.4g} ms for "
-                        f"{span:g} s simulated; step {scene.step:g} s, {scene.steps} steps"))
+        rows.append(
+            Row(
+                BENCHMARK,
+                f"{scene.name}{CASE_SUFFIX}",
+                medians[scene.name]["loop"] / span,
+                "s/s",
+                repeats,
+                TARGET,
+                f"stepping loop {medians[scene.name]['loop'] * 1e3:.4g} ms for "
+                f"{span:g} s simulated; step {scene.step:g} s, {scene.steps} steps",
+            )
+        )
     return rows
 
 
@@ -83,7 +100,9 @@ def _whole_steps(scene: Any, fraction: float):
 CHECK_TOLERANCES = {"valve_train_dynamic": (1e-6, 1e-3), "valve_float_dynamic": (1e-5, 1e-3)}
 
 
-def step_accuracy(scene_dir: Any, fmu_dir: Any, name: str, steps: Sequence[float], repeats: int = 3) -> Any:
+def step_accuracy(
+    scene_dir: Any, fmu_dir: Any, name: str, steps: Sequence[float], repeats: int = 3
+) -> Any:
     """pandas DataFrame: ``name`` run at each communication step in ``steps`` (s, each
     dividing the span), its loop wall time per simulated s (median of ``repeats``), the
     right-hand-side evaluations, and its reference check at CHECK_TOLERANCES[name]: the
@@ -111,12 +130,18 @@ def step_accuracy(scene_dir: Any, fmu_dir: Any, name: str, steps: Sequence[float
             # the column whose largest deviation is the largest share of its allowance
             worst = check.summary.sort_values("ratio").iloc[-1]
             loops.sort()
-            rows.append({"scene": name, "step_s": float(step),
-                         "wall_per_simulated": loops[len(loops) // 2]
-                         / (scene.stop_time - scene.start_time),
-                         "rhs_evaluations": result.columns["valve.rhs_evaluations"][-1]
-                         if "valve.rhs_evaluations" in result.columns else float("nan"),
-                         "worst_of_allowance": float(worst["ratio"]),
-                         "worst_column": str(worst.name),
-                         "worst_time_s": float(worst["worst_time"])})
+            rows.append(
+                {
+                    "scene": name,
+                    "step_s": float(step),
+                    "wall_per_simulated": loops[len(loops) // 2]
+                    / (scene.stop_time - scene.start_time),
+                    "rhs_evaluations": result.columns["valve.rhs_evaluations"][-1]
+                    if "valve.rhs_evaluations" in result.columns
+                    else float("nan"),
+                    "worst_of_allowance": float(worst["ratio"]),
+                    "worst_column": str(worst.name),
+                    "worst_time_s": float(worst["worst_time"]),
+                }
+            )
     return pd.DataFrame(rows)

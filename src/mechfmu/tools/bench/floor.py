@@ -25,7 +25,9 @@ MILLI = 1e3
 CLOSED_FORM_CALLS = 20  # per sample: one call takes ~0.1 ms, near the clock's resolution
 
 
-def _closed_form_seconds(arguments: tuple[ndarray, float, float, float, float, float, str]) -> float:
+def _closed_form_seconds(
+    arguments: tuple[ndarray, float, float, float, float, float, str],
+) -> float:
     started = time.perf_counter()
     for _ in range(CLOSED_FORM_CALLS):
         landing_gear.retraction(*arguments)
@@ -43,12 +45,28 @@ def measure(scene_dir: str, fmu_dir: str, repeats: int) -> list[Row]:
     arguments = retraction_arguments(scene)
     simulation = Simulation(scene, fmu_dir)
     medians = side_by_side_medians(
-        {"closed form": lambda: {"time": _closed_form_seconds(arguments)},
-         "fmu": lambda: {"time": _loop_seconds(simulation)}}, repeats)
+        {
+            "closed form": lambda: {"time": _closed_form_seconds(arguments)},
+            "fmu": lambda: {"time": _loop_seconds(simulation)},
+        },
+        repeats,
+    )
     span = f"{scene.steps + 1} samples of {KINEMATIC_SCENE}"
-    closed_form = Row(BENCHMARK, "closed form (numpy)", medians["closed form"]["time"] * MILLI,
-                      "ms", repeats, notes=f"references.landing_gear.retraction; {span}; "
-                                           f"mean of {CLOSED_FORM_CALLS} calls per repeat")
-    fmu = Row(BENCHMARK, "FMU run (master loop)", medians["fmu"]["time"] * MILLI, "ms", repeats,
-              notes=f"the stepping loop of Simulation.run (meta loop_time_s); {span}")
+    closed_form = Row(
+        BENCHMARK,
+        "closed form (numpy)",
+        medians["closed form"]["time"] * MILLI,
+        "ms",
+        repeats,
+        notes=f"references.landing_gear.retraction; {span}; "
+        f"mean of {CLOSED_FORM_CALLS} calls per repeat",
+    )
+    fmu = Row(
+        BENCHMARK,
+        "FMU run (master loop)",
+        medians["fmu"]["time"] * MILLI,
+        "ms",
+        repeats,
+        notes=f"the stepping loop of Simulation.run (meta loop_time_s); {span}",
+    )
     return [closed_form, fmu, ratio_row("FMU / closed form", fmu, closed_form)]

@@ -15,7 +15,7 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from ...cosim.scene import Scene
     from numpy import ndarray
 
-KINEMATIC_SCENE = "gear_retraction"        # PistonActuator -> LandingGear, motion drive
+KINEMATIC_SCENE = "gear_retraction"  # PistonActuator -> LandingGear, motion drive
 DYNAMIC_SCENE = "gear_retraction_dynamic"  # LandingGear alone, all six effects, radau
 PISTON_INPUTS = ("piston_extension", "piston_speed", "piston_acceleration")
 GEAR_OUTPUTS = ("gear_angle", "gear_angular_velocity", "gear_angular_acceleration")
@@ -36,17 +36,24 @@ def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
     its sample times (s) and the actuator's and gear's parameters over the defaults (m, s)."""
     stroke = {**model_defaults("PistonActuator"), **scene.components["actuator"].parameters}
     geometry = {**model_defaults("LandingGear"), **scene.components["gear"].parameters}
-    return (sample_times(scene), geometry["attachment_distance"], geometry["pivot_height"],
-            stroke["start_extension"], stroke["end_extension"], stroke["stroke_time"],
-            stroke["profile"])
+    return (
+        sample_times(scene),
+        geometry["attachment_distance"],
+        geometry["pivot_height"],
+        stroke["start_extension"],
+        stroke["end_extension"],
+        stroke["stroke_time"],
+        stroke["profile"],
+    )
 
 
 def piston_table(scene: Scene) -> ndarray:
     """fmpy input table of a gear scene: time (s) and the piston's extension (m), speed
     (m/s) and acceleration (m/s^2) from the closed form at every communication point."""
     times, _, _, *stroke = retraction_arguments(scene)
-    table = np.zeros(len(times), dtype=[("time", float)] + [(name, float)
-                                                             for name in PISTON_INPUTS])
+    table = np.zeros(
+        len(times), dtype=[("time", float)] + [(name, float) for name in PISTON_INPUTS]
+    )
     table["time"] = times
     for name, values in zip(PISTON_INPUTS, landing_gear.stroke(times, *stroke)):
         table[name] = values

@@ -60,8 +60,15 @@ class FmiCallTimer:
     ours.
     """
 
-    FUNCTIONS = ("fmi2DoStep", "fmi2SetReal", "fmi2GetReal", "fmi2SetInteger",
-                 "fmi2GetInteger", "fmi2SetBoolean", "fmi2GetBoolean")
+    FUNCTIONS = (
+        "fmi2DoStep",
+        "fmi2SetReal",
+        "fmi2GetReal",
+        "fmi2SetInteger",
+        "fmi2GetInteger",
+        "fmi2SetBoolean",
+        "fmi2GetBoolean",
+    )
 
     def __init__(self) -> None:
         self.timer = CallTimer()
@@ -73,8 +80,10 @@ class FmiCallTimer:
     def attach(self, instance: FMU2Slave) -> None:
         functions = getattr(instance, "_functions", None)
         if not isinstance(functions, dict):
-            raise RuntimeError("this fmpy keeps no FMU2Slave._functions table (fmpy 0.3.2x "
-                               "does); the FMI-call timer cannot be attached")
+            raise RuntimeError(
+                "this fmpy keeps no FMU2Slave._functions table (fmpy 0.3.2x "
+                "does); the FMI-call timer cannot be attached"
+            )
         for name in self.FUNCTIONS:
             functions[name] = self.timer.wrap(functions[name])
 
@@ -84,8 +93,13 @@ class FmpyGearAlone:
     (or, with ``component`` and ``outputs``, that component of the scene alone, its scene
     parameters and inputs as start values, no input table)."""
 
-    def __init__(self, fmu_path: str | Path, scene: Scene, component: str = "gear",
-                 outputs: Sequence[str] = GEAR_OUTPUTS) -> None:
+    def __init__(
+        self,
+        fmu_path: str | Path,
+        scene: Scene,
+        component: str = "gear",
+        outputs: Sequence[str] = GEAR_OUTPUTS,
+    ) -> None:
         self.scene, self.outputs = scene, tuple(outputs)
         self.description = read_model_description(str(fmu_path))
         self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
@@ -94,12 +108,15 @@ class FmpyGearAlone:
         # the unconnected inputs (and the parameters) as start values
         self.start_values = {**spec.parameters, **spec.inputs}
 
-    def run(self, timer: FmiCallTimer | None=None) -> SimulationResult:
+    def run(self, timer: FmiCallTimer | None = None) -> SimulationResult:
         """One run: instantiate, simulate_fmu, free. Attaches ``timer`` if given."""
         scene = self.scene
-        instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
-                             modelIdentifier=self.description.coSimulation.modelIdentifier,
-                             instanceName="gear")
+        instance = FMU2Slave(
+            guid=self.description.guid,
+            unzipDirectory=self.folder,
+            modelIdentifier=self.description.coSimulation.modelIdentifier,
+            instanceName="gear",
+        )
         if timer is not None:
             timer.attach(instance)
         instance.instantiate()
@@ -108,15 +125,24 @@ class FmpyGearAlone:
             # start values); keep them out of the benchmark's own output.
             with contextlib.redirect_stdout(io.StringIO()):
                 result = simulate_fmu(
-                    self.folder, model_description=self.description, fmu_instance=instance,
-                    start_time=scene.start_time, stop_time=scene.stop_time,
-                    step_size=scene.step, output_interval=scene.step, input=self.table,
-                    output=list(self.outputs), start_values=dict(self.start_values))
+                    self.folder,
+                    model_description=self.description,
+                    fmu_instance=instance,
+                    start_time=scene.start_time,
+                    stop_time=scene.stop_time,
+                    step_size=scene.step,
+                    output_interval=scene.step,
+                    input=self.table,
+                    output=list(self.outputs),
+                    start_values=dict(self.start_values),
+                )
         finally:
             instance.freeInstance()
         if len(result) != scene.steps + 1:
-            raise RuntimeError(f"fmpy recorded {len(result)} points, expected "
-                               f"{scene.steps + 1} ({scene.steps} steps)")
+            raise RuntimeError(
+                f"fmpy recorded {len(result)} points, expected "
+                f"{scene.steps + 1} ({scene.steps} steps)"
+            )
         return result
 
     def close(self) -> None:
@@ -140,15 +166,17 @@ def _fmpy(alone: FmpyGearAlone, timed: bool) -> dict[str, float]:
     return {"wall": wall, "fmi": timer.seconds}
 
 
-def _runs(ours: list[Simulation], alone: list[FmpyGearAlone]) -> dict[tuple[str, str, bool], Callable]:
+def _runs(
+    ours: list[Simulation], alone: list[FmpyGearAlone]
+) -> dict[tuple[str, str, bool], Callable]:
     """The measured runs: each master at each length, untimed and with FMI-call timers."""
     measurements = {}
     for timed in (False, True):
         for length, simulation, run in zip(("short", "long"), ours, alone):
-            measurements[("ours", length, timed)] = (
-                lambda simulation=simulation, timed=timed: _ours(simulation, timed))
-            measurements[("fmpy", length, timed)] = (
-                lambda run=run, timed=timed: _fmpy(run, timed))
+            measurements[("ours", length, timed)] = lambda simulation=simulation, timed=timed: (
+                _ours(simulation, timed)
+            )
+            measurements[("fmpy", length, timed)] = lambda run=run, timed=timed: _fmpy(run, timed)
     return measurements
 
 
@@ -159,11 +187,18 @@ class MasterRows(NamedTuple):
     overhead: Row
 
 
-def _master_rows(master: str, medians: dict[Any, dict[str, float]], steps: Sequence[int],
-                 description: str, repeats: int, label: str | None = None) -> MasterRows:
+def _master_rows(
+    master: str,
+    medians: dict[Any, dict[str, float]],
+    steps: Sequence[int],
+    description: str,
+    repeats: int,
+    label: str | None = None,
+) -> MasterRows:
     """Wall, set-up, FMI and overhead rows of one master from the medians of its runs;
     ``label`` names the rows (default: the master)."""
     label = label or master
+
     def median(length: str, key: str, timed: bool) -> float:
         return medians[(master, length, timed)][key]
 
@@ -171,16 +206,40 @@ def _master_rows(master: str, medians: dict[Any, dict[str, float]], steps: Seque
     wall = per_step(median("short", "wall", False), median("long", "wall", False), *steps)
     fmi = per_step(median("short", "fmi", True), median("long", "fmi", True), *steps)
     return MasterRows(
-        Row(BENCHMARK, f"{label}: wall per step", wall * MICRO, "us", repeats,
-            notes=f"{description}; {span}"),
-        Row(BENCHMARK, f"{label}: set-up",
-            set_up(median("short", "wall", False), wall, steps[0]) * MILLI, "ms", repeats,
+        Row(
+            BENCHMARK,
+            f"{label}: wall per step",
+            wall * MICRO,
+            "us",
+            repeats,
+            notes=f"{description}; {span}",
+        ),
+        Row(
+            BENCHMARK,
+            f"{label}: set-up",
+            set_up(median("short", "wall", False), wall, steps[0]) * MILLI,
+            "ms",
+            repeats,
             notes="intercept of the same line: extraction (ours only), instantiation, "
-                  "initialisation"),
-        Row(BENCHMARK, f"{label}: FMI calls per step", fmi * MICRO, "us", repeats,
-            notes=f"time inside the C get/set/doStep calls; timed runs; {span}"),
-        Row(BENCHMARK, f"{label}: overhead per step", (wall - fmi) * MICRO, "us", repeats,
-            notes="wall per step (untimed runs) - FMI calls per step (timed runs)"))
+            "initialisation",
+        ),
+        Row(
+            BENCHMARK,
+            f"{label}: FMI calls per step",
+            fmi * MICRO,
+            "us",
+            repeats,
+            notes=f"time inside the C get/set/doStep calls; timed runs; {span}",
+        ),
+        Row(
+            BENCHMARK,
+            f"{label}: overhead per step",
+            (wall - fmi) * MICRO,
+            "us",
+            repeats,
+            notes="wall per step (untimed runs) - FMI calls per step (timed runs)",
+        ),
+    )
 
 
 def actuator_alone(scene: Scene) -> Scene:
@@ -188,13 +247,17 @@ def actuator_alone(scene: Scene) -> Scene:
     recorded, no connections."""
     assert scene.record is not None  # the gear scene lists what it records
     return dataclasses.replace(
-        scene, name=f"{scene.name} (actuator alone)",
-        components={"actuator": scene.components["actuator"]}, connections=[],
-        record=[name for name in scene.record if name.startswith("actuator.")])
+        scene,
+        name=f"{scene.name} (actuator alone)",
+        components={"actuator": scene.components["actuator"]},
+        connections=[],
+        record=[name for name in scene.record if name.startswith("actuator.")],
+    )
 
 
-def measure_one_fmu(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float],
-                    repeats: int) -> list[Row]:
+def measure_one_fmu(
+    scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float], repeats: int
+) -> list[Row]:
     """Rows of benchmark 1 on one FMU: our master and simulate_fmu each stepping
     PistonActuator.fmu alone with the gear scene's parameters, recording its 3 outputs."""
     scene = actuator_alone(load_named_scene(scene_dir, KINEMATIC_SCENE))
@@ -203,30 +266,46 @@ def measure_one_fmu(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[flo
     assert scene.record is not None  # set by actuator_alone
     outputs = [name.split(".", 1)[1] for name in scene.record]
     ours = [Simulation(s, fmu_dir) for s in scenes]
-    alone = [FmpyGearAlone(Path(fmu_dir) / "PistonActuator.fmu", s, "actuator", outputs)
-             for s in scenes]
+    alone = [
+        FmpyGearAlone(Path(fmu_dir) / "PistonActuator.fmu", s, "actuator", outputs) for s in scenes
+    ]
     try:
         medians = side_by_side_medians(_runs(ours, alone), repeats)
     finally:
         for run in alone:
             run.close()
     descriptions = {
-        "one FMU, ours": f"PistonActuator alone, {len(outputs)} recorded, steps of "
-                         f"{scene.step} s",
+        "one FMU, ours": f"PistonActuator alone, {len(outputs)} recorded, steps of {scene.step} s",
         "one FMU, fmpy": f"simulate_fmu: PistonActuator.fmu alone, {len(outputs)} recorded, "
-                         f"steps of {scene.step} s"}
-    rows = {label: _master_rows(master, medians, steps, descriptions[label], repeats, label)
-            for label, master in (("one FMU, ours", "ours"), ("one FMU, fmpy", "fmpy"))}
+        f"steps of {scene.step} s",
+    }
+    rows = {
+        label: _master_rows(master, medians, steps, descriptions[label], repeats, label)
+        for label, master in (("one FMU, ours", "ours"), ("one FMU, fmpy", "fmpy"))
+    }
     ours_rows, fmpy_rows = rows["one FMU, ours"], rows["one FMU, fmpy"]
-    return [*ours_rows, *fmpy_rows,
-            ratio_row("one FMU: total per step, ours / fmpy", ours_rows.wall, fmpy_rows.wall,
-                      TARGET, "the same FMU"),
-            ratio_row("one FMU: overhead per step, ours / fmpy", ours_rows.overhead,
-                      fmpy_rows.overhead, TARGET)]
+    return [
+        *ours_rows,
+        *fmpy_rows,
+        ratio_row(
+            "one FMU: total per step, ours / fmpy",
+            ours_rows.wall,
+            fmpy_rows.wall,
+            TARGET,
+            "the same FMU",
+        ),
+        ratio_row(
+            "one FMU: overhead per step, ours / fmpy",
+            ours_rows.overhead,
+            fmpy_rows.overhead,
+            TARGET,
+        ),
+    ]
 
 
-def measure(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float],
-            repeats: int) -> list[Row]:
+def measure(
+    scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float], repeats: int
+) -> list[Row]:
     """Rows of benchmark 1; ``lengths_s`` = (short, long) stop times in s."""
     scene = load_named_scene(scene_dir, KINEMATIC_SCENE)
     scenes = [with_stop_time(scene, stop) for stop in lengths_s]
@@ -240,34 +319,47 @@ def measure(scene_dir: str, fmu_dir: str | Path, lengths_s: Sequence[float],
             run.close()
     descriptions = {
         "ours": f"{KINEMATIC_SCENE}: PistonActuator -> LandingGear, "
-                f"{len(ours[0].connections)} connections, {len(ours[0].recorded)} recorded, "
-                f"steps of {scene.step} s",
+        f"{len(ours[0].connections)} connections, {len(ours[0].recorded)} recorded, "
+        f"steps of {scene.step} s",
         "fmpy": f"simulate_fmu: LandingGear.fmu alone, piston motion as an input table, "
-                f"{len(GEAR_OUTPUTS)} recorded, steps of {scene.step} s"}
-    rows = {master: _master_rows(master, medians, steps, descriptions[master], repeats)
-            for master in ("ours", "fmpy")}
+        f"{len(GEAR_OUTPUTS)} recorded, steps of {scene.step} s",
+    }
+    rows = {
+        master: _master_rows(master, medians, steps, descriptions[master], repeats)
+        for master in ("ours", "fmpy")
+    }
     ours_rows, fmpy_rows = rows["ours"], rows["fmpy"]
-    return [*ours_rows, *fmpy_rows,
-            ratio_row("total per step, ours / fmpy", ours_rows.wall, fmpy_rows.wall, TARGET,
-                      "two FMUs against one"),
-            ratio_row("overhead per step, ours / fmpy", ours_rows.overhead,
-                      fmpy_rows.overhead, TARGET),
-            *measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats)]
+    return [
+        *ours_rows,
+        *fmpy_rows,
+        ratio_row(
+            "total per step, ours / fmpy",
+            ours_rows.wall,
+            fmpy_rows.wall,
+            TARGET,
+            "two FMUs against one",
+        ),
+        ratio_row("overhead per step, ours / fmpy", ours_rows.overhead, fmpy_rows.overhead, TARGET),
+        *measure_one_fmu(scene_dir, fmu_dir, lengths_s, repeats),
+    ]
 
 
-def profile(scene_dir: Any, fmu_dir: Any, stop_time: float, top: Any=15, stream: Any=None) -> None:
+def profile(
+    scene_dir: Any, fmu_dir: Any, stop_time: float, top: Any = 15, stream: Any = None
+) -> None:
     """Print cProfile's ``top`` functions by own time for one run of each master."""
     scene = with_stop_time(load_named_scene(scene_dir, KINEMATIC_SCENE), stop_time)
     simulation = Simulation(scene, fmu_dir)
     alone = FmpyGearAlone(Path(fmu_dir) / "LandingGear.fmu", scene)
     try:
-        for label, run in (("ours (Simulation.run, 2 FMUs)", simulation.run),
-                           ("fmpy (simulate_fmu, LandingGear alone)", alone.run)):
+        for label, run in (
+            ("ours (Simulation.run, 2 FMUs)", simulation.run),
+            ("fmpy (simulate_fmu, LandingGear alone)", alone.run),
+        ):
             run()  # warm
             profiler = cProfile.Profile()
             profiler.runcall(run)
-            print(f"\ncProfile, {label}, {scene.steps} steps: top {top} by tottime",
-                  file=stream)
+            print(f"\ncProfile, {label}, {scene.steps} steps: top {top} by tottime", file=stream)
             stats = pstats.Stats(profiler, stream=stream)
             stats.strip_dirs().sort_stats("tottime").print_stats(top)
     finally:

@@ -46,13 +46,17 @@ MICRO = 1e6
 CAMSHAFT_SPEED = 50.0 * math.pi  # rad/s: 3000 engine rpm, as in the valve_train scene
 
 
-def shaft_turning(prefix: str, speed: float, initial_angle: float=0.0) -> Callable:
+def shaft_turning(prefix: str, speed: float, initial_angle: float = 0.0) -> Callable:
     """Inputs ``<prefix>_angle`` (rad), ``_speed`` (rad/s), ``_acceleration`` (rad/s^2) of a
     shaft turning at constant ``speed`` from ``initial_angle``, as functions of time (s)."""
+
     def inputs(times: Any):
-        return {f"{prefix}_angle": initial_angle + speed * times,
-                f"{prefix}_speed": np.full_like(times, speed),
-                f"{prefix}_acceleration": np.zeros_like(times)}
+        return {
+            f"{prefix}_angle": initial_angle + speed * times,
+            f"{prefix}_speed": np.full_like(times, speed),
+            f"{prefix}_acceleration": np.zeros_like(times),
+        }
+
     return inputs
 
 
@@ -60,13 +64,22 @@ def piston_stroke(times: ndarray) -> dict[str, ndarray]:
     """The coursework's stroke, 0.381 m to 0.6096 m at constant speed in 3 s (inside the
     gear's assembly range at every time)."""
     extension, speed, acceleration = landing_gear.stroke(
-        times, gear.COURSEWORK_RETRACTED_LENGTH, gear.COURSEWORK_EXTENDED_LENGTH,
-        gear.COURSEWORK_STROKE_TIME, "constant_speed")
-    return {"piston_extension": extension, "piston_speed": speed,
-            "piston_acceleration": acceleration}
+        times,
+        gear.COURSEWORK_RETRACTED_LENGTH,
+        gear.COURSEWORK_EXTENDED_LENGTH,
+        gear.COURSEWORK_STROKE_TIME,
+        "constant_speed",
+    )
+    return {
+        "piston_extension": extension,
+        "piston_speed": speed,
+        "piston_acceleration": acceleration,
+    }
 
 
-def load_ramp(times: ndarray, peak_n: float=2500.0, duration_s: float=4.0) -> dict[str, ndarray]:
+def load_ramp(
+    times: ndarray, peak_n: float = 2500.0, duration_s: float = 4.0
+) -> dict[str, ndarray]:
     """Suspension load from 0 to 2500 N over 4 s: below the 3090.6 N limit load, no
     snap-through."""
     return {"load": peak_n * np.clip(times / duration_s, 0.0, 1.0)}
@@ -88,25 +101,45 @@ class ModelCase:
 
 
 CASES = (
-    ModelCase("LandingGear (motion drive)", "LandingGear", 3.0, {"drive": "motion"},
-              piston_stroke),
+    ModelCase("LandingGear (motion drive)", "LandingGear", 3.0, {"drive": "motion"}, piston_stroke),
     ModelCase("PistonActuator", "PistonActuator", 3.0),
     ModelCase("Suspension (static)", "Suspension", 4.0, {}, load_ramp),
     ModelCase("LoadProfile (ramp)", "LoadProfile", 1.0),
     ModelCase("RoadProfile (bump)", "RoadProfile", 0.08),  # ends inside the 0.1 s bump
     ModelCase("CrankDrive", "CrankDrive", 1.0),
     ModelCase("CamshaftDrive", "CamshaftDrive", 1.0),
-    *(ModelCase(f"FourBar ({solver})", "FourBar", 1.0, {"solver": solver},
-                shaft_turning("crank", 2.0 * math.pi, math.radians(30.0)))
-      for solver in ("closed_form", "constraint_solver")),
-    *(ModelCase(f"SliderCrank ({solver})", "SliderCrank", 0.02, {"solver": solver},
-                shaft_turning("crank", 100.0 * math.pi))
-      for solver in ("closed_form", "constraint_solver")),
+    *(
+        ModelCase(
+            f"FourBar ({solver})",
+            "FourBar",
+            1.0,
+            {"solver": solver},
+            shaft_turning("crank", 2.0 * math.pi, math.radians(30.0)),
+        )
+        for solver in ("closed_form", "constraint_solver")
+    ),
+    *(
+        ModelCase(
+            f"SliderCrank ({solver})",
+            "SliderCrank",
+            0.02,
+            {"solver": solver},
+            shaft_turning("crank", 100.0 * math.pi),
+        )
+        for solver in ("closed_form", "constraint_solver")
+    ),
     # 1.25 camshaft revolutions: every phase of the cam law, ending inside the return (a
     # whole revolution would end where it started, outputs and all).
-    *(ModelCase(f"ValveTrain ({solver})", "ValveTrain", 0.05, {"solver": solver},
-                shaft_turning("camshaft", CAMSHAFT_SPEED))
-      for solver in ("closed_form", "constraint_solver")),
+    *(
+        ModelCase(
+            f"ValveTrain ({solver})",
+            "ValveTrain",
+            0.05,
+            {"solver": solver},
+            shaft_turning("camshaft", CAMSHAFT_SPEED),
+        )
+        for solver in ("closed_form", "constraint_solver")
+    ),
 )
 
 
@@ -134,8 +167,10 @@ class PreparedLoop:
         if unknown:
             raise ValueError(f"{case.label}: {case.model} has no Real input(s) {sorted(unknown)}")
         # The values a Gauss-Seidel master would set before each step: those at its end.
-        columns = [np.broadcast_to(np.asarray(driven.get(v.name, float(v.start)), float),
-                                   (steps,)) for v in inputs]
+        columns = [
+            np.broadcast_to(np.asarray(driven.get(v.name, float(v.start)), float), (steps,))
+            for v in inputs
+        ]
         self.input_count = len(inputs)
         self.input_refs = (c_uint * len(inputs))(*(v.valueReference for v in inputs))
         self.input_rows = [(c_double * len(inputs))(*row) for row in zip(*columns)]
@@ -145,8 +180,9 @@ class PreparedLoop:
 
     def run(self, instance: FMU2Slave) -> LoopRun:
         """Step ``instance`` through the prepared loop; a LoopRun."""
-        set_real, do_step, get_real = (getattr(instance.dll, name) for name in
-                                       ("fmi2SetReal", "fmi2DoStep", "fmi2GetReal"))
+        set_real, do_step, get_real = (
+            getattr(instance.dll, name) for name in ("fmi2SetReal", "fmi2DoStep", "fmi2GetReal")
+        )
         component, step = instance.component, self.step
         input_refs, input_count = self.input_refs, self.input_count
         output_refs, output_count = self.output_refs, self.output_count
@@ -166,8 +202,10 @@ class PreparedLoop:
                 status |= get_real(component, output_refs, output_count, outputs)
         seconds = timing.now() - started
         if status:
-            raise RuntimeError(f"{self.case.label}: an FMI call returned a non-OK status "
-                               f"(bits {status:#x}) during the loop")
+            raise RuntimeError(
+                f"{self.case.label}: an FMI call returned a non-OK status "
+                f"(bits {status:#x}) during the loop"
+            )
         return LoopRun(seconds, initial, list(outputs))
 
 
@@ -182,9 +220,12 @@ class ExtractedFmu:
     @contextlib.contextmanager
     def initialised(self, parameters: dict[str, str]) -> Iterator[FMU2Slave]:
         """A fresh instance with ``parameters`` applied, out of initialisation mode."""
-        instance = FMU2Slave(guid=self.description.guid, unzipDirectory=self.folder,
-                             modelIdentifier=self.description.coSimulation.modelIdentifier,
-                             instanceName=self.description.modelName)
+        instance = FMU2Slave(
+            guid=self.description.guid,
+            unzipDirectory=self.folder,
+            modelIdentifier=self.description.coSimulation.modelIdentifier,
+            instanceName=self.description.modelName,
+        )
         instance.instantiate()
         try:
             instance.setupExperiment(startTime=0.0)
@@ -228,7 +269,9 @@ def check_null_held(case: ModelCase, null_run: LoopRun, model_run: LoopRun) -> N
         raise RuntimeError(f"{case.label}: the model's outputs did not change during the loop")
 
 
-def _measure_case(case: ModelCase, model_fmu: ExtractedFmu, null_fmu: ExtractedFmu, steps: int, repeats: int) -> list[Row]:
+def _measure_case(
+    case: ModelCase, model_fmu: ExtractedFmu, null_fmu: ExtractedFmu, steps: int, repeats: int
+) -> list[Row]:
     loops = {fmu: PreparedLoop(case, fmu.description, steps) for fmu in (model_fmu, null_fmu)}
     last = {}
 
@@ -237,30 +280,52 @@ def _measure_case(case: ModelCase, model_fmu: ExtractedFmu, null_fmu: ExtractedF
             last[fmu] = loops[fmu].run(instance)
         return {"loop": last[fmu].seconds}
 
-    medians = side_by_side_medians({"model": lambda: timed(model_fmu),
-                                    "null": lambda: timed(null_fmu)}, repeats)
+    medians = side_by_side_medians(
+        {"model": lambda: timed(model_fmu), "null": lambda: timed(null_fmu)}, repeats
+    )
     check_null_held(case, last[null_fmu], last[model_fmu])
     span = f"{steps} steps of {loops[model_fmu].step:.3g} s"
-    model_row = Row(BENCHMARK, f"{case.label}: model", medians["model"]["loop"] / steps * MICRO,
-                    "us", repeats, notes=f"per step (set inputs, doStep, get outputs); {span}")
-    null_row = Row(BENCHMARK, f"{case.label}: null", medians["null"]["loop"] / steps * MICRO,
-                   "us", repeats, notes=f"per step; do_step returns at once; outputs held "
-                                        f"their initial values; {span}")
+    model_row = Row(
+        BENCHMARK,
+        f"{case.label}: model",
+        medians["model"]["loop"] / steps * MICRO,
+        "us",
+        repeats,
+        notes=f"per step (set inputs, doStep, get outputs); {span}",
+    )
+    null_row = Row(
+        BENCHMARK,
+        f"{case.label}: null",
+        medians["null"]["loop"] / steps * MICRO,
+        "us",
+        repeats,
+        notes=f"per step; do_step returns at once; outputs held their initial values; {span}",
+    )
     target = SOLVER_TARGET if "constraint_solver" in case.label else TARGET
-    return [model_row, null_row, ratio_row(f"{case.label}: model / null", model_row, null_row,
-                                           target)]
+    return [
+        model_row,
+        null_row,
+        ratio_row(f"{case.label}: model / null", model_row, null_row, target),
+    ]
 
 
-def measure(fmu_dir: str, steps: int, repeats: int, cases: tuple[ModelCase, ...]=CASES) -> list[Row]:
+def measure(
+    fmu_dir: str, steps: int, repeats: int, cases: tuple[ModelCase, ...] = CASES
+) -> list[Row]:
     """Rows of benchmark 2: per case the model's and the null twin's time per step (us)."""
     models = list(dict.fromkeys(case.model for case in cases))
     with tempfile.TemporaryDirectory(prefix="mechfmu_bench_null_") as temp:
         nulls = build_null_models(models, Path(temp))
-        fmus = {model: (ExtractedFmu(Path(fmu_dir) / f"{model}.fmu"), ExtractedFmu(nulls[model]))
-                for model in models}
+        fmus = {
+            model: (ExtractedFmu(Path(fmu_dir) / f"{model}.fmu"), ExtractedFmu(nulls[model]))
+            for model in models
+        }
         try:
-            return [row for case in cases
-                    for row in _measure_case(case, *fmus[case.model], steps, repeats)]
+            return [
+                row
+                for case in cases
+                for row in _measure_case(case, *fmus[case.model], steps, repeats)
+            ]
         finally:
             for pair in fmus.values():
                 for fmu in pair:

@@ -26,8 +26,7 @@ def run(sweep_dir: str, fmu_dir: str, scenes: int, jobs: int) -> dict[str, Any]:
     chosen.pop("description")
     chosen.update(samples=scenes, seed=SEED, method="lhs")
     with tempfile.TemporaryDirectory(prefix="mechfmu_bench_sweep_") as out:
-        summary = sweep.run_sweep(**chosen, out_dir=out, jobs=jobs, fmu_dir=fmu_dir,
-                                  progress=False)
+        summary = sweep.run_sweep(**chosen, out_dir=out, jobs=jobs, fmu_dir=fmu_dir, progress=False)
     if summary["failed"]:
         raise RuntimeError(f"bench sweep: {summary['failed']} of {scenes} points failed")
     return summary
@@ -38,11 +37,24 @@ def measure(sweep_dir: str, fmu_dir: str, scenes: int) -> list[Row]:
     rows, walls = [], {}
     for jobs in (1, 2):
         summary = run(sweep_dir, fmu_dir, scenes, jobs)
-        walls[jobs] = Row(BENCHMARK, f"{jobs} worker(s): wall time", summary["wall_time_s"],
-                          "s", 1, notes=f"{scenes} scenes of {SWEEP_FILE} (LHS, seed {SEED}), "
-                                        f"local processes")
-        rows += [walls[jobs],
-                 Row(BENCHMARK, f"{jobs} worker(s): throughput", summary["scenes_per_s"],
-                     "scenes/s", 1, notes=f"{scenes} / wall time")]
+        walls[jobs] = Row(
+            BENCHMARK,
+            f"{jobs} worker(s): wall time",
+            summary["wall_time_s"],
+            "s",
+            1,
+            notes=f"{scenes} scenes of {SWEEP_FILE} (LHS, seed {SEED}), local processes",
+        )
+        rows += [
+            walls[jobs],
+            Row(
+                BENCHMARK,
+                f"{jobs} worker(s): throughput",
+                summary["scenes_per_s"],
+                "scenes/s",
+                1,
+                notes=f"{scenes} / wall time",
+            ),
+        ]
     rows.append(ratio_row("speed-up, 2 workers over 1", walls[1], walls[2], TARGET))
     return rows

@@ -23,7 +23,9 @@ def now() -> float:
     return _clock()
 
 
-def side_by_side_medians(measurements: dict[Any, Callable], repeats: int) -> dict[Any, dict[str, float]]:
+def side_by_side_medians(
+    measurements: dict[Any, Callable], repeats: int
+) -> dict[Any, dict[str, float]]:
     """Median of every measurement over ``repeats`` rounds, after one warm-up round.
 
     ``measurements`` maps a name to a function that runs once and returns a dict of named
@@ -38,8 +40,10 @@ def side_by_side_medians(measurements: dict[Any, Callable], repeats: int) -> dic
     for _ in range(repeats):
         for name, run in measurements.items():
             samples[name].append(run())
-    return {name: {key: statistics.median(sample[key] for sample in runs) for key in runs[0]}
-            for name, runs in samples.items()}
+    return {
+        name: {key: statistics.median(sample[key] for sample in runs) for key in runs[0]}
+        for name, runs in samples.items()
+    }
 
 
 def per_step(short_run_s: float, long_run_s: float, short_steps: int, long_steps: int) -> float:

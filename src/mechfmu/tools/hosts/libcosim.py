@@ -69,7 +69,13 @@ class LibcosimError(RuntimeError):
     step; ``times``, ``values``: the samples recorded up to there (possibly empty).
     """
 
-    def __init__(self, message: str, time: float | None=None, times: ndarray | None=None, values: dict[str, ndarray] | None=None) -> None:
+    def __init__(
+        self,
+        message: str,
+        time: float | None = None,
+        times: ndarray | None = None,
+        values: dict[str, ndarray] | None = None,
+    ) -> None:
         super().__init__(message)
         self.time = time
         self.times = np.array([]) if times is None else times
@@ -83,8 +89,10 @@ def step_nanoseconds(step: float) -> int:
         raise ValueError(f"step = {step!r} s must be finite and > 0")
     step_ns = round(step * NANOSECONDS_PER_SECOND)
     if step_ns < 1 or abs(step * NANOSECONDS_PER_SECOND - step_ns) > 1e-6:
-        raise ValueError(f"step = {step!r} s is not a whole number of nanoseconds "
-                         f"(libcosim keeps time as integer ns; nearest: {step_ns} ns)")
+        raise ValueError(
+            f"step = {step!r} s is not a whole number of nanoseconds "
+            f"(libcosim keeps time as integer ns; nearest: {step_ns} ns)"
+        )
     return step_ns
 
 
@@ -96,8 +104,9 @@ def step_count(step: float, stop_time: float) -> int:
         raise ValueError(f"stop_time = {stop_time!r} s must be finite and > 0")
     count = round(stop * NANOSECONDS_PER_SECOND / step_ns)
     if abs(count * step_ns - stop * NANOSECONDS_PER_SECOND) > 1e-3:
-        raise ValueError(f"stop_time = {stop_time!r} s is not a whole number of steps of "
-                         f"{step_ns} ns")
+        raise ValueError(
+            f"stop_time = {stop_time!r} s is not a whole number of steps of {step_ns} ns"
+        )
     return count
 
 
@@ -119,8 +128,16 @@ def _libcosimpy():
     from libcosimpy.CosimManipulator import CosimManipulator
     from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy.CosimSlave import CosimLocalSlave
-    return (CosimEnums, CosimLogging, get_last_error_message, CosimExecution, CosimManipulator,
-            CosimObserver, CosimLocalSlave)
+
+    return (
+        CosimEnums,
+        CosimLogging,
+        get_last_error_message,
+        CosimExecution,
+        CosimManipulator,
+        CosimObserver,
+        CosimLocalSlave,
+    )
 
 
 def _checked(name: str, kind: CosimVariableType, value: float) -> float:
@@ -137,8 +154,16 @@ def _checked(name: str, kind: CosimVariableType, value: float) -> float:
     raise TypeError(f"{name} is {kind.capitalize()}, got {type(value).__name__} {value!r}")
 
 
-def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs: dict[str, Any] | None=None, step: float=0.01, stop_time: float=1.0,
-                 outputs: list[str] | None=None, instance: str="fmu", log_level: str="WARNING") -> tuple[ndarray, dict[str, ndarray]]:
+def run_libcosim(
+    fmu_path: Path,
+    parameters: dict[str, Any] | None = None,
+    inputs: dict[str, Any] | None = None,
+    step: float = 0.01,
+    stop_time: float = 1.0,
+    outputs: list[str] | None = None,
+    instance: str = "fmu",
+    log_level: str = "WARNING",
+) -> tuple[ndarray, dict[str, ndarray]]:
     """Run the FMU at ``fmu_path`` alone under libcosim from t = 0 to ``stop_time``.
 
     parameters: {name: value} set as initial values (Real, Integer, Boolean or String).
@@ -154,8 +179,15 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs:
     a value or a step (an fmi2Discard of the FMU included), ValueError/TypeError for
     arguments that do not match the FMU.
     """
-    (CosimEnums, CosimLogging, last_error, CosimExecution, CosimManipulator, CosimObserver,
-     CosimLocalSlave) = _libcosimpy()
+    (
+        CosimEnums,
+        CosimLogging,
+        last_error,
+        CosimExecution,
+        CosimManipulator,
+        CosimObserver,
+        CosimLocalSlave,
+    ) = _libcosimpy()
     Kind, Causality = CosimEnums.CosimVariableType, CosimEnums.CosimVariableCausality
     parameters, inputs = dict(parameters or {}), dict(inputs or {})
     step_ns = step_nanoseconds(step)
@@ -176,17 +208,23 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs:
 
     def variable(name: str, causalities: Any, role: Any):
         if name not in variables:
-            raise ValueError(f"{fmu_path} has no variable {name!r}; its {role}s: "
-                             + ", ".join(n for n, v in variables.items()
-                                         if Causality(v.causality) in causalities))
+            raise ValueError(
+                f"{fmu_path} has no variable {name!r}; its {role}s: "
+                + ", ".join(
+                    n for n, v in variables.items() if Causality(v.causality) in causalities
+                )
+            )
         found = variables[name]
         if Causality(found.causality) not in causalities:
-            raise ValueError(f"{name} is a {Causality(found.causality).name.lower()}, "
-                             f"not a {role}")
+            raise ValueError(f"{name} is a {Causality(found.causality).name.lower()}, not a {role}")
         return found, Kind(found.type)
 
-    setters = {"REAL": "real_initial_value", "INTEGER": "integer_initial_value",
-               "BOOLEAN": "boolean_initial_value", "STRING": "string_initial_value"}
+    setters = {
+        "REAL": "real_initial_value",
+        "INTEGER": "integer_initial_value",
+        "BOOLEAN": "boolean_initial_value",
+        "STRING": "string_initial_value",
+    }
 
     def set_initial(name: str, causalities: Any, role: Any, value: Any):
         found, kind = variable(name, causalities, role)
@@ -204,16 +242,22 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs:
         set_initial(name, (Causality.INPUT,), "input", value)
 
     if outputs is None:
-        outputs = [n for n, v in variables.items() if Causality(v.causality) is Causality.OUTPUT
-                   and Kind(v.type) in (Kind.REAL, Kind.INTEGER)]
+        outputs = [
+            n
+            for n, v in variables.items()
+            if Causality(v.causality) is Causality.OUTPUT
+            and Kind(v.type) in (Kind.REAL, Kind.INTEGER)
+        ]
     recorded = {}
     for name in outputs:
         if name not in variables:
             raise ValueError(f"{fmu_path} has no variable {name!r}")
         kind = Kind(variables[name].type)
         if kind not in (Kind.REAL, Kind.INTEGER):
-            raise ValueError(f"{name} is {kind.name.capitalize()}: libcosimpy 0.0.6 records "
-                             "only Real and Integer time series")
+            raise ValueError(
+                f"{name} is {kind.name.capitalize()}: libcosimpy 0.0.6 records "
+                "only Real and Integer time series"
+            )
         recorded[name] = (variables[name].reference, kind)
 
     observer = CosimObserver.create_time_series(buffer_size=count + 2)
@@ -227,16 +271,23 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs:
         manipulator = CosimManipulator.create_override()
         if not execution.add_manipulator(manipulator):
             raise LibcosimError(f"libcosim refused the manipulator: {last_error()}")
-    overriders = {"REAL": "slave_real_values", "INTEGER": "slave_integer_values",
-                  "BOOLEAN": "slave_boolean_values", "STRING": "slave_string_values"}
+    overriders = {
+        "REAL": "slave_real_values",
+        "INTEGER": "slave_integer_values",
+        "BOOLEAN": "slave_boolean_values",
+        "STRING": "slave_string_values",
+    }
 
     def samples(steps_done: Any):
         """(times, values) of steps 0 .. steps_done, checked against the ns grid."""
         values = {}
         times_ns = None
         for name, (reference, kind) in recorded.items():
-            read = (observer.time_series_real_samples if kind is Kind.REAL
-                    else observer.time_series_integer_samples)
+            read = (
+                observer.time_series_real_samples
+                if kind is Kind.REAL
+                else observer.time_series_integer_samples
+            )
             # Step 0 alone: the wrapper's trimming (count of step numbers equal to 0) drops
             # one sample of any read that includes step 0; with room for two, step 0 stays.
             first = read(index, reference, 0, 2)
@@ -244,27 +295,32 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs:
             time_points = list(first[0][:1]) + list(rest[0])
             step_numbers = list(first[1][:1]) + list(rest[1])
             if step_numbers != list(range(steps_done + 1)):
-                raise LibcosimError(f"libcosim's observer returned steps {step_numbers[:3]}"
-                                    f"...{step_numbers[-3:]} of {name}, expected 0..{steps_done}")
+                raise LibcosimError(
+                    f"libcosim's observer returned steps {step_numbers[:3]}"
+                    f"...{step_numbers[-3:]} of {name}, expected 0..{steps_done}"
+                )
             if times_ns is None:
                 times_ns = time_points
                 if times_ns != [k * step_ns for k in range(steps_done + 1)]:
-                    raise LibcosimError(f"libcosim's time points of {name} are not the "
-                                        f"{step_ns} ns grid")
-            values[name] = np.array(list(first[2][:1]) + list(rest[2]),
-                                    dtype=float if kind is Kind.REAL else int)
+                    raise LibcosimError(
+                        f"libcosim's time points of {name} are not the {step_ns} ns grid"
+                    )
+            values[name] = np.array(
+                list(first[2][:1]) + list(rest[2]), dtype=float if kind is Kind.REAL else int
+            )
         times = np.array([t / NANOSECONDS_PER_SECOND for t in (times_ns or [])])
         return times, values
 
     def failure(what: str, steps_done: Any):
-        message = (f"libcosim: {what} failed at t = {steps_done * step_ns / 1e9!r} s: "
-                   f"{last_error().strip()} (the FMU's own message is in libcosim's log)")
+        message = (
+            f"libcosim: {what} failed at t = {steps_done * step_ns / 1e9!r} s: "
+            f"{last_error().strip()} (the FMU's own message is in libcosim's log)"
+        )
         try:
             times, values = samples(steps_done)
         except Exception:  # nothing recorded yet (e.g. refused at the first step)
             times, values = None, None
-        return LibcosimError(message, steps_done * step_ns / NANOSECONDS_PER_SECOND,
-                             times, values)
+        return LibcosimError(message, steps_done * step_ns / NANOSECONDS_PER_SECOND, times, values)
 
     try:
         if not varying:
@@ -277,14 +333,19 @@ def run_libcosim(fmu_path: Path, parameters: dict[str, Any] | None=None, inputs:
                 for name, (function, found, kind) in varying.items():
                     value = _checked(name, kind, function(t_end))
                     if not getattr(manipulator, overriders[kind.name])(
-                            index, [found.reference], [value]):
-                        raise LibcosimError(f"libcosim refused {name} = {value!r} at "
-                                            f"t = {t_end!r} s: {last_error()}")
+                        index, [found.reference], [value]
+                    ):
+                        raise LibcosimError(
+                            f"libcosim refused {name} = {value!r} at "
+                            f"t = {t_end!r} s: {last_error()}"
+                        )
                 if not execution.step():
                     raise failure(f"the step from t = {k * step_ns / 1e9!r} s", k)
                 if execution.status().current_time != (k + 1) * step_ns:
-                    raise LibcosimError(f"libcosim's time {execution.status().current_time} ns "
-                                        f"after step {k + 1}, expected {(k + 1) * step_ns} ns")
+                    raise LibcosimError(
+                        f"libcosim's time {execution.status().current_time} ns "
+                        f"after step {k + 1}, expected {(k + 1) * step_ns} ns"
+                    )
         return samples(count)
     finally:
         # The execution owns the instance; destroy it first, then the objects it used (the

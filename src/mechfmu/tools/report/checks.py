@@ -34,8 +34,11 @@ def _cases(check: FileCheck) -> list[tuple[str, str | None, str | None, str]]:
     if grid is not None:
         cases.append(("(time grid)", "time grid", describe_failure(grid), ""))
     names = list(comparison.reference.columns)
-    names += [c for c in comparison.result.columns if c not in comparison.reference.columns
-              and c in failures]
+    names += [
+        c
+        for c in comparison.result.columns
+        if c not in comparison.reference.columns and c in failures
+    ]
     for name in names:
         row = failures.get(name)
         if row is not None:
@@ -64,8 +67,13 @@ def junit_xml(run: CheckRun) -> str:
                 ET.SubElement(case, "skipped", message=skipped)
     for key, value in counts.items():
         suite.set(key, str(value))
-    root = ET.Element("testsuites", name="mechfmu check", tests=str(counts["tests"]),
-                      failures=str(counts["failures"]), errors="0")
+    root = ET.Element(
+        "testsuites",
+        name="mechfmu check",
+        tests=str(counts["tests"]),
+        failures=str(counts["failures"]),
+        errors="0",
+    )
     root.append(suite)
     ET.indent(root)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, "unicode") + "\n"
@@ -82,8 +90,9 @@ text-align:left;font-size:90%}.pass{color:#176317}.fail{color:#b00020}img{max-wi
 
 
 def _number(value: float) -> str:
-    return "" if value is None or (isinstance(value, float) and math.isnan(value)) \
-        else f"{value:.9g}"
+    return (
+        "" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.9g}"
+    )
 
 
 def write_report(run: CheckRun, folder: str | PathLike) -> Path:
@@ -93,42 +102,69 @@ def write_report(run: CheckRun, folder: str | PathLike) -> Path:
     folder = Path(output_folder(Path(folder)))
     contents: dict[Path, str | bytes] = {}
     options = run.options
-    body = [f"<h1>mechfmu check</h1><p>{html.escape(run.summary())}</p>",
-            f"<p>method {html.escape(str(options.get('method')))}, rtol "
-            f"{options.get('rtol')!r}, atol {options.get('atol')!r}"
-            + (f", time tolerance {options.get('time_tolerance')!r} s"
-               if options.get("method") == "tube" else "")
-            + (f", per column: {html.escape(str(options.get('tolerances')))}"
-               if options.get("tolerances") else "") + "</p>"]
+    body = [
+        f"<h1>mechfmu check</h1><p>{html.escape(run.summary())}</p>",
+        f"<p>method {html.escape(str(options.get('method')))}, rtol "
+        f"{options.get('rtol')!r}, atol {options.get('atol')!r}"
+        + (
+            f", time tolerance {options.get('time_tolerance')!r} s"
+            if options.get("method") == "tube"
+            else ""
+        )
+        + (
+            f", per column: {html.escape(str(options.get('tolerances')))}"
+            if options.get("tolerances")
+            else ""
+        )
+        + "</p>",
+    ]
     for check in run.files:
         verdict = "pass" if check.passed else "fail"
-        body.append(f'<h2 class="{verdict}">{html.escape(check.name)}</h2>'
-                    f'<p class="{verdict}">{html.escape(check.line())}</p>')
+        body.append(
+            f'<h2 class="{verdict}">{html.escape(check.name)}</h2>'
+            f'<p class="{verdict}">{html.escape(check.line())}</p>'
+        )
         comparison = check.comparison
         if comparison is None or comparison.failures.empty:
             continue
         rows = "".join(
-            "<tr>" + "".join(f"<td>{html.escape(cell)}</td>" for cell in
-                             (str(row["column"]), _number(row["time"]), _number(row["value"]),
-                              _number(row["reference"]), _number(row["allowed"]),
-                              str(row["kind"]))) + "</tr>"
-            for row in comparison.failures.to_dict("records"))
-        body.append("<table><tr><th>column</th><th>time [s]</th><th>value</th><th>reference"
-                    "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>")
+            "<tr>"
+            + "".join(
+                f"<td>{html.escape(cell)}</td>"
+                for cell in (
+                    str(row["column"]),
+                    _number(row["time"]),
+                    _number(row["value"]),
+                    _number(row["reference"]),
+                    _number(row["allowed"]),
+                    str(row["kind"]),
+                )
+            )
+            + "</tr>"
+            for row in comparison.failures.to_dict("records")
+        )
+        body.append(
+            "<table><tr><th>column</th><th>time [s]</th><th>value</th><th>reference"
+            "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>"
+        )
         for column in comparison.failures["column"]:
             if column not in comparison.summary.index:
                 continue
             figure = comparison.plot(column)
             import io
+
             buffer = io.BytesIO()
             figure.savefig(buffer, format="png", dpi=90)
             name = file_label(f"{check.name}__{column}") + ".png"
             contents[folder / name] = buffer.getvalue()
             body.append(f'<p><img src="{html.escape(name)}" alt="{html.escape(column)}"></p>')
     index = folder / "index.html"
-    contents[index] = ("<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>mechfmu "
-                       f"check</title><style>{STYLE}</style></head><body>\n"
-                       + "\n".join(body) + "\n</body></html>\n")
+    contents[index] = (
+        '<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>mechfmu '
+        f"check</title><style>{STYLE}</style></head><body>\n"
+        + "\n".join(body)
+        + "\n</body></html>\n"
+    )
     atomic_write_all(contents)
     return index
 
@@ -146,16 +182,15 @@ def tube_example() -> bytes:
     from ...comparison import compare
     from ...cosim.scene import REFERENCE_DIR
     from ...io import read_result
-    reference = read_result(REFERENCE_DIR / "suspension_load_ramp.csv")[
-        ["suspension.deflection"]]
+
+    reference = read_result(REFERENCE_DIR / "suspension_load_ramp.csv")[["suspension.deflection"]]
     late = reference.copy()
     late.iloc[1:, 0] = reference.iloc[:-1, 0].to_numpy()
     atol = 0.02 * float(np.ptp(reference.iloc[:, 0].to_numpy()))
     figure = Figure(figsize=(9, 3.4), layout="constrained")
     axes = figure.subplots(1, 2, sharey=True)
     for axis, method in zip(axes, ("pointwise", "tube")):
-        comparison = compare(late, reference, atol=atol, time_tolerance=0.01,
-                             method=method)  # type: ignore[arg-type]
+        comparison = compare(late, reference, atol=atol, time_tolerance=0.01, method=method)  # type: ignore[arg-type]
         comparison.draw(axis, "suspension.deflection", around=0.12, at=3.1)
         verdict = "passes" if comparison.passed else "fails"
         axis.set_title(f"{method}: {verdict}", fontsize=10)

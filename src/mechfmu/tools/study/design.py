@@ -57,12 +57,19 @@ class StudyScene:
 SCENES = (
     StudyScene("gear_retraction_dynamic", "gear", "gear.gear_angle", _STEPS, (1e-3, 1e-4)),
     StudyScene("gear_extension_gravity", "gear", "gear.gear_angle", _STEPS, (1e-3, 1e-4)),
-    StudyScene("suspension_road_bump", "suspension", "suspension.sprung_displacement",
-               _STEPS, (1e-3, 1e-4)),
-    StudyScene("suspension_sudden_load", "suspension", "suspension.deflection", _STEPS,
-               (1e-3, 1e-4)),
-    StudyScene("valve_train_dynamic", "valve", "valve.valve_lift",
-               tuple(step * 1e-2 for step in _STEPS), (1e-5, 1e-6)),
+    StudyScene(
+        "suspension_road_bump", "suspension", "suspension.sprung_displacement", _STEPS, (1e-3, 1e-4)
+    ),
+    StudyScene(
+        "suspension_sudden_load", "suspension", "suspension.deflection", _STEPS, (1e-3, 1e-4)
+    ),
+    StudyScene(
+        "valve_train_dynamic",
+        "valve",
+        "valve.valve_lift",
+        tuple(step * 1e-2 for step in _STEPS),
+        (1e-5, 1e-6),
+    ),
 )
 
 
@@ -72,14 +79,17 @@ class Point:
 
     scene: str
     integrator: str
-    tolerance: float      # rtol = atol of the adaptive methods; 0 for euler and rk4
-    max_substep: float    # s; the fixed sub-step of euler and rk4, the cap of the others
-    step: float           # s, communication step
-    coupling: str         # gauss_seidel or jacobi
+    tolerance: float  # rtol = atol of the adaptive methods; 0 for euler and rk4
+    max_substep: float  # s; the fixed sub-step of euler and rk4, the cap of the others
+    step: float  # s, communication step
+    coupling: str  # gauss_seidel or jacobi
 
     def label(self) -> str:
-        knob = (f"tol {self.tolerance:g}" if self.integrator in ADAPTIVE
-                else f"h {self.max_substep:g} s")
+        knob = (
+            f"tol {self.tolerance:g}"
+            if self.integrator in ADAPTIVE
+            else f"h {self.max_substep:g} s"
+        )
         return f"{self.integrator} {knob}, step {self.step:g} s, {self.coupling}"
 
 
@@ -91,7 +101,7 @@ def integrator_settings(study_scene: StudyScene, step: float) -> list[tuple[str,
     return settings
 
 
-def points(study_scene: StudyScene, couplings: tuple, quick: bool=False) -> list[Point]:
+def points(study_scene: StudyScene, couplings: tuple, quick: bool = False) -> list[Point]:
     """Every point of the sweep for ``study_scene``; ``quick`` keeps a small, cheap corner
     of it (the two coarsest steps, six settings).
 
@@ -110,8 +120,9 @@ def points(study_scene: StudyScene, couplings: tuple, quick: bool=False) -> list
             for integrator, tolerance, max_substep in settings:
                 if coupling == "jacobi" and not quick and tolerance not in JACOBI_TOLERANCES:
                     continue
-                chosen.append(Point(study_scene.name, integrator, tolerance, max_substep,
-                                    step, coupling))
+                chosen.append(
+                    Point(study_scene.name, integrator, tolerance, max_substep, step, coupling)
+                )
     return chosen
 
 
@@ -132,10 +143,12 @@ def configure(scene: Any, study_scene: Any, point: Any) -> Any:
     parameters.update(integrator=point.integrator, max_substep=point.max_substep)
     if point.integrator in ADAPTIVE:
         parameters.update(rtol=point.tolerance, atol=point.tolerance)
-    record = list(scene.record) + [name for name in counters(study_scene)
-                                   if name not in scene.record]
-    return dataclasses.replace(scene, components=components, step=point.step,
-                               coupling=point.coupling, record=record)
+    record = list(scene.record) + [
+        name for name in counters(study_scene) if name not in scene.record
+    ]
+    return dataclasses.replace(
+        scene, components=components, step=point.step, coupling=point.coupling, record=record
+    )
 
 
 def load(scene_dir: Path | str, study_scene: StudyScene) -> Scene:
@@ -143,12 +156,17 @@ def load(scene_dir: Path | str, study_scene: StudyScene) -> Scene:
     scene = load_scene(find_file(study_scene.name, (scene_dir,)))
     span = scene.stop_time - scene.start_time
     finest, coarsest = study_scene.steps[0], study_scene.steps[-1]
-    for whole in [span / coarsest] + [coarsest / step for step in study_scene.steps] + [
-            step / finest for step in study_scene.steps]:
+    for whole in (
+        [span / coarsest]
+        + [coarsest / step for step in study_scene.steps]
+        + [step / finest for step in study_scene.steps]
+    ):
         if abs(whole - round(whole)) > 1e-9 * max(1.0, whole):
-            raise ValueError(f"study of {scene.name}: the steps {study_scene.steps} must be "
-                             f"multiples of the finest, divide the coarsest, and the coarsest "
-                             f"must divide the span {span} s")
+            raise ValueError(
+                f"study of {scene.name}: the steps {study_scene.steps} must be "
+                f"multiples of the finest, divide the coarsest, and the coarsest "
+                f"must divide the span {span} s"
+            )
     if study_scene.component not in scene.components:
         raise ValueError(f"study of {scene.name}: no component {study_scene.component!r}")
     return scene

@@ -31,21 +31,42 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
 SLOW_RUN = 1.0  # s: a run this long is timed once (its spread is small against its length)
 
 # One row of accuracy_cost.csv per (point, recorded output).
-COLUMNS = ("scene", "integrator", "tolerance", "max_substep", "step", "coupling", "output",
-           "max_error", "rms_error", "relative_error", "max_error_all", "reference_peak", "loop_time_s",
-           "wall_time_s", "ms_per_simulated_s", "repeats", "communication_steps",
-           "substeps", "rhs_evaluations", "status")
+COLUMNS = (
+    "scene",
+    "integrator",
+    "tolerance",
+    "max_substep",
+    "step",
+    "coupling",
+    "output",
+    "max_error",
+    "rms_error",
+    "relative_error",
+    "max_error_all",
+    "reference_peak",
+    "loop_time_s",
+    "wall_time_s",
+    "ms_per_simulated_s",
+    "repeats",
+    "communication_steps",
+    "substeps",
+    "rhs_evaluations",
+    "status",
+)
 
 
 def reference(scene: Scene, study_scene: StudyScene) -> Any:
     """(times, {column: values}) of the scene's reference on the finest step's grid."""
     fine = dataclasses.replace(scene, step=study_scene.steps[0])
     columns = REFERENCES[scene.name](fine)
-    return sample_times(fine), {name: np.asarray(values, dtype=float)
-                                for name, values in columns.items()}
+    return sample_times(fine), {
+        name: np.asarray(values, dtype=float) for name, values in columns.items()
+    }
 
 
-def errors(times: Any, columns: Any, reference_times: Any, reference_columns: Any, common_step: Any) -> Any:
+def errors(
+    times: Any, columns: Any, reference_times: Any, reference_columns: Any, common_step: Any
+) -> Any:
     """{output: (max |error|, RMS error, max |error| at all points, peak |reference|)}.
 
     The first two are taken at the run's points that fall on the ``common_step`` grid,
@@ -70,12 +91,23 @@ def errors(times: Any, columns: Any, reference_times: Any, reference_columns: An
             measured[name] = (math.inf, math.inf, math.inf, peak)
             continue
         shared = difference[common]
-        measured[name] = (float(shared.max()), float(np.sqrt(np.mean(shared ** 2))),
-                          float(difference.max()), peak)
+        measured[name] = (
+            float(shared.max()),
+            float(np.sqrt(np.mean(shared**2))),
+            float(difference.max()),
+            peak,
+        )
     return measured
 
 
-def run_point(point: Any, scene: Any, study_scene: Any, reference_data: tuple[Any, Any], fmu_dir: Any, repeats: int) -> Any:
+def run_point(
+    point: Any,
+    scene: Any,
+    study_scene: Any,
+    reference_data: tuple[Any, Any],
+    fmu_dir: Any,
+    repeats: int,
+) -> Any:
     """The rows of one point: its errors per output, cost and work counters."""
     configured = configure(scene, study_scene, point)
     simulation = Simulation(configured, fmu_dir)  # checked and its FMUs described once
@@ -97,27 +129,43 @@ def run_point(point: Any, scene: Any, study_scene: Any, reference_data: tuple[An
     span = scene.stop_time - scene.start_time
     loop = statistics.median(loop_times) if loop_times else math.nan
     common = {
-        "scene": point.scene, "integrator": point.integrator, "tolerance": point.tolerance,
-        "max_substep": point.max_substep, "step": point.step, "coupling": point.coupling,
+        "scene": point.scene,
+        "integrator": point.integrator,
+        "tolerance": point.tolerance,
+        "max_substep": point.max_substep,
+        "step": point.step,
+        "coupling": point.coupling,
         "loop_time_s": loop,
         "wall_time_s": statistics.median(wall_times) if wall_times else math.nan,
-        "ms_per_simulated_s": loop / span * 1e3, "repeats": len(loop_times),
+        "ms_per_simulated_s": loop / span * 1e3,
+        "repeats": len(loop_times),
         "communication_steps": max(len(result.times) - 1, 0),
         "substeps": int(result.columns[substeps_name][-1]) if result.times else 0,
         "rhs_evaluations": int(result.columns[rhs_name][-1]) if result.times else 0,
         "status": failure or "ok",
     }
     counted = set(counters(study_scene))
-    measured = {} if failure else errors(result.times, result.columns, *reference_data,
-                                         study_scene.steps[-1])
+    measured = (
+        {}
+        if failure
+        else errors(result.times, result.columns, *reference_data, study_scene.steps[-1])
+    )
     rows = []
     for name in configured.record:
         if name in counted or (not failure and name not in measured):
             continue
         largest, rms, everywhere, peak = measured.get(name, (math.nan,) * 4)
-        rows.append({**common, "output": name, "max_error": largest, "rms_error": rms,
-                     "relative_error": largest / peak if peak > 0 else math.nan,
-                     "max_error_all": everywhere, "reference_peak": peak})
+        rows.append(
+            {
+                **common,
+                "output": name,
+                "max_error": largest,
+                "rms_error": rms,
+                "relative_error": largest / peak if peak > 0 else math.nan,
+                "max_error_all": everywhere,
+                "reference_peak": peak,
+            }
+        )
     return rows
 
 
@@ -132,11 +180,14 @@ def _start_worker(payload: Any) -> None:
 
 def _run_in_worker(point: Any):
     scene, study_scene, reference_data = _WORKER["scenes"][point.scene]
-    return run_point(point, scene, study_scene, reference_data, _WORKER["fmu_dir"],
-                     _WORKER["repeats"])
+    return run_point(
+        point, scene, study_scene, reference_data, _WORKER["fmu_dir"], _WORKER["repeats"]
+    )
 
 
-def run_points(points: Any, scenes: Any, fmu_dir: Any, repeats: int, workers: int, progress: Any=None) -> Any:
+def run_points(
+    points: Any, scenes: Any, fmu_dir: Any, repeats: int, workers: int, progress: Any = None
+) -> Any:
     """Rows of every point, run on ``workers`` processes (1: in this process).
 
     ``scenes`` maps a scene name to (scene, study scene, reference). Points are started

@@ -28,8 +28,7 @@ def pareto_front(costs: list[Any], errors: list[Any]) -> list[Any]:
     A point is on the front when every cheaper point (or equally cheap one listed before
     it) has a larger error. Points with a non-finite cost or error are never on it.
     """
-    usable = [i for i in range(len(costs))
-              if math.isfinite(costs[i]) and math.isfinite(errors[i])]
+    usable = [i for i in range(len(costs)) if math.isfinite(costs[i]) and math.isfinite(errors[i])]
     front, best = [], math.inf
     for i in sorted(usable, key=lambda i: (costs[i], errors[i])):
         if errors[i] < best:
@@ -40,8 +39,13 @@ def pareto_front(costs: list[Any], errors: list[Any]) -> list[Any]:
 
 def headline_rows(rows: list[dict[str, Any]], study_scene: StudyScene) -> list[dict[str, Any]]:
     """The rows of the scene's headline output, successful runs only."""
-    return [r for r in rows if r["scene"] == study_scene.name
-            and r["output"] == study_scene.headline and r["status"] == "ok"]
+    return [
+        r
+        for r in rows
+        if r["scene"] == study_scene.name
+        and r["output"] == study_scene.headline
+        and r["status"] == "ok"
+    ]
 
 
 def setting(row: dict[str, Any]) -> str:
@@ -62,17 +66,21 @@ def cheapest_for(rows: list[dict[str, Any]], target: float) -> dict[str, Any] | 
 def front_table(rows: list[dict[str, Any]], study_scene: StudyScene, unit: str) -> str:
     """Markdown table: for each target error, the cheapest setting that meets it."""
     chosen = headline_rows(rows, study_scene)
-    lines = [f"| max error on `{study_scene.headline}` | integrator | communication step | "
-             f"coupling | error reached | cost (ms per simulated s) | rhs evaluations |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        f"| max error on `{study_scene.headline}` | integrator | communication step | "
+        f"coupling | error reached | cost (ms per simulated s) | rhs evaluations |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for target in TARGETS:
         row = cheapest_for(chosen, target)
         if row is None:
             lines.append(f"| {target:g} {unit} | not reached by any setting | | | | | |")
             continue
-        lines.append(f"| {target:g} {unit} | {setting(row)} | {row['step']:g} s | "
-                     f"{row['coupling'].replace('_', '-')} | {row['max_error']:.2g} | "
-                     f"{row['ms_per_simulated_s']:.3g} | {row['rhs_evaluations']} |")
+        lines.append(
+            f"| {target:g} {unit} | {setting(row)} | {row['step']:g} s | "
+            f"{row['coupling'].replace('_', '-')} | {row['max_error']:.2g} | "
+            f"{row['ms_per_simulated_s']:.3g} | {row['rhs_evaluations']} |"
+        )
     return "\n".join(lines)
 
 
@@ -81,14 +89,29 @@ def plot_front(rows: Any, study_scene: Any, unit: str, path: Any) -> Any:
     chosen = [r for r in headline_rows(rows, study_scene) if r["max_error"] > 0]
     figure, axes = plt.subplots(figsize=(8, 5.5))
     for row in chosen:
-        axes.scatter(row["ms_per_simulated_s"], row["max_error"], s=18,
-                     color=COLORS[row["integrator"]], marker=MARKERS[row["coupling"]],
-                     alpha=0.75)
-    front = [chosen[i] for i in pareto_front([r["ms_per_simulated_s"] for r in chosen],
-                                             [r["max_error"] for r in chosen])]
+        axes.scatter(
+            row["ms_per_simulated_s"],
+            row["max_error"],
+            s=18,
+            color=COLORS[row["integrator"]],
+            marker=MARKERS[row["coupling"]],
+            alpha=0.75,
+        )
+    front = [
+        chosen[i]
+        for i in pareto_front(
+            [r["ms_per_simulated_s"] for r in chosen], [r["max_error"] for r in chosen]
+        )
+    ]
     if front:
-        axes.step([r["ms_per_simulated_s"] for r in front], [r["max_error"] for r in front],
-                  where="post", color="black", linewidth=1.2, label="Pareto front")
+        axes.step(
+            [r["ms_per_simulated_s"] for r in front],
+            [r["max_error"] for r in front],
+            where="post",
+            color="black",
+            linewidth=1.2,
+            label="Pareto front",
+        )
     for method, color in COLORS.items():
         axes.scatter([], [], color=color, label=method)
     axes.scatter([], [], color="grey", marker="x", label="Jacobi coupling")
@@ -115,24 +138,47 @@ def plot_sources(rows: Any, study_scene: Any, unit: str, path: Any) -> Any:
     figure, (left, right) = plt.subplots(1, 2, figsize=(12, 5))
     for method in ADAPTIVE:
         for coupling, style in (("gauss_seidel", "-o"), ("jacobi", "--x")):
-            line = sorted((r for r in chosen if r["integrator"] == method
-                           and r["tolerance"] == TIGHTEST and r["coupling"] == coupling),
-                          key=lambda r: r["step"])
+            line = sorted(
+                (
+                    r
+                    for r in chosen
+                    if r["integrator"] == method
+                    and r["tolerance"] == TIGHTEST
+                    and r["coupling"] == coupling
+                ),
+                key=lambda r: r["step"],
+            )
             if line:
-                left.loglog([r["step"] for r in line], [max(r["max_error"], 1e-17) for r in line],
-                            style, color=COLORS[method],
-                            label=f"{method} {TIGHTEST:g}, {coupling.replace('_', '-')}")
+                left.loglog(
+                    [r["step"] for r in line],
+                    [max(r["max_error"], 1e-17) for r in line],
+                    style,
+                    color=COLORS[method],
+                    label=f"{method} {TIGHTEST:g}, {coupling.replace('_', '-')}",
+                )
     left.set_xlabel("communication step (s)")
     left.set_ylabel(f"max |error| of {study_scene.headline} ({unit})")
     left.set_title("coupling error (integration at its tightest)")
     finest = min(r["step"] for r in chosen) if chosen else None
     for method in COLORS:
-        line = sorted((r for r in chosen if r["integrator"] == method and r["step"] == finest
-                       and r["coupling"] == "gauss_seidel"), key=lambda r: r["rhs_evaluations"])
+        line = sorted(
+            (
+                r
+                for r in chosen
+                if r["integrator"] == method
+                and r["step"] == finest
+                and r["coupling"] == "gauss_seidel"
+            ),
+            key=lambda r: r["rhs_evaluations"],
+        )
         if line:
-            right.loglog([r["rhs_evaluations"] for r in line],
-                         [max(r["max_error"], 1e-17) for r in line], "-o",
-                         color=COLORS[method], label=method)
+            right.loglog(
+                [r["rhs_evaluations"] for r in line],
+                [max(r["max_error"], 1e-17) for r in line],
+                "-o",
+                color=COLORS[method],
+                label=method,
+            )
     right.set_xlabel("right-hand-side evaluations")
     right.set_title(f"integration error (communication step {finest:g} s, Gauss-Seidel)")
     for axes in (left, right):

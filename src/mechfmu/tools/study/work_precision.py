@@ -52,8 +52,17 @@ TOLERANCES = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 QUICK_TOLERANCES = (1e-5, 1e-8)
 REFERENCE_TOLERANCE = 1e-13
 TARGET_ERRORS = (1e-4, 1e-6, 1e-8)
-COLUMNS = ("problem", "library", "method", "tolerance", "substep", "error",
-           "rhs_evaluations", "steps", "wall_time_s")
+COLUMNS = (
+    "problem",
+    "library",
+    "method",
+    "tolerance",
+    "substep",
+    "error",
+    "rhs_evaluations",
+    "steps",
+    "wall_time_s",
+)
 
 
 class Problem:
@@ -69,20 +78,32 @@ def gear_problem() -> Problem:
     """The gear: gear_retraction_dynamic's LandingGear, 0 .. 1.5 s (stroke end at ~2.1 s)."""
     scene = load_scene(find_file("gear_retraction_dynamic"))
     spec = scene.components["gear"]
-    values = gear_values(start_values("LandingGear"), spec.parameters, spec.effects,
-                         spec.inputs)
+    values = gear_values(start_values("LandingGear"), spec.parameters, spec.effects, spec.inputs)
     dynamics = dynamics_model(values)
-    return Problem("gear", lambda t, y: dynamics.derivatives(y, values)[0],
-                   dynamics.initial_state(), 0.0, 1.5, (3e-3, 1e-3, 3e-4))
+    return Problem(
+        "gear",
+        lambda t, y: dynamics.derivatives(y, values)[0],
+        dynamics.initial_state(),
+        0.0,
+        1.5,
+        (3e-3, 1e-3, 3e-4),
+    )
 
 
 def suspension_problem() -> Problem:
     """The suspension with damping and tyre from rest under 2500 N, 0 .. 1 s."""
     v = model_defaults("Suspension")
-    spring = susp_statics.make_spring(v["spring_free_length"], v["spring_stiffness"],
-                                      v["spring_base_offset"])
-    model = sd.make_model(spring, v["mass"], 200.0, v["tyre_stiffness"], v["unsprung_mass"],
-                          sd.Effects(True, True, False))
+    spring = susp_statics.make_spring(
+        v["spring_free_length"], v["spring_stiffness"], v["spring_base_offset"]
+    )
+    model = sd.make_model(
+        spring,
+        v["mass"],
+        200.0,
+        v["tyre_stiffness"],
+        v["unsprung_mass"],
+        sd.Effects(True, True, False),
+    )
     inputs = sd.StepInputs()
     inputs.set_constant(0.0, 2500.0, 0.0, 0.0)
     rhs = sd.build_rhs(model, inputs)
@@ -98,8 +119,7 @@ def valve_problem() -> Problem:
     modes = vs.Modes(vs.Engaged(True, False))
     rhs = vs.build_rhs(p, drive, modes)
     L, rate, _ = vs.drive_at(drive, 0.002)
-    return Problem("valve", rhs, vs.initial_state(p, L, rate), 0.002, 0.005,
-                   (1e-5, 3e-6, 1e-6))
+    return Problem("valve", rhs, vs.initial_state(p, L, rate), 0.002, 0.005, (1e-5, 3e-6, 1e-6))
 
 
 PROBLEMS = {"gear": gear_problem, "suspension": suspension_problem, "valve": valve_problem}
@@ -127,9 +147,15 @@ def reference(problem: Problem) -> Any:
     scale = np.maximum(np.abs(y0), 1.0)
     # solve in scaled variables so that one atol suits states of any unit (Pa and rad)
     counted = Counted(problem.rhs)
-    solution = solve_ivp(lambda t, z: counted.scipy(t, z * scale) / scale,
-                         (problem.t0, problem.t1), y0 / scale, method="DOP853",
-                         rtol=REFERENCE_TOLERANCE, atol=REFERENCE_TOLERANCE, dense_output=True)
+    solution = solve_ivp(
+        lambda t, z: counted.scipy(t, z * scale) / scale,
+        (problem.t0, problem.t1),
+        y0 / scale,
+        method="DOP853",
+        rtol=REFERENCE_TOLERANCE,
+        atol=REFERENCE_TOLERANCE,
+        dense_output=True,
+    )
     if not solution.success:
         raise RuntimeError(f"reference of {problem.name}: {solution.message}")
     samples = solution.sol(np.linspace(problem.t0, problem.t1, 401)) * scale[:, None]
@@ -139,8 +165,7 @@ def reference(problem: Problem) -> Any:
 
 def _ours(problem: Any, method: Any, tolerance: float, substep: Any):
     counted = Counted(problem.rhs)
-    integrator = make_integrator(method, tolerance, tolerance,
-                                 substep if substep else math.inf)
+    integrator = make_integrator(method, tolerance, tolerance, substep if substep else math.inf)
     started = time.perf_counter()
     y = integrator.advance(counted.ours, problem.t0, list(problem.y0), problem.t1).y
     return y, counted.calls, integrator.stats.substeps, time.perf_counter() - started
@@ -149,9 +174,14 @@ def _ours(problem: Any, method: Any, tolerance: float, substep: Any):
 def _scipy(problem: Any, method: Any, tolerance: float):
     counted = Counted(problem.rhs)
     started = time.perf_counter()
-    solution = solve_ivp(counted.scipy, (problem.t0, problem.t1),
-                         np.asarray(problem.y0, dtype=float), method=method, rtol=tolerance,
-                         atol=tolerance)
+    solution = solve_ivp(
+        counted.scipy,
+        (problem.t0, problem.t1),
+        np.asarray(problem.y0, dtype=float),
+        method=method,
+        rtol=tolerance,
+        atol=tolerance,
+    )
     wall = time.perf_counter() - started
     if not solution.success:
         raise RuntimeError(f"{method} on {problem.name}: {solution.message}")
@@ -175,30 +205,42 @@ def runs(problem: Problem, tolerances: Any, repeats: int) -> list:
                 y, calls, steps, wall = _scipy(problem, method, tolerance)
             walls.append(wall)
         error = float(np.max(np.abs(np.asarray(y, dtype=float) - y_ref) / peak))
-        rows.append({"problem": problem.name, "library": library, "method": method,
-                     "tolerance": tolerance if tolerance is not None else math.nan,
-                     "substep": substep if substep is not None else math.nan,
-                     "error": error, "rhs_evaluations": calls, "steps": steps,
-                     "wall_time_s": statistics.median(walls)})
+        rows.append(
+            {
+                "problem": problem.name,
+                "library": library,
+                "method": method,
+                "tolerance": tolerance if tolerance is not None else math.nan,
+                "substep": substep if substep is not None else math.nan,
+                "error": error,
+                "rhs_evaluations": calls,
+                "steps": steps,
+                "wall_time_s": statistics.median(walls),
+            }
+        )
     return rows
 
 
-def table(problems: Any=tuple(PROBLEMS), tolerances: Any=TOLERANCES, repeats: int = 3) -> pd.DataFrame:
+def table(
+    problems: Any = tuple(PROBLEMS), tolerances: Any = TOLERANCES, repeats: int = 3
+) -> pd.DataFrame:
     """The work-precision DataFrame (COLUMNS) of the named problems."""
     rows = [row for name in problems for row in runs(PROBLEMS[name](), tolerances, repeats)]
     return pd.DataFrame(rows, columns=list(COLUMNS))
 
 
-def evaluations_at(frame: pd.DataFrame, targets: Any=TARGET_ERRORS,
-                   column: str = "rhs_evaluations") -> pd.DataFrame:
+def evaluations_at(
+    frame: pd.DataFrame, targets: Any = TARGET_ERRORS, column: str = "rhs_evaluations"
+) -> pd.DataFrame:
     """What each (problem, library, method) spends in ``column`` (right-hand-side
     evaluations, or wall_time_s) for each target error: log-log interpolation between its
     two runs that bracket it (NaN if none do); and its observed order, the least-squares
     slope of -log(error) against log(evaluations) over its runs (a method of order p
     gives about p: error ~ evaluations^-p)."""
     out = []
-    for (problem, library, method), group in frame.groupby(["problem", "library", "method"],
-                                                           sort=False):
+    for (problem, library, method), group in frame.groupby(
+        ["problem", "library", "method"], sort=False
+    ):
         errors = np.log10(np.maximum(group["error"].to_numpy(), 1e-300))
         points = sorted(zip(errors, np.log10(group[column].to_numpy())))
         row = {"problem": problem, "library": library, "method": method}
@@ -210,8 +252,11 @@ def evaluations_at(frame: pd.DataFrame, targets: Any=TARGET_ERRORS,
                     break
             row[f"at {target:g}"] = found
         work = np.log10(group["rhs_evaluations"].to_numpy())
-        row["observed order"] = (-float(np.polyfit(work, errors, 1)[0])
-                                 if len(group) > 1 and np.ptp(work) > 0 else math.nan)
+        row["observed order"] = (
+            -float(np.polyfit(work, errors, 1)[0])
+            if len(group) > 1 and np.ptp(work) > 0
+            else math.nan
+        )
         out.append(row)
     return pd.DataFrame(out)
 
@@ -224,16 +269,25 @@ def markdown(frame: pd.DataFrame) -> str:
     heads = [f"at {target:g}" for target in TARGET_ERRORS]
     lines = []
     for problem in calls["problem"].unique():
-        lines += [f"#### {problem}", "", "| library | method | " + " | ".join(
-            f"RHS calls, error {h[3:]}" for h in heads) + " | " + " | ".join(
-            f"ms, error {h[3:]}" for h in heads) + " | observed order |",
-            "|---|---|" + "---:|" * (2 * len(heads) + 1)]
-        for (_, row), (_, wall) in zip(calls[calls["problem"] == problem].iterrows(),
-                                       walls[walls["problem"] == problem].iterrows()):
+        lines += [
+            f"#### {problem}",
+            "",
+            "| library | method | "
+            + " | ".join(f"RHS calls, error {h[3:]}" for h in heads)
+            + " | "
+            + " | ".join(f"ms, error {h[3:]}" for h in heads)
+            + " | observed order |",
+            "|---|---|" + "---:|" * (2 * len(heads) + 1),
+        ]
+        for (_, row), (_, wall) in zip(
+            calls[calls["problem"] == problem].iterrows(),
+            walls[walls["problem"] == problem].iterrows(),
+        ):
             cells = ["" if math.isnan(row[h]) else f"{row[h]:.0f}" for h in heads]
             cells += ["" if math.isnan(wall[h]) else f"{wall[h] * 1e3:.3g}" for h in heads]
             order = "" if math.isnan(row["observed order"]) else f"{row['observed order']:.1f}"
-            lines.append(f"| {row['library']} | {row['method']} | " + " | ".join(cells)
-                         + f" | {order} |")
+            lines.append(
+                f"| {row['library']} | {row['method']} | " + " | ".join(cells) + f" | {order} |"
+            )
         lines.append("")
     return "\n".join(lines)
