@@ -377,12 +377,9 @@ def sweep(
     Raises mechfmu.tools.sweep.SweepError or SceneError (ValueErrors) for a sweep that
     cannot start.
     """
-    from .cosim.scene import read_toml
     from .tools.sweep import (
         SCENE_OVERRIDES,
-        SweepError,
-        is_sweep_file,
-        load_sweep_file,
+        definition,
         locate,
         parse_link,
         parse_metric,
@@ -395,26 +392,7 @@ def sweep(
             f"sweep: scene must be a sweep or scene file or a shipped one's name, "
             f"got {type(scene).__name__}"
         )
-    path = locate(str(scene))
-    try:
-        data = read_toml(path, SweepError)
-    except SweepError:
-        data = {}  # run_sweep reports it, as a scene file
-    if is_sweep_file(data):
-        chosen = load_sweep_file(path)
-        chosen.pop("description", None)
-    else:
-        chosen = {
-            "scene_path": path,
-            "varies": [],
-            "links": [],
-            "metrics": [],
-            "samples": None,
-            "seed": None,
-            "method": "lhs",
-            "overrides": {},
-            "name": None,
-        }
+    chosen = definition(locate(str(scene)))
     if vary is not None:
         chosen["varies"] = _varies(vary)
     if metrics is not None:

@@ -1149,13 +1149,13 @@ def locate(text: str) -> Path:
     return find_file(text, (SWEEP_DIR, SCENE_DIR))
 
 
-def settings(args: Namespace) -> dict[str, Any]:
-    """run_sweep's settings from the command line, over those of a sweep file if given."""
-    path = locate(args.scene)
+def definition(path: Path) -> dict[str, Any]:
+    """run_sweep's settings from a sweep file, or empty ones around a scene file (a file
+    that is neither is reported by load_scene, as a scene file)."""
     try:
         data = read_toml(path, SweepError)
     except SweepError:
-        data = {}  # load_scene reports it, as a scene file
+        data = {}
     if is_sweep_file(data):
         chosen = load_sweep_file(path)
     else:
@@ -1171,6 +1171,13 @@ def settings(args: Namespace) -> dict[str, Any]:
             "name": None,
         }
     chosen.pop("description", None)
+    return chosen
+
+
+def settings(args: Namespace) -> dict[str, Any]:
+    """run_sweep's settings from the command line, over those of a sweep file if given."""
+    path = locate(args.scene)
+    chosen = definition(path)
     if args.vary:
         chosen["varies"] = [parse_vary(text) for text in args.vary]
     if args.link:
