@@ -260,7 +260,21 @@ class MechanismKernel:
         n = self.size = mechanism.size
         rs, cs = mechanism.row_scale, mechanism.column_scale
         self.column_scale = tuple(cs)
-        self.pattern = sorted(e.entries)
+        # Entries that do not depend on q (a driver's weight, a joint's +-1 on x and y, an
+        # attachment at a body's origin) are worked out here and folded into the LU
+        # kernels' code; identically zero ones are dropped from the pattern. The Jacobian
+        # functions return the other entries, in ``pattern`` order.
+        scaled = {
+            key: f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
+            for key in sorted(e.entries)
+        }
+        known = _known_locals(e.jacobian)
+        fixed = {key: _constant(expression, known) for key, expression in scaled.items()}
+        self.constants = {
+            key: value for key, value in fixed.items() if value is not None and value != 0.0
+        }
+        self.pattern = [key for key, value in fixed.items() if value is None]
+        entries = ", ".join(scaled[key] for key in self.pattern)
         namespace: dict[str, Any] = {"cos": math.cos, "sin": math.sin}
         lines = ["def residual(q, d):", *_unpack(n)]
         lines += [f"    {s}" for s in e.residual]
@@ -271,14 +285,7 @@ class MechanismKernel:
         )
         lines += ["def jacobian(q):", *_unpack(n)]
         lines += [f"    {s}" for s in e.jacobian]
-        lines.append(
-            "    return ("
-            + ", ".join(
-                f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
-                for key in self.pattern
-            )
-            + ",)"
-        )
+        lines.append(f"    return ({entries},)" if entries else "    return ()")
         lines += ["def predict(q, v, a, vb, ab, cv, ca, ka, kb):"]
         lines += [
             f"    return [{', '.join(f'q[{j}] + cv * v[{j}] + ca * a[{j}] + ka * ab[{j}] + kb * vb[{j}]' for j in range(n))}]"
@@ -289,11 +296,8 @@ class MechanismKernel:
             "    return ["
             + ", ".join(f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows))
             + "], ("
-            + ", ".join(
-                f"({' + '.join(e.entries[key])}) * {_num(rs[key[0]] * cs[key[1]])}"
-                for key in self.pattern
-            )
-            + ",)"
+            + (f"{entries}," if entries else "")
+            + ")"
         )
         lines += ["def gamma(q, qd, d):", *_unpack(n, rates=True)]
         lines += [f"    {s}" for s in e.gamma]
@@ -305,9 +309,15 @@ class MechanismKernel:
         columns: dict[int, list[str]] = {}
         for m, (_, j) in enumerate(self.pattern):
             columns.setdefault(j, []).append(f"abs(v[{m}])")
+        fixed_sums: dict[int, float] = {}
+        for (_, j), value in sorted(self.constants.items()):
+            fixed_sums[j] = fixed_sums.get(j, 0.0) + abs(value)
+        for j, total in fixed_sums.items():
+            columns.setdefault(j, []).append(_num(total))
+        sums = [" + ".join(terms) for terms in columns.values()] or ["0.0"]
         lines += [
             "def one_norm(v):",
-            "    return max(" + ", ".join(" + ".join(terms) for terms in columns.values()) + ")",
+            f"    return max({', '.join(sums)})" if len(sums) > 1 else f"    return {sums[0]}",
         ]
         lines += [
             "def rates(d):",
@@ -339,6 +349,8 @@ class MechanismKernel:
     def dense(self, values: Sequence[float]) -> list[list[float]]:
         """The scaled Jacobian as a dense list of rows, from jacobian()'s non-zeros."""
         matrix = [[0.0] * self.size for _ in range(self.size)]
+        for (i, j), v in self.constants.items():
+            matrix[i][j] = v
         for (i, j), v in zip(self.pattern, values):
             matrix[i][j] = v
         return matrix
@@ -348,15 +360,80 @@ class MechanismKernel:
         kernel = self.orders.get(order)
         if kernel is None:
             kernel = self.orders[order] = LuKernel(
-                self.pattern, self.size, order, self.column_scale
+                self.pattern, self.size, order, self.column_scale, self.constants
             )
         return kernel
+
+
+def _known_locals(statements: Sequence[str]) -> dict[str, float]:
+    """The locals of generated ``name = expression; ...`` statements whose value does not
+    depend on q (their expressions use only numbers and such locals), with their values."""
+    known: dict[str, float] = {}
+    for statement in statements:
+        for assignment in statement.split("; "):
+            name, _, expression = assignment.partition(" = ")
+            value = _constant(expression, known)
+            if value is not None:
+                known[name.strip()] = value
+    return known
+
+
+def _constant(expression: str, known: dict[str, float]) -> float | None:
+    """The value of a generated expression if it uses only numbers and ``known`` locals
+    (the same float arithmetic the compiled code would do), else None."""
+    try:
+        # generated here from the joints, nothing read in; no builtins
+        return float(eval(expression, {"__builtins__": {}}, dict(known)))  # noqa: S307
+    except NameError:
+        return None
+
+
+Value = float | str  # an entry while the LU is written: a number known now, or a local's name
+
+
+def _times(x: Value, y: Value) -> tuple[float, str] | float:
+    """x * y as a number (both known), or (c, expression) for c * expression."""
+    if isinstance(x, float) and isinstance(y, float):
+        return x * y
+    if isinstance(x, float):
+        return 0.0 if x == 0.0 else (x, str(y))
+    if isinstance(y, float):
+        return 0.0 if y == 0.0 else (y, x)
+    return (1.0, f"{x} * {y}")
+
+
+def _minus_term(product: tuple[float, str] | float) -> str:
+    """Source of `` - product`` (empty for a zero): - c * expression, the same number as
+    the product the unfolded code subtracts."""
+    if isinstance(product, float):
+        return "" if product == 0.0 else f" - {_num(product)}"
+    c, expression = product
+    if c == 1.0:
+        return f" - {expression}"
+    if c == -1.0:  # x - (-1 * y) is x + y exactly
+        return f" + {expression}"
+    return f" - {_num(c)} * {expression}"
+
+
+def _over(expression: str, divisor: Value) -> str:
+    """Source of (expression) / divisor; 1 and -1 folded (exact)."""
+    if divisor == 1.0:
+        return expression
+    if divisor == -1.0:
+        return f"-({expression})"
+    return f"({expression}) / {divisor if isinstance(divisor, str) else _num(divisor)}"
 
 
 class LuKernel:
     """Sparse LU of one row order: ``factor(values)`` -> F or None (a pivot too small against
     another candidate of its column); ``solve(F, b)``, ``solve_t(F, c)`` (A^T x = c);
-    ``sign(F)``: sign of det(A)."""
+    ``sign(F)``: sign of det(A).
+
+    ``pattern`` lists the (row, column) of the entries ``factor`` reads, in order;
+    ``constants`` the entries known when the kernel is written, {(row, column): value}.
+    Arithmetic on known numbers is done here, products with 1 and -1 are folded, so the code
+    left holds only the operations on entries that vary; every result is the one the
+    unfolded elimination gives, bit for bit (x - (-1 y) = x + y, c * y = y * c)."""
 
     def __init__(
         self,
@@ -364,57 +441,105 @@ class LuKernel:
         n: int,
         order: tuple[int, ...],
         scale: Sequence[float],
+        constants: dict[tuple[int, int], float] | None = None,
     ) -> None:
         self.order = order
         position = {row: k for k, row in enumerate(order)}  # original row -> position
-        index = {key: m for m, key in enumerate(pattern)}
-        nonzero = {(position[i], j) for i, j in pattern}
+        # a[(i, j)]: entry (i, j) of P A during the elimination: a number known here, or
+        # the name of the local that holds it (always a{i}_{j})
+        a: dict[tuple[int, int], Value] = {}
         lines = ["def factor(v):"]
-        for (i, j), m in index.items():
+        for m, (i, j) in enumerate(pattern):
             lines.append(f"    a{position[i]}_{j} = v[{m}]")
+            a[position[i], j] = f"a{position[i]}_{j}"
+        for (i, j), value in (constants or {}).items():
+            a[position[i], j] = float(value)
+
+        def text(value: Value) -> str:
+            return value if isinstance(value, str) else _num(value)
+
         multipliers: list[tuple[int, int]] = []
         upper: list[tuple[int, int]] = []
         for k in range(n):
-            if (k, k) not in nonzero:
+            if (k, k) not in a:
                 raise ZeroDivisionError("structurally singular for this row order")
-            below = [i for i in range(k + 1, n) if (i, k) in nonzero]
-            right = [j for j in range(k + 1, n) if (k, j) in nonzero]
+            pivot = a[k, k]
+            below = [i for i in range(k + 1, n) if (i, k) in a]
+            right = [j for j in range(k + 1, n) if (k, j) in a]
             for i in below:
-                lines.append(
-                    f"    if a{k}_{k} * a{k}_{k} < 0.25 * a{i}_{k} * a{i}_{k}: return None"
-                )
+                other = a[i, k]
+                if isinstance(pivot, float) and isinstance(other, float):
+                    if pivot * pivot < 0.25 * other * other:
+                        lines.append("    return None")
+                else:
+                    p, o = text(pivot), text(other)
+                    lines.append(f"    if {p} * {p} < 0.25 * {o} * {o}: return None")
             if not below:
-                lines.append(f"    if a{k}_{k} == 0.0: return None")
+                if isinstance(pivot, str):
+                    lines.append(f"    if {pivot} == 0.0: return None")
+                elif pivot == 0.0:
+                    lines.append("    return None")
             for i in below:
-                lines.append(f"    a{i}_{k} = a{i}_{k} / a{k}_{k}")
+                name, other = f"a{i}_{k}", a[i, k]
+                if isinstance(other, float) and isinstance(pivot, float):
+                    a[i, k] = other / pivot
+                elif pivot != 1.0:
+                    lines.append(f"    {name} = {_over(text(other), pivot)}")
+                    a[i, k] = name
                 multipliers.append((i, k))
                 for j in right:
-                    if (i, j) in nonzero:
-                        lines.append(f"    a{i}_{j} -= a{i}_{k} * a{k}_{j}")
+                    product = _times(a[i, k], a[k, j])
+                    target = f"a{i}_{j}"
+                    current = a.get((i, j))
+                    if current is None:  # fill-in: -(a_ik a_kj)
+                        if isinstance(product, float):
+                            a[i, j] = -product
+                            continue
+                        c, expression = product
+                        if c == 1.0:
+                            source = f"-{expression}"
+                        elif c == -1.0:
+                            source = expression
+                        else:
+                            source = f"{_num(-c)} * {expression}"
+                    elif isinstance(current, float) and isinstance(product, float):
+                        a[i, j] = current - product
+                        continue
                     else:
-                        nonzero.add((i, j))
-                        lines.append(f"    a{i}_{j} = -a{i}_{k} * a{k}_{j}")
+                        change = _minus_term(product)
+                        if not change:
+                            continue
+                        source = text(current) + change
+                    lines.append(f"    {target} = {source}")
+                    a[i, j] = target
             upper += [(k, j) for j in [k] + right]
-        names = [f"a{i}_{j}" for i, j in multipliers + upper]
-        lines.append(
-            f"    if not isfinite({' + '.join(f'a{k}_{k}' for k in range(n))}): return None"
-        )
+        names = [f"a{i}_{j}" for i, j in multipliers + upper if isinstance(a[i, j], str)]
+        diagonal = [a[k, k] for k in range(n)]
+        varying = [d for d in diagonal if isinstance(d, str)]
+        if varying:
+            lines.append(f"    if not isfinite({' + '.join(varying)}): return None")
+        fixed_negative = sum(1 for d in diagonal if isinstance(d, float) and d < 0.0)
+        counted = [f"({d} < 0.0)" for d in varying] + [str(fixed_negative)]
         parity = _parity(order)
-        lines.append(f"    negative = {' + '.join(f'(a{k}_{k} < 0.0)' for k in range(n))}")
+        lines.append(f"    negative = {' + '.join(counted)}")
         lines.append(
-            f"    return ({', '.join(names)}, {parity} if negative % 2 == 0 else {-parity})"
+            f"    return ({', '.join(names + [f'{parity} if negative % 2 == 0 else {-parity}'])},)"
         )
-        unpack = f"    {', '.join(names)}, _ = F"
+        unpack = f"    {', '.join(names + ['_'])}, = F"
         lower_of = {i: [k for (r, k) in multipliers if r == i] for i in range(n)}
         upper_of = {k: [j for (r, j) in upper if r == k and j != k] for k in range(n)}
+
+        def minus(i: int, j: int, unknown: str) -> str:
+            return _minus_term(_times(a[i, j], unknown))
+
         # A = P^T L U with row k of P A being original row order[k].
         lines += ["def solve(F, b):", unpack]
         for i in range(n):
-            terms = "".join(f" - a{i}_{k} * y{k}" for k in lower_of[i])
+            terms = "".join(minus(i, k, f"y{k}") for k in lower_of[i])
             lines.append(f"    y{i} = b[{order[i]}]{terms}")
         for k in range(n - 1, -1, -1):
-            terms = "".join(f" - a{k}_{j} * y{j}" for j in upper_of[k])
-            lines.append(f"    y{k} = (y{k}{terms}) / a{k}_{k}")
+            terms = "".join(minus(k, j, f"y{j}") for j in upper_of[k])
+            lines.append(f"    y{k} = {_over(f'y{k}{terms}', a[k, k])}")
         lines.append(f"    return [{', '.join(f'y{j}' for j in range(n))}]")
         body = lines[lines.index("def solve(F, b):") + 1 : -1]
         # The same substitutions, the solution scaled by ``scale`` (the coordinates of a
@@ -441,11 +566,12 @@ class LuKernel:
         upper_col = {j: [k for (k, jj) in upper if jj == j and k != j] for j in range(n)}
         lower_col = {k: [i for (i, kk) in multipliers if kk == k] for k in range(n)}
         for j in range(n):
-            terms = "".join(f" - a{k}_{j} * w{k}" for k in upper_col[j])
-            lines.append(f"    w{j} = (c[{j}]{terms}) / a{j}_{j}")
+            terms = "".join(minus(k, j, f"w{k}") for k in upper_col[j])
+            lines.append(f"    w{j} = {_over(f'c[{j}]{terms}', a[j, j])}")
         for k in range(n - 1, -1, -1):
-            terms = "".join(f" - a{i}_{k} * w{i}" for i in lower_col[k])
-            lines.append(f"    w{k} = w{k}{terms}")
+            terms = "".join(minus(i, k, f"w{i}") for i in lower_col[k])
+            if terms:
+                lines.append(f"    w{k} = w{k}{terms}")
         inverse = [0] * n
         for k, row in enumerate(order):
             inverse[row] = k
