@@ -848,3 +848,37 @@ def test_contact_lost_needs_a_force_below_rounding_of_its_terms():
     assert vt.contact_force(MASS, STIFFNESS, PRELOAD, lift, pulled) < -1e-7 * scale
     assert vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, pulled)
     assert not vt.contact_lost(MASS, STIFFNESS, PRELOAD, lift, balance * (1.0 - 1e-6))
+
+
+@pytest.mark.parametrize("law", cl.CAM_LAWS)
+def test_motion_function_is_follower_motion(law):
+    # The model's per-step evaluation (constants worked out once, no checks) gives
+    # follower_motion's numbers in every segment, at the boundaries and over revolutions.
+    profiles = [
+        cl.check_profile(law, 0.007, 0.0, 1.2, 0.1, 1.2),
+        cl.check_profile(law, 0.01, -0.7, 2.0, 0.0, 2.0),
+    ]
+    for profile in profiles:
+        motion = cl.motion_function(profile)
+        edges = [
+            profile.rise_start + offset
+            for offset in (
+                0.0,
+                profile.rise_angle,
+                profile.rise_angle + profile.high_dwell_angle,
+                profile.rise_angle + profile.high_dwell_angle + profile.return_angle,
+            )
+        ]
+        angles = list(np.linspace(-20.0, 20.0, 4001)) + edges + [e - 1e-12 for e in edges]
+        for angle in angles:
+            for speed, acceleration in ((157.0, 0.0), (-40.0, 350.0)):
+                expected = cl.follower_motion(profile, angle, speed, acceleration)
+                assert motion(angle, speed, acceleration) == pytest.approx(
+                    tuple(expected), rel=1e-15, abs=1e-300
+                )
+
+
+def test_motion_function_names_a_non_finite_input():
+    motion = cl.motion_function(cl.DEFAULT_CAM_PROFILE)
+    with pytest.raises(RangeError, match="camshaft_speed"):
+        motion(0.3, math.nan, 0.0)

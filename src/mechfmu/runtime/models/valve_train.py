@@ -175,6 +175,7 @@ class ValveTrain(LinkageSlave):
         super().__init__(**kwargs)
         self.geometry = GEOMETRY
         self.profile = CAM
+        self.motion = cam_laws.motion_function(CAM)  # follower_motion of self.profile
         self.closed_height = 0.0  # m, valve foot height with the valve closed
 
     # --- parameters -------------------------------------------------------------------
@@ -193,6 +194,7 @@ class ValveTrain(LinkageSlave):
             v["high_dwell_angle"],
             v["return_angle"],
         )
+        self.motion = cam_laws.motion_function(self.profile)
         self.closed_height = vt.rest_position(self.geometry)[1]
         v["float_camshaft_speed"] = -1.0
         if v["valve_spring"]:
@@ -211,9 +213,7 @@ class ValveTrain(LinkageSlave):
     # --- kinematics -------------------------------------------------------------------
     def _law(self):
         v = self.values
-        return cam_laws.follower_motion(
-            self.profile, v["camshaft_angle"], v["camshaft_speed"], v["camshaft_acceleration"]
-        )
+        return self.motion(v["camshaft_angle"], v["camshaft_speed"], v["camshaft_acceleration"])
 
     def closed_form(self, time: float) -> Any:
         law = self._law()

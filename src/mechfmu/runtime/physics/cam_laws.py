@@ -29,6 +29,7 @@ the camshaft angle in m/rad, m/rad^2, m/rad^3.
 
 import math
 from collections import namedtuple
+from collections.abc import Callable
 
 from ..errors import MechanismError, RangeError, require_between, require_finite, require_positive
 
@@ -287,3 +288,99 @@ def follower_motion(
     accel = require_finite("camshaft_acceleration", camshaft_acceleration, "rad/s^2")
     s, s1, s2, _ = cam_lift(profile, camshaft_angle)
     return FollowerMotion(s, s1 * speed, s2 * speed * speed + s1 * accel)
+
+
+def _half_law(law: str) -> Callable[[float], tuple[float, float, float]]:
+    """(f, f1, f2) of ``law`` at y in [0, 1/2]: _half's expressions without f3."""
+    pi = math.pi
+    if law == "harmonic":
+        c1, c2 = 0.5 * pi, 0.5 * pi**2
+
+        def harmonic(y: float) -> tuple[float, float, float]:
+            return math.sin(0.5 * pi * y) ** 2, c1 * math.sin(pi * y), c2 * math.cos(pi * y)
+
+        return harmonic
+    if law == "cycloidal":
+
+        def cycloidal(y: float) -> tuple[float, float, float]:
+            u = TAU * y
+            return _u_minus_sin(u) / TAU, 2.0 * math.sin(0.5 * u) ** 2, TAU * math.sin(u)
+
+        return cycloidal
+    if law == "polynomial_345":
+
+        def polynomial_345(y: float) -> tuple[float, float, float]:
+            z = 1.0 - y
+            return (
+                y**3 * (10.0 + y * (-15.0 + 6.0 * y)),
+                30.0 * (y * z) ** 2,
+                60.0 * y * z * (1.0 - 2.0 * y),
+            )
+
+        return polynomial_345
+
+    def polynomial_4567(y: float) -> tuple[float, float, float]:
+        z = 1.0 - y
+        return (
+            y**4 * (35.0 + y * (-84.0 + y * (70.0 - 20.0 * y))),
+            140.0 * (y * z) ** 3,
+            420.0 * (y * z) ** 2 * (1.0 - 2.0 * y),
+        )
+
+    return polynomial_4567
+
+
+def motion_function(
+    profile: "CamProfile",
+) -> Callable[[float, float, float], tuple[float, float, float]]:
+    """follower_motion of ``profile`` as one function of (camshaft angle rad, speed rad/s,
+    acceleration rad/s^2) -> (lift m, velocity m/s, acceleration m/s^2), for a model's
+    step: the profile's constants worked out once, the same arithmetic as follower_motion
+    (the same numbers, bit for bit), no checks: the arguments must be finite (a slave's
+    step has checked its inputs; a NaN or infinity goes to follower_motion, which names
+    it)."""
+    _check_law(profile.law)
+    half = _half_law(profile.law)
+    lift, rise_start = profile.lift, profile.rise_start
+    rise_end = profile.rise_angle
+    return_start = rise_end + profile.high_dwell_angle
+    return_angle = profile.return_angle
+    return_end = return_start + return_angle
+    rise_squared, return_squared = rise_end**2, return_angle**2
+    fmod, isfinite = math.fmod, math.isfinite
+
+    def motion(angle: float, speed: float, accel: float) -> tuple[float, float, float]:
+        if not isfinite(angle + speed + accel):
+            return tuple(follower_motion(profile, angle, speed, accel))
+        local = fmod(angle - rise_start, TAU)  # reduce_angle, inline
+        if local < 0.0:
+            local += TAU
+            if local >= TAU:
+                local = 0.0
+        if local < rise_end:
+            x = min(max(local / rise_end, 0.0), 1.0)
+            if x <= 0.5:
+                f, f1, f2 = half(x)
+                s = lift * f
+            else:
+                g, f1, f2 = half(1.0 - x)
+                f2 = -f2
+                s = lift * (1.0 - g)
+            s1, s2 = lift * f1 / rise_end, lift * f2 / rise_squared
+        elif local < return_start:
+            return lift, 0.0 * speed, 0.0 * speed * speed + 0.0 * accel
+        elif local < return_end:
+            x = min(max((local - return_start) / return_angle, 0.0), 1.0)
+            if x <= 0.5:
+                f, f1, f2 = half(x)
+                s = lift * (1.0 - f)
+            else:
+                s, f1, f2 = half(1.0 - x)
+                f2 = -f2
+                s = lift * s
+            s1, s2 = -lift * f1 / return_angle, -lift * f2 / return_squared
+        else:
+            return 0.0, 0.0 * speed, 0.0 * speed * speed + 0.0 * accel
+        return s, s1 * speed, s2 * speed * speed + s1 * accel
+
+    return motion
