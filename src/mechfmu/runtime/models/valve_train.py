@@ -11,6 +11,10 @@ from .linkage import LinkageSlave, solver_variables
 
 _CAM = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
 MODES = ("forward", "inverse")
+# positions in the solver's coordinates (x, y, phi per body)
+_TAPPET_Y = 3 * constraint_models.TAPPET + 1
+_ROCKER_PHI = 3 * constraint_models.ROCKER + 2
+_VALVE_Y = 3 * constraint_models.VALVE + 1
 GEOMETRY = vt.DEFAULT_VALVE_GEOMETRY
 CAM = cam_laws.DEFAULT_CAM_PROFILE
 
@@ -235,21 +239,16 @@ class ValveTrain(LinkageSlave):
 
     def from_solution(self, solution: Any, time: float) -> Any:
         q, qdot, qddot = solution.q, solution.qdot, solution.qddot
-        tappet, rocker, valve = (
-            constraint_models.TAPPET,
-            constraint_models.ROCKER,
-            constraint_models.VALVE,
-        )
         return {
-            "tappet_lift": q[3 * tappet + 1] - self.geometry.cam_base_radius,
-            "tappet_velocity": qdot[3 * tappet + 1],
-            "tappet_acceleration": qddot[3 * tappet + 1],
-            "rocker_angle": q[3 * rocker + 2],
-            "rocker_angular_velocity": qdot[3 * rocker + 2],
-            "rocker_angular_acceleration": qddot[3 * rocker + 2],
-            "valve_lift": self.closed_height - q[3 * valve + 1],
-            "valve_velocity": -qdot[3 * valve + 1],
-            "valve_acceleration": -qddot[3 * valve + 1],
+            "tappet_lift": q[_TAPPET_Y] - self.geometry.cam_base_radius,
+            "tappet_velocity": qdot[_TAPPET_Y],
+            "tappet_acceleration": qddot[_TAPPET_Y],
+            "rocker_angle": q[_ROCKER_PHI],
+            "rocker_angular_velocity": qdot[_ROCKER_PHI],
+            "rocker_angular_acceleration": qddot[_ROCKER_PHI],
+            "valve_lift": self.closed_height - q[_VALVE_Y],
+            "valve_velocity": -qdot[_VALVE_Y],
+            "valve_acceleration": -qddot[_VALVE_Y],
         }
 
     # --- valve spring -----------------------------------------------------------------

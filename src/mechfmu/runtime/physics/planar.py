@@ -510,6 +510,9 @@ class BranchFollower:
     ) -> None:
         self.mechanism = mechanism
         self.tolerance, self.max_iterations = tolerance, max_iterations
+        # the fast path's stopping rule after a Newton correction, and its iterations
+        self.newton_small = 1e-2 * math.sqrt(tolerance)
+        self.fast_iterations = range(1, min(max_iterations, 4) + 1)
         self.singularity_threshold = singularity_threshold
         self.solution: Solution | None = None
         self.drive: list[tuple[float, ...]] | None = None
@@ -651,12 +654,11 @@ class BranchFollower:
             ]
         v_before, a_before, h = self.history
         # With da = a(-h) - a and db = v(-h) - v + a h: j = (6 db + 2 da h)/h^2 and
-        # s = 6 da/h^2 + 12 db/h^3, so the guess is linear in q, v, a, v(-h) and a(-h).
-        c3, c4 = dt**3 / 6.0, dt**4 / 24.0
-        ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)  # coefficient of da
-        kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h**3  # coefficient of db
-        cv, ca = dt - kb, 0.5 * dt * dt - ka + kb * h
-        return kernel.predict(last.q, last.qdot, last.qddot, v_before, a_before, cv, ca, ka, kb)
+        # s = 6 da/h^2 + 12 db/h^3, so the guess is linear in q, v, a, v(-h) and a(-h):
+        # with c3 = dt^3/6, c4 = dt^4/24, the coefficient of da is
+        # ka = 2 c3/h + 6 c4/h^2, that of db kb = 6 c3/h^2 + 12 c4/h^3, and
+        # q + (dt - kb) v + (dt^2/2 - ka + kb h) a + ka a(-h) + kb v(-h) (predict_step).
+        return kernel.predict_step(last.q, last.qdot, last.qddot, v_before, a_before, dt, h)
 
     def _fast_solve(
         self,
@@ -685,7 +687,7 @@ class BranchFollower:
         and its messages. ``previous``: the last solution.
         """
         tolerance = self.tolerance
-        newton_small = 1e-2 * math.sqrt(tolerance)
+        newton_small = self.newton_small
         factored = self.factored
         if factored is None:
             at = previous.q if self.factored_at is None else self.factored_at
@@ -693,18 +695,16 @@ class BranchFollower:
             if factored is None:
                 return None
         q = guess
-        residual = kernel.residual(q, drive)
         values: tuple[float, ...] = ()  # the Jacobian's non-zeros, set by the first correction
         chord, last = True, math.inf
-        for iteration in range(1, min(self.max_iterations, 4) + 1):
+        for iteration in self.fast_iterations:
             if not chord:
                 factored = self._lu(kernel, values)
                 if factored is None:
                     return None
             lu, factors = factored
-            q, correction = lu.correct(factors, residual, q)
-            residual, values = kernel.residual_jacobian(q, drive)
-            size = max(map(abs, residual))
+            # residual at q, correction, residual and Jacobian at the corrected q
+            q, correction, residual, values, size = lu.newton_step(factors, q, drive)
             if not math.isfinite(size):
                 return None
             if size <= tolerance and correction <= (1e-10 if chord else newton_small):
@@ -742,7 +742,7 @@ class BranchFollower:
         if not condition <= self.singularity_threshold:
             return None
         self.column, self.factored, self.factored_at = column, factored, at
-        qddot = lu.solve_scaled(factors, kernel.gamma(q, qdot, drive))
+        qddot = lu.acceleration(factors, q, qdot, drive)  # solve_scaled of gamma
         return Solution(q, qdot, qddot, iteration, size, condition)
 
     def _end_is_singular(self, drive: Sequence[tuple[float, ...]]) -> bool:

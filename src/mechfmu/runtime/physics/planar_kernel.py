@@ -28,7 +28,7 @@ solve with A and one with A^T.
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 from .planar import GROUND, Driver, PointOnLine, RelativeAngle, Revolute
 
@@ -251,6 +251,21 @@ def _unpack(size: int, rates: bool = False) -> list[str]:
     return lines
 
 
+class KernelSources(NamedTuple):
+    """Source pieces of a mechanism's kernels (lines indented for a function body), for
+    the LU kernels' fused functions: unpacking q (and q'), the statements and the
+    expressions of the residual, the Jacobian's varying entries and gamma."""
+
+    unpack: list[str]
+    unpack_rates: list[str]
+    residual: list[str]
+    residual_jacobian: list[str]
+    gamma: list[str]
+    residual_list: str
+    entries: str
+    gamma_list: str
+
+
 class MechanismKernel:
     """The compiled residual, Jacobian, gamma and velocity right-hand side of a mechanism,
     and its LU kernels by row order (``factor``)."""
@@ -276,6 +291,27 @@ class MechanismKernel:
         self.pattern = [key for key, value in fixed.items() if value is None]
         entries = ", ".join(scaled[key] for key in self.pattern)
         namespace: dict[str, Any] = {"cos": math.cos, "sin": math.sin}
+        residual_list = (
+            "["
+            + ", ".join(f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.residual_rows))
+            + "]"
+        )
+        gamma_list = (
+            "["
+            + ", ".join(f"({expr}) * {_num(rs[i])}" for i, expr in enumerate(e.gamma_rows))
+            + "]"
+        )
+        # The pieces the LU kernels splice into their fused functions (LuKernel, sources).
+        self.sources = KernelSources(
+            unpack=_unpack(n),
+            unpack_rates=_unpack(n, rates=True),
+            residual=[f"    {s}" for s in e.residual],
+            residual_jacobian=[f"    {s}" for s in e.residual + e.jacobian],
+            gamma=[f"    {s}" for s in e.gamma],
+            residual_list=residual_list,
+            entries=f"({entries},)" if entries else "()",
+            gamma_list=gamma_list,
+        )
         lines = ["def residual(q, d):", *_unpack(n)]
         lines += [f"    {s}" for s in e.residual]
         lines.append(
@@ -289,6 +325,16 @@ class MechanismKernel:
         lines += ["def predict(q, v, a, vb, ab, cv, ca, ka, kb):"]
         lines += [
             f"    return [{', '.join(f'q[{j}] + cv * v[{j}] + ca * a[{j}] + ka * ab[{j}] + kb * vb[{j}]' for j in range(n))}]"
+        ]
+        # predict with its coefficients from the step dt and the last step h (see
+        # planar.BranchFollower._fast_guess for their derivation)
+        lines += [
+            "def predict_step(q, v, a, vb, ab, dt, h):",
+            "    c3 = dt**3 / 6.0; c4 = dt**4 / 24.0",
+            "    ka = 2.0 * c3 / h + 6.0 * c4 / (h * h)",
+            "    kb = 6.0 * c3 / (h * h) + 12.0 * c4 / h**3",
+            "    cv = dt - kb; ca = 0.5 * dt * dt - ka + kb * h",
+            lines[-1],
         ]
         lines += ["def residual_jacobian(q, d):", *_unpack(n)]
         lines += [f"    {s}" for s in e.residual + e.jacobian]
@@ -342,6 +388,7 @@ class MechanismKernel:
         ] = namespace["residual_jacobian"]
         # the fast path's predictor, unrolled
         self.predict: Callable[..., list[float]] = namespace["predict"]
+        self.predict_step: Callable[..., list[float]] = namespace["predict_step"]
         # 1-norm of the scaled Jacobian's non-zeros
         self.one_norm: Callable[[Sequence[float]], float] = namespace["one_norm"]
         self.orders: dict[tuple[int, ...], LuKernel] = {}
@@ -360,7 +407,7 @@ class MechanismKernel:
         kernel = self.orders.get(order)
         if kernel is None:
             kernel = self.orders[order] = LuKernel(
-                self.pattern, self.size, order, self.column_scale, self.constants
+                self.pattern, self.size, order, self.column_scale, self.constants, self.sources
             )
         return kernel
 
@@ -442,6 +489,7 @@ class LuKernel:
         order: tuple[int, ...],
         scale: Sequence[float],
         constants: dict[tuple[int, int], float] | None = None,
+        sources: KernelSources | None = None,
     ) -> None:
         self.order = order
         position = {row: k for k, row in enumerate(order)}  # original row -> position
@@ -586,7 +634,9 @@ class LuKernel:
             f"    return {' + '.join(f'abs(y{j})' for j in range(n))}, "
             + transposed[-1].strip()[len("return ") :],
         ]
-        namespace: dict[str, Any] = {"isfinite": math.isfinite}
+        if sources is not None:
+            lines += _fused(sources, body, scale, n)
+        namespace: dict[str, Any] = {"isfinite": math.isfinite, "cos": math.cos, "sin": math.sin}
         source = "\n".join(lines) + "\n"  # generated here from the pattern, nothing read in
         exec(compile(source, "<planar LU kernel>", "exec"), namespace)  # noqa: S102
         # The generated functions; F, factor()'s result, is a tuple (the factors, then the
@@ -608,10 +658,60 @@ class LuKernel:
             tuple[list[float], float, list[float]],
         ] = namespace["correct_and_solve"]
 
+        # With the mechanism's sources (MechanismKernel.lu): one Newton (or chord)
+        # correction with these factors and the residual and Jacobian after it, and the
+        # acceleration, each one call (see _fused).
+        self.newton_step: Callable[
+            [Factors, Sequence[float], Drive],
+            tuple[list[float], float, list[float], tuple[float, ...], float],
+        ] = namespace.get("newton_step", _no_sources)
+        self.acceleration: Callable[
+            [Factors, Sequence[float], Sequence[float], Drive], list[float]
+        ] = namespace.get("acceleration", _no_sources)
+
     @staticmethod
     def sign(F: Factors) -> int:
         """Sign of det(A) from factor()'s result."""
         return F[-1]
+
+
+def _no_sources(*args: Any) -> Any:
+    raise TypeError("this LuKernel was built without the mechanism's sources")
+
+
+def _fused(sources: KernelSources, body: list[str], scale: Sequence[float], n: int) -> list[str]:
+    """Source of the fused functions of an LU kernel: ``body`` is its solve (F unpacked,
+    unknowns y0.., right-hand side b), renamed u0.. here (y0 is a coordinate's name).
+
+    newton_step(F, q, d): the residual at q, the correction q - scale A^-1 residual and its
+    largest |x|, then the residual, the Jacobian's varying entries and the largest |residual|
+    at the corrected q: what solve_position's iteration needs, in one call.
+    acceleration(F, q, qd, d): q'' = scale A^-1 gamma(q, q', d).
+    The same expressions as residual, correct, residual_jacobian, gamma and solve_scaled."""
+    solve = [line.replace("y", "u") for line in body[1:]]
+    corrected = ", ".join(f"q[{j}] - u{j} * {scale[j]!r}" for j in range(n))
+    largest = ", ".join(f"abs(u{j})" for j in range(n))
+    return [
+        "def newton_step(F, q, d):",
+        body[0],
+        *sources.unpack,
+        *sources.residual,
+        f"    b = {sources.residual_list}",
+        *solve,
+        f"    q = [{corrected}]",
+        f"    correction = max({largest})",
+        *sources.unpack,
+        *sources.residual_jacobian,
+        f"    r = {sources.residual_list}",
+        f"    return q, correction, r, {sources.entries}, max(map(abs, r))",
+        "def acceleration(F, q, qd, d):",
+        body[0],
+        *sources.unpack_rates,
+        *sources.gamma,
+        f"    b = {sources.gamma_list}",
+        *solve,
+        f"    return [{', '.join(f'u{j} * {scale[j]!r}' for j in range(n))}]",
+    ]
 
 
 def _parity(order: Sequence[int]) -> int:
