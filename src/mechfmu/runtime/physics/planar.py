@@ -735,10 +735,13 @@ class BranchFollower:
             return None
         if lu.sign(factors) != self.sign:
             return None
-        inverse_norm, column = self.kernel_module.inverse_one_norm(
-            lu, factors, kernel.size, self.column
-        )
-        condition = kernel.one_norm(values) * inverse_norm
+        column = self.column
+        condition = None if column is None else lu.condition(factors, values, column)
+        if condition is None:  # Hager's estimate needs more than the one step
+            inverse_norm, column = self.kernel_module.inverse_one_norm(
+                lu, factors, kernel.size, column
+            )
+            condition = kernel.one_norm(values) * inverse_norm
         if not condition <= self.singularity_threshold:
             return None
         self.column, self.factored, self.factored_at = column, factored, at

@@ -264,6 +264,7 @@ class KernelSources(NamedTuple):
     residual_list: str
     entries: str
     gamma_list: str
+    one_norm: str = "0.0"  # of the Jacobian's varying entries v[m]
 
 
 class MechanismKernel:
@@ -361,10 +362,9 @@ class MechanismKernel:
         for j, total in fixed_sums.items():
             columns.setdefault(j, []).append(_num(total))
         sums = [" + ".join(terms) for terms in columns.values()] or ["0.0"]
-        lines += [
-            "def one_norm(v):",
-            f"    return max({', '.join(sums)})" if len(sums) > 1 else f"    return {sums[0]}",
-        ]
+        norm = f"max({', '.join(sums)})" if len(sums) > 1 else sums[0]
+        lines += ["def one_norm(v):", f"    return {norm}"]
+        self.sources = self.sources._replace(one_norm=norm)
         lines += [
             "def rates(d):",
             "    return ["
@@ -635,7 +635,8 @@ class LuKernel:
             + transposed[-1].strip()[len("return ") :],
         ]
         if sources is not None:
-            lines += _fused(sources, body, scale, n)
+            hager_body = lines[lines.index("def hager_step(F, b):") + 1 :]
+            lines += _fused(sources, body, hager_body, scale, n)
         namespace: dict[str, Any] = {"isfinite": math.isfinite, "cos": math.cos, "sin": math.sin}
         source = "\n".join(lines) + "\n"  # generated here from the pattern, nothing read in
         exec(compile(source, "<planar LU kernel>", "exec"), namespace)  # noqa: S102
@@ -665,6 +666,9 @@ class LuKernel:
             [Factors, Sequence[float], Drive],
             tuple[list[float], float, list[float], tuple[float, ...], float],
         ] = namespace.get("newton_step", _no_sources)
+        self.condition: Callable[[Factors, Sequence[float], int], float | None] = namespace.get(
+            "condition", _no_sources
+        )
         self.acceleration: Callable[
             [Factors, Sequence[float], Sequence[float], Drive], list[float]
         ] = namespace.get("acceleration", _no_sources)
@@ -679,7 +683,13 @@ def _no_sources(*args: Any) -> Any:
     raise TypeError("this LuKernel was built without the mechanism's sources")
 
 
-def _fused(sources: KernelSources, body: list[str], scale: Sequence[float], n: int) -> list[str]:
+def _fused(
+    sources: KernelSources,
+    body: list[str],
+    hager_body: list[str],
+    scale: Sequence[float],
+    n: int,
+) -> list[str]:
     """Source of the fused functions of an LU kernel: ``body`` is its solve (F unpacked,
     unknowns y0.., right-hand side b), renamed u0.. here (y0 is a coordinate's name).
 
@@ -687,11 +697,28 @@ def _fused(sources: KernelSources, body: list[str], scale: Sequence[float], n: i
     largest |x|, then the residual, the Jacobian's varying entries and the largest |residual|
     at the corrected q: what solve_position's iteration needs, in one call.
     acceleration(F, q, qd, d): q'' = scale A^-1 gamma(q, q', d).
+    condition(F, v, column): the 1-norm condition estimate ||A||_1 est(||A^-1||_1) of
+    inverse_one_norm started from e_column, when its first Hager step already settles it
+    (the usual case along a motion); None otherwise (then inverse_one_norm decides).
     The same expressions as residual, correct, residual_jacobian, gamma and solve_scaled."""
     solve = [line.replace("y", "u") for line in body[1:]]
     corrected = ", ".join(f"q[{j}] - u{j} * {scale[j]!r}" for j in range(n))
     largest = ", ".join(f"abs(u{j})" for j in range(n))
+    hager = hager_body[1:-1]  # from b: y = A^-1 b, c = sign(y), w = A^-T c
+    z = hager_body[-1].strip()[len("return ") :].split(", ", 1)[1]  # the list of A^-T c
     return [
+        "def condition(F, v, column):",
+        body[0],
+        f"    b = [0.0] * {n}",
+        "    b[column] = 1.0",
+        *hager,
+        f"    value = {' + '.join(f'abs(y{j})' for j in range(n))}",
+        f"    z = {z}",
+        "    magnitudes = list(map(abs, z))",
+        "    best = magnitudes.index(max(magnitudes))",
+        "    if value > 0.0 and (best == column or magnitudes[best] <= z[column]):",
+        f"        return {sources.one_norm} * value",
+        "    return None",
         "def newton_step(F, q, d):",
         body[0],
         *sources.unpack,
