@@ -103,3 +103,35 @@ def test_fixed_row_order_refuses_a_small_pivot():
     x = swapped.solve(factors, [1.0, 2.0])
     assert x == pytest.approx([1.0 / (1.0 - 1e-3), 2.0 - 1.0 / (1.0 - 1e-3)], rel=1e-14)
     assert swapped.sign(factors) == -1  # det = 1e-3 - 1
+
+
+def test_an_exact_guess_skips_the_chord_and_keeps_the_solution():
+    # A valve train whose drive holds still, then moves: while it holds, the predictor is
+    # exact and the fast path starts with Newton's correction from the guess (no chord);
+    # the positions, rates and iterations stay those of the generic solver.
+    geometry = vt.DEFAULT_VALVE_GEOMETRY
+    valve = constraint_models.valve_train(geometry)
+    follower = planar.BranchFollower(valve)
+    height = geometry.cam_base_radius
+    follower.assemble(constraint_models.valve_train_guess(geometry), [(height, 0.0, 0.0)])
+    drives = [[(height, 0.0, 0.0)]] * 5 + [
+        [(height + 2e-5 * k * k, 4e-5 * k / 1e-3, 4e-5 / 1e-6)] for k in range(1, 6)
+    ]
+    seen_exact = False
+    for drive in drives:
+        exact = follower.exact_guess
+        seen_exact = seen_exact or exact
+        state = follower.snapshot()
+        solution = follower.follow(drive, 1e-3)
+        assert 1 <= solution.iterations <= 3
+        q, iterations, residual = planar.solve_position(valve, list(solution.q), drive)
+        qdot, qddot, _, _ = planar.analyse(valve, q, drive)
+        assert relative(solution.q, q) < 1e-13
+        assert relative(solution.qdot, qdot) < 1e-12
+        assert relative(solution.qddot, qddot) < 1e-10
+        # rolled back, the step is taken again the same way, to the same numbers
+        follower.restore(state)
+        assert follower.exact_guess == exact
+        again = follower.follow(drive, 1e-3)
+        assert relative(again.q, solution.q) < 1e-15 and again.iterations == solution.iterations
+    assert seen_exact and not follower.exact_guess  # the moving drive is not predicted exactly

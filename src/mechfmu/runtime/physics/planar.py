@@ -535,6 +535,10 @@ class BranchFollower:
         self.factored: tuple[planar_kernel.LuKernel, planar_kernel.Factors] | None = None
         # where the fast path last factored Phi_q (None: solution.q)
         self.factored_at: list[float] | None = None
+        # whether the last fast step's guess was within 1e-14 (scaled) of its solution
+        self.exact_guess = False
+        # _chord's result: (q, residual, Jacobian entries, largest |residual|)
+        self.chorded: tuple[Any, ...] = ()
 
     def snapshot(self) -> dict[str, Any]:
         """The branch state. Solutions and drives are never changed in place, so the
@@ -547,6 +551,7 @@ class BranchFollower:
             "column": self.column,
             "history": self.history,
             "factored_at": self.factored_at,
+            "exact_guess": self.exact_guess,
         }
 
     def restore(self, state: Any) -> None:
@@ -557,6 +562,7 @@ class BranchFollower:
         self.column = state.get("column")
         self.history = None if state.get("history") is None else tuple(state["history"])
         self.factored_at = state.get("factored_at")
+        self.exact_guess = bool(state.get("exact_guess", False))
         self.factored = None  # worked out again from factored_at and order when needed
 
     def _solve(
@@ -573,6 +579,7 @@ class BranchFollower:
         self.solution, self.sign = self._solve(guess, drive)
         self.drive = drive
         self.history = self.factored = self.factored_at = None
+        self.exact_guess = False
         return self.solution
 
     def follow(self, drive: Sequence[tuple[float, ...]], dt: float) -> "Solution":
@@ -599,6 +606,7 @@ class BranchFollower:
                 self.solution, self.drive = solution, drive
                 return solution
         self.history = self.factored = self.factored_at = None
+        self.exact_guess = False
         guess = [q + v * dt + 0.5 * a * dt * dt for q, v, a in zip(last.q, last.qdot, last.qddot)]
         try:
             solution, sign = self._solve(guess, drive)
@@ -687,35 +695,24 @@ class BranchFollower:
         and its messages. ``previous``: the last solution.
         """
         tolerance = self.tolerance
-        newton_small = self.newton_small
-        factored = self.factored
-        if factored is None:
-            at = previous.q if self.factored_at is None else self.factored_at
-            factored = self._lu(kernel, kernel.jacobian(at))
-            if factored is None:
-                return None
         q = guess
-        values: tuple[float, ...] = ()  # the Jacobian's non-zeros, set by the first correction
-        chord, last = True, math.inf
-        for iteration in self.fast_iterations:
-            if not chord:
-                factored = self._lu(kernel, values)
-                if factored is None:
-                    return None
-            lu, factors = factored
-            # residual at q, correction, residual and Jacobian at the corrected q
-            q, correction, residual, values, size = lu.newton_step(factors, q, drive)
-            if not math.isfinite(size):
-                return None
-            if size <= tolerance and correction <= (1e-10 if chord else newton_small):
-                break
-            if chord and not (correction <= 1e-8 and correction <= 1e-2 * last):
-                chord = False
-            last = correction
+        newton_first = False
+        if self.exact_guess:
+            # The last step's guess was already within 1e-14 of its solution (a motion the
+            # predictor follows exactly, such as a dwell): Newton's corrections from the
+            # guess, without the chord, if the residual there is within the tolerance.
+            residual, values = kernel.residual_jacobian(q, drive)
+            size = max(map(abs, residual))
+            newton_first = size <= tolerance  # False for NaN too
+        if newton_first:
+            iteration, rounds, first = 0, 3, math.inf
         else:
-            return None
+            iteration, rounds, first = self._chord(kernel, previous, drive, q)
+            if iteration == 0:
+                return None
+            q, residual, values, size = self.chorded
         rates = kernel.rates(drive)
-        for _ in range(2):
+        for _ in range(rounds):
             factored = self._lu(kernel, values)
             if factored is None:
                 return None
@@ -727,6 +724,10 @@ class BranchFollower:
             # corrected position.
             corrected, final, qdot = lu.correct_and_solve(factors, residual, q, rates)
             at, q = q, corrected
+            if newton_first:
+                iteration += 1
+                if iteration == 1:
+                    first = final
             if final <= 1e-14:
                 break
             residual, values = kernel.residual_jacobian(q, drive)
@@ -745,8 +746,50 @@ class BranchFollower:
         if not condition <= self.singularity_threshold:
             return None
         self.column, self.factored, self.factored_at = column, factored, at
+        self.exact_guess = first <= 1e-14
         qddot = lu.acceleration(factors, q, qdot, drive)  # solve_scaled of gamma
         return Solution(q, qdot, qddot, iteration, size, condition)
+
+    def _chord(
+        self,
+        kernel: "planar_kernel.MechanismKernel",
+        previous: Solution,
+        drive: Sequence[tuple[float, ...]],
+        q: list[float],
+    ) -> tuple[int, int, float]:
+        """_fast_solve's corrections from the guess ``q``: chord ones on the factors of the
+        last step while they shrink fast, then Newton's (see _fast_solve). Returns
+        (iterations, rounds of the final correction, the first correction), with
+        (q, residual, Jacobian entries, largest |residual|) at the result in
+        ``self.chorded``; (0, 0, inf) when they do not converge within 4."""
+        tolerance, newton_small = self.tolerance, self.newton_small
+        factored = self.factored
+        if factored is None:
+            at = previous.q if self.factored_at is None else self.factored_at
+            factored = self._lu(kernel, kernel.jacobian(at))
+            if factored is None:
+                return 0, 0, math.inf
+        chord, last, first = True, math.inf, math.inf
+        values: tuple[float, ...] = ()  # the Jacobian's non-zeros, set by the first correction
+        for iteration in self.fast_iterations:
+            if not chord:
+                factored = self._lu(kernel, values)
+                if factored is None:
+                    return 0, 0, math.inf
+            lu, factors = factored
+            # residual at q, correction, residual and Jacobian at the corrected q
+            q, correction, residual, values, size = lu.newton_step(factors, q, drive)
+            if not math.isfinite(size):
+                return 0, 0, math.inf
+            if iteration == 1:
+                first = correction
+            if size <= tolerance and correction <= (1e-10 if chord else newton_small):
+                self.chorded = (q, residual, values, size)
+                return iteration, 2, first
+            if chord and not (correction <= 1e-8 and correction <= 1e-2 * last):
+                chord = False
+            last = correction
+        return 0, 0, math.inf
 
     def _end_is_singular(self, drive: Sequence[tuple[float, ...]]) -> bool:
         assert self.solution is not None  # after assemble()
