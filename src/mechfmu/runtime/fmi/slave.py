@@ -64,6 +64,9 @@ class MechSlave(Binding):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 
     VARIABLES: tuple[Variable, ...] = ()
+    # False for a model whose update never changes its internal_state (a source's table
+    # read at initialisation): its do_step then saves only the values for a rollback.
+    STEP_CHANGES_STATE = True
     author = "mechfmu"
     license = "MIT"
 
@@ -85,6 +88,10 @@ class MechSlave(Binding):
         )
         self.real_outputs = tuple(
             v.name for v in self.VARIABLES if v.causality == "output" and v.kind is float
+        )
+        # whether do_step saves the internal state (a model without one has nothing to save)
+        self.step_saves_state = (
+            self.STEP_CHANGES_STATE and type(self).internal_state is not MechSlave.internal_state
         )
         self._inputs_of = _tuple_getter(self.real_inputs)
         self._outputs_of = _tuple_getter(self.real_outputs)
@@ -195,7 +202,8 @@ class MechSlave(Binding):
         ):
             # The usual step, with the checks of _checked_step passed in one test each (a
             # finite sum: no input is NaN or infinite). The same all-or-nothing contract.
-            values_before, internal_before = values.copy(), self.internal_state()
+            values_before = values.copy()
+            internal_before = self.internal_state() if self.step_saves_state else None
             try:
                 self.update(current_time + step_size, step_size)
                 if not math.isfinite(sum(self._outputs_of(values))):
@@ -204,7 +212,8 @@ class MechSlave(Binding):
                 return True
             except Exception as error:  # never raised into C++ (see the module docstring)
                 values.update(values_before)  # in place: the registered getters hold it
-                self.restore_internal_state(internal_before)
+                if internal_before is not None:
+                    self.restore_internal_state(internal_before)
                 self.log(self._describe(error, current_time + step_size), Status.error)
                 return False
         return self._checked_step(current_time, step_size)

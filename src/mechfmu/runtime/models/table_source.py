@@ -12,6 +12,8 @@ class TableSource(MechSlave):
     Subclasses validate their own shape parameters in ``check_shape``.
     """
 
+    STEP_CHANGES_STATE = False  # the table is read at initialisation, never in a step
+
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.table: Any = None  # tuple[list[float], list[float]] (set_up)
