@@ -26,6 +26,7 @@ MASTER_CASES = [
 MASTER_CASES += ["total per step, ours / fmpy", "overhead per step, ours / fmpy"]
 MASTER_CASES += [f"one FMU, {case}" for case in MASTER_CASES[:8]]
 MASTER_CASES += ["one FMU: total per step, ours / fmpy", "one FMU: overhead per step, ours / fmpy"]
+MASTER_CASES += ["one FMU, its calls alone: wall per step", "one FMU: its calls alone / fmpy"]
 EXPECTED = {
     "master overhead": MASTER_CASES,
     "model cost": [
@@ -144,7 +145,7 @@ def test_ratios_are_the_quotients_of_their_parts(bench):
     _, _, records, _ = bench
     rows = _rows(records)
     ratios = [r for r in records if r["unit"] == RATIO_UNIT]
-    assert len(ratios) == 2 + 2 + len(model_cost.CASES) + 2 + 1 + len(growth.FACTORS)
+    assert len(ratios) == 2 + 3 + len(model_cost.CASES) + 2 + 1 + len(growth.FACTORS)
     for record in ratios:
         row = Row(
             record["benchmark"],

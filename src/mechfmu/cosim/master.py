@@ -905,26 +905,45 @@ class _StepPlan:
         """Step from start_time to stop_time, recording after every communication step;
         before each step, stop with _Stopped if ``stop`` has been requested."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
-        call, put_changed, steps, jacobi = self._call, self._set, self.steps, self.jacobi
+        put_changed, jacobi = self._set, self.jacobi
+        # Everything a step calls, unpacked once: (name, doStep, instance, input sets,
+        # output reads as (function, instance, references, count, buffer, call)).
+        steps = [
+            (
+                name,
+                do_step,
+                instance,
+                sets,
+                [(r.function, r.instance, r.references, r.count, r.buffer, r) for r in reads],
+            )
+            for name, do_step, instance, sets, reads in self.steps
+        ]
+        rows = [(recorder.rows.frombytes, recorder.raw) for recorder in self.recorders]
+        append_time = result.times.append
         for index in range(1, len(times)):
             start = times[index - 1]
             if stop.requested:
                 raise _Stopped(start)
-            size = times[index] - start
+            end = times[index]
+            size = end - start
             if jacobi:  # every input from the previous point's outputs, then every step
                 for _, _, _, sets, _ in steps:
                     for put in sets:
                         put_changed(put, start)
             for name, do_step, instance, sets, reads in steps:
-                if not jacobi:
+                if sets and not jacobi:
                     for put in sets:
                         put_changed(put, start)
                 status = do_step(instance, start, size, fmi2True)
                 if status > _WARNING:
                     raise _CallFailed(name, start, "fmi2DoStep", status)
-                for read in reads:
-                    call(read, times[index])
-            self._record(result, times[index])
+                for function, owner, references, count, buffer, read in reads:
+                    status = function(owner, references, count, buffer)
+                    if status > _WARNING:
+                        raise _CallFailed(read.component, end, read.name, status)
+            for add, raw in rows:  # _record, inline
+                add(raw)
+            append_time(end)
 
     @staticmethod
     def collect(recorders: list[_Outputs], result: Result) -> None:

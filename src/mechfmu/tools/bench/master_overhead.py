@@ -29,7 +29,7 @@ from fmpy import extract, read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
 
 from ...cosim.master import CallTimer, Simulation
-from . import timing
+from . import model_cost, timing
 from .gear import (
     GEAR_OUTPUTS,
     KINEMATIC_SCENE,
@@ -269,11 +269,27 @@ def measure_one_fmu(
     alone = [
         FmpyGearAlone(Path(fmu_dir) / "PistonActuator.fmu", s, "actuator", outputs) for s in scenes
     ]
+    # The same FMU's calls and nothing else: model_cost's raw ctypes loop (fmi2DoStep and
+    # one fmi2GetReal of its 3 outputs per step, on arrays built once), the long run's steps.
+    bare = model_cost.ExtractedFmu(Path(fmu_dir) / "PistonActuator.fmu")
+    case = model_cost.ModelCase(
+        "PistonActuator (bare loop)",
+        "PistonActuator",
+        scenes[1].stop_time - scenes[1].start_time,
+        dict(scene.components["actuator"].parameters),
+    )
+    loop = model_cost.PreparedLoop(case, bare.description, steps[1])
+
+    def bare_run() -> dict[str, float]:
+        with bare.initialised(case.parameters) as instance:
+            return {"wall": loop.run(instance).seconds}
+
     try:
-        medians = side_by_side_medians(_runs(ours, alone), repeats)
+        medians = side_by_side_medians({**_runs(ours, alone), "bare": bare_run}, repeats)
     finally:
         for run in alone:
             run.close()
+        bare.close()
     descriptions = {
         "one FMU, ours": f"PistonActuator alone, {len(outputs)} recorded, steps of {scene.step} s",
         "one FMU, fmpy": f"simulate_fmu: PistonActuator.fmu alone, {len(outputs)} recorded, "
@@ -284,9 +300,25 @@ def measure_one_fmu(
         for label, master in (("one FMU, ours", "ours"), ("one FMU, fmpy", "fmpy"))
     }
     ours_rows, fmpy_rows = rows["one FMU, ours"], rows["one FMU, fmpy"]
+    bare_row = Row(
+        BENCHMARK,
+        "one FMU, its calls alone: wall per step",
+        medians["bare"]["wall"] / steps[1] * MICRO,
+        "us",
+        repeats,
+        notes="fmi2DoStep + one fmi2GetReal of the 3 outputs per step in a bare ctypes loop "
+        "(model_cost's), no master: what any master pays for this FMU",
+    )
     return [
         *ours_rows,
         *fmpy_rows,
+        bare_row,
+        ratio_row(
+            "one FMU: its calls alone / fmpy",
+            bare_row,
+            fmpy_rows.wall,
+            notes="the lowest total-per-step ratio a master can reach with this FMU",
+        ),
         ratio_row(
             "one FMU: total per step, ours / fmpy",
             ours_rows.wall,
