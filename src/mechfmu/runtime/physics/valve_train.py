@@ -49,6 +49,7 @@ linear in the unknown rate, solved directly in forward and inverse.
 
 import math
 import sys
+from functools import lru_cache
 from collections import namedtuple
 from typing import Any
 
@@ -208,6 +209,7 @@ def _y3_from_phi(g: "ValveGeometry", phi: float) -> float:
     )
 
 
+@lru_cache(maxsize=16)  # a function of the geometry alone (a tuple of floats)
 def rest_position(g: "ValveGeometry") -> tuple[float, float]:
     """(rocker angle phi0 in rad, valve foot height y3_closed in m) at zero tappet lift."""
     phi0 = _phi_from_y1(g, g.cam_base_radius)
@@ -222,6 +224,7 @@ def _component(low: float, high: float, reference: float) -> tuple[float, float]
     return (low, high) if reference > 0.0 else (-high, -low)
 
 
+@lru_cache(maxsize=16)  # a function of the geometry alone (a tuple of floats)
 def tappet_lift_range(g: "ValveGeometry") -> tuple[float, float]:
     """Tappet lifts (m) for which the rocker assembles on the branch: [low, high].
 
@@ -251,6 +254,7 @@ def _angle_interval(cos_low: float, cos_high: float, reference: float) -> tuple[
     return (near, far) if reference >= 0.0 else (-far, -near)
 
 
+@lru_cache(maxsize=16)  # a function of the geometry alone (a tuple of floats)
 def rocker_angle_range(g: "ValveGeometry") -> tuple[float, float]:
     """Rocker angles (rad) that valve_from_rocker accepts: |c - V_x| <= L3, around rest."""
     u = g.valve_axis_x - g.rocker_pivot_x
@@ -258,12 +262,14 @@ def rocker_angle_range(g: "ValveGeometry") -> tuple[float, float]:
     return _angle_interval((u - length) / arm, (u + length) / arm, rest_position(g)[0])
 
 
+@lru_cache(maxsize=16)  # a function of the geometry alone (a tuple of floats)
 def tappet_rocker_angle_range(g: "ValveGeometry") -> tuple[float, float]:
     """Rocker angles (rad) that tappet_from_rocker accepts: |T_x| <= L1, around rest."""
     a, arm, length = g.rocker_pivot_x, g.tappet_arm, g.pushrod_length
     return _angle_interval((a - length) / arm, (a + length) / arm, rest_position(g)[0])
 
 
+@lru_cache(maxsize=16)  # a function of the geometry alone (a tuple of floats)
 def valve_position_range(g: "ValveGeometry") -> tuple[float, float]:
     """Valve foot heights y3 (m) that rocker_from_valve accepts: [low, high].
 
@@ -280,6 +286,7 @@ def valve_position_range(g: "ValveGeometry") -> tuple[float, float]:
     return g.rocker_pivot_y + w_min, g.rocker_pivot_y + w_max
 
 
+@lru_cache(maxsize=16)  # a function of the geometry alone (a tuple of floats)
 def valve_lift_range(g: "ValveGeometry") -> tuple[float, float]:
     """Valve lifts (m) that inverse accepts on the valve side: y3_closed - valve_position_range."""
     low, high = valve_position_range(g)
@@ -526,18 +533,18 @@ def _rocker_rates(
     t2: tuple[float, float],
     slider_rate: float,
     slider_accel: float,
-    singular: str,
+    singular: Callable[[], str],
 ) -> tuple[float, float]:
     """Rocker rates (rad/s, rad/s^2) from the rates of a link end sliding vertically.
 
     The link vector e = (rocker end) - (slider end) has constant length, with the rocker end
     moving as phi' t1 and phi'' t1 + phi'^2 t2. Differentiating |e|^2 once and twice:
     phi' (e.t1) = e_y y',  phi'' (e.t1) = e_y y'' - phi'^2 (e.t2) - |phi' t1 - (0, y')|^2.
-    ``singular``: the message when e.t1 = 0 (link and rocker arm in line).
+    ``singular``: makes the message when e.t1 = 0 (link and rocker arm in line).
     """
     e_t1 = _dot(link, t1)
     if e_t1 == 0.0:
-        raise SingularConfiguration(singular)
+        raise SingularConfiguration(singular())
     omega = link[1] * slider_rate / e_t1
     rel = (omega * t1[0], omega * t1[1] - slider_rate)
     return omega, (link[1] * slider_accel - omega * omega * _dot(link, t2) - _dot(rel, rel)) / e_t1
@@ -549,12 +556,12 @@ def _slider_rates(
     t2: tuple[float, float],
     omega: float,
     alpha: float,
-    singular: str,
+    singular: Callable[[], str],
 ) -> tuple[float, float]:
     """Rates (m/s, m/s^2) of a vertically sliding link end driven by the rocker: the same
-    two equations solved for y' and y''. ``singular``: the message when e_y = 0."""
+    two equations solved for y' and y''. ``singular``: makes the message when e_y = 0."""
     if link[1] == 0.0:
-        raise SingularConfiguration(singular)
+        raise SingularConfiguration(singular())
     rate = omega * _dot(link, t1) / link[1]
     rel = (omega * t1[0], omega * t1[1] - rate)
     return rate, (alpha * _dot(link, t1) + omega * omega * _dot(link, t2) + _dot(rel, rel)) / link[
@@ -567,12 +574,13 @@ def _chain_rates(
     driven: tuple[Any, Any, Any],
     rate: float,
     acceleration: float,
-    driving_singular: str,
-    driven_singular: str,
+    driving_singular: Callable[[], str],
+    driven_singular: Callable[[], str],
 ) -> tuple[float, float, float, float]:
     """Through the rocker: its (omega, alpha) from the driving slider's ``rate`` and
     ``acceleration`` (vectors ``driving``), then the driven slider's (rate, acceleration)
-    (vectors ``driven``); the messages name each singular position."""
+    (vectors ``driven``); the messages, made only when needed, name each singular
+    position."""
     omega, alpha = _rocker_rates(*driving, rate, acceleration, driving_singular)
     driven_rate, driven_acceleration = _slider_rates(*driven, omega, alpha, driven_singular)
     return omega, alpha, driven_rate, driven_acceleration
@@ -590,8 +598,8 @@ def _motion_from_tappet(
         _valve_vectors(g, phi, y3),
         velocity,
         acceleration,
-        f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined",
-        f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined",
+        lambda: f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined",
+        lambda: f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined",
     )
     return ValveTrainMotion(
         lift, velocity, acceleration, phi, omega, alpha, y3_closed - y3, -y3_rate, -y3_accel
@@ -631,8 +639,8 @@ def inverse(
         _tappet_vectors(g, phi, y1),
         -velocity,
         -acceleration,
-        f"valve_lift = {lift!r} m: valve link and valve arm in line, rates undefined",
-        f"valve_lift = {lift!r} m: pushrod horizontal, tappet rates undefined",
+        lambda: f"valve_lift = {lift!r} m: valve link and valve arm in line, rates undefined",
+        lambda: f"valve_lift = {lift!r} m: pushrod horizontal, tappet rates undefined",
     )
     return ValveTrainMotion(
         y1 - g.cam_base_radius, y1_rate, y1_accel, phi, omega, alpha, lift, velocity, acceleration
