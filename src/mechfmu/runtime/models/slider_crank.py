@@ -75,12 +75,15 @@ class SliderCrank(LinkageSlave):
         return v["crank_length"], v["coupler_length"], v["offset"]
 
     def check_geometry(self) -> Any:
-        sc.check_slider_crank(*self._geometry())
+        self.geometry = sc.check_slider_crank(*self._geometry())
         if self.values["circuit"] not in sc.CIRCUITS:
             raise RangeError("circuit", self.values["circuit"], "{0, 1}")
 
     def closed_form(self, time: float) -> Any:
-        motion = sc.motion(*self._geometry(), self.values["circuit"], *self.driver_inputs())
+        # the lengths and circuit validated once (check_geometry), the inputs by the step
+        motion = sc.checked_motion(
+            self.geometry, int(self.values["circuit"]), *self.driver_inputs()
+        )
         return motion._asdict()
 
     def mechanism(self) -> Any:

@@ -184,6 +184,15 @@ def motion(
     t2 = require_finite("crank_angle", crank_angle, "rad")
     w2 = require_finite("crank_speed", crank_speed, "rad/s")
     al2 = require_finite("crank_acceleration", crank_acceleration, "rad/s^2")
+    return checked_motion(geometry, circuit, t2, w2, al2)
+
+
+def checked_motion(
+    geometry: "SliderCrank", circuit: int, t2: float, w2: float, al2: float
+) -> "SliderCrankMotion":
+    """``motion`` for a geometry from check_slider_crank (m), a circuit from CIRCUITS and
+    finite crank angle (rad), speed (rad/s) and acceleration (rad/s^2): what an FMU that
+    validated them once calls at every step."""
     t3, b_sin3, b_cos3, s, singular = _solve(geometry, t2, circuit)
     if singular:
         raise SingularConfiguration(
