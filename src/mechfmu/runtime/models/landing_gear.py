@@ -405,11 +405,11 @@ class LandingGear(IntegratingSlave):
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
         v = self.values
         d, h = v["attachment_distance"], v["pivot_height"]
-        motion = gear.gear_motion(
+        motion, arm = gear.gear_motion_and_moment_arm(
             v["piston_extension"], v["piston_speed"], v["piston_acceleration"], d, h
         )
         v["gear_angle"], v["gear_angular_velocity"], v["gear_angular_acceleration"] = motion
-        v["piston_moment_arm"] = gear.piston_moment_arm(v["piston_extension"], d, h)
+        v["piston_moment_arm"] = arm
         v["wheel_speed"] = v["bar_length"] * motion.angular_velocity
         v["piston_length"], v["piston_rate"] = v["piston_extension"], v["piston_speed"]
         self.model.publish(v, motion)
