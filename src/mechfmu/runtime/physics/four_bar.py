@@ -400,7 +400,9 @@ def _solve(lengths: "FourBar", crank_angle: float, circuit: int) -> tuple[float,
     t2 = crank_angle
     f = _crank_pin_distance(a, d, t2)
     high, low = b + c, abs(b - c)
-    to_high, to_low, tolerance = _reach_margins(lengths, t2)
+    # _reach_margins, on the f worked out above
+    to_high, to_low = high - f, f - low
+    tolerance = TOGGLE_ULPS * sys.float_info.epsilon * high
     if to_high < -tolerance or to_low < -tolerance:
         lo, hi = crank_angle_range(d, a, b, c) or (math.nan, math.nan)
         raise RangeError(
