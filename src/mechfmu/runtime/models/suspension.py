@@ -235,6 +235,8 @@ class Suspension(IntegratingSlave):
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
+        # ((free length, stiffness, base offset), Spring) of the last _spring()
+        self._spring_cache: tuple[tuple[float, float, float], Spring] | None = None
         self.model: Any = None  # dynamics: the Model, right-hand side, inputs, events
         self.inputs: Any = None  # dyn.StepInputs (set_up)
         self.rhs: Any = None  # Callable (set_up)
@@ -244,10 +246,14 @@ class Suspension(IntegratingSlave):
         self.blowup: Any = None  # state max-norm beyond which the integration is unstable
 
     def _spring(self) -> Spring:
+        """The validated Spring of the current parameters (validated again only when they
+        changed: in initialisation mode)."""
         v = self.values
-        return physics.make_spring(
-            v["spring_free_length"], v["spring_stiffness"], v["spring_base_offset"]
-        )
+        key = (v["spring_free_length"], v["spring_stiffness"], v["spring_base_offset"])
+        cached = self._spring_cache
+        if cached is None or cached[0] != key:
+            cached = self._spring_cache = (key, physics.make_spring(*key))
+        return cached[1]
 
     # --- set-up (IntegratingSlave: the dynamics effect integrates (y, y'[, z, z'])) ----------
     def set_up(self) -> bool:

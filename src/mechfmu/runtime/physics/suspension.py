@@ -30,6 +30,7 @@ Lengths in m, stiffness in N/m, forces in N.
 """
 
 import math
+from functools import lru_cache
 from collections import namedtuple
 
 from ..errors import IntegrationError, RangeError, SnapThrough, require_finite, require_positive
@@ -118,6 +119,7 @@ def stability(tangent: float, spring: "Spring") -> tuple[bool, bool]:
     return tangent > band, abs(tangent) <= band
 
 
+@lru_cache(maxsize=16)  # a function of the spring alone (a tuple of floats)
 def limit_point(spring: "Spring") -> "LimitPoint":
     """Deflection (m) and load (N) where the near branch ends (dF/du = 0)."""
     L, _, d = spring
