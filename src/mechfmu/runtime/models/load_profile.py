@@ -30,16 +30,16 @@ class LoadProfile(TableSource):
         profiles.check_load(
             v["shape"], v["initial_value"], v["final_value"], v["start_time"], v["duration"]
         )
-
-    def update(self, time: float, step_size: float) -> None:
-        v = self.values
-        sample = profiles.load(
-            time,
+        # the load's arguments between the time and the table, fixed once initialised
+        self.shape = (
             v["shape"],
             v["initial_value"],
             v["final_value"],
             v["start_time"],
             v["duration"],
-            self.table,
         )
+
+    def update(self, time: float, step_size: float) -> None:
+        sample = profiles.load(time, *self.shape, self.table)
+        v = self.values
         v["load"], v["load_rate"] = sample.value, sample.rate

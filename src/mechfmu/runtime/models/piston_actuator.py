@@ -57,8 +57,9 @@ class PistonActuator(MechSlave):
 
     def check_parameters(self) -> None:
         profiles.check_stroke(*self._stroke_parameters())
+        self.stroke_parameters = self._stroke_parameters()  # fixed once initialised
 
     def update(self, time: float, step_size: float) -> None:
-        sample = profiles.stroke(time, *self._stroke_parameters())
+        sample = profiles.stroke(time, *self.stroke_parameters)
         v = self.values
         v["piston_extension"], v["piston_speed"], v["piston_acceleration"] = sample

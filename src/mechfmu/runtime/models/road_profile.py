@@ -37,17 +37,17 @@ class RoadProfile(TableSource):
         road.check_road(
             v["shape"], v["height"], v["duration"], v["start_time"], v["amplitude"], v["frequency"]
         )
-
-    def update(self, time: float, step_size: float) -> None:
-        v = self.values
-        sample = road.road(
-            time,
+        # the road's arguments between the time and the table, fixed once initialised
+        self.shape = (
             v["shape"],
             v["height"],
             v["duration"],
             v["start_time"],
             v["amplitude"],
             v["frequency"],
-            self.table,
         )
+
+    def update(self, time: float, step_size: float) -> None:
+        sample = road.road(time, *self.shape, self.table)
+        v = self.values
         v["road_height"], v["road_rate"] = sample.value, sample.rate

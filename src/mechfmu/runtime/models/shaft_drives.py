@@ -18,11 +18,8 @@ class _ShaftDrive(MechSlave):
     def check_parameters(self) -> None:
         v = self.values
         profiles.check_rotation(v["initial_angle"], v["initial_speed"], v["speed"], v["ramp_time"])
-
-    def update(self, time: float, step_size: float) -> None:
-        v = self.values
-        sample = profiles.rotation(
-            time,
+        # the rotation's arguments after the time and the output names, fixed once initialised
+        self.rotation = (
             v["initial_angle"],
             self.RATIO * v["initial_speed"],
             self.RATIO * v["speed"],
@@ -30,7 +27,12 @@ class _ShaftDrive(MechSlave):
             v["start_time"],
         )
         prefix = self.PREFIX
-        v[prefix + "_angle"], v[prefix + "_speed"], v[prefix + "_acceleration"] = sample
+        self.names = (prefix + "_angle", prefix + "_speed", prefix + "_acceleration")
+
+    def update(self, time: float, step_size: float) -> None:
+        sample = profiles.rotation(time, *self.rotation)
+        v, (angle, speed, acceleration) = self.values, self.names
+        v[angle], v[speed], v[acceleration] = sample
 
 
 def _variables(
