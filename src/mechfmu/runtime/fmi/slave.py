@@ -203,7 +203,7 @@ class MechSlave(Binding):
             # The usual step, with the checks of _checked_step passed in one test each (a
             # finite sum: no input is NaN or infinite). The same all-or-nothing contract.
             values_before = values.copy()
-            internal_before = self.internal_state() if self.step_saves_state else None
+            internal_before = self.step_state() if self.step_saves_state else None
             try:
                 self.update(current_time + step_size, step_size)
                 if not math.isfinite(sum(self._outputs_of(values))):
@@ -213,7 +213,7 @@ class MechSlave(Binding):
             except Exception as error:  # never raised into C++ (see the module docstring)
                 values.update(values_before)  # in place: the registered getters hold it
                 if internal_before is not None:
-                    self.restore_internal_state(internal_before)
+                    self.restore_step_state(internal_before)
                 self.log(self._describe(error, current_time + step_size), Status.error)
                 return False
         return self._checked_step(current_time, step_size)
@@ -274,6 +274,15 @@ class MechSlave(Binding):
 
     def restore_internal_state(self, state: Any) -> None:
         """Inverse of internal_state."""
+
+    def step_state(self) -> Any:
+        """What do_step saves to undo a failed step: internal_state, unless a model has a
+        cheaper form (any object; it never leaves the instance)."""
+        return self.internal_state()
+
+    def restore_step_state(self, state: Any) -> None:
+        """Inverse of step_state."""
+        self.restore_internal_state(state)
 
     def _get_fmu_state(self) -> dict[str, Any]:
         # A failed initialisation leaves no internal state to save (nor to step from).

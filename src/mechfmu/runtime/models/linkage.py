@@ -176,6 +176,17 @@ class LinkageSlave(MechSlave):
             "last_drive": None if self.last_drive is None else [list(d) for d in self.last_drive],
         }
 
+    def step_state(self) -> Any:
+        """The branch as references (BranchFollower.step_state) and the last drive: nothing
+        is copied, as neither is ever changed in place."""
+        follower = self.follower
+        return (None if follower is None else follower.step_state(), self.last_drive)
+
+    def restore_step_state(self, state: Any) -> None:
+        branch, self.last_drive = state
+        if branch is not None and self.follower is not None:
+            self.follower.restore_step_state(branch)
+
     def restore_internal_state(self, state: Any) -> None:
         if self.follower is not None and state.get("follower") is not None:
             self.follower.restore(state["follower"])

@@ -232,7 +232,10 @@ class ValveTrain(LinkageSlave):
         return constraint_models.valve_train_guess(self.geometry)
 
     def drive(self, time: float) -> Any:
-        lift, velocity, acceleration = self._law()
+        v = self.values
+        lift, velocity, acceleration = self.motion(
+            v["camshaft_angle"], v["camshaft_speed"], v["camshaft_acceleration"]
+        )
         if self.values["mode"] == "inverse":  # the valve foot moves down as the valve opens
             return [(self.closed_height - lift, -velocity, -acceleration)]
         return [(self.geometry.cam_base_radius + lift, velocity, acceleration)]

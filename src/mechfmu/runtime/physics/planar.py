@@ -554,6 +554,37 @@ class BranchFollower:
             "exact_guess": self.exact_guess,
         }
 
+    def step_state(self) -> tuple[Any, ...]:
+        """The branch state as references, for undoing a step within this instance (a
+        slave's do_step): cheaper than snapshot, and it keeps the cached factors."""
+        return (
+            self.solution,
+            self.drive,
+            self.sign,
+            self.order,
+            self.lu_kernel,
+            self.column,
+            self.history,
+            self.factored,
+            self.factored_at,
+            self.exact_guess,
+        )
+
+    def restore_step_state(self, state: tuple[Any, ...]) -> None:
+        """Inverse of step_state."""
+        (
+            self.solution,
+            self.drive,
+            self.sign,
+            self.order,
+            self.lu_kernel,
+            self.column,
+            self.history,
+            self.factored,
+            self.factored_at,
+            self.exact_guess,
+        ) = state
+
     def restore(self, state: Any) -> None:
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
         self.drive = None if state["drive"] is None else [tuple(d) for d in state["drive"]]
@@ -591,7 +622,7 @@ class BranchFollower:
         that keeps the sign is the other one. So is one that jumps a range of drive values
         where the mechanism does not assemble (crossing_error).
         """
-        drive = [tuple(map(float, d)) for d in drive]
+        drive = [(float(x), float(rate), float(second)) for x, rate, second in drive]
         last = self.solution
         assert last is not None and self.drive is not None  # follow() comes after assemble()
         if self.mechanism.has_crossings:
@@ -734,7 +765,7 @@ class BranchFollower:
             size = max(map(abs, residual))
         else:
             return None
-        if lu.sign(factors) != self.sign:
+        if factors[-1] != self.sign:  # lu.sign(factors)
             return None
         column = self.column
         condition = None if column is None else lu.condition(factors, values, column)
