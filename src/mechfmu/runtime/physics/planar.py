@@ -288,6 +288,7 @@ class Driver:
 # --- the mechanism --------------------------------------------------------------------------------
 
 Solution = namedtuple("Solution", "q qdot qddot iterations residual condition")
+_solution = Solution._make  # a Solution from a tuple, without the keyword-argument call
 
 
 class Mechanism:
@@ -744,10 +745,16 @@ class BranchFollower:
             q, residual, values, size = self.chorded
         rates = kernel.rates(drive)
         for _ in range(rounds):
-            factored = self._lu(kernel, values)
-            if factored is None:
-                return None
-            lu, factors = factored
+            # _lu's usual case inline: the kernel of the last row order, its pivots still good
+            lu = self.lu_kernel
+            factors = lu.factor(values) if lu is not None and lu.order is self.order else None
+            if lu is None or factors is None:
+                factored = self._lu(kernel, values)
+                if factored is None:
+                    return None
+                lu, factors = factored
+            else:
+                factored = (lu, factors)
             # One more correction with Phi_q at q: after chord steps it removes their error
             # (their linear rate times the last correction), after Newton's it is at the
             # level of rounding. The rates are solved with the same factors, so when the
@@ -779,7 +786,7 @@ class BranchFollower:
         self.column, self.factored, self.factored_at = column, factored, at
         self.exact_guess = first <= 1e-14
         qddot = lu.acceleration(factors, q, qdot, drive)  # solve_scaled of gamma
-        return Solution(q, qdot, qddot, iteration, size, condition)
+        return _solution((q, qdot, qddot, iteration, size, condition))
 
     def _chord(
         self,
