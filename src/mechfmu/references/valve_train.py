@@ -110,7 +110,10 @@ def tappet_motion(
     """Tappet lift s (m), velocity (m/s) and acceleration (m/s^2) of the cam law in a
     ValveTrain's ``parameters`` (CAM_FIELDS) at camshaft ``angle`` (rad), ``speed``
     (rad/s) and ``acceleration`` (rad/s^2)."""
-    s, s1, s2 = cam_lift(*(parameters[key] for key in CAM_FIELDS), angle)
+    law, lift, rise_start, rise_angle, dwell_angle, return_angle = (
+        parameters[key] for key in CAM_FIELDS
+    )
+    s, s1, s2 = cam_lift(law, lift, rise_start, rise_angle, dwell_angle, return_angle, angle)
     return s, s1 * speed, s2 * speed * speed + s1 * acceleration
 
 

@@ -140,6 +140,44 @@ def output(
     return Variable(name, type(start), "output", start, description, unit, min, max, depends)
 
 
+def motion_units(unit: str) -> tuple[str, str, str]:
+    """Units of a coordinate in ``unit`` and of its first two time derivatives."""
+    return unit, f"{unit}/s", f"{unit}/s2"
+
+
+def motion_inputs(
+    names: tuple[str, str, str],
+    unit: str,
+    descriptions: tuple[str, str, str],
+    start: float = 0.0,
+) -> tuple[Variable, ...]:
+    """Inputs q, dq/dt, d2q/dt2 of one driving coordinate (``names`` in that order, units
+    ``unit``, ``unit``/s, ``unit``/s2); q starts at ``start``, its rates at 0."""
+    starts = (start, 0.0, 0.0)
+    return tuple(
+        input_(name, value, text, unit=u)
+        for name, value, text, u in zip(names, starts, descriptions, motion_units(unit))
+    )
+
+
+def motion_outputs(
+    names: tuple[str, str, str],
+    unit: str,
+    description: str | tuple[str, str, str],
+    depends: tuple[str, ...] = (),
+) -> tuple[Variable, ...]:
+    """Outputs q, dq/dt, d2q/dt2 of one coordinate (``names`` in that order, units ``unit``,
+    ``unit``/s, ``unit``/s2). ``description``: of q (the rates are described as d(q)/dt and
+    d(dq/dt)/dt) or of all three. ``depends``: the driving inputs (position, rate,
+    acceleration); q depends on the first, its rate on two, its acceleration on all."""
+    if isinstance(description, str):
+        description = (description, f"d({names[0]})/dt", f"d({names[1]})/dt")
+    return tuple(
+        output(name, 0.0, text, unit=u, depends=depends[: order + 1])
+        for order, (name, text, u) in enumerate(zip(names, description, motion_units(unit)))
+    )
+
+
 EFFECT_PREFIX = "Effect: "
 
 

@@ -32,6 +32,8 @@ from .declarations import (  # noqa: F401  (the names models declare their varia
     effect,
     input_,
     integrator_variables,
+    motion_inputs,
+    motion_outputs,
     output,
     parameter,
 )

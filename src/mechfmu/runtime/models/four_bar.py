@@ -1,13 +1,12 @@
 """FourBar.fmu: the four-bar linkage driven by its crank (closed form or constraint solver)."""
 
 from typing import Any
-from ..fmi.slave import input_, output, parameter
+from ..fmi.slave import output, parameter
 from ..physics import constraint_models
 from ..physics import four_bar as fb
 from ..errors import RangeError
-from .linkage import LinkageSlave, solver_variables
+from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
 
-_CRANK = ("crank_angle", "crank_speed", "crank_acceleration")
 COURSEWORK = fb.COURSEWORK_FOUR_BAR
 
 
@@ -42,9 +41,7 @@ class FourBar(LinkageSlave):
             max=1,
         ),
         *solver_variables("closed_form"),
-        input_("crank_angle", fb.COURSEWORK_CRANK_ANGLE, "theta2: crank angle", unit="rad"),
-        input_("crank_speed", 0.0, "omega2 = d(theta2)/dt", unit="rad/s"),
-        input_("crank_acceleration", 0.0, "alpha2 = d(omega2)/dt", unit="rad/s2"),
+        *crank_inputs(fb.COURSEWORK_CRANK_ANGLE),
         output(
             "coupler_angle",
             0.0,

@@ -3,7 +3,7 @@
 from typing import Any
 import math
 
-from ..fmi.slave import Status, effect, input_, output, parameter
+from ..fmi.slave import Status, effect, motion_inputs, motion_outputs, output, parameter
 from ..physics import cam_laws, constraint_models
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
@@ -113,40 +113,29 @@ class ValveTrain(LinkageSlave):
             "valve_spring: treat loss of contact as an error "
             "(the step is discarded) instead of a warning",
         ),
-        input_("camshaft_angle", 0.0, "Camshaft angle", unit="rad"),
-        input_("camshaft_speed", 0.0, "Camshaft angular speed", unit="rad/s"),
-        input_("camshaft_acceleration", 0.0, "Camshaft angular acceleration", unit="rad/s2"),
-        output(
-            "tappet_lift", 0.0, "Tappet lift above the cam base circle", unit="m", depends=_CAM[:1]
+        *motion_inputs(
+            _CAM,
+            "rad",
+            ("Camshaft angle", "Camshaft angular speed", "Camshaft angular acceleration"),
         ),
-        output("tappet_velocity", 0.0, "d(tappet_lift)/dt", unit="m/s", depends=_CAM[:2]),
-        output("tappet_acceleration", 0.0, "d(tappet_velocity)/dt", unit="m/s2", depends=_CAM),
-        output(
-            "rocker_angle",
-            0.0,
+        *motion_outputs(
+            ("tappet_lift", "tappet_velocity", "tappet_acceleration"),
+            "m",
+            "Tappet lift above the cam base circle",
+            _CAM,
+        ),
+        *motion_outputs(
+            ("rocker_angle", "rocker_angular_velocity", "rocker_angular_acceleration"),
+            "rad",
             "Rocker angle from +x (counter-clockwise)",
-            unit="rad",
-            depends=_CAM[:1],
+            _CAM,
         ),
-        output(
-            "rocker_angular_velocity", 0.0, "d(rocker_angle)/dt", unit="rad/s", depends=_CAM[:2]
-        ),
-        output(
-            "rocker_angular_acceleration",
-            0.0,
-            "d(rocker_angular_velocity)/dt",
-            unit="rad/s2",
-            depends=_CAM,
-        ),
-        output(
-            "valve_lift",
-            0.0,
+        *motion_outputs(
+            ("valve_lift", "valve_velocity", "valve_acceleration"),
+            "m",
             "Valve opening (downward displacement from closed)",
-            unit="m",
-            depends=_CAM[:1],
+            _CAM,
         ),
-        output("valve_velocity", 0.0, "d(valve_lift)/dt", unit="m/s", depends=_CAM[:2]),
-        output("valve_acceleration", 0.0, "d(valve_velocity)/dt", unit="m/s2", depends=_CAM),
         output(
             "contact_force",
             0.0,
