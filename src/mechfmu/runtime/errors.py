@@ -59,6 +59,15 @@ def require_positive(name: str, value: float, unit: str = "") -> float:
     return number
 
 
+def require_above(name: str, value: float, low: float, unit: str = "", why: str = "") -> float:
+    """Return ``value`` as float or raise RangeError (with ``why``) unless it is finite and
+    above ``low``."""
+    number = require_finite(name, value, unit)
+    if not number > low:
+        raise RangeError(name, number, f"({low!r}, inf)", unit, why)
+    return number
+
+
 def require_between(
     name: str,
     value: float,

@@ -55,6 +55,7 @@ from typing import Any
 from . import cam_laws
 from ..errors import (
     RangeError,
+    require_above,
     SingularConfiguration,
     require_between,
     require_finite,
@@ -115,26 +116,22 @@ def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     r_b = require_positive("cam_base_radius", g.cam_base_radius, "m")
     length_1 = require_positive("pushrod_length", g.pushrod_length, "m")
     a = require_positive("rocker_pivot_x", g.rocker_pivot_x, "m")
-    b = require_finite("rocker_pivot_y", g.rocker_pivot_y, "m")
-    if b <= r_b:
-        raise RangeError(
-            "rocker_pivot_y",
-            b,
-            f"({r_b!r}, inf)",
-            "m",
-            "the rocker pivot must lie above the tappet (cam_base_radius)",
-        )
+    b = require_above(
+        "rocker_pivot_y",
+        g.rocker_pivot_y,
+        r_b,
+        "m",
+        "the rocker pivot must lie above the tappet (cam_base_radius)",
+    )
     arm_t = require_positive("tappet_arm", g.tappet_arm, "m")
     arm_v = require_positive("valve_arm", g.valve_arm, "m")
-    c = require_finite("valve_axis_x", g.valve_axis_x, "m")
-    if c <= a:
-        raise RangeError(
-            "valve_axis_x",
-            c,
-            f"({a!r}, inf)",
-            "m",
-            "the valve axis must lie beyond the rocker pivot, under the valve arm",
-        )
+    c = require_above(
+        "valve_axis_x",
+        g.valve_axis_x,
+        a,
+        "m",
+        "the valve axis must lie beyond the rocker pivot, under the valve arm",
+    )
     length_3 = require_positive("valve_link_length", g.valve_link_length, "m")
     checked = ValveGeometry(r_b, length_1, a, b, arm_t, arm_v, c, length_3)
 
@@ -161,15 +158,14 @@ def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     phi0 = _phi_from_y1(checked, r_b)
     dx = c - (a + arm_v * math.cos(phi0))
     bound = abs(dx) if dx * math.sin(phi0) >= 0.0 else abs(dx) / math.cos(phi0)
-    if not length_3 > bound:
-        raise RangeError(
-            "valve_link_length",
-            length_3,
-            f"({bound!r}, inf)",
-            "m",
-            "at zero tappet lift the valve link must reach below the valve "
-            "arm's end, neither horizontal nor in line with the arm",
-        )
+    require_above(
+        "valve_link_length",
+        length_3,
+        bound,
+        "m",
+        "at zero tappet lift the valve link must reach below the valve "
+        "arm's end, neither horizontal nor in line with the arm",
+    )
     return checked
 
 
