@@ -96,17 +96,15 @@ class _Frames:
 # fills its rows of Phi, Phi_q, -Phi_t (velocity right-hand side) and gamma.
 
 
+Point = tuple[float, float]  # (x, y) in m, in a body's frame
+
+
 class _PointJoint:
     """A joint between point ``point_i`` of body i and point ``point_j`` of body j (or of the
     ground, body None), each in its body's frame (m)."""
 
     def __init__(
-        self,
-        name: str,
-        body_i: int,
-        point_i: tuple[float, float],
-        body_j: int | None,
-        point_j: tuple[float, float],
+        self, name: str, body_i: int, point_i: Point, body_j: int | None, point_j: Point
     ) -> None:
         self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
         self.body_j, self.point_j = body_j, tuple(point_j)
@@ -158,10 +156,10 @@ class PointOnLine(_PointJoint):
         self,
         name: str,
         body_i: int,
-        point_i: tuple[float, float],
+        point_i: Point,
         body_j: int | None,
-        point_j: tuple[float, float],
-        direction_j: tuple[float, float],
+        point_j: Point,
+        direction_j: Point,
     ) -> None:
         norm = math.hypot(*direction_j)
         if not norm > 0.0:

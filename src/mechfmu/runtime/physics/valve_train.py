@@ -404,16 +404,15 @@ def valve_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     RangeError outside rocker_angle_range(g); SingularConfiguration where the valve link is
     perpendicular to the valve axis.
     """
-    phi = require_finite("rocker_angle", rocker_angle, "rad")
     low, high = rocker_angle_range(g)
-    if not low <= phi <= high:
-        raise RangeError(
-            "rocker_angle",
-            phi,
-            f"[{low!r}, {high!r}]",
-            "rad",
-            "the valve link cannot reach the valve axis",
-        )
+    phi = require_between(
+        "rocker_angle",
+        rocker_angle,
+        low,
+        high,
+        "rad",
+        why="the valve link cannot reach the valve axis",
+    )
     dx = g.valve_axis_x - (g.rocker_pivot_x + g.valve_arm * math.cos(phi))
     length = g.valve_link_length
     if min(length - dx, length + dx) <= _singular_tolerance(length):
@@ -464,16 +463,15 @@ def tappet_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     y1 = T_y - sqrt(L1^2 - T_x^2). RangeError outside tappet_rocker_angle_range(g);
     SingularConfiguration where the pushrod is perpendicular to the tappet axis.
     """
-    phi = require_finite("rocker_angle", rocker_angle, "rad")
     low, high = tappet_rocker_angle_range(g)
-    if not low <= phi <= high:
-        raise RangeError(
-            "rocker_angle",
-            phi,
-            f"[{low!r}, {high!r}]",
-            "rad",
-            "the pushrod cannot reach the tappet axis",
-        )
+    phi = require_between(
+        "rocker_angle",
+        rocker_angle,
+        low,
+        high,
+        "rad",
+        why="the pushrod cannot reach the tappet axis",
+    )
     tx = g.rocker_pivot_x - g.tappet_arm * math.cos(phi)
     length = g.pushrod_length
     if min(length - tx, length + tx) <= _singular_tolerance(length):
