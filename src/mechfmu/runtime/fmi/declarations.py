@@ -288,19 +288,15 @@ def fmi_attributes(variable: Variable) -> tuple:
 
 
 def registered(
-    variable: Variable,
-    types: dict[Any, Any],
-    causalities: Any,
-    variabilities: Any,
-    initials: Any,
-    getter: Callable,
-    setter: Callable,
+    variable: Variable, vocabulary: tuple[Any, ...], getter: Callable, setter: Callable
 ) -> Any:
     """The pythonfmu or pythonfmu3 variable object of a declared variable.
 
-    types: {float, int, bool, str: that package's variable class}; causalities,
-    variabilities, initials: its enums; getter(), setter(value): the value's accessors.
+    vocabulary: that package's (types, causalities, variabilities, initials): types maps
+    float, int, bool, str to its variable classes, the others are its enums; getter(),
+    setter(value): the value's accessors.
     """
+    types, causalities, variabilities, initials = vocabulary
     variability, initial = fmi_attributes(variable)
     options = dict(variability=getattr(variabilities, variability))
     if initial is not None:
@@ -312,6 +308,21 @@ def registered(
         getter=getter,
         setter=setter,
         **options,
+    )
+
+
+def register_declared(slave: Any, variable: Variable, vocabulary: tuple[Any, ...]) -> None:
+    """Register ``variable`` on a pythonfmu or pythonfmu3 ``slave``, its value living in
+    ``slave.values`` (set through ``slave._set``). ``vocabulary``: the package's (types,
+    causalities, variabilities, initials), as ``registered`` takes them."""
+    name, values = variable.name, slave.values
+    slave.register_variable(
+        registered(
+            variable,
+            vocabulary,
+            getter=lambda: values[name],
+            setter=lambda value: slave._set(name, value),
+        )
     )
 
 

@@ -23,9 +23,10 @@ from pythonfmu3 import (
     String,
 )
 
-from .declarations import describe, reading_initial_outputs, registered, unit_definitions
+from .declarations import describe, reading_initial_outputs, register_declared, unit_definitions
 
 _FMI_TYPES = {float: Float64, int: Int32, bool: Boolean, str: String}
+_VOCABULARY = (_FMI_TYPES, Fmi3Causality, Fmi3Variability, Fmi3Initial)
 _MODEL_ATTRIBUTES = ("description", "author", "license")
 
 
@@ -34,18 +35,7 @@ class Fmi3Binding(Fmi3Slave):
 
     def register_declared(self, variable: Any) -> None:
         """Register one declared variable; its value lives in self.values."""
-        name, values = variable.name, self.values
-        self.register_variable(
-            registered(
-                variable,
-                _FMI_TYPES,
-                Fmi3Causality,
-                Fmi3Variability,
-                Fmi3Initial,
-                getter=lambda: values[name],
-                setter=lambda value: self._set(name, value),
-            )
-        )
+        register_declared(self, variable, _VOCABULARY)
 
     def finish_registration(self) -> None:
         """The independent variable: the instance's time, the end of its last step (s)."""
