@@ -473,11 +473,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     )
     bench.add_argument("--out", default="data/bench", help="output folder (default data/bench)")
     bench.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
-    bench.add_argument(
-        "--scenes",
-        default=str(SCENE_DIR),
-        help="folder of the scene files (default: the shipped scenes)",
-    )
+    _scene_folder_option(bench)
     bench.add_argument(
         "--sweeps",
         default=str(SWEEP_DIR),
@@ -582,6 +578,14 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         "error, run the other points",
     )
     sweep.set_defaults(func=_sweep)
+
+
+def _scene_folder_option(verb: argparse.ArgumentParser) -> None:
+    verb.add_argument(
+        "--scenes",
+        default=str(SCENE_DIR),
+        help="folder of the scene files (default: the shipped scenes)",
+    )
 
 
 def _export_verb(
@@ -725,11 +729,7 @@ def parser() -> argparse.ArgumentParser:
     update.set_defaults(func=_baseline_update)
 
     references = verbs.add_parser("references", help="regenerate the reference CSVs")
-    references.add_argument(
-        "--scenes",
-        default=str(SCENE_DIR),
-        help="folder of the scene files (default: the shipped scenes)",
-    )
+    _scene_folder_option(references)
     references.add_argument(
         "--out",
         default=str(REFERENCE_DIR),

@@ -9,16 +9,8 @@ InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared`
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu import (
-    Boolean,
-    Fmi2Causality,
-    Fmi2Initial,
-    Fmi2Slave,
-    Fmi2Variability,
-    Integer,
-    Real,
-    String,
-)
+from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability
+from pythonfmu import Boolean, Integer, Real, String
 
 from .declarations import describe, reading_initial_outputs, register_declared, unit_definitions
 from .declarations import Variable

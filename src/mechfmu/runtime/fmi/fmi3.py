@@ -12,16 +12,8 @@ on the MechSlave above it for ``values``, ``declared``, ``VARIABLES``, ``_set``,
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu3 import (
-    Boolean,
-    Fmi3Causality,
-    Fmi3Initial,
-    Fmi3Slave,
-    Fmi3Variability,
-    Float64,
-    Int32,
-    String,
-)
+from pythonfmu3 import Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Variability
+from pythonfmu3 import Boolean, Float64, Int32, String
 
 from .declarations import describe, reading_initial_outputs, register_declared, unit_definitions
 

@@ -69,6 +69,7 @@ ValveGeometry = namedtuple(
     "cam_base_radius pushrod_length rocker_pivot_x rocker_pivot_y tappet_arm valve_arm "
     "valve_axis_x valve_link_length",
 )
+Vector = tuple[float, float]  # (x, y) in m, or its rate of change per rad of rocker angle
 ValveTrainMotion = namedtuple(
     "ValveTrainMotion",
     "tappet_lift tappet_velocity tappet_acceleration rocker_angle rocker_angular_velocity "
@@ -487,9 +488,7 @@ def tappet_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
 # --- rates ------------------------------------------------------------------------------------
 
 
-def _tappet_vectors(
-    g: "ValveGeometry", phi: float, y1: float
-) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+def _tappet_vectors(g: "ValveGeometry", phi: float, y1: float) -> tuple[Vector, Vector, Vector]:
     """e = T - P, t1 = dT/dphi, t2 = d2T/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.tappet_arm
@@ -497,9 +496,7 @@ def _tappet_vectors(
     return e, (arm * sin_phi, -arm * cos_phi), (arm * cos_phi, arm * sin_phi)
 
 
-def _valve_vectors(
-    g: "ValveGeometry", phi: float, y3: float
-) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+def _valve_vectors(g: "ValveGeometry", phi: float, y3: float) -> tuple[Vector, Vector, Vector]:
     """g = V - Q, v1 = dV/dphi, v2 = d2V/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.valve_arm
@@ -510,18 +507,18 @@ def _valve_vectors(
     return link, (-arm * sin_phi, arm * cos_phi), (-arm * cos_phi, -arm * sin_phi)
 
 
-def _dot(p: tuple[float, float], q: tuple[float, float]) -> float:
+def _dot(p: Vector, q: Vector) -> float:
     return p[0] * q[0] + p[1] * q[1]
 
 
 def _rocker_rates(
-    link: tuple[float, float],
-    t1: tuple[float, float],
-    t2: tuple[float, float],
+    link: Vector,
+    t1: Vector,
+    t2: Vector,
     slider_rate: float,
     slider_accel: float,
     singular: str,
-) -> tuple[float, float]:
+) -> Vector:
     """Rocker rates (rad/s, rad/s^2) from the rates of a link end sliding vertically.
 
     The link vector e = (rocker end) - (slider end) has constant length, with the rocker end
@@ -538,13 +535,13 @@ def _rocker_rates(
 
 
 def _slider_rates(
-    link: tuple[float, float],
-    t1: tuple[float, float],
-    t2: tuple[float, float],
+    link: Vector,
+    t1: Vector,
+    t2: Vector,
     omega: float,
     alpha: float,
     singular: str,
-) -> tuple[float, float]:
+) -> Vector:
     """Rates (m/s, m/s^2) of a vertically sliding link end driven by the rocker: the same
     two equations solved for y' and y''. ``singular``: the message when e_y = 0."""
     if link[1] == 0.0:
