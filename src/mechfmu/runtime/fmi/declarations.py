@@ -114,6 +114,12 @@ def parameter(
     )
 
 
+def non_negative(name: str, start: float, description: str, unit: str) -> Variable:
+    """A Real parameter that cannot be negative (a length, mass, stiffness, pressure ...) in
+    ``unit``."""
+    return parameter(name, start, description, unit, min=0.0)
+
+
 def input_(
     name: str,
     start: Value,

@@ -34,6 +34,7 @@ from .declarations import (  # noqa: F401  (the names models declare their varia
     integrator_variables,
     motion_inputs,
     motion_outputs,
+    non_negative,
     output,
     parameter,
 )

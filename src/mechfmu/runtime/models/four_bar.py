@@ -1,7 +1,7 @@
 """FourBar.fmu: the four-bar linkage driven by its crank (closed form or constraint solver)."""
 
 from typing import Any
-from ..fmi.slave import output, parameter
+from ..fmi.slave import non_negative, output, parameter
 from ..physics import constraint_models
 from ..physics import four_bar as fb
 from ..errors import RangeError
@@ -23,16 +23,12 @@ class FourBar(LinkageSlave):
     )
     DRIVE_INPUTS = _CRANK
     VARIABLES = (
-        parameter(
-            "ground_length",
-            COURSEWORK.ground,
-            "d: crank pivot O2 to rocker pivot O4",
-            unit="m",
-            min=0.0,
+        non_negative(
+            "ground_length", COURSEWORK.ground, "d: crank pivot O2 to rocker pivot O4", "m"
         ),
-        parameter("crank_length", COURSEWORK.crank, "a: crank O2 -> A", unit="m", min=0.0),
-        parameter("coupler_length", COURSEWORK.coupler, "b: coupler A -> B", unit="m", min=0.0),
-        parameter("rocker_length", COURSEWORK.rocker, "c: rocker O4 -> B", unit="m", min=0.0),
+        non_negative("crank_length", COURSEWORK.crank, "a: crank O2 -> A", "m"),
+        non_negative("coupler_length", COURSEWORK.coupler, "b: coupler A -> B", "m"),
+        non_negative("rocker_length", COURSEWORK.rocker, "c: rocker O4 -> B", "m"),
         parameter(
             "circuit",
             0,

@@ -13,7 +13,7 @@ the other branch.
 
 from typing import Any
 
-from ..fmi.slave import MechSlave, motion_inputs, output, parameter
+from ..fmi.slave import non_negative, MechSlave, motion_inputs, output, parameter
 from ..physics import planar
 from ..errors import RangeError, require_finite, require_positive
 from ..fmi.declarations import Variable
@@ -46,14 +46,13 @@ def solver_variables(
             "(Haug), velocities and accelerations by linear solves",
             values=SOLVERS,
         ),
-        parameter(
+        non_negative(
             "solver_tolerance",
             planar.DEFAULT_TOLERANCE,
             "Newton tolerance on the "
             "constraint residual (lengths divided by the mechanism's length scale, "
             "angles in rad)",
-            unit="1",
-            min=0.0,
+            "1",
         ),
         parameter(
             "max_iterations",

@@ -1,6 +1,6 @@
 """RoadProfile.fmu: road height source (step, bump, sine, table) for the suspension."""
 
-from ..fmi.slave import parameter
+from ..fmi.slave import non_negative, parameter
 from ..physics import road
 from .table_source import TableSource, table_variables
 
@@ -17,16 +17,12 @@ class RoadProfile(TableSource):
             "shape", "bump", "Road shape: " + ", ".join(road.ROAD_SHAPES), values=road.ROAD_SHAPES
         ),
         parameter("height", 0.05, "step: height of the kerb; bump: peak height", unit="m"),
-        parameter(
-            "duration",
-            0.1,
-            "bump: length in time (height (1 - cos(2 pi tau)) / 2 over it)",
-            unit="s",
-            min=0.0,
+        non_negative(
+            "duration", 0.1, "bump: length in time (height (1 - cos(2 pi tau)) / 2 over it)", "s"
         ),
         parameter("start_time", 0.0, "Time of the step, or start of the bump or sine", unit="s"),
         parameter("amplitude", 0.01, "sine: amplitude", unit="m"),
-        parameter("frequency", 1.0, "sine: frequency", unit="Hz", min=0.0),
+        non_negative("frequency", 1.0, "sine: frequency", "Hz"),
         *table_variables(
             "height",
             "m",

@@ -1,6 +1,6 @@
 """CrankDrive.fmu and CamshaftDrive.fmu: shaft angle sources at constant or ramped speed."""
 
-from ..fmi.slave import MechSlave, motion_outputs, parameter
+from ..fmi.slave import non_negative, MechSlave, motion_outputs, parameter
 from ..physics import profiles
 from ..fmi.declarations import Variable
 
@@ -48,12 +48,8 @@ def _variables(prefix: str, shaft: str, speed_description: str) -> tuple[Variabl
             speed_description + " after the ramp (constant speed: set ramp_time = 0)",
             unit="rad/s",
         ),
-        parameter(
-            "ramp_time",
-            0.0,
-            "Duration of the linear speed ramp (0: constant speed)",
-            unit="s",
-            min=0.0,
+        non_negative(
+            "ramp_time", 0.0, "Duration of the linear speed ramp (0: constant speed)", "s"
         ),
         parameter("start_time", 0.0, "Time at which the ramp starts", unit="s"),
         *motion_outputs(

@@ -1,7 +1,7 @@
 """SliderCrank.fmu: the offset slider-crank driven by its crank (closed form or solver)."""
 
 from typing import Any
-from ..fmi.slave import motion_outputs, parameter
+from ..fmi.slave import non_negative, motion_outputs, parameter
 from ..physics import constraint_models
 from ..physics import slider_crank as sc
 from ..errors import RangeError
@@ -24,16 +24,8 @@ class SliderCrank(LinkageSlave):
     )
     DRIVE_INPUTS = _CRANK
     VARIABLES = (
-        parameter(
-            "crank_length", DEFAULT.crank, "a: crank pivot -> crank pin A", unit="m", min=0.0
-        ),
-        parameter(
-            "coupler_length",
-            DEFAULT.coupler,
-            "b: connecting rod A -> slider pin B",
-            unit="m",
-            min=0.0,
-        ),
+        non_negative("crank_length", DEFAULT.crank, "a: crank pivot -> crank pin A", "m"),
+        non_negative("coupler_length", DEFAULT.coupler, "b: connecting rod A -> slider pin B", "m"),
         parameter(
             "offset", DEFAULT.offset, "Height of the slider axis above the crank pivot", unit="m"
         ),

@@ -3,7 +3,15 @@
 from typing import Any
 import math
 
-from ..fmi.slave import Status, effect, motion_inputs, motion_outputs, output, parameter
+from ..fmi.slave import (
+    non_negative,
+    Status,
+    effect,
+    motion_inputs,
+    motion_outputs,
+    output,
+    parameter,
+)
 from ..physics import cam_laws, constraint_models
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
@@ -67,28 +75,25 @@ class ValveTrain(LinkageSlave):
             "Follower law of rise and return: " + ", ".join(cam_laws.CAM_LAWS),
             values=cam_laws.CAM_LAWS,
         ),
-        parameter(
+        non_negative(
             "lift",
             CAM.lift,
             "Peak lift of the cam law: tappet lift (forward) or valve lift (inverse)",
-            unit="m",
-            min=0.0,
+            "m",
         ),
         parameter("rise_start", CAM.rise_start, "Camshaft angle where the rise starts", unit="rad"),
-        parameter("rise_angle", CAM.rise_angle, "Camshaft angle of the rise", unit="rad", min=0.0),
-        parameter(
+        non_negative("rise_angle", CAM.rise_angle, "Camshaft angle of the rise", "rad"),
+        non_negative(
             "high_dwell_angle",
             CAM.high_dwell_angle,
             "Camshaft angle of the dwell at full lift",
-            unit="rad",
-            min=0.0,
+            "rad",
         ),
-        parameter(
+        non_negative(
             "return_angle",
             CAM.return_angle,
             "Camshaft angle of the return; the low dwell fills the rest of the revolution",
-            unit="rad",
-            min=0.0,
+            "rad",
         ),
         *solver_variables("constraint_solver"),
         effect(
@@ -96,17 +101,14 @@ class ValveTrain(LinkageSlave):
             "valve mass, valve spring stiffness and preload: contact force "
             "between rocker and valve, valve float detection",
         ),
-        parameter(
+        non_negative(
             "valve_mass",
             0.1,
             "Moving mass at the valve: valve, retainer and a third of the spring",
-            unit="kg",
-            min=0.0,
+            "kg",
         ),
-        parameter("spring_stiffness", 50e3, "Valve spring stiffness", unit="N/m", min=0.0),
-        parameter(
-            "spring_preload", 300.0, "Valve spring force with the valve closed", unit="N", min=0.0
-        ),
+        non_negative("spring_stiffness", 50e3, "Valve spring stiffness", "N/m"),
+        non_negative("spring_preload", 300.0, "Valve spring force with the valve closed", "N"),
         parameter(
             "stop_on_float",
             False,
