@@ -3,15 +3,8 @@
 import math
 
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import (
-    non_negative,
-    Status,
-    effect,
-    input_,
-    integrator_variables,
-    output,
-    parameter,
-)
+from ..fmi.slave import Status, effect, input_, integrator_variables
+from ..fmi.slave import non_negative, output, parameter
 from ..physics import gear_dynamics as gd
 from ..physics import hydraulics
 from ..physics import landing_gear as gear

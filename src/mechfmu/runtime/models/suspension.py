@@ -1,15 +1,8 @@
 """Suspension.fmu: static (load in, equilibrium out) or dynamic (sprung mass integrated)."""
 
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import (
-    non_negative,
-    Status,
-    effect,
-    input_,
-    integrator_variables,
-    output,
-    parameter,
-)
+from ..fmi.slave import Status, effect, input_, integrator_variables
+from ..fmi.slave import non_negative, output, parameter
 from ..physics import suspension as physics
 from ..physics import suspension_dynamics as dyn
 from ..errors import IntegrationError, MechanismError, SnapThrough, require_finite

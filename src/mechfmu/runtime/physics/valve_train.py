@@ -351,16 +351,20 @@ def _singular_tolerance(perimeter: float) -> float:
 
 
 def _require_inside(
-    name: str, value: float, low: float, high: float, unit: str, scale: float, why: str
-) -> None:
-    """RangeError unless low <= value <= high, give or take a few rounding units of ``scale``.
+    name: str, value: float, interval: tuple[float, float], unit: str, scale: float, why: str
+) -> float:
+    """``value`` as float; RangeError unless it is finite and inside ``interval`` (low, high),
+    give or take a few rounding units of ``scale``.
 
     A value that misses an end only by rounding (e.g. y3_closed - valve_lift at the end of
     valve_lift_range) is at that end: the dead-centre test that follows reports it as such.
     """
+    value = require_finite(name, value, unit)
+    low, high = interval
     slack = 2 * SINGULAR_ULPS * _EPS * scale
     if not low - slack <= value <= high + slack:
         raise RangeError(name, value, f"[{low!r}, {high!r}]", unit, why)
+    return value
 
 
 def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
@@ -369,13 +373,10 @@ def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
     RangeError outside tappet_lift_range(g); SingularConfiguration where the pushrod and the
     tappet arm are collinear (its ends).
     """
-    lift = require_finite("tappet_lift", tappet_lift, "m")
-    low, high = tappet_lift_range(g)
-    _require_inside(
+    lift = _require_inside(
         "tappet_lift",
-        lift,
-        low,
-        high,
+        tappet_lift,
+        tappet_lift_range(g),
         "m",
         g.rocker_pivot_y + g.pushrod_length + g.tappet_arm,
         "the pushrod cannot reach the rocker's tappet arm",
@@ -430,13 +431,10 @@ def rocker_from_valve(g: "ValveGeometry", valve_position: float) -> float:
     RangeError outside valve_position_range(g); SingularConfiguration where the valve link
     and the valve arm are collinear (its ends).
     """
-    y3 = require_finite("valve_position", valve_position, "m")
-    low, high = valve_position_range(g)
-    _require_inside(
+    y3 = _require_inside(
         "valve_position",
-        y3,
-        low,
-        high,
+        valve_position,
+        valve_position_range(g),
         "m",
         abs(g.rocker_pivot_y) + g.valve_link_length + g.valve_arm,
         "the valve link cannot reach the rocker's valve arm",
