@@ -7,6 +7,9 @@ from ..physics import slider_crank as sc
 from ..errors import RangeError
 from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
 
+_SLIDER = ("slider_position", "slider_speed", "slider_acceleration")
+_COUPLER = ("coupler_angle", "coupler_angular_velocity", "coupler_angular_acceleration")
+
 DEFAULT = sc.DEFAULT_SLIDER_CRANK
 
 
@@ -40,13 +43,10 @@ class SliderCrank(LinkageSlave):
         *solver_variables("closed_form"),
         *crank_inputs(),
         *motion_outputs(
-            ("slider_position", "slider_speed", "slider_acceleration"),
-            "m",
-            "x of the slider pin B along the slider axis, from the crank pivot",
-            _CRANK,
+            _SLIDER, "m", "x of the slider pin B along its axis, from the crank pivot", _CRANK
         ),
         *motion_outputs(
-            ("coupler_angle", "coupler_angular_velocity", "coupler_angular_acceleration"),
+            _COUPLER,
             "rad",
             ("theta3: angle of the connecting rod A -> B", "omega3", "alpha3"),
             _CRANK,

@@ -18,6 +18,9 @@ from ..errors import MechanismError, RangeError
 from .linkage import LinkageSlave, solver_variables
 
 _CAM = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
+_TAPPET = ("tappet_lift", "tappet_velocity", "tappet_acceleration")
+_ROCKER = ("rocker_angle", "rocker_angular_velocity", "rocker_angular_acceleration")
+_VALVE = ("valve_lift", "valve_velocity", "valve_acceleration")
 MODES = ("forward", "inverse")
 GEOMETRY = vt.DEFAULT_VALVE_GEOMETRY
 CAM = cam_laws.DEFAULT_CAM_PROFILE
@@ -120,24 +123,9 @@ class ValveTrain(LinkageSlave):
             "rad",
             ("Camshaft angle", "Camshaft angular speed", "Camshaft angular acceleration"),
         ),
-        *motion_outputs(
-            ("tappet_lift", "tappet_velocity", "tappet_acceleration"),
-            "m",
-            "Tappet lift above the cam base circle",
-            _CAM,
-        ),
-        *motion_outputs(
-            ("rocker_angle", "rocker_angular_velocity", "rocker_angular_acceleration"),
-            "rad",
-            "Rocker angle from +x (counter-clockwise)",
-            _CAM,
-        ),
-        *motion_outputs(
-            ("valve_lift", "valve_velocity", "valve_acceleration"),
-            "m",
-            "Valve opening (downward displacement from closed)",
-            _CAM,
-        ),
+        *motion_outputs(_TAPPET, "m", "Tappet lift above the cam base circle", _CAM),
+        *motion_outputs(_ROCKER, "rad", "Rocker angle from +x (counter-clockwise)", _CAM),
+        *motion_outputs(_VALVE, "m", "Valve opening (downward displacement from closed)", _CAM),
         output(
             "contact_force",
             0.0,

@@ -400,20 +400,19 @@ def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
     return _phi_from_y1(g, y1)
 
 
+def _rocker_angle(rocker_angle: float, interval: tuple[float, float], why: str) -> float:
+    """``rocker_angle`` (rad) as float; RangeError (with ``why``) outside ``interval``."""
+    return require_between("rocker_angle", rocker_angle, *interval, "rad", why=why)
+
+
 def valve_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     """Valve-link foot height y3 (m) for a rocker angle (rad): V_y - sqrt(L3^2 - (c - V_x)^2).
 
     RangeError outside rocker_angle_range(g); SingularConfiguration where the valve link is
     perpendicular to the valve axis.
     """
-    low, high = rocker_angle_range(g)
-    phi = require_between(
-        "rocker_angle",
-        rocker_angle,
-        low,
-        high,
-        "rad",
-        why="the valve link cannot reach the valve axis",
+    phi = _rocker_angle(
+        rocker_angle, rocker_angle_range(g), "the valve link cannot reach the valve axis"
     )
     dx = g.valve_axis_x - (g.rocker_pivot_x + g.valve_arm * math.cos(phi))
     length = g.valve_link_length
@@ -462,14 +461,8 @@ def tappet_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     y1 = T_y - sqrt(L1^2 - T_x^2). RangeError outside tappet_rocker_angle_range(g);
     SingularConfiguration where the pushrod is perpendicular to the tappet axis.
     """
-    low, high = tappet_rocker_angle_range(g)
-    phi = require_between(
-        "rocker_angle",
-        rocker_angle,
-        low,
-        high,
-        "rad",
-        why="the pushrod cannot reach the tappet axis",
+    phi = _rocker_angle(
+        rocker_angle, tappet_rocker_angle_range(g), "the pushrod cannot reach the tappet axis"
     )
     tx = g.rocker_pivot_x - g.tappet_arm * math.cos(phi)
     length = g.pushrod_length
