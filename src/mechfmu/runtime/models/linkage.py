@@ -170,7 +170,8 @@ class LinkageSlave(MechSlave):
             if self.model.has_crossings:
                 self.last_drive = drive
         else:
-            solution = self.follower.follow(self.drive(time), step_size)
+            # drive(): a list of tuples of floats (inputs are stored as floats)
+            solution = self.follower.follow(self.drive(time), step_size, floats=True)
             self._write(self.from_solution(solution, time), solution.iterations, solution.residual)
         self.after_update(time)
 

@@ -31,7 +31,7 @@ from collections import namedtuple
 from ..errors import MechanismError, SingularConfiguration
 from ..numerics.linalg import Singular, condition_number, determinant_sign, lu_factor, lu_solve
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, cast
 
 GROUND = None
 X, Y, PHI = 0, 1, 2  # coordinate offsets within a body's triple
@@ -616,8 +616,12 @@ class BranchFollower:
         self.exact_guess = False
         return self.solution
 
-    def follow(self, drive: Sequence[tuple[float, ...]], dt: float) -> "Solution":
+    def follow(
+        self, drive: Sequence[tuple[float, ...]], dt: float, floats: bool = False
+    ) -> "Solution":
         """Solve at the new drive values; ``dt`` (s) is the time since the last solution.
+        ``floats``: the caller passes a list of (value, rate, second derivative) tuples of
+        floats, used as given (else converted).
 
         A drive change that reaches or passes a point where two assembly branches cross (a
         change point, named by the mechanism's ``crossing``) is refused: there the sign of
@@ -625,7 +629,10 @@ class BranchFollower:
         that keeps the sign is the other one. So is one that jumps a range of drive values
         where the mechanism does not assemble (crossing_error).
         """
-        drive = [(float(x), float(rate), float(second)) for x, rate, second in drive]
+        if floats:
+            drive = cast(list[tuple[float, ...]], drive)
+        else:
+            drive = [(float(x), float(rate), float(second)) for x, rate, second in drive]
         last = self.solution
         assert last is not None and self.drive is not None  # follow() comes after assemble()
         if self.mechanism.has_crossings:

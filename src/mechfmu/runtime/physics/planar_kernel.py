@@ -704,7 +704,14 @@ def _fused(
     solve = [line.replace("y", "u") for line in body[1:]]
     corrected = ", ".join(f"q[{j}] - u{j} * {scale[j]!r}" for j in range(n))
     largest = ", ".join(f"abs(u{j})" for j in range(n))
-    hager = hager_body[1:-1]  # from b: y = A^-1 b, c = sign(y), w = A^-T c
+    # from b: y = A^-1 b, then w = A^-T sign(y), the signs written where c[j] is read
+    hager = []
+    for line in hager_body[1:-1]:
+        if line.startswith("    c = ("):
+            continue
+        for j in range(n):
+            line = line.replace(f"c[{j}]", f"(1.0 if y{j} >= 0.0 else -1.0)")
+        hager.append(line)
     z = hager_body[-1].strip()[len("return ") :].split(", ", 1)[1]  # the list of A^-T c
     return [
         "def condition(F, v, column):",
