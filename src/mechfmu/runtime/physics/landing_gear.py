@@ -134,7 +134,7 @@ def gear_motion(
     Raises RangeError outside [|h-d|, h+d] and SingularConfiguration where sin(theta) = 0
     (velocity and acceleration undefined there).
     """
-    return _gear_motion(
+    return gear_motion_and_moment_arm(
         piston_extension, piston_speed, piston_acceleration, attachment_distance, pivot_height
     )[0]
 
@@ -148,20 +148,6 @@ def gear_motion_and_moment_arm(
 ) -> tuple["GearMotion", float]:
     """gear_motion and piston_moment_arm (m) at once, the triangle worked out once: the same
     numbers and errors as the two calls."""
-    motion, two_dh_sin = _gear_motion(
-        piston_extension, piston_speed, piston_acceleration, attachment_distance, pivot_height
-    )
-    return motion, 0.5 * two_dh_sin / piston_extension  # x > 0 inside the assembly range
-
-
-def _gear_motion(
-    piston_extension: float,
-    piston_speed: float,
-    piston_acceleration: float,
-    attachment_distance: float,
-    pivot_height: float,
-) -> tuple["GearMotion", float]:
-    """gear_motion and its 2 d h sin(theta) (m^2)."""
     d, h = attachment_distance, pivot_height
     x = require_finite("piston_extension", piston_extension, "m")
     speed = require_finite("piston_speed", piston_speed, "m/s")
@@ -177,7 +163,8 @@ def _gear_motion(
     dh_cos = 0.5 * two_dh_cos
     omega = x * speed / dh_sin
     alpha = (speed * speed + x * accel - dh_cos * omega * omega) / dh_sin
-    return GearMotion(angle, omega, alpha), two_dh_sin
+    # x > 0 inside the assembly range
+    return GearMotion(angle, omega, alpha), dh_sin / x
 
 
 def piston_motion(

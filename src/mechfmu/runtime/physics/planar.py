@@ -26,6 +26,7 @@ position), which is reported the same way rather than returned.
 """
 
 import math
+from operator import attrgetter
 from collections import namedtuple
 
 from ..errors import MechanismError, SingularConfiguration
@@ -557,36 +558,29 @@ class BranchFollower:
             "exact_guess": self.exact_guess,
         }
 
+    # What a step may change, saved by step_state as references (in this order).
+    _STEP_FIELDS = (
+        "solution",
+        "drive",
+        "sign",
+        "order",
+        "lu_kernel",
+        "column",
+        "history",
+        "factored",
+        "factored_at",
+        "exact_guess",
+    )
+
     def step_state(self) -> tuple[Any, ...]:
         """The branch state as references, for undoing a step within this instance (a
         slave's do_step): cheaper than snapshot, and it keeps the cached factors."""
-        return (
-            self.solution,
-            self.drive,
-            self.sign,
-            self.order,
-            self.lu_kernel,
-            self.column,
-            self.history,
-            self.factored,
-            self.factored_at,
-            self.exact_guess,
-        )
+        return _step_state(self)
 
     def restore_step_state(self, state: tuple[Any, ...]) -> None:
         """Inverse of step_state."""
-        (
-            self.solution,
-            self.drive,
-            self.sign,
-            self.order,
-            self.lu_kernel,
-            self.column,
-            self.history,
-            self.factored,
-            self.factored_at,
-            self.exact_guess,
-        ) = state
+        for name, value in zip(self._STEP_FIELDS, state):
+            setattr(self, name, value)
 
     def restore(self, state: Any) -> None:
         self.solution = None if state["solution"] is None else Solution(*state["solution"])
@@ -922,3 +916,6 @@ class BranchFollower:
 # At the end: planar_kernel imports this module's joints. Not lazily, in BranchFollower: an
 # FMU's runtime must be imported whole while its extracted folder exists.
 from . import planar_kernel  # noqa: E402
+
+
+_step_state = attrgetter(*BranchFollower._STEP_FIELDS)  # BranchFollower.step_state
