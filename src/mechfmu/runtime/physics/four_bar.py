@@ -40,6 +40,7 @@ import sys
 from collections import namedtuple
 
 from ..errors import RangeError, SingularConfiguration, require_finite, require_positive
+from .crank import check_circuit, crank_drive
 from collections.abc import Callable
 from typing import Any
 
@@ -448,9 +449,7 @@ def _solve(lengths: "FourBar", crank_angle: float, circuit: int) -> tuple[float,
 
 
 def _check_circuit(circuit: float | None) -> int:
-    if isinstance(circuit, bool) or circuit not in CIRCUITS:
-        raise RangeError("circuit", circuit, "{0, 1}", "", "0 = open, 1 = crossed")
-    return int(circuit)
+    return check_circuit(circuit, "0 = open, 1 = crossed")
 
 
 def position(
@@ -530,9 +529,7 @@ def motion(
     """
     lengths = check_four_bar(ground, crank, coupler, rocker)
     circuit = _check_circuit(circuit)
-    t2 = require_finite("crank_angle", crank_angle, "rad")
-    w2 = require_finite("crank_speed", crank_speed, "rad/s")
-    al2 = require_finite("crank_acceleration", crank_acceleration, "rad/s^2")
+    t2, w2, al2 = crank_drive(crank_angle, crank_speed, crank_acceleration)
     return checked_motion(lengths, circuit, t2, w2, al2)
 
 

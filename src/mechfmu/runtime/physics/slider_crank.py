@@ -27,6 +27,7 @@ import sys
 from collections import namedtuple
 
 from ..errors import RangeError, SingularConfiguration, require_finite, require_positive
+from .crank import check_circuit, crank_drive
 
 SliderCrank = namedtuple("SliderCrank", "crank coupler offset")
 # An engine-like in-line slider-crank: 50 mm crank (100 mm stroke), 150 mm connecting rod
@@ -130,15 +131,7 @@ def _solve(
 
 
 def _check_circuit(circuit: float | None) -> int:
-    if isinstance(circuit, bool) or circuit not in CIRCUITS:
-        raise RangeError(
-            "circuit",
-            circuit,
-            "{0, 1}",
-            "",
-            "0 = slider on the +x side of the crank pin, 1 = mirror branch",
-        )
-    return int(circuit)
+    return check_circuit(circuit, "0 = slider on the +x side of the crank pin, 1 = mirror branch")
 
 
 def position(
@@ -181,9 +174,7 @@ def motion(
     """
     geometry = check_slider_crank(crank, coupler, offset)
     circuit = _check_circuit(circuit)
-    t2 = require_finite("crank_angle", crank_angle, "rad")
-    w2 = require_finite("crank_speed", crank_speed, "rad/s")
-    al2 = require_finite("crank_acceleration", crank_acceleration, "rad/s^2")
+    t2, w2, al2 = crank_drive(crank_angle, crank_speed, crank_acceleration)
     return checked_motion(geometry, circuit, t2, w2, al2)
 
 
