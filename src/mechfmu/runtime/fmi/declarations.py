@@ -156,23 +156,32 @@ MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 
 
 def integrator_variables(
-    default: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-10, max_substep: float = 1e-3
+    default: str = "dopri5",
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    max_substep: float = 1e-3,
+    own_methods: tuple[tuple[str, str], ...] = (),
 ) -> tuple[Variable, ...]:
     """The parameters and counters every integrating model declares, by the same names.
 
     A model that declares them is an IntegratingSlave, which keeps its integrator in
     ``self.integrator``: MechSlave then
     bounds the wall-clock time of each communication step by ``max_wall_time``.
+    ``own_methods``: (name, description) of methods only this model has (e.g. ValveSpring's
+    exact), accepted besides INTEGRATORS.
     """
+    methods = INTEGRATORS + tuple(name for name, _ in own_methods)
     return (
         parameter(
             "integrator",
             default,
             "Integration method inside each communication step: "
-            + ", ".join(INTEGRATORS)
+            + ", ".join(methods)
             + " (euler, rk4: fixed sub-step max_substep; "
-            "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases)",
-            values=INTEGRATORS,
+            "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases"
+            + "".join(f"; {name}: {text}" for name, text in own_methods)
+            + ")",
+            values=methods,
         ),
         parameter("rtol", rtol, "Relative tolerance of the adaptive methods", unit="1", min=0.0),
         parameter(
