@@ -108,7 +108,7 @@ class Oscillator:
 class Solution:
     """x(tau), x'(tau) of m x'' + c x' + k x = g(tau) from x(0) = x0, x'(0) = v0."""
 
-    __slots__ = ("oscillator", "particular", "particular_rate", "e0", "rate0")
+    __slots__ = ("oscillator", "particular", "particular_rate", "e0", "rate0", "load")
 
     def __init__(
         self,
@@ -120,6 +120,7 @@ class Solution:
         v0: float,
     ) -> None:
         self.oscillator = Oscillator(mass, damping, stiffness)
+        self.load = tuple(g / mass for g in forcing)  # g / m, m/s^2 per s^j
         self.particular = particular_polynomial(mass, damping, stiffness, forcing)
         self.particular_rate = derivative(self.particular)
         self.e0 = x0 - self.particular[0]
@@ -132,6 +133,11 @@ class Solution:
             polynomial(self.particular, tau) + e,
             polynomial(self.particular_rate, tau) + rate,
         )
+
+    def acceleration(self, tau: float, x: float, v: float) -> float:
+        """x'' (m/s^2) at tau where the state is (x m, v m/s): the equation itself."""
+        o = self.oscillator
+        return polynomial(self.load, tau) - 2.0 * o.sigma * v - o.w02 * x
 
 
 def find_root(

@@ -407,7 +407,7 @@ class CamshaftStepDrive:
     lies inside one segment.
     """
 
-    __slots__ = ("mode", "profile", "geometry", "closed_height", "t0", "angle")
+    __slots__ = ("mode", "profile", "geometry", "closed_height", "t0", "angle", "known")
 
     def __init__(
         self,
@@ -421,6 +421,7 @@ class CamshaftStepDrive:
             )
         self.mode, self.profile, self.geometry = mode, profile, geometry
         self.closed_height = vt.rest_position(geometry)[1]
+        self.known: dict[tuple, tuple[float, float, float]] = {}
         self.set_step(0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
     def set_step(
@@ -444,12 +445,16 @@ class CamshaftStepDrive:
 
     def motion(self, shaft: tuple[float, float, float], index: int | None = None) -> tuple:
         """(L m, L' m/s, L'' m/s^2) for the camshaft motion ``shaft``, on segment ``index``
-        (None: the segment the angle lies in, as ValveTrain)."""
-        angle, speed, acceleration = shaft
+        (None: the segment the angle lies in, as ValveTrain). Remembered for the last few
+        calls (a piece's end is the next piece's start; on the dwells L is constant)."""
         if index is None:
-            s, s1, s2 = cam_laws.cam_lift(self.profile, angle)[:3]
-        else:
-            s, s1, s2 = segment_cam_lift(self.profile, index, angle)
+            index = segment_index(self.profile, shaft[0])
+        key = (index,) if index in (1, 3) else (index, *shaft)
+        known = self.known.get(key)
+        if known is not None:
+            return known
+        angle, speed, acceleration = shaft
+        s, s1, s2 = segment_cam_lift(self.profile, index, angle)
         train = vt._motion_from_tappet(
             self.geometry,
             self.closed_height,
@@ -457,7 +462,14 @@ class CamshaftStepDrive:
             s1 * speed,
             s2 * speed * speed + s1 * acceleration,
         )
-        return train.valve_lift, train.valve_velocity, train.valve_acceleration
+        if len(self.known) > 16:
+            self.known = {k: v for k, v in self.known.items() if len(k) == 1}
+        motion = self.known[key] = (
+            train.valve_lift,
+            train.valve_velocity,
+            train.valve_acceleration,
+        )
+        return motion
 
     def at(self, t: float) -> tuple[float, float, float]:
         """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step."""
@@ -683,7 +695,9 @@ def build_events(
 
 EXACT = "exact"  # the integrator parameter's value for integrate_exact
 SAMPLES_PER_PERIOD = 12  # switch functions sampled this often per period of the fastest mode
-QUADRATURE_SPAN = 3.0  # rad: contact work integrated by 8-point Gauss over pieces this long
+MAX_REFINEMENTS = 64  # turning points looked at per mode segment (short bounces)
+QUADRATURE_SPAN = 2.0  # rad: contact work integrated by 6-point Gauss over pieces this long
+GAUSS_6 = linear_ode.gauss_legendre(6)  # relative error about 1e-9 over 2 rad of oscillation
 
 
 class ExactIntegrator:
@@ -820,6 +834,7 @@ def _exact_segment(
     the event there or None)."""
     local = linear_ode.shift(rocker, tau0) if tau0 != 0.0 else rocker
     rate = linear_ode.derivative(local)
+    rate2 = linear_ode.derivative(rate)
     solution = mode_solution(p, engaged, local, x, v)
     kc, cc, ks, cs, lash = (
         p.contact_stiffness,
@@ -832,7 +847,8 @@ def _exact_segment(
     seat_direction = -1 if engaged.seat else 1
     polynomial = linear_ode.polynomial
 
-    def values(s: float) -> tuple[float, float, tuple[float, ...]]:
+    def values(s: float) -> tuple:
+        """(s, switch values, (x, d), (x', d'), (x'', d'')) at s."""
         xs, vs = solution.at(s)
         depth = polynomial(local, s) - xs - lash
         depth_rate = polynomial(rate, s) - vs
@@ -845,7 +861,13 @@ def _exact_segment(
             xs - max_lift if max_lift is not None else -1.0,
             xs,
         )
-        return xs, vs, g
+        return s, g, (xs, depth), (vs, depth_rate)
+
+    def curvature(point: tuple) -> tuple[float, float]:
+        """(x'', d'') at a sample."""
+        s, _, (xs, _), (vs, _) = point
+        acceleration = solution.acceleration(s, xs, vs)
+        return acceleration, polynomial(rate2, s) - acceleration
 
     directions = (contact_direction, seat_direction, -1, 1, 1)
     names = (*SWITCH_EVENTS, "separation", TRAVEL_LIMIT, OPENING)
@@ -853,34 +875,88 @@ def _exact_segment(
     samples = max(
         2, math.ceil(span * solution.oscillator.rate / (2.0 * math.pi) * SAMPLES_PER_PERIOD)
     )
-    previous = values(0.0)[2]
+    tolerance = EVENT_TOLERANCE * max(1.0, abs(tau1))
+    previous = values(0.0)
     stats.rhs_evaluations += 1
-    s_old = 0.0
     hit = None
-    for i in range(1, samples + 1):
-        s = span if i == samples else span * i / samples
-        xs, vs, g = values(s)
-        stats.rhs_evaluations += 1
-        crossing = [k for k in range(5) if _crossing(previous[k], g[k], directions[k])]
+    pending: list[tuple] = []
+    next_sample, refinements = 1, 0
+    while pending or next_sample <= samples:
+        if pending:
+            current = pending.pop()
+        else:
+            current = values(span if next_sample == samples else span * next_sample / samples)
+            next_sample += 1
+            stats.rhs_evaluations += 1
+        # x or d may turn inside the interval and touch zero between two samples of the
+        # same sign (a short bounce): look at the turning point first where that is
+        # plausible, so that the earliest crossing is the one found
+        if refinements < MAX_REFINEMENTS:
+            turn = _turning_point(previous, current, curvature, solution, rate, tolerance)
+            if turn is not None:
+                refinements += 1
+                stats.rhs_evaluations += 1
+                pending.append(current)
+                pending.append(values(turn))
+                continue
+        s_old, old = previous[0], previous[1]
+        s, g = current[0], current[1]
+        crossing = [k for k in range(5) if _crossing(old[k], g[k], directions[k])]
         if crossing:
-            tolerance = EVENT_TOLERANCE * max(1.0, abs(tau1))
             best = None
             for k in crossing:
 
                 def function(q: float, k: int = k) -> float:
                     stats.rhs_evaluations += 1
-                    return values(q)[2][k]
+                    return values(q)[1][k]
 
-                root = linear_ode.find_root(function, s_old, previous[k], s, g[k], tolerance)
+                root = linear_ode.find_root(function, s_old, old[k], s, g[k], tolerance)
                 if best is None or root < best[0]:
                     best = (root, k)
             hit = best
             break
-        previous, s_old = g, s
+        previous = current
     end = span if hit is None else hit[0]
     xs, vs = solution.at(end)
     gained = _contact_work(p, engaged, solution, local, rate, end) if engaged.contact else 0.0
     return tau0 + end, xs, vs, gained, None if hit is None else names[hit[1]]
+
+
+def _turning_point(
+    previous: tuple,
+    current: tuple,
+    curvature: Callable,
+    solution: "linear_ode.Solution",
+    rate: tuple[float, ...],
+    tolerance: float,
+) -> float | None:
+    """The time (s) inside (previous, current) where x or d turns, when it has the same
+    sign at both samples but might reach zero in between: its rate changes sign and the
+    excursion from either end to the turning point, y'^2 / (2 |y''|), reaches
+    at least half the smaller |y| at the ends. None when neither does."""
+    a, b = previous[0], current[0]
+    found = None
+    for j in (0, 1):  # x, then d
+        y_a, y_b = previous[2][j], current[2][j]
+        r_a, r_b = previous[3][j], current[3][j]
+        if (y_a > 0.0) != (y_b > 0.0) or y_a == 0.0 or y_b == 0.0 or r_a * r_b >= 0.0:
+            continue
+        c_a, c_b = curvature(previous)[j], curvature(current)[j]
+        excursion = max(
+            r_a * r_a / (2.0 * abs(c_a)) if c_a != 0.0 else math.inf,
+            r_b * r_b / (2.0 * abs(c_b)) if c_b != 0.0 else math.inf,
+        )
+        if 2.0 * excursion < min(abs(y_a), abs(y_b)):
+            continue
+
+        def speed(q: float, j: int = j) -> float:
+            v = solution.at(q)[1]
+            return v if j == 0 else linear_ode.polynomial(rate, q) - v
+
+        turn = linear_ode.find_root(speed, a, r_a, b, r_b, tolerance)
+        if a + tolerance < turn < b - tolerance and (found is None or turn < found):
+            found = turn
+    return found
 
 
 def _crossing(g0: float, g1: float, direction: int) -> bool:
@@ -901,7 +977,7 @@ def _contact_work(
     span: float,
 ) -> float:
     """Integral of F_c L' over [0, span] (J), the contact engaged: Gauss-Legendre over pieces
-    of at most QUADRATURE_SPAN rad of the mode's fastest motion."""
+    of at most QUADRATURE_SPAN rad of the mode's fastest motion (6 points)."""
     polynomial = linear_ode.polynomial
 
     def power(s: float) -> float:
@@ -914,7 +990,7 @@ def _contact_work(
 
     pieces = max(1, math.ceil(span * solution.oscillator.rate / QUADRATURE_SPAN))
     return sum(
-        linear_ode.integrate(power, span * i / pieces, span * (i + 1) / pieces)
+        linear_ode.integrate(power, span * i / pieces, span * (i + 1) / pieces, GAUSS_6)
         for i in range(pieces)
     )
 
@@ -928,12 +1004,16 @@ def initial_state(p: "Parameters", rocker_lift: float, rocker_velocity: float) -
 
 
 def contact_phase(
-    p: "Parameters", rocker_lift: float, lift: float, landed: bool = False
+    p: "Parameters", rocker_lift: float, lift: float, landed: bool = False, velocity: float = 0.0
 ) -> "Phase":
-    """Phase(touching: d > 0, open: x > 0, landed) at a state; ``landed``: the valve has
-    come down on its seat since the rocker last sat on its base circle (L <= lash)."""
+    """Phase(touching: d > 0, open: x > 0, or x = 0 moving up (velocity > 0 m/s), landed)
+    at a state; ``landed``: the valve has come down on its seat since the rocker last sat on
+    its base circle (L <= lash). (x = 0 exactly moving up is where leaving the seat and
+    leaving the rocker coincide, at an event that lands on the surface.)"""
     return Phase(
-        penetration(p, rocker_lift, lift) > 0.0, lift > 0.0, landed and rocker_lift - p.lash > 0.0
+        penetration(p, rocker_lift, lift) > 0.0,
+        lift > 0.0 or (lift == 0.0 and velocity > 0.0),
+        landed and rocker_lift - p.lash > 0.0,
     )
 
 
@@ -962,7 +1042,7 @@ def next_phase(
     counted once each.
     """
     found = []
-    now = contact_phase(p, drive[0], lift, before.landed)
+    now = contact_phase(p, drive[0], lift, before.landed, velocity)
     if before.open and not now.open and velocity < 0.0:
         found.append(Happening(SEAT_IMPACT, t, lift, velocity, drive))
         if not before.touching:
