@@ -143,6 +143,13 @@ def output(
 EFFECT_PREFIX = "Effect: "
 
 
+def only_with(parameter_name: str, value: str, description: str) -> str:
+    """The description of an input read only while parameter ``parameter_name`` is
+    ``value``: "Only with P = V: ...". The master (cosim/master.py) accepts it unfed in
+    the other configurations."""
+    return f"Only with {parameter_name} = {value}: {description}"
+
+
 def effect(name: str, description: str) -> Variable:
     """A Boolean parameter that switches a physical effect on (all effects default off).
 

@@ -2,6 +2,7 @@
 contact and stopped by a compliant seat, integrated inside each communication step."""
 
 from ..fmi.integrating import IntegratingSlave
+from ..fmi.declarations import only_with
 from ..fmi.slave import Status, input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
 from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
@@ -161,15 +162,29 @@ class ValveSpring(IntegratingSlave):
         input_(
             "rocker_lift",
             0.0,
-            "L: position of the rocker's valve end, the kinematic valve lift (opening positive)",
+            only_with(
+                "drive",
+                "rocker",
+                "L: position of the rocker's valve end, the kinematic valve lift "
+                "(opening positive)",
+            ),
             unit="m",
             nominal=0.01,
         ),
-        input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s"),
+        input_(
+            "rocker_velocity",
+            0.0,
+            only_with("drive", "rocker", "L' = d(rocker_lift)/dt"),
+            unit="m/s",
+        ),
         input_(
             "rocker_acceleration",
             0.0,
-            "L'' = d(rocker_velocity)/dt (for the interpolation inside the step)",
+            only_with(
+                "drive",
+                "rocker",
+                "L'' = d(rocker_velocity)/dt (for the interpolation inside the step)",
+            ),
             unit="m/s2",
         ),
         input_("camshaft_angle", 0.0, "Camshaft angle (drive = camshaft)", unit="rad"),
