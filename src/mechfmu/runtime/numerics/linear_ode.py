@@ -134,10 +134,32 @@ class Solution:
             polynomial(self.particular_rate, tau) + rate,
         )
 
+    def free_bounds(self, span: float) -> tuple[float, float]:
+        """Bounds (m, m/s) on |e(tau)| and |e'(tau)| for tau in [0, span] (s): the free
+        motion's |e0| + |e0' + sigma e0| max|S| and |e0'| + |sigma e0' + w0^2 e0| max|S|,
+        with |C| exp(-sigma tau) <= 1 and max|S| <= span (also 1/w when under-damped)."""
+        o = self.oscillator
+        reach = span
+        if o.d2 > 0.0 and o.root * span > 1.0:
+            reach = 1.0 / o.root
+        return (
+            abs(self.e0) + abs(self.rate0 + o.sigma * self.e0) * reach,
+            abs(self.rate0) + abs(o.sigma * self.rate0 + o.w02 * self.e0) * reach,
+        )
+
     def acceleration(self, tau: float, x: float, v: float) -> float:
         """x'' (m/s^2) at tau where the state is (x m, v m/s): the equation itself."""
         o = self.oscillator
         return polynomial(self.load, tau) - 2.0 * o.sigma * v - o.w02 * x
+
+
+def variation(coefficients: tuple[float, ...] | list[float], span: float) -> float:
+    """A bound on |p(tau) - p(0)| for tau in [0, span] (s): sum of |a_j| span^j, j >= 1."""
+    bound, power = 0.0, 1.0
+    for a in coefficients[1:]:
+        power *= span
+        bound += abs(a) * power
+    return bound
 
 
 def find_root(
