@@ -510,7 +510,8 @@ class CamshaftStepDrive:
                         tolerance,
                     )
                     found.append(self.t0 + root)
-        return sorted(t for t in set(found) if t0 < t < t1)
+        # a boundary within the location tolerance of a communication point is that point
+        return sorted(t for t in set(found) if t0 + tolerance < t < t1 - tolerance)
 
     def piece(self, a: float, b: float) -> tuple[float, ...]:
         """Coefficients of L(a + tau) (m, tau in s) over [a, b], a piece inside one segment:
