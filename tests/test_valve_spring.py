@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import REFERENCES, SCENES
+from conftest import SCENES
 from fmu_driver import Driven
 from mechfmu.cosim.results import read_csv
 from mechfmu.cosim.run import run_scene

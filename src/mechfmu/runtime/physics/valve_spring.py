@@ -696,6 +696,7 @@ def build_events(
 
 EXACT = "exact"  # the integrator parameter's value for integrate_exact
 SAMPLES_PER_PERIOD = 12  # switch functions sampled this often per period of the fastest mode
+PRIORITY = (3, 0, 1, 2, 4)  # coincident events: travel limit, contact, seat, separation, opening
 SAFETY = 1.01  # margin on the bounds of _cannot_switch (their own rounding)
 MAX_REFINEMENTS = 64  # turning points looked at per mode segment (short bounces)
 QUADRATURE_SPAN = 2.0  # rad: contact work integrated by 6-point Gauss over pieces this long
@@ -917,7 +918,12 @@ def _exact_segment(
                 root = linear_ode.find_root(function, s_old, old[k], s, g[k], tolerance)
                 if best is None or root < best[0]:
                     best = (root, k)
-            hit = best
+            assert best is not None
+            # functions that cross at the same point (without seat damping the seat's switch
+            # is -k_s x, the opening's x): the one that changes the mode is the event
+            there = values(best[0])[1]
+            fired = [k for k in crossing if _crossing(old[k], there[k], directions[k])]
+            hit = (best[0], min(fired or [best[1]], key=PRIORITY.index))
             break
         previous = current
     end = span if hit is None else hit[0]
