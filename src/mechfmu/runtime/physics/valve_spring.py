@@ -488,6 +488,17 @@ class CamshaftStepDrive:
         tau0, span = t0 - self.t0, t1 - t0
         taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
         angles = [linear_ode.polynomial(self.angle, tau) for tau in taus]
+        turned = abs(angles[-1] - angles[0]) / cam_laws.TAU
+        if not turned <= MAX_REVOLUTIONS:
+            raise RangeError(
+                "camshaft_angle",
+                angles[-1],
+                f"{angles[0]!r} +- {MAX_REVOLUTIONS} revolutions",
+                "rad",
+                f"the camshaft would turn {turned:.3g} revolutions between t = {t0!r} s and "
+                f"{t1!r} s; the camshaft drive follows at most {MAX_REVOLUTIONS} per step: "
+                f"reduce the step",
+            )
         found = []
         tolerance = EVENT_TOLERANCE * max(1.0, abs(t1))
         for i in range(BREAKPOINT_SAMPLES):
@@ -521,6 +532,7 @@ class CamshaftStepDrive:
         return hermite(b - a, self.motion(shaft_a, index), self.motion(shaft_b, index))
 
 
+MAX_REVOLUTIONS = 100  # camshaft revolutions per communication step the drive follows
 BREAKPOINT_SAMPLES = 4  # samples of the camshaft angle per step between which boundaries are sought
 
 
@@ -695,6 +707,7 @@ def build_events(
 # --- the exact integrator: each contact mode in closed form ---------------------------------
 
 EXACT = "exact"  # the integrator parameter's value for integrate_exact
+MAX_PERIODS = 1000  # periods of the fastest mode per drive piece (a bound on the samples)
 SAMPLES_PER_PERIOD = 12  # switch functions sampled this often per period of the fastest mode
 PRIORITY = (3, 0, 1, 2, 4)  # coincident events: travel limit, contact, seat, separation, opening
 SAFETY = 1.01  # margin on the bounds of _cannot_switch (their own rounding)
@@ -875,9 +888,14 @@ def _exact_segment(
     directions = (contact_direction, seat_direction, -1, 1, 1)
     names = (*SWITCH_EVENTS, "separation", TRAVEL_LIMIT, OPENING)
     span = tau1 - tau0
-    samples = max(
-        2, math.ceil(span * solution.oscillator.rate / (2.0 * math.pi) * SAMPLES_PER_PERIOD)
-    )
+    periods = span * solution.oscillator.rate / (2.0 * math.pi)
+    if not periods <= MAX_PERIODS:
+        raise IntegrationError(
+            f"exact: a drive piece of {span!r} s holds {periods:.3g} periods of the valve's "
+            f"fastest motion (rate {solution.oscillator.rate:.6g} 1/s), more than "
+            f"{MAX_PERIODS}: reduce max_substep"
+        )
+    samples = max(2, math.ceil(periods * SAMPLES_PER_PERIOD))
     tolerance = EVENT_TOLERANCE * max(1.0, abs(tau1))
     previous = values(0.0)
     stats.rhs_evaluations += 1
