@@ -111,8 +111,7 @@ def test_each_mode_meets_a_tight_scipy_solution(contact, seat):
 
     def rhs(t, y):
         contact_force = (
-            P.contact_stiffness * (L(t) - y[0] - P.lash)
-            + P.contact_damping * (L.deriv()(t) - y[1])
+            P.contact_stiffness * (L(t) - y[0] - P.lash) + P.contact_damping * (L.deriv()(t) - y[1])
             if contact
             else 0.0
         )

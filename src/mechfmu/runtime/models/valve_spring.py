@@ -187,12 +187,17 @@ class ValveSpring(IntegratingSlave):
             ),
             unit="m/s2",
         ),
-        input_("camshaft_angle", 0.0, "Camshaft angle (drive = camshaft)", unit="rad"),
-        input_("camshaft_speed", 0.0, "Camshaft angular speed (drive = camshaft)", unit="rad/s"),
+        input_("camshaft_angle", 0.0, only_with("drive", "camshaft", "Camshaft angle"), unit="rad"),
+        input_(
+            "camshaft_speed",
+            0.0,
+            only_with("drive", "camshaft", "Camshaft angular speed"),
+            unit="rad/s",
+        ),
         input_(
             "camshaft_acceleration",
             0.0,
-            "Camshaft angular acceleration (drive = camshaft)",
+            only_with("drive", "camshaft", "Camshaft angular acceleration"),
             unit="rad/s2",
         ),
         output(
