@@ -310,3 +310,23 @@ def test_a_bad_drive_or_piece_length_is_named():
     model.setup_experiment(0.0)
     model.exit_initialization_mode()
     assert "max_substep" in str(model.pending_error)
+
+
+def test_inputs_read_only_in_another_drive_may_stay_unfed(fmu_dir):
+    """The master accepts ValveSpring's rocker inputs unfed with drive = camshaft and its
+    camshaft inputs unfed with drive = rocker ("Only with drive = ...: " in their
+    descriptions), and names the inputs the configuration does read when they are unfed."""
+    import dataclasses
+
+    from mechfmu.cosim.master import Simulation
+    from mechfmu.cosim.scene import SCENE_DIR, SceneError, load_scene
+    from mechfmu.tools.bench.dynamic_scenes import CONFIGURATIONS, configured
+
+    shipped = load_scene(SCENE_DIR / "valve_train_dynamic.toml")
+    for parameters, driven_by in CONFIGURATIONS.values():
+        assert Simulation(configured(shipped, parameters, driven_by), fmu_dir).scene
+    unfed = dataclasses.replace(
+        shipped, connections=[c for c in shipped.connections if c.target != "valve"]
+    )
+    with pytest.raises(SceneError, match=r"input\(s\) camshaft_angle, camshaft_speed, "):
+        Simulation(unfed, fmu_dir)

@@ -512,8 +512,12 @@ class CamshaftStepDrive:
                     if g_a == 0.0:
                         found.append(self.t0 + taus[i])
                         continue
+
+                    def misfit(tau: float, target: float = target) -> float:
+                        return linear_ode.polynomial(self.angle, tau) - target
+
                     root = linear_ode.find_root(
-                        lambda tau, target=target: linear_ode.polynomial(self.angle, tau) - target,
+                        misfit,
                         taus[i],
                         g_a,
                         taus[i + 1],

@@ -103,7 +103,7 @@ CHECK_TOLERANCES = {"valve_train_dynamic": (1e-6, 1e-3), "valve_float_dynamic": 
 # the valve's configurations that sims/dynamic_step_accuracy.py compares: (ValveSpring's
 # parameters, what drives it): the rocker inputs from ValveTrain (the scenes before issue
 # 21's goal 4) or the camshaft itself
-CONFIGURATIONS = {
+CONFIGURATIONS: dict[str, tuple[dict, str]] = {
     "rocker inputs, dopri5": ({"drive": "rocker", "integrator": "dopri5"}, "rocker"),
     "rocker inputs, exact": (
         {"drive": "rocker", "integrator": "exact", "max_substep": 1e-4},
@@ -155,7 +155,7 @@ def step_accuracy(
     name: str,
     steps: Sequence[float],
     repeats: int = 3,
-    configurations: "dict | None" = None,
+    configurations: "dict[str, tuple[dict, str]] | None" = None,
     reference_step: float = 1e-5,
 ) -> Any:
     """pandas DataFrame: ``name`` run at each communication step in ``steps`` (s, each
