@@ -13,7 +13,7 @@ from __future__ import annotations
 import copy
 import math
 import tempfile
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from os import PathLike
 import os
 from pathlib import Path
@@ -120,11 +120,16 @@ def _plain(value: Any) -> Any:
     return value.item() if isinstance(value, numpy.generic) else value
 
 
-def apply_parameters(scene: Scene, parameters: Mapping[str, Any] | None, fmu_dir: Path) -> None:
+def apply_parameters(
+    scene: Scene,
+    parameters: Mapping[str, Any] | None,
+    declared: Callable[[Any], tuple[str, list[str]]],
+) -> None:
     """Set ``parameters`` ({"component.parameter": value}) on ``scene``'s components, in
     place. A name may also be a constant input the scene gives a value, or an effect (True
-    or False). SceneError naming the item for an unknown component or a name the
-    component's FMU has no parameter of; the value's type is checked with the scene."""
+    or False). ``declared(spec)``: the model name and parameter names of a component.
+    SceneError naming the item for an unknown component or a name the component's model
+    has no parameter of; the value's type is checked with the scene."""
     for name, value in (parameters or {}).items():
         component, dot, variable = str(name).partition(".")
         if not dot or not component or not variable:
@@ -139,13 +144,11 @@ def apply_parameters(scene: Scene, parameters: Mapping[str, Any] | None, fmu_dir
         if variable in spec.inputs:
             spec.inputs[variable] = value
             continue
-        description = model_description(resolve_fmu(spec, scene, fmu_dir))
-        names = sorted(v.name for v in description.modelVariables if v.causality == "parameter")
+        model, names = declared(spec)
         if variable not in names:
             raise SceneError(
-                f"parameters: {name!r}: {component!r} "
-                f"({description.modelName}) has no parameter {variable!r}; its "
-                f"parameters: {', '.join(names)}"
+                f"parameters: {name!r}: {component!r} ({model}) has no parameter "
+                f"{variable!r}; its parameters: {', '.join(sorted(names))}"
             )
         if variable in spec.effects:
             spec.effects.remove(variable)
@@ -221,7 +224,13 @@ def simulate(
     """
     chosen = _scene(scene, start_time, stop_time, step)
     folder = _fmu_folder(chosen, fmu_dir)
-    apply_parameters(chosen, parameters, folder)
+
+    def declared(spec: Any) -> tuple[str, list[str]]:
+        description = model_description(resolve_fmu(spec, chosen, folder))
+        variables = description.modelVariables
+        return description.modelName, [v.name for v in variables if v.causality == "parameter"]
+
+    apply_parameters(chosen, parameters, declared)
     check_tables(chosen)
     simulation = Simulation(chosen, folder)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
@@ -281,28 +290,13 @@ def reference(
             f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
             f"scenes with one: {', '.join(REFERENCES)}"
         )
-    for name, value in (parameters or {}).items():
-        component, dot, variable = str(name).partition(".")
-        spec = chosen.components.get(component)
-        if not dot or spec is None:
-            raise SceneError(
-                f"parameters: {name!r}: scene {chosen.name} has no component "
-                f"{component!r}; its components: {', '.join(chosen.components)}"
-            )
-        if variable in spec.inputs:
-            spec.inputs[variable] = _plain(value)
-            continue
+
+    def declared(spec: Any) -> tuple[str, list[str]]:
         model: Any = model_class(Path(spec.fmu).stem)
-        declared = sorted(v.name for v in model.VARIABLES if v.causality == "parameter")
-        if variable not in declared:
-            raise SceneError(
-                f"parameters: {name!r}: {component!r} ({Path(spec.fmu).stem}) "
-                f"has no parameter {variable!r}; its parameters: "
-                f"{', '.join(declared)}"
-            )
-        if variable in spec.effects:
-            spec.effects.remove(variable)
-        spec.parameters[variable] = _plain(value)
+        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
+        return Path(spec.fmu).stem, names
+
+    apply_parameters(chosen, parameters, declared)
     columns = build(chosen)
     return frame(
         sample_times(chosen),

@@ -473,11 +473,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     )
     bench.add_argument("--out", default="data/bench", help="output folder (default data/bench)")
     bench.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
-    bench.add_argument(
-        "--scenes",
-        default=str(SCENE_DIR),
-        help="folder of the scene files (default: the shipped scenes)",
-    )
+    _scene_folder_option(bench)
     bench.add_argument(
         "--sweeps",
         default=str(SWEEP_DIR),
@@ -584,6 +580,25 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     sweep.set_defaults(func=_sweep)
 
 
+def _scene_folder_option(verb: argparse.ArgumentParser) -> None:
+    verb.add_argument(
+        "--scenes",
+        default=str(SCENE_DIR),
+        help="folder of the scene files (default: the shipped scenes)",
+    )
+
+
+def _export_verb(
+    verbs: argparse._SubParsersAction, name: str, help: str, suffix: str
+) -> argparse.ArgumentParser:
+    """A verb that writes one scene into one ``suffix`` file for other tools."""
+    verb = verbs.add_parser(name, help=help)
+    verb.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    verb.add_argument("out", help=f"the {suffix} file to write")
+    verb.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    return verb
+
+
 def parser() -> argparse.ArgumentParser:
     main = argparse.ArgumentParser(prog="mechfmu", description=__doc__.split("\n\n")[0])
     verbs = main.add_subparsers(dest="verb", required=True)
@@ -627,25 +642,22 @@ def parser() -> argparse.ArgumentParser:
 
     _example_verbs(verbs)
 
-    export = verbs.add_parser(
+    export = _export_verb(
+        verbs,
         "export-ssp",
-        help="write a scene as an SSP 1.0 package (the "
-        "system, its parameters and its FMUs) for other co-simulation tools",
+        "write a scene as an SSP 1.0 package (the system, its parameters and its FMUs) for "
+        "other co-simulation tools",
+        ".ssp",
     )
-    export.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
-    export.add_argument("out", help="the .ssp file to write")
-    export.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     export.set_defaults(func=_export_ssp)
 
-    container = verbs.add_parser(
+    container = _export_verb(
+        verbs,
         "export-fmu",
-        help="pack a scene (its FMUs, connections and "
-        "parameters) into one container FMU (FMI 2.0, "
-        "fmu-manipulation-toolbox) for tools that take one FMU",
+        "pack a scene (its FMUs, connections and parameters) into one container FMU (FMI "
+        "2.0, fmu-manipulation-toolbox) for tools that take one FMU",
+        ".fmu",
     )
-    container.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
-    container.add_argument("out", help="the .fmu file to write")
-    container.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
     container.add_argument(
         "--schedule",
         choices=("scene", "sequential", "parallel"),
@@ -717,11 +729,7 @@ def parser() -> argparse.ArgumentParser:
     update.set_defaults(func=_baseline_update)
 
     references = verbs.add_parser("references", help="regenerate the reference CSVs")
-    references.add_argument(
-        "--scenes",
-        default=str(SCENE_DIR),
-        help="folder of the scene files (default: the shipped scenes)",
-    )
+    _scene_folder_option(references)
     references.add_argument(
         "--out",
         default=str(REFERENCE_DIR),

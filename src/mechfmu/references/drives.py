@@ -7,6 +7,7 @@ t0 the shaft turns at w0. Units: rad, rad/s, rad/s^2, s.
 
 import numpy as np
 from numpy import ndarray
+from collections.abc import Mapping
 from typing import Any
 
 # Times within TIME_SNAP * ramp_time of a ramp end count as that end (the physics' value,
@@ -48,3 +49,19 @@ def rotation(
         rate = np.where(t < 0.0, w0, w1)
         acceleration = np.zeros_like(t)
     return {"angle": angle, "speed": rate, "acceleration": acceleration}
+
+
+def shaft_rotation(
+    times: float | ndarray, parameters: Mapping[str, Any], ratio: float = 1.0
+) -> dict[str, Any]:
+    """``rotation`` at ``times`` (s) with a CrankDrive's or CamshaftDrive's ``parameters``
+    (their FMU parameter names: rad, rad/s, s)."""
+    return rotation(
+        times,
+        parameters["initial_angle"],
+        parameters["initial_speed"],
+        parameters["speed"],
+        parameters["ramp_time"],
+        parameters["start_time"],
+        ratio,
+    )

@@ -37,6 +37,11 @@ TOLERANCE = 1e-12
 # --- exact source signals -------------------------------------------------------------------
 
 
+# The LoadProfile and RoadProfile parameters load_signal and road_signal take, in order.
+LOAD_FIELDS = ("shape", "initial_value", "final_value", "start_time", "duration")
+ROAD_FIELDS = ("shape", "height", "duration", "start_time", "amplitude", "frequency")
+
+
 def load_signal(
     shape: Any, initial_value: Any, final_value: Any, start_time: float, duration: float
 ) -> Any:
@@ -292,25 +297,12 @@ def scene_columns(
     p = parameters
     if not p["dynamics"]:
         raise ValueError("the dynamic reference needs the dynamics effect")
-    W, breaks = load_signal(
-        load["shape"],
-        load["initial_value"],
-        load["final_value"],
-        load["start_time"],
-        load["duration"],
-    )
+    W, breaks = load_signal(*(load[key] for key in LOAD_FIELDS))
     r = None
     if p["road_input"]:
         if road is None:
             raise ValueError("road_input needs a RoadProfile component")
-        r, road_breaks = road_signal(
-            road["shape"],
-            road["height"],
-            road["duration"],
-            road["start_time"],
-            road["amplitude"],
-            road["frequency"],
-        )
+        r, road_breaks = road_signal(*(road[key] for key in ROAD_FIELDS))
         breaks = breaks + road_breaks
     system = System(
         (p["spring_free_length"], p["spring_stiffness"], p["spring_base_offset"]),

@@ -92,31 +92,14 @@ class RockerDrive:
         self.solve = valve_train.inverse if train["mode"] == "inverse" else valve_train.forward
 
     def rotation(self, t: float | ndarray) -> dict[str, Any]:
-        s = self.shaft
-        return drives.rotation(
-            t,
-            s["initial_angle"],
-            s["initial_speed"],
-            s["speed"],
-            s["ramp_time"],
-            s["start_time"],
-            ratio=0.5,
-        )
+        return drives.shaft_rotation(t, self.shaft, ratio=0.5)
 
     def __call__(self, t: float | ndarray) -> tuple:
-        p = self.train
         shaft = self.rotation(t)
-        w, alpha = shaft["speed"], shaft["acceleration"]
-        s, s1, s2 = valve_train.cam_lift(
-            p["cam_law"],
-            p["lift"],
-            p["rise_start"],
-            p["rise_angle"],
-            p["high_dwell_angle"],
-            p["return_angle"],
-            shaft["angle"],
+        tappet = valve_train.tappet_motion(
+            self.train, shaft["angle"], shaft["speed"], shaft["acceleration"]
         )
-        motion = self.solve(self.geometry, s, s1 * w, s2 * w * w + s1 * alpha)
+        motion = self.solve(self.geometry, *tappet)
         return motion["valve_lift"], motion["valve_velocity"], motion["valve_acceleration"]
 
     def breakpoints(self, times: Any) -> Any:

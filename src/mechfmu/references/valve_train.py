@@ -18,6 +18,7 @@ Cam laws: rise s = lift f(x), return s = lift (1 - f(x)), written in expanded po
 plain trigonometric form, angles reduced with np.mod.
 """
 
+from collections.abc import Mapping
 import numpy as np
 from numpy import ndarray
 from typing import Any
@@ -95,6 +96,25 @@ def cam_lift(
         np.where(returning, -lift * f2_d / return_angle**2, 0.0),
     )
     return s, s1, s2
+
+
+CAM_FIELDS = ("cam_law", "lift", "rise_start", "rise_angle", "high_dwell_angle", "return_angle")
+
+
+def tappet_motion(
+    parameters: Mapping[str, Any],
+    angle: float | ndarray,
+    speed: float | ndarray,
+    acceleration: float | ndarray,
+) -> tuple[ndarray, ndarray, ndarray]:
+    """Tappet lift s (m), velocity (m/s) and acceleration (m/s^2) of the cam law in a
+    ValveTrain's ``parameters`` (CAM_FIELDS) at camshaft ``angle`` (rad), ``speed``
+    (rad/s) and ``acceleration`` (rad/s^2)."""
+    law, lift, rise_start, rise_angle, dwell_angle, return_angle = (
+        parameters[key] for key in CAM_FIELDS
+    )
+    s, s1, s2 = cam_lift(law, lift, rise_start, rise_angle, dwell_angle, return_angle, angle)
+    return s, s1 * speed, s2 * speed * speed + s1 * acceleration
 
 
 GEOMETRY_FIELDS = (

@@ -59,6 +59,15 @@ def require_positive(name: str, value: float, unit: str = "") -> float:
     return number
 
 
+def require_above(name: str, value: float, low: float, unit: str = "", why: str = "") -> float:
+    """Return ``value`` as float or raise RangeError (with ``why``) unless it is finite and
+    above ``low``."""
+    number = require_finite(name, value, unit)
+    if not number > low:
+        raise RangeError(name, number, f"({low!r}, inf)", unit, why)
+    return number
+
+
 def require_between(
     name: str,
     value: float,
@@ -67,12 +76,14 @@ def require_between(
     unit: str = "",
     low_open: bool = False,
     high_open: bool = False,
+    why: str = "",
 ) -> float:
-    """Return ``value`` as float or raise RangeError unless low <(=) value <(=) high."""
+    """Return ``value`` as float or raise RangeError (with ``why``) unless
+    low <(=) value <(=) high."""
     number = require_finite(name, value, unit)
     below = number <= low if low_open else number < low
     above = number >= high if high_open else number > high
     if below or above:
         valid = f"{'(' if low_open else '['}{low!r}, {high!r}{')' if high_open else ']'}"
-        raise RangeError(name, number, valid, unit)
+        raise RangeError(name, number, valid, unit, why)
     return number

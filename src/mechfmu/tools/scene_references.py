@@ -57,11 +57,13 @@ def sample_times(scene: Scene) -> ndarray:
     return np.array([scene.time(i) for i in range(scene.steps + 1)])
 
 
-def gear_retraction(scene: Any) -> Any:
-    """Piston stroke and gear motion columns for a PistonActuator -> LandingGear scene."""
-    actuator, stroke = _component(scene, "PistonActuator")
-    gear, geometry = _component(scene, "LandingGear")
-    columns = landing_gear.retraction(
+def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
+    """Positional arguments of references.landing_gear.retraction for a PistonActuator ->
+    LandingGear scene: its sample times (s) and the actuator's and gear's parameters over the
+    defaults (m, s, the profile's name)."""
+    _, stroke = _component(scene, "PistonActuator")
+    _, geometry = _component(scene, "LandingGear")
+    return (
         sample_times(scene),
         geometry["attachment_distance"],
         geometry["pivot_height"],
@@ -70,6 +72,13 @@ def gear_retraction(scene: Any) -> Any:
         stroke["stroke_time"],
         stroke["profile"],
     )
+
+
+def gear_retraction(scene: Any) -> Any:
+    """Piston stroke and gear motion columns for a PistonActuator -> LandingGear scene."""
+    actuator, _ = _component(scene, "PistonActuator")
+    gear, _ = _component(scene, "LandingGear")
+    columns = landing_gear.retraction(*retraction_arguments(scene))
     owner = {
         "piston_extension": actuator,
         "piston_speed": actuator,
@@ -129,15 +138,7 @@ def _shaft_columns(
 ):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
     name, shaft = _component(scene, model)
-    columns = drives.rotation(
-        sample_times(scene),
-        shaft["initial_angle"],
-        shaft["initial_speed"],
-        shaft["speed"],
-        shaft["ramp_time"],
-        shaft["start_time"],
-        ratio,
-    )
+    columns = drives.shaft_rotation(sample_times(scene), shaft, ratio)
     return name, {f"{prefix}_{key}": value for key, value in columns.items()}
 
 
@@ -147,15 +148,14 @@ def _recorded(scene: Any, columns: Any):
     }
 
 
-def four_bar_scene(scene: Any) -> Any:
-    """CrankDrive -> FourBar: the crank motion and the closed-form linkage motion."""
+def _linkage_scene(scene: Any, model: str, solve: Any, dimensions: tuple[str, ...]) -> Any:
+    """CrankDrive -> ``model``: the crank motion and ``solve``'s closed-form motion, called
+    with the linkage's ``dimensions`` (m), its circuit and the crank's angle, speed and
+    acceleration."""
     crank_name, crank = _shaft_columns(scene)
-    name, p = _component(scene, "FourBar")
-    motion = linkages.four_bar(
-        p["ground_length"],
-        p["crank_length"],
-        p["coupler_length"],
-        p["rocker_length"],
+    name, p = _component(scene, model)
+    motion = solve(
+        *(p[key] for key in dimensions),
         p["circuit"],
         crank["crank_angle"],
         crank["crank_speed"],
@@ -164,24 +164,23 @@ def four_bar_scene(scene: Any) -> Any:
     columns = {f"{crank_name}.{key}": value for key, value in crank.items()}
     columns.update({f"{name}.{key}": value for key, value in motion.items()})
     return _recorded(scene, columns)
+
+
+def four_bar_scene(scene: Any) -> Any:
+    """CrankDrive -> FourBar: the crank motion and the closed-form linkage motion."""
+    return _linkage_scene(
+        scene,
+        "FourBar",
+        linkages.four_bar,
+        ("ground_length", "crank_length", "coupler_length", "rocker_length"),
+    )
 
 
 def slider_crank_scene(scene: Any) -> Any:
     """CrankDrive -> SliderCrank: the crank motion and the closed-form slider motion."""
-    crank_name, crank = _shaft_columns(scene)
-    name, p = _component(scene, "SliderCrank")
-    motion = linkages.slider_crank(
-        p["crank_length"],
-        p["coupler_length"],
-        p["offset"],
-        p["circuit"],
-        crank["crank_angle"],
-        crank["crank_speed"],
-        crank["crank_acceleration"],
+    return _linkage_scene(
+        scene, "SliderCrank", linkages.slider_crank, ("crank_length", "coupler_length", "offset")
     )
-    columns = {f"{crank_name}.{key}": value for key, value in crank.items()}
-    columns.update({f"{name}.{key}": value for key, value in motion.items()})
-    return _recorded(scene, columns)
 
 
 def valve_train_scene(scene: Any) -> Any:
@@ -192,16 +191,7 @@ def valve_train_scene(scene: Any) -> Any:
     angle, speed, acceleration = (
         cam[f"camshaft_{key}"] for key in ("angle", "speed", "acceleration")
     )
-    s, s1, s2 = valve_train.cam_lift(
-        p["cam_law"],
-        p["lift"],
-        p["rise_start"],
-        p["rise_angle"],
-        p["high_dwell_angle"],
-        p["return_angle"],
-        angle,
-    )
-    law = (s, s1 * speed, s2 * speed**2 + s1 * acceleration)
+    law = valve_train.tappet_motion(p, angle, speed, acceleration)
     solve = valve_train.inverse if p["mode"] == "inverse" else valve_train.forward
     geometry = {key: p[key] for key in valve_train.GEOMETRY_FIELDS}
     motion = solve(geometry, *law)

@@ -94,16 +94,24 @@ def split_dotted(name: str, option: str, text: str, what: str = "parameter") -> 
 
 
 @dataclasses.dataclass(frozen=True)
-class Vary:
+class _Parameter:
+    """A component's parameter a sweep sets."""
+
     component: str
     variable: str
-    start: float
-    stop: float
-    count: int | None = None  # None: only a range (sampling)
 
     @property
     def name(self) -> str:
         return f"{self.component}.{self.variable}"
+
+
+@dataclasses.dataclass(frozen=True)
+class Vary(_Parameter):
+    """A parameter varied from ``start`` to ``stop`` (its SI unit) over ``count`` values."""
+
+    start: float
+    stop: float
+    count: int | None = None  # None: only a range (sampling)
 
 
 def parse_vary(text: str) -> Vary:
@@ -133,17 +141,11 @@ def parse_vary(text: str) -> Vary:
 
 
 @dataclasses.dataclass(frozen=True)
-class Link:
+class Link(_Parameter):
     """A parameter that follows a varied one: target = factor * source at every point."""
 
-    component: str
-    variable: str
     factor: float
     source: str  # the varied parameter's component.parameter
-
-    @property
-    def name(self) -> str:
-        return f"{self.component}.{self.variable}"
 
 
 def parse_link(text: str) -> Link:

@@ -142,14 +142,9 @@ FMI2_Export void fmi2FreeInstance(fmi2Component c)
     if (c && load_state == 1) real.FreeInstance(c);
 }
 
-/* Every other function: forwarded when loaded and present, fmi2Error otherwise (there can be
- * no instance then: fmi2Instantiate returned NULL). */
+/* Every other function: forwarded when loaded and present, fmi2Error otherwise. */
 #define FORWARD(name, params, args) \
-    FMI2_Export fmi2Status fmi2##name params \
-    { \
-        if (load_state != 1 || !real.name) return fmi2Error; \
-        return real.name args; \
-    }
+    LOADER_FORWARD(FMI2_Export, fmi2Status, fmi2##name, fmi2Error, name, params, args)
 
 FORWARD(SetDebugLogging,
         (fmi2Component c, fmi2Boolean loggingOn, size_t nCategories,

@@ -266,14 +266,9 @@ FMI3_Export void fmi3FreeInstance(fmi3Instance instance)
     if (instance && load_state == 1) real.FreeInstance(instance);
 }
 
-/* ---- Every other function: forwarded when loaded and present, fmi3Error otherwise (there
- * can be no instance then: the instantiation returned NULL) ---- */
+/* ---- Every other function: forwarded when loaded and present, fmi3Error otherwise ---- */
 
 #define FORWARD(name, params, args) \
-    FMI3_Export fmi3Status fmi3##name params \
-    { \
-        if (load_state != 1 || !real.name) return fmi3Error; \
-        return real.name args; \
-    }
+    LOADER_FORWARD(FMI3_Export, fmi3Status, fmi3##name, fmi3Error, name, params, args)
 FMI3_FORWARDED(FORWARD)
 #undef FORWARD

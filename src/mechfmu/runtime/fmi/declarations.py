@@ -114,6 +114,12 @@ def parameter(
     )
 
 
+def non_negative(name: str, start: float, description: str, unit: str) -> Variable:
+    """A Real parameter that cannot be negative (a length, mass, stiffness, pressure ...) in
+    ``unit``."""
+    return parameter(name, start, description, unit, min=0.0)
+
+
 def input_(
     name: str,
     start: Value,
@@ -138,6 +144,44 @@ def output(
 ) -> Variable:
     """An output computed from inputs and parameters (initial = calculated)."""
     return Variable(name, type(start), "output", start, description, unit, min, max, depends)
+
+
+def motion_units(unit: str) -> tuple[str, str, str]:
+    """Units of a coordinate in ``unit`` and of its first two time derivatives."""
+    return unit, f"{unit}/s", f"{unit}/s2"
+
+
+def motion_inputs(
+    names: tuple[str, str, str],
+    unit: str,
+    descriptions: tuple[str, str, str],
+    start: float = 0.0,
+) -> tuple[Variable, ...]:
+    """Inputs q, dq/dt, d2q/dt2 of one driving coordinate (``names`` in that order, units
+    ``unit``, ``unit``/s, ``unit``/s2); q starts at ``start``, its rates at 0."""
+    starts = (start, 0.0, 0.0)
+    return tuple(
+        input_(name, value, text, unit=u)
+        for name, value, text, u in zip(names, starts, descriptions, motion_units(unit))
+    )
+
+
+def motion_outputs(
+    names: tuple[str, str, str],
+    unit: str,
+    description: str | tuple[str, str, str],
+    depends: tuple[str, ...] = (),
+) -> tuple[Variable, ...]:
+    """Outputs q, dq/dt, d2q/dt2 of one coordinate (``names`` in that order, units ``unit``,
+    ``unit``/s, ``unit``/s2). ``description``: of q (the rates are described as d(q)/dt and
+    d(dq/dt)/dt) or of all three. ``depends``: the driving inputs (position, rate,
+    acceleration); q depends on the first, its rate on two, its acceleration on all."""
+    if isinstance(description, str):
+        description = (description, f"d({names[0]})/dt", f"d({names[1]})/dt")
+    return tuple(
+        output(name, 0.0, text, unit=u, depends=depends[: order + 1])
+        for order, (name, text, u) in enumerate(zip(names, description, motion_units(unit)))
+    )
 
 
 EFFECT_PREFIX = "Effect: "
@@ -266,19 +310,15 @@ def fmi_attributes(variable: Variable) -> tuple:
 
 
 def registered(
-    variable: Variable,
-    types: dict[Any, Any],
-    causalities: Any,
-    variabilities: Any,
-    initials: Any,
-    getter: Callable,
-    setter: Callable,
+    variable: Variable, vocabulary: tuple[Any, ...], getter: Callable, setter: Callable
 ) -> Any:
     """The pythonfmu or pythonfmu3 variable object of a declared variable.
 
-    types: {float, int, bool, str: that package's variable class}; causalities,
-    variabilities, initials: its enums; getter(), setter(value): the value's accessors.
+    vocabulary: that package's (types, causalities, variabilities, initials): types maps
+    float, int, bool, str to its variable classes, the others are its enums; getter(),
+    setter(value): the value's accessors.
     """
+    types, causalities, variabilities, initials = vocabulary
     variability, initial = fmi_attributes(variable)
     options = dict(variability=getattr(variabilities, variability))
     if initial is not None:
@@ -290,6 +330,21 @@ def registered(
         getter=getter,
         setter=setter,
         **options,
+    )
+
+
+def register_declared(slave: Any, variable: Variable, vocabulary: tuple[Any, ...]) -> None:
+    """Register ``variable`` on a pythonfmu or pythonfmu3 ``slave``, its value living in
+    ``slave.values`` (set through ``slave._set``). ``vocabulary``: the package's (types,
+    causalities, variabilities, initials), as ``registered`` takes them."""
+    name, values = variable.name, slave.values
+    slave.register_variable(
+        registered(
+            variable,
+            vocabulary,
+            getter=lambda: values[name],
+            setter=lambda value: slave._set(name, value),
+        )
     )
 
 

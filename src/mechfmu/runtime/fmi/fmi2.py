@@ -9,21 +9,14 @@ InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared`
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu import (
-    Boolean,
-    Fmi2Causality,
-    Fmi2Initial,
-    Fmi2Slave,
-    Fmi2Variability,
-    Integer,
-    Real,
-    String,
-)
+from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability
+from pythonfmu import Boolean, Integer, Real, String
 
-from .declarations import describe, reading_initial_outputs, registered, unit_definitions
+from .declarations import describe, reading_initial_outputs, register_declared, unit_definitions
 from .declarations import Variable
 
 _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
+_VOCABULARY = (_FMI_TYPES, Fmi2Causality, Fmi2Variability, Fmi2Initial)
 
 
 class Fmi2Binding(Fmi2Slave):
@@ -31,18 +24,7 @@ class Fmi2Binding(Fmi2Slave):
 
     def register_declared(self, variable: Variable) -> None:
         """Register one declared variable; its value lives in self.values."""
-        name, values = variable.name, self.values
-        self.register_variable(
-            registered(
-                variable,
-                _FMI_TYPES,
-                Fmi2Causality,
-                Fmi2Variability,
-                Fmi2Initial,
-                getter=lambda: values[name],
-                setter=lambda value: self._set(name, value),
-            )
-        )
+        register_declared(self, variable, _VOCABULARY)
 
     def finish_registration(self) -> None:
         """Tables for the per-step get and set of Reals: value reference -> name of every

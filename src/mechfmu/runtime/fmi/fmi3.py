@@ -12,20 +12,13 @@ on the MechSlave above it for ``values``, ``declared``, ``VARIABLES``, ``_set``,
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
-from pythonfmu3 import (
-    Boolean,
-    Fmi3Causality,
-    Fmi3Initial,
-    Fmi3Slave,
-    Fmi3Variability,
-    Float64,
-    Int32,
-    String,
-)
+from pythonfmu3 import Fmi3Causality, Fmi3Initial, Fmi3Slave, Fmi3Variability
+from pythonfmu3 import Boolean, Float64, Int32, String
 
-from .declarations import describe, reading_initial_outputs, registered, unit_definitions
+from .declarations import describe, reading_initial_outputs, register_declared, unit_definitions
 
 _FMI_TYPES = {float: Float64, int: Int32, bool: Boolean, str: String}
+_VOCABULARY = (_FMI_TYPES, Fmi3Causality, Fmi3Variability, Fmi3Initial)
 _MODEL_ATTRIBUTES = ("description", "author", "license")
 
 
@@ -34,18 +27,7 @@ class Fmi3Binding(Fmi3Slave):
 
     def register_declared(self, variable: Any) -> None:
         """Register one declared variable; its value lives in self.values."""
-        name, values = variable.name, self.values
-        self.register_variable(
-            registered(
-                variable,
-                _FMI_TYPES,
-                Fmi3Causality,
-                Fmi3Variability,
-                Fmi3Initial,
-                getter=lambda: values[name],
-                setter=lambda value: self._set(name, value),
-            )
-        )
+        register_declared(self, variable, _VOCABULARY)
 
     def finish_registration(self) -> None:
         """The independent variable: the instance's time, the end of its last step (s)."""

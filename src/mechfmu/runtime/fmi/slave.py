@@ -32,6 +32,9 @@ from .declarations import (  # noqa: F401  (the names models declare their varia
     effect,
     input_,
     integrator_variables,
+    motion_inputs,
+    motion_outputs,
+    non_negative,
     output,
     parameter,
 )

@@ -1,13 +1,12 @@
 """FourBar.fmu: the four-bar linkage driven by its crank (closed form or constraint solver)."""
 
 from typing import Any
-from ..fmi.slave import input_, output, parameter
+from ..fmi.slave import non_negative, output, parameter
 from ..physics import constraint_models
 from ..physics import four_bar as fb
 from ..errors import RangeError
-from .linkage import LinkageSlave, solver_variables
+from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
 
-_CRANK = ("crank_angle", "crank_speed", "crank_acceleration")
 COURSEWORK = fb.COURSEWORK_FOUR_BAR
 
 
@@ -24,16 +23,12 @@ class FourBar(LinkageSlave):
     )
     DRIVE_INPUTS = _CRANK
     VARIABLES = (
-        parameter(
-            "ground_length",
-            COURSEWORK.ground,
-            "d: crank pivot O2 to rocker pivot O4",
-            unit="m",
-            min=0.0,
+        non_negative(
+            "ground_length", COURSEWORK.ground, "d: crank pivot O2 to rocker pivot O4", "m"
         ),
-        parameter("crank_length", COURSEWORK.crank, "a: crank O2 -> A", unit="m", min=0.0),
-        parameter("coupler_length", COURSEWORK.coupler, "b: coupler A -> B", unit="m", min=0.0),
-        parameter("rocker_length", COURSEWORK.rocker, "c: rocker O4 -> B", unit="m", min=0.0),
+        non_negative("crank_length", COURSEWORK.crank, "a: crank O2 -> A", "m"),
+        non_negative("coupler_length", COURSEWORK.coupler, "b: coupler A -> B", "m"),
+        non_negative("rocker_length", COURSEWORK.rocker, "c: rocker O4 -> B", "m"),
         parameter(
             "circuit",
             0,
@@ -42,9 +37,7 @@ class FourBar(LinkageSlave):
             max=1,
         ),
         *solver_variables("closed_form"),
-        input_("crank_angle", fb.COURSEWORK_CRANK_ANGLE, "theta2: crank angle", unit="rad"),
-        input_("crank_speed", 0.0, "omega2 = d(theta2)/dt", unit="rad/s"),
-        input_("crank_acceleration", 0.0, "alpha2 = d(omega2)/dt", unit="rad/s2"),
+        *crank_inputs(fb.COURSEWORK_CRANK_ANGLE),
         output(
             "coupler_angle",
             0.0,

@@ -3,52 +3,37 @@
 from typing import Any
 
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import input_, integrator_variables, output, parameter
+from ..fmi.slave import non_negative, input_, integrator_variables, output
 from ..physics import hydraulics
 from ..errors import require_finite
 from ..physics.landing_gear import COURSEWORK_EXTENDED_LENGTH, COURSEWORK_RETRACTED_LENGTH
 
 # The actuator's parameters, declared once: LandingGear's hydraulics effect uses them too.
 HYDRAULIC_PARAMETERS = (
-    parameter(
-        "supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure", unit="Pa", min=0.0
-    ),
-    parameter(
-        "return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Return pressure", unit="Pa", min=0.0
-    ),
-    parameter("bore", hydraulics.DEFAULT_BORE, "Piston bore", unit="m", min=0.0),
-    parameter("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", unit="m", min=0.0),
-    parameter(
-        "bulk_modulus",
-        hydraulics.DEFAULT_BULK_MODULUS,
-        "Effective bulk modulus",
-        unit="Pa",
-        min=0.0,
-    ),
-    parameter(
+    non_negative("supply_pressure", hydraulics.DEFAULT_SUPPLY_PRESSURE, "Supply pressure", "Pa"),
+    non_negative("return_pressure", hydraulics.DEFAULT_RETURN_PRESSURE, "Return pressure", "Pa"),
+    non_negative("bore", hydraulics.DEFAULT_BORE, "Piston bore", "m"),
+    non_negative("rod_diameter", hydraulics.DEFAULT_ROD, "Piston rod diameter", "m"),
+    non_negative("bulk_modulus", hydraulics.DEFAULT_BULK_MODULUS, "Effective bulk modulus", "Pa"),
+    non_negative(
         "dead_volume",
         hydraulics.DEFAULT_DEAD_VOLUME,
         "Fluid volume of each chamber and its line at the end of the stroke",
-        unit="m3",
-        min=0.0,
+        "m3",
     ),
-    parameter(
+    non_negative(
         "valve_rated_flow",
         hydraulics.DEFAULT_RATED_FLOW,
         "Flow through a fully open valve edge at the rated pressure drop",
-        unit="m3/s",
-        min=0.0,
+        "m3/s",
     ),
-    parameter(
+    non_negative(
         "valve_rated_pressure_drop",
         hydraulics.DEFAULT_RATED_PRESSURE_DROP,
         "Pressure drop at which valve_rated_flow is rated",
-        unit="Pa",
-        min=0.0,
+        "Pa",
     ),
-    parameter(
-        "max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line", unit="m3/s", min=0.0
-    ),
+    non_negative("max_flow", hydraulics.DEFAULT_MAX_FLOW, "Flow limit of each line", "m3/s"),
 )
 
 
@@ -65,18 +50,13 @@ class HydraulicActuator(IntegratingSlave):
     )
     VARIABLES = (
         *HYDRAULIC_PARAMETERS,
-        parameter(
-            "stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length", unit="m", min=0.0
-        ),
-        parameter(
-            "stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length", unit="m", min=0.0
-        ),
-        parameter(
+        non_negative("stroke_min", COURSEWORK_RETRACTED_LENGTH, "Shortest piston length", "m"),
+        non_negative("stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length", "m"),
+        non_negative(
             "initial_pressure",
             hydraulics.DEFAULT_RETURN_PRESSURE,
             "Pressure in both chambers at the start",
-            unit="Pa",
-            min=0.0,
+            "Pa",
         ),
         *integrator_variables(default="radau", rtol=1e-8, atol=1.0),
         input_(

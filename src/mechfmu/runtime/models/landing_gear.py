@@ -3,7 +3,8 @@
 import math
 
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import Status, effect, input_, integrator_variables, output, parameter
+from ..fmi.slave import Status, effect, input_, integrator_variables
+from ..fmi.slave import non_negative, output, parameter
 from ..physics import gear_dynamics as gd
 from ..physics import hydraulics
 from ..physics import landing_gear as gear
@@ -41,26 +42,23 @@ class LandingGear(IntegratingSlave):
         "or dynamic (piston force or valve command in) with selectable effects"
     )
     VARIABLES = (
-        parameter(
+        non_negative(
             "attachment_distance",
             DEFAULT_GEOMETRY.attachment_distance,
             "d: distance from the bar pivot B to the piston attachment on the bar",
-            unit="m",
-            min=0.0,
+            "m",
         ),
-        parameter(
+        non_negative(
             "pivot_height",
             DEFAULT_GEOMETRY.pivot_height,
             "h: distance from the bar pivot B to the piston's fixed pivot",
-            unit="m",
-            min=0.0,
+            "m",
         ),
-        parameter(
+        non_negative(
             "bar_length",
             COURSEWORK_BAR_LENGTH,
             "Length of bar AB from pivot B to the wheel axle A",
-            unit="m",
-            min=0.0,
+            "m",
         ),
         parameter(
             "drive",
@@ -86,12 +84,8 @@ class LandingGear(IntegratingSlave):
             "built-in hydraulic actuator driven by valve_command (dynamics "
             "drive): supply pressure, valve, flow limit, fluid compressibility",
         ),
-        parameter(
-            "bar_mass", gd.DEFAULT_BAR_MASS, "Mass of bar and strut (uniform)", unit="kg", min=0.0
-        ),
-        parameter(
-            "wheel_mass", gd.DEFAULT_WHEEL_MASS, "Mass of wheel and tyre at A", unit="kg", min=0.0
-        ),
+        non_negative("bar_mass", gd.DEFAULT_BAR_MASS, "Mass of bar and strut (uniform)", "kg"),
+        non_negative("wheel_mass", gd.DEFAULT_WHEEL_MASS, "Mass of wheel and tyre at A", "kg"),
         parameter(
             "down_angle",
             DEFAULT_GEOMETRY.start_angle,
@@ -99,56 +93,38 @@ class LandingGear(IntegratingSlave):
             unit="rad",
         ),
         parameter("airframe_pitch", 0.0, "Nose-up pitch of the airframe", unit="rad"),
-        parameter("gravity_acceleration", gd.STANDARD_GRAVITY, "g", unit="m/s2", min=0.0),
-        parameter("air_density", gd.DEFAULT_AIR_DENSITY, "rho", unit="kg/m3", min=0.0),
-        parameter(
-            "drag_area",
-            gd.DEFAULT_DRAG_AREA,
-            "Cd times frontal area of the wheel",
-            unit="m2",
-            min=0.0,
-        ),
-        parameter(
+        non_negative("gravity_acceleration", gd.STANDARD_GRAVITY, "g", "m/s2"),
+        non_negative("air_density", gd.DEFAULT_AIR_DENSITY, "rho", "kg/m3"),
+        non_negative("drag_area", gd.DEFAULT_DRAG_AREA, "Cd times frontal area of the wheel", "m2"),
+        non_negative(
             "viscous_friction",
             gd.DEFAULT_VISCOUS_FRICTION,
             "Viscous friction coefficient at B",
-            unit="N.m.s/rad",
-            min=0.0,
+            "N.m.s/rad",
         ),
-        parameter(
-            "coulomb_friction",
-            gd.DEFAULT_COULOMB_FRICTION,
-            "Coulomb friction moment at B",
-            unit="N.m",
-            min=0.0,
+        non_negative(
+            "coulomb_friction", gd.DEFAULT_COULOMB_FRICTION, "Coulomb friction moment at B", "N.m"
         ),
-        parameter(
+        non_negative(
             "friction_speed",
             gd.DEFAULT_FRICTION_SPEED,
             "Angular speed over which the Coulomb friction is smoothed (tanh)",
-            unit="rad/s",
-            min=0.0,
+            "rad/s",
         ),
-        parameter(
+        non_negative(
             "stroke_min",
             COURSEWORK_RETRACTED_LENGTH,
             "Shortest piston length (stop; gear down)",
-            unit="m",
-            min=0.0,
+            "m",
         ),
-        parameter(
-            "stroke_max",
-            COURSEWORK_EXTENDED_LENGTH,
-            "Longest piston length (stop; gear up)",
-            unit="m",
-            min=0.0,
+        non_negative(
+            "stroke_max", COURSEWORK_EXTENDED_LENGTH, "Longest piston length (stop; gear up)", "m"
         ),
-        parameter(
+        non_negative(
             "stop_stiffness",
             gd.DEFAULT_STOP_STIFFNESS,
             "End-stop contact stiffness on the piston length",
-            unit="N/m",
-            min=0.0,
+            "N/m",
         ),
         parameter(
             "restitution",
@@ -171,12 +147,11 @@ class LandingGear(IntegratingSlave):
             "Angular velocity at the start (dynamics drive)",
             unit="rad/s",
         ),
-        parameter(
+        non_negative(
             "initial_pressure",
             hydraulics.DEFAULT_RETURN_PRESSURE,
             "Pressure in both chambers at the start (hydraulics)",
-            unit="Pa",
-            min=0.0,
+            "Pa",
         ),
         *integrator_variables(default="dopri5"),
         input_(

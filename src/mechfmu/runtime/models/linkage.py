@@ -13,12 +13,24 @@ the other branch.
 
 from typing import Any
 
-from ..fmi.slave import MechSlave, output, parameter
+from ..fmi.slave import non_negative, MechSlave, motion_inputs, output, parameter
 from ..physics import planar
 from ..errors import RangeError, require_finite, require_positive
 from ..fmi.declarations import Variable
 
 SOLVERS = ("closed_form", "constraint_solver")
+CRANK = ("crank_angle", "crank_speed", "crank_acceleration")
+
+
+def crank_inputs(start_angle: float = 0.0) -> tuple[Variable, ...]:
+    """The crank's angle (rad, starting at ``start_angle``), speed and acceleration inputs of
+    a crank-driven linkage (Norton's theta2, omega2, alpha2)."""
+    return motion_inputs(
+        CRANK,
+        "rad",
+        ("theta2: crank angle", "omega2 = d(theta2)/dt", "alpha2 = d(omega2)/dt"),
+        start_angle,
+    )
 
 
 def solver_variables(
@@ -34,14 +46,13 @@ def solver_variables(
             "(Haug), velocities and accelerations by linear solves",
             values=SOLVERS,
         ),
-        parameter(
+        non_negative(
             "solver_tolerance",
             planar.DEFAULT_TOLERANCE,
             "Newton tolerance on the "
             "constraint residual (lengths divided by the mechanism's length scale, "
             "angles in rad)",
-            unit="1",
-            min=0.0,
+            "1",
         ),
         parameter(
             "max_iterations",

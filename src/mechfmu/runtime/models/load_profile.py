@@ -1,8 +1,8 @@
 """LoadProfile.fmu: constant, step, ramp or table-from-CSV load source."""
 
-from ..fmi.slave import output, parameter
+from ..fmi.slave import non_negative, parameter
 from ..physics import profiles
-from .table_source import TableSource
+from .table_source import TableSource, table_variables
 
 
 class LoadProfile(TableSource):
@@ -19,10 +19,10 @@ class LoadProfile(TableSource):
         parameter("initial_value", 0.0, "Load before start_time (constant: the load)", unit="N"),
         parameter("final_value", 1000.0, "Load after the step or at the end of the ramp", unit="N"),
         parameter("start_time", 0.0, "Time of the step or start of the ramp", unit="s"),
-        parameter("duration", 1.0, "Ramp duration", unit="s", min=0.0),
-        parameter("table_file", "", "shape = table: CSV file with columns time (s), load (N)"),
-        output("load", 0.0, "Load", unit="N"),
-        output("load_rate", 0.0, "Rate of change of the load", unit="N/s"),
+        non_negative("duration", 1.0, "Ramp duration", "s"),
+        *table_variables(
+            "load", "N", ("load", "Load"), ("load_rate", "Rate of change of the load")
+        ),
     )
 
     def check_shape(self) -> None:

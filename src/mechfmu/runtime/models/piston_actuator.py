@@ -1,6 +1,6 @@
 """PistonActuator.fmu: a stroke profile source for the landing gear."""
 
-from ..fmi.slave import MechSlave, output, parameter
+from ..fmi.slave import MechSlave, motion_outputs, parameter
 from ..physics import landing_gear as gear
 from ..physics import profiles
 
@@ -40,9 +40,11 @@ class PistonActuator(MechSlave):
             "Stroke profile: " + ", ".join(profiles.STROKE_PROFILES),
             values=profiles.STROKE_PROFILES,
         ),
-        output("piston_extension", 0.0, "Piston length", unit="m"),
-        output("piston_speed", 0.0, "Piston length rate", unit="m/s"),
-        output("piston_acceleration", 0.0, "Piston length second rate", unit="m/s2"),
+        *motion_outputs(
+            ("piston_extension", "piston_speed", "piston_acceleration"),
+            "m",
+            ("Piston length", "Piston length rate", "Piston length second rate"),
+        ),
     )
 
     def _stroke_parameters(self):

@@ -1,8 +1,8 @@
 """RoadProfile.fmu: road height source (step, bump, sine, table) for the suspension."""
 
-from ..fmi.slave import output, parameter
+from ..fmi.slave import non_negative, parameter
 from ..physics import road
-from .table_source import TableSource
+from .table_source import TableSource, table_variables
 
 
 class RoadProfile(TableSource):
@@ -17,19 +17,18 @@ class RoadProfile(TableSource):
             "shape", "bump", "Road shape: " + ", ".join(road.ROAD_SHAPES), values=road.ROAD_SHAPES
         ),
         parameter("height", 0.05, "step: height of the kerb; bump: peak height", unit="m"),
-        parameter(
-            "duration",
-            0.1,
-            "bump: length in time (height (1 - cos(2 pi tau)) / 2 over it)",
-            unit="s",
-            min=0.0,
+        non_negative(
+            "duration", 0.1, "bump: length in time (height (1 - cos(2 pi tau)) / 2 over it)", "s"
         ),
         parameter("start_time", 0.0, "Time of the step, or start of the bump or sine", unit="s"),
         parameter("amplitude", 0.01, "sine: amplitude", unit="m"),
-        parameter("frequency", 1.0, "sine: frequency", unit="Hz", min=0.0),
-        parameter("table_file", "", "shape = table: CSV file with columns time (s), height (m)"),
-        output("road_height", 0.0, "r: road height under the tyre, positive upward", unit="m"),
-        output("road_rate", 0.0, "dr/dt: rate of the road height", unit="m/s"),
+        non_negative("frequency", 1.0, "sine: frequency", "Hz"),
+        *table_variables(
+            "height",
+            "m",
+            ("road_height", "r: road height under the tyre, positive upward"),
+            ("road_rate", "dr/dt: rate of the road height"),
+        ),
     )
 
     def check_shape(self) -> None:

@@ -1,6 +1,6 @@
 """CrankDrive.fmu and CamshaftDrive.fmu: shaft angle sources at constant or ramped speed."""
 
-from ..fmi.slave import MechSlave, output, parameter
+from ..fmi.slave import non_negative, MechSlave, motion_outputs, parameter
 from ..physics import profiles
 from ..fmi.declarations import Variable
 
@@ -33,9 +33,7 @@ class _ShaftDrive(MechSlave):
         v[prefix + "_angle"], v[prefix + "_speed"], v[prefix + "_acceleration"] = sample
 
 
-def _variables(
-    prefix: str, shaft: str, speed_description: str
-) -> tuple[Variable, Variable, Variable, Variable, Variable, Variable, Variable, Variable]:
+def _variables(prefix: str, shaft: str, speed_description: str) -> tuple[Variable, ...]:
     return (
         parameter("initial_angle", 0.0, f"{shaft} angle at start_time", unit="rad"),
         parameter(
@@ -50,17 +48,19 @@ def _variables(
             speed_description + " after the ramp (constant speed: set ramp_time = 0)",
             unit="rad/s",
         ),
-        parameter(
-            "ramp_time",
-            0.0,
-            "Duration of the linear speed ramp (0: constant speed)",
-            unit="s",
-            min=0.0,
+        non_negative(
+            "ramp_time", 0.0, "Duration of the linear speed ramp (0: constant speed)", "s"
         ),
         parameter("start_time", 0.0, "Time at which the ramp starts", unit="s"),
-        output(prefix + "_angle", 0.0, f"{shaft} angle, continuous over revolutions", unit="rad"),
-        output(prefix + "_speed", 0.0, f"{shaft} angular speed", unit="rad/s"),
-        output(prefix + "_acceleration", 0.0, f"{shaft} angular acceleration", unit="rad/s2"),
+        *motion_outputs(
+            (prefix + "_angle", prefix + "_speed", prefix + "_acceleration"),
+            "rad",
+            (
+                f"{shaft} angle, continuous over revolutions",
+                f"{shaft} angular speed",
+                f"{shaft} angular acceleration",
+            ),
+        ),
     )
 
 

@@ -1,13 +1,15 @@
 """SliderCrank.fmu: the offset slider-crank driven by its crank (closed form or solver)."""
 
 from typing import Any
-from ..fmi.slave import input_, output, parameter
+from ..fmi.slave import non_negative, motion_outputs, parameter
 from ..physics import constraint_models
 from ..physics import slider_crank as sc
 from ..errors import RangeError
-from .linkage import LinkageSlave, solver_variables
+from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
 
-_CRANK = ("crank_angle", "crank_speed", "crank_acceleration")
+_SLIDER = ("slider_position", "slider_speed", "slider_acceleration")
+_COUPLER = ("coupler_angle", "coupler_angular_velocity", "coupler_angular_acceleration")
+
 DEFAULT = sc.DEFAULT_SLIDER_CRANK
 
 
@@ -25,16 +27,8 @@ class SliderCrank(LinkageSlave):
     )
     DRIVE_INPUTS = _CRANK
     VARIABLES = (
-        parameter(
-            "crank_length", DEFAULT.crank, "a: crank pivot -> crank pin A", unit="m", min=0.0
-        ),
-        parameter(
-            "coupler_length",
-            DEFAULT.coupler,
-            "b: connecting rod A -> slider pin B",
-            unit="m",
-            min=0.0,
-        ),
+        non_negative("crank_length", DEFAULT.crank, "a: crank pivot -> crank pin A", "m"),
+        non_negative("coupler_length", DEFAULT.coupler, "b: connecting rod A -> slider pin B", "m"),
         parameter(
             "offset", DEFAULT.offset, "Height of the slider axis above the crank pivot", unit="m"
         ),
@@ -47,27 +41,16 @@ class SliderCrank(LinkageSlave):
             max=1,
         ),
         *solver_variables("closed_form"),
-        input_("crank_angle", 0.0, "theta2: crank angle", unit="rad"),
-        input_("crank_speed", 0.0, "omega2 = d(theta2)/dt", unit="rad/s"),
-        input_("crank_acceleration", 0.0, "alpha2 = d(omega2)/dt", unit="rad/s2"),
-        output(
-            "slider_position",
-            0.0,
-            "x of the slider pin B along the slider axis, from the crank pivot",
-            unit="m",
-            depends=_CRANK[:1],
+        *crank_inputs(),
+        *motion_outputs(
+            _SLIDER, "m", "x of the slider pin B along its axis, from the crank pivot", _CRANK
         ),
-        output("slider_speed", 0.0, "d(slider_position)/dt", unit="m/s", depends=_CRANK[:2]),
-        output("slider_acceleration", 0.0, "d(slider_speed)/dt", unit="m/s2", depends=_CRANK),
-        output(
-            "coupler_angle",
-            0.0,
-            "theta3: angle of the connecting rod A -> B",
-            unit="rad",
-            depends=_CRANK[:1],
+        *motion_outputs(
+            _COUPLER,
+            "rad",
+            ("theta3: angle of the connecting rod A -> B", "omega3", "alpha3"),
+            _CRANK,
         ),
-        output("coupler_angular_velocity", 0.0, "omega3", unit="rad/s", depends=_CRANK[:2]),
-        output("coupler_angular_acceleration", 0.0, "alpha3", unit="rad/s2", depends=_CRANK),
     )
 
     def _geometry(self) -> tuple[float, float, float]:

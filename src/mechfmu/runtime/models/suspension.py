@@ -1,7 +1,8 @@
 """Suspension.fmu: static (load in, equilibrium out) or dynamic (sprung mass integrated)."""
 
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.slave import Status, effect, input_, integrator_variables, output, parameter
+from ..fmi.slave import Status, effect, input_, integrator_variables
+from ..fmi.slave import non_negative, output, parameter
 from ..physics import suspension as physics
 from ..physics import suspension_dynamics as dyn
 from ..errors import IntegrationError, MechanismError, SnapThrough, require_finite
@@ -45,26 +46,20 @@ class Suspension(IntegratingSlave):
         "effect a sprung mass with optional damper, tyre, unsprung mass and road input"
     )
     VARIABLES = (
-        parameter(
+        non_negative(
             "spring_free_length",
             physics.COURSEWORK_FREE_LENGTH,
             "L: free length of each spring",
-            unit="m",
-            min=0.0,
+            "m",
         ),
-        parameter(
-            "spring_stiffness",
-            physics.COURSEWORK_STIFFNESS,
-            "k: stiffness of each spring",
-            unit="N/m",
-            min=0.0,
+        non_negative(
+            "spring_stiffness", physics.COURSEWORK_STIFFNESS, "k: stiffness of each spring", "N/m"
         ),
-        parameter(
+        non_negative(
             "spring_base_offset",
             physics.COURSEWORK_BASE_OFFSET,
             "d: horizontal distance of each spring's lower end from the centre line, in (0, L)",
-            unit="m",
-            min=0.0,
+            "m",
         ),
         parameter(
             "stop_on_snap_through",
@@ -83,35 +78,28 @@ class Suspension(IntegratingSlave):
             "road_input",
             "base excitation from the inputs road_height and road_rate (needs dynamics)",
         ),
-        parameter(
+        non_negative(
             "mass",
             dyn.DEFAULT_MASS,
             "m: sprung mass on the apex (dynamics; the load input carries its weight)",
-            unit="kg",
-            min=0.0,
+            "kg",
         ),
-        parameter(
+        non_negative(
             "damping_coefficient",
             dyn.DEFAULT_DAMPING,
             "c: damper coefficient "
             "(damping; default gives damping ratio 0.3 at the coursework's stable "
             "equilibrium)",
-            unit="N.s/m",
-            min=0.0,
+            "N.s/m",
         ),
-        parameter(
-            "tyre_stiffness",
-            dyn.DEFAULT_TYRE_STIFFNESS,
-            "k_t: tyre stiffness (tyre)",
-            unit="N/m",
-            min=0.0,
+        non_negative(
+            "tyre_stiffness", dyn.DEFAULT_TYRE_STIFFNESS, "k_t: tyre stiffness (tyre)", "N/m"
         ),
-        parameter(
+        non_negative(
             "unsprung_mass",
             dyn.DEFAULT_UNSPRUNG_MASS,
             "m_u: unsprung mass, carrying its weight m_u g on the tyre (tyre)",
-            unit="kg",
-            min=0.0,
+            "kg",
         ),
         parameter(
             "initial_deflection",

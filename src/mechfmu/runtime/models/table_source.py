@@ -2,8 +2,27 @@
 
 from typing import Any
 
-from ..fmi.slave import MechSlave
+from ..fmi.declarations import Variable
+from ..fmi.slave import MechSlave, output, parameter
 from ..physics import profiles
+
+
+def table_variables(
+    column: str,
+    unit: str,
+    signal: tuple[str, str],
+    rate: tuple[str, str],
+) -> tuple[Variable, Variable, Variable]:
+    """The ``table_file`` parameter (a CSV file with columns time (s) and ``column`` in
+    ``unit``) and the source's two outputs: ``signal`` and ``rate``, each (name,
+    description), in ``unit`` and ``unit``/s."""
+    return (
+        parameter(
+            "table_file", "", f"shape = table: CSV file with columns time (s), {column} ({unit})"
+        ),
+        output(signal[0], 0.0, signal[1], unit=unit),
+        output(rate[0], 0.0, rate[1], unit=f"{unit}/s"),
+    )
 
 
 class TableSource(MechSlave):

@@ -3,13 +3,24 @@
 from typing import Any
 import math
 
-from ..fmi.slave import Status, effect, input_, output, parameter
+from ..fmi.slave import (
+    non_negative,
+    Status,
+    effect,
+    motion_inputs,
+    motion_outputs,
+    output,
+    parameter,
+)
 from ..physics import cam_laws, constraint_models
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
 from .linkage import LinkageSlave, solver_variables
 
 _CAM = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
+_TAPPET = ("tappet_lift", "tappet_velocity", "tappet_acceleration")
+_ROCKER = ("rocker_angle", "rocker_angular_velocity", "rocker_angular_acceleration")
+_VALVE = ("valve_lift", "valve_velocity", "valve_acceleration")
 MODES = ("forward", "inverse")
 GEOMETRY = vt.DEFAULT_VALVE_GEOMETRY
 CAM = cam_laws.DEFAULT_CAM_PROFILE
@@ -52,28 +63,25 @@ def cam_law_variables() -> tuple:
             "Follower law of rise and return: " + ", ".join(cam_laws.CAM_LAWS),
             values=cam_laws.CAM_LAWS,
         ),
-        parameter(
+        non_negative(
             "lift",
             CAM.lift,
             "Peak lift of the cam law: tappet lift (forward) or valve lift (inverse)",
-            unit="m",
-            min=0.0,
+            "m",
         ),
         parameter("rise_start", CAM.rise_start, "Camshaft angle where the rise starts", unit="rad"),
-        parameter("rise_angle", CAM.rise_angle, "Camshaft angle of the rise", unit="rad", min=0.0),
-        parameter(
+        non_negative("rise_angle", CAM.rise_angle, "Camshaft angle of the rise", "rad"),
+        non_negative(
             "high_dwell_angle",
             CAM.high_dwell_angle,
             "Camshaft angle of the dwell at full lift",
-            unit="rad",
-            min=0.0,
+            "rad",
         ),
-        parameter(
+        non_negative(
             "return_angle",
             CAM.return_angle,
             "Camshaft angle of the return; the low dwell fills the rest of the revolution",
-            unit="rad",
-            min=0.0,
+            "rad",
         ),
     )
 
@@ -127,57 +135,28 @@ class ValveTrain(LinkageSlave):
             "valve mass, valve spring stiffness and preload: contact force "
             "between rocker and valve, valve float detection",
         ),
-        parameter(
+        non_negative(
             "valve_mass",
             0.1,
             "Moving mass at the valve: valve, retainer and a third of the spring",
-            unit="kg",
-            min=0.0,
+            "kg",
         ),
-        parameter("spring_stiffness", 50e3, "Valve spring stiffness", unit="N/m", min=0.0),
-        parameter(
-            "spring_preload", 300.0, "Valve spring force with the valve closed", unit="N", min=0.0
-        ),
+        non_negative("spring_stiffness", 50e3, "Valve spring stiffness", "N/m"),
+        non_negative("spring_preload", 300.0, "Valve spring force with the valve closed", "N"),
         parameter(
             "stop_on_float",
             False,
             "valve_spring: treat loss of contact as an error "
             "(the step is discarded) instead of a warning",
         ),
-        input_("camshaft_angle", 0.0, "Camshaft angle", unit="rad"),
-        input_("camshaft_speed", 0.0, "Camshaft angular speed", unit="rad/s"),
-        input_("camshaft_acceleration", 0.0, "Camshaft angular acceleration", unit="rad/s2"),
-        output(
-            "tappet_lift", 0.0, "Tappet lift above the cam base circle", unit="m", depends=_CAM[:1]
+        *motion_inputs(
+            _CAM,
+            "rad",
+            ("Camshaft angle", "Camshaft angular speed", "Camshaft angular acceleration"),
         ),
-        output("tappet_velocity", 0.0, "d(tappet_lift)/dt", unit="m/s", depends=_CAM[:2]),
-        output("tappet_acceleration", 0.0, "d(tappet_velocity)/dt", unit="m/s2", depends=_CAM),
-        output(
-            "rocker_angle",
-            0.0,
-            "Rocker angle from +x (counter-clockwise)",
-            unit="rad",
-            depends=_CAM[:1],
-        ),
-        output(
-            "rocker_angular_velocity", 0.0, "d(rocker_angle)/dt", unit="rad/s", depends=_CAM[:2]
-        ),
-        output(
-            "rocker_angular_acceleration",
-            0.0,
-            "d(rocker_angular_velocity)/dt",
-            unit="rad/s2",
-            depends=_CAM,
-        ),
-        output(
-            "valve_lift",
-            0.0,
-            "Valve opening (downward displacement from closed)",
-            unit="m",
-            depends=_CAM[:1],
-        ),
-        output("valve_velocity", 0.0, "d(valve_lift)/dt", unit="m/s", depends=_CAM[:2]),
-        output("valve_acceleration", 0.0, "d(valve_velocity)/dt", unit="m/s2", depends=_CAM),
+        *motion_outputs(_TAPPET, "m", "Tappet lift above the cam base circle", _CAM),
+        *motion_outputs(_ROCKER, "rad", "Rocker angle from +x (counter-clockwise)", _CAM),
+        *motion_outputs(_VALVE, "m", "Valve opening (downward displacement from closed)", _CAM),
         output(
             "contact_force",
             0.0,

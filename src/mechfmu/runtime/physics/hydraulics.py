@@ -17,7 +17,7 @@ from typing import Any
 import math
 from collections import namedtuple
 
-from ..errors import MechanismError, RangeError, require_between, require_positive
+from ..errors import MechanismError, require_above, require_between, require_positive
 
 # A plausible light-aircraft nose-gear actuator: 3000 psi supply, 25 mm bore, 12 mm rod.
 DEFAULT_SUPPLY_PRESSURE = 20.7e6
@@ -58,14 +58,7 @@ def make_actuator(
     back = require_between("return_pressure", return_pressure, 0.0, supply, "Pa", high_open=True)
     bore = require_positive("bore", bore, "m")
     rod = require_between("rod_diameter", rod, 0.0, bore, "m", low_open=True, high_open=True)
-    if not min_length < max_length:
-        raise RangeError(
-            "max_length",
-            max_length,
-            f"({min_length!r}, inf)",
-            "m",
-            "the stroke must have positive length",
-        )
+    require_above("max_length", max_length, min_length, "m", "the stroke must have positive length")
     cap_area = math.pi * bore * bore / 4.0
     return Actuator(
         supply,

@@ -13,7 +13,13 @@ import math
 import sys
 from collections import namedtuple
 
-from ..errors import RangeError, SingularConfiguration, require_finite, require_positive
+from ..errors import (
+    RangeError,
+    SingularConfiguration,
+    require_above,
+    require_finite,
+    require_positive,
+)
 
 FOOT = 0.3048  # m, exact by definition
 
@@ -40,11 +46,9 @@ def design_geometry(retracted_length: float, extended_length: float) -> "Geometr
     Returns Geometry(d [m], h [m], start_angle theta_1 = atan(x_r/d) [rad]).
     """
     x_r = require_positive("retracted_length", retracted_length, "m")
-    x_e = require_positive("extended_length", extended_length, "m")
-    if x_e <= x_r:
-        raise RangeError(
-            "extended_length", x_e, f"({x_r!r}, inf)", "m", "must exceed the retracted length"
-        )
+    x_e = require_above(
+        "extended_length", extended_length, x_r, "m", "must exceed the retracted length"
+    )
     # Positive root written without cancellation: -b/2 + sqrt(b^2/4 - c) = -c / (b/2 + sqrt(.))
     half_b = 0.5 * x_r
     c = 0.5 * (x_r * x_r - x_e * x_e)

@@ -96,22 +96,25 @@ class _Frames:
 # fills its rows of Phi, Phi_q, -Phi_t (velocity right-hand side) and gamma.
 
 
-class Revolute:
+Point = tuple[float, float]  # (x, y) in m, in a body's frame
+
+
+class _PointJoint:
+    """A joint between point ``point_i`` of body i and point ``point_j`` of body j (or of the
+    ground, body None), each in its body's frame (m)."""
+
+    def __init__(
+        self, name: str, body_i: int, point_i: Point, body_j: int | None, point_j: Point
+    ) -> None:
+        self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
+        self.body_j, self.point_j = body_j, tuple(point_j)
+
+
+class Revolute(_PointJoint):
     """Point ``point_i`` of body i coincides with point ``point_j`` of body j (2 equations)."""
 
     equations = 2
     kinds = ("length", "length")
-
-    def __init__(
-        self,
-        name: str,
-        body_i: int,
-        point_i: tuple[float, float],
-        body_j: int | None,
-        point_j: tuple[float, float],
-    ) -> None:
-        self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
-        self.body_j, self.point_j = body_j, tuple(point_j)
 
     def residual(self, f: _Frames, drive: Sequence[tuple[float, ...]]) -> list[float]:
         p, r = f.point(self.body_i, self.point_i), f.point(self.body_j, self.point_j)
@@ -139,7 +142,7 @@ class Revolute:
         return [a_i[0] * w_i * w_i - a_j[0] * w_j * w_j, a_i[1] * w_i * w_i - a_j[1] * w_j * w_j]
 
 
-class PointOnLine:
+class PointOnLine(_PointJoint):
     """Point ``point_i`` of body i stays on the line of body j through ``point_j`` along
     ``direction_j`` (body-j frame): a sliding joint that permits rotation (1 equation).
 
@@ -153,16 +156,15 @@ class PointOnLine:
         self,
         name: str,
         body_i: int,
-        point_i: tuple[float, float],
+        point_i: Point,
         body_j: int | None,
-        point_j: tuple[float, float],
-        direction_j: tuple[float, float],
+        point_j: Point,
+        direction_j: Point,
     ) -> None:
         norm = math.hypot(*direction_j)
         if not norm > 0.0:
             raise ValueError(f"{name}: direction must be non-zero")
-        self.name, self.body_i, self.point_i = name, body_i, tuple(point_i)
-        self.body_j, self.point_j = body_j, tuple(point_j)
+        super().__init__(name, body_i, point_i, body_j, point_j)
         self.normal_j = _perp((direction_j[0] / norm, direction_j[1] / norm))
 
     def _parts(self, f: _Frames) -> tuple[tuple[float, float], tuple[float, float]]:

@@ -64,6 +64,8 @@ DEFAULT_TYRE_STIFFNESS = 2.0e5  # N/m, a passenger-car tyre
 DEFAULT_UNSPRUNG_MASS = 35.0  # kg, wheel, tyre, hub and brake of one corner
 
 INPUT_MODES = ("interpolate", "hold")
+# (load N, road height m, road rate m/s) at one instant
+Inputs = tuple[float, float, float]
 NEAR, FAR, BETWEEN = statics.NEAR, statics.FAR, 2
 
 Effects = namedtuple("Effects", "damping tyre road_input")
@@ -156,13 +158,7 @@ class StepInputs:
         self.t0, self.load0, self.load_slope = t, load, 0.0
         self.road: tuple[float, ...] = (road_height, road_rate, 0.0, 0.0)
 
-    def set_step(
-        self,
-        t0: float,
-        t1: float,
-        start: tuple[float, float, float],
-        end: tuple[float, float, float],
-    ) -> None:
+    def set_step(self, t0: float, t1: float, start: Inputs, end: Inputs) -> None:
         """Inputs over [t0, t1] from (load, road_height, road_rate) at t0 and at t1."""
         load0, r0, rate0 = start
         load1, r1, rate1 = end

@@ -55,6 +55,7 @@ from typing import Any
 from . import cam_laws
 from ..errors import (
     RangeError,
+    require_above,
     SingularConfiguration,
     require_between,
     require_finite,
@@ -68,6 +69,7 @@ ValveGeometry = namedtuple(
     "cam_base_radius pushrod_length rocker_pivot_x rocker_pivot_y tappet_arm valve_arm "
     "valve_axis_x valve_link_length",
 )
+Vector = tuple[float, float]  # (x, y) in m, or its rate of change per rad of rocker angle
 ValveTrainMotion = namedtuple(
     "ValveTrainMotion",
     "tappet_lift tappet_velocity tappet_acceleration rocker_angle rocker_angular_velocity "
@@ -115,26 +117,22 @@ def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     r_b = require_positive("cam_base_radius", g.cam_base_radius, "m")
     length_1 = require_positive("pushrod_length", g.pushrod_length, "m")
     a = require_positive("rocker_pivot_x", g.rocker_pivot_x, "m")
-    b = require_finite("rocker_pivot_y", g.rocker_pivot_y, "m")
-    if b <= r_b:
-        raise RangeError(
-            "rocker_pivot_y",
-            b,
-            f"({r_b!r}, inf)",
-            "m",
-            "the rocker pivot must lie above the tappet (cam_base_radius)",
-        )
+    b = require_above(
+        "rocker_pivot_y",
+        g.rocker_pivot_y,
+        r_b,
+        "m",
+        "the rocker pivot must lie above the tappet (cam_base_radius)",
+    )
     arm_t = require_positive("tappet_arm", g.tappet_arm, "m")
     arm_v = require_positive("valve_arm", g.valve_arm, "m")
-    c = require_finite("valve_axis_x", g.valve_axis_x, "m")
-    if c <= a:
-        raise RangeError(
-            "valve_axis_x",
-            c,
-            f"({a!r}, inf)",
-            "m",
-            "the valve axis must lie beyond the rocker pivot, under the valve arm",
-        )
+    c = require_above(
+        "valve_axis_x",
+        g.valve_axis_x,
+        a,
+        "m",
+        "the valve axis must lie beyond the rocker pivot, under the valve arm",
+    )
     length_3 = require_positive("valve_link_length", g.valve_link_length, "m")
     checked = ValveGeometry(r_b, length_1, a, b, arm_t, arm_v, c, length_3)
 
@@ -161,15 +159,14 @@ def check_geometry(g: "ValveGeometry") -> "ValveGeometry":
     phi0 = _phi_from_y1(checked, r_b)
     dx = c - (a + arm_v * math.cos(phi0))
     bound = abs(dx) if dx * math.sin(phi0) >= 0.0 else abs(dx) / math.cos(phi0)
-    if not length_3 > bound:
-        raise RangeError(
-            "valve_link_length",
-            length_3,
-            f"({bound!r}, inf)",
-            "m",
-            "at zero tappet lift the valve link must reach below the valve "
-            "arm's end, neither horizontal nor in line with the arm",
-        )
+    require_above(
+        "valve_link_length",
+        length_3,
+        bound,
+        "m",
+        "at zero tappet lift the valve link must reach below the valve "
+        "arm's end, neither horizontal nor in line with the arm",
+    )
     return checked
 
 
@@ -354,16 +351,20 @@ def _singular_tolerance(perimeter: float) -> float:
 
 
 def _require_inside(
-    name: str, value: float, low: float, high: float, unit: str, scale: float, why: str
-) -> None:
-    """RangeError unless low <= value <= high, give or take a few rounding units of ``scale``.
+    name: str, value: float, interval: tuple[float, float], unit: str, scale: float, why: str
+) -> float:
+    """``value`` as float; RangeError unless it is finite and inside ``interval`` (low, high),
+    give or take a few rounding units of ``scale``.
 
     A value that misses an end only by rounding (e.g. y3_closed - valve_lift at the end of
     valve_lift_range) is at that end: the dead-centre test that follows reports it as such.
     """
+    value = require_finite(name, value, unit)
+    low, high = interval
     slack = 2 * SINGULAR_ULPS * _EPS * scale
     if not low - slack <= value <= high + slack:
         raise RangeError(name, value, f"[{low!r}, {high!r}]", unit, why)
+    return value
 
 
 def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
@@ -372,13 +373,10 @@ def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
     RangeError outside tappet_lift_range(g); SingularConfiguration where the pushrod and the
     tappet arm are collinear (its ends).
     """
-    lift = require_finite("tappet_lift", tappet_lift, "m")
-    low, high = tappet_lift_range(g)
-    _require_inside(
+    lift = _require_inside(
         "tappet_lift",
-        lift,
-        low,
-        high,
+        tappet_lift,
+        tappet_lift_range(g),
         "m",
         g.rocker_pivot_y + g.pushrod_length + g.tappet_arm,
         "the pushrod cannot reach the rocker's tappet arm",
@@ -402,22 +400,20 @@ def rocker_from_tappet(g: "ValveGeometry", tappet_lift: float) -> float:
     return _phi_from_y1(g, y1)
 
 
+def _rocker_angle(rocker_angle: float, interval: tuple[float, float], why: str) -> float:
+    """``rocker_angle`` (rad) as float; RangeError (with ``why``) outside ``interval``."""
+    return require_between("rocker_angle", rocker_angle, *interval, "rad", why=why)
+
+
 def valve_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     """Valve-link foot height y3 (m) for a rocker angle (rad): V_y - sqrt(L3^2 - (c - V_x)^2).
 
     RangeError outside rocker_angle_range(g); SingularConfiguration where the valve link is
     perpendicular to the valve axis.
     """
-    phi = require_finite("rocker_angle", rocker_angle, "rad")
-    low, high = rocker_angle_range(g)
-    if not low <= phi <= high:
-        raise RangeError(
-            "rocker_angle",
-            phi,
-            f"[{low!r}, {high!r}]",
-            "rad",
-            "the valve link cannot reach the valve axis",
-        )
+    phi = _rocker_angle(
+        rocker_angle, rocker_angle_range(g), "the valve link cannot reach the valve axis"
+    )
     dx = g.valve_axis_x - (g.rocker_pivot_x + g.valve_arm * math.cos(phi))
     length = g.valve_link_length
     if min(length - dx, length + dx) <= _singular_tolerance(length):
@@ -434,13 +430,10 @@ def rocker_from_valve(g: "ValveGeometry", valve_position: float) -> float:
     RangeError outside valve_position_range(g); SingularConfiguration where the valve link
     and the valve arm are collinear (its ends).
     """
-    y3 = require_finite("valve_position", valve_position, "m")
-    low, high = valve_position_range(g)
-    _require_inside(
+    y3 = _require_inside(
         "valve_position",
-        y3,
-        low,
-        high,
+        valve_position,
+        valve_position_range(g),
         "m",
         abs(g.rocker_pivot_y) + g.valve_link_length + g.valve_arm,
         "the valve link cannot reach the rocker's valve arm",
@@ -468,16 +461,9 @@ def tappet_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
     y1 = T_y - sqrt(L1^2 - T_x^2). RangeError outside tappet_rocker_angle_range(g);
     SingularConfiguration where the pushrod is perpendicular to the tappet axis.
     """
-    phi = require_finite("rocker_angle", rocker_angle, "rad")
-    low, high = tappet_rocker_angle_range(g)
-    if not low <= phi <= high:
-        raise RangeError(
-            "rocker_angle",
-            phi,
-            f"[{low!r}, {high!r}]",
-            "rad",
-            "the pushrod cannot reach the tappet axis",
-        )
+    phi = _rocker_angle(
+        rocker_angle, tappet_rocker_angle_range(g), "the pushrod cannot reach the tappet axis"
+    )
     tx = g.rocker_pivot_x - g.tappet_arm * math.cos(phi)
     length = g.pushrod_length
     if min(length - tx, length + tx) <= _singular_tolerance(length):
@@ -493,9 +479,7 @@ def tappet_from_rocker(g: "ValveGeometry", rocker_angle: float) -> float:
 # --- rates ------------------------------------------------------------------------------------
 
 
-def _tappet_vectors(
-    g: "ValveGeometry", phi: float, y1: float
-) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+def _tappet_vectors(g: "ValveGeometry", phi: float, y1: float) -> tuple[Vector, Vector, Vector]:
     """e = T - P, t1 = dT/dphi, t2 = d2T/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.tappet_arm
@@ -503,9 +487,7 @@ def _tappet_vectors(
     return e, (arm * sin_phi, -arm * cos_phi), (arm * cos_phi, arm * sin_phi)
 
 
-def _valve_vectors(
-    g: "ValveGeometry", phi: float, y3: float
-) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+def _valve_vectors(g: "ValveGeometry", phi: float, y3: float) -> tuple[Vector, Vector, Vector]:
     """g = V - Q, v1 = dV/dphi, v2 = d2V/dphi2 (m)."""
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     arm = g.valve_arm
@@ -516,18 +498,18 @@ def _valve_vectors(
     return link, (-arm * sin_phi, arm * cos_phi), (-arm * cos_phi, -arm * sin_phi)
 
 
-def _dot(p: tuple[float, float], q: tuple[float, float]) -> float:
+def _dot(p: Vector, q: Vector) -> float:
     return p[0] * q[0] + p[1] * q[1]
 
 
 def _rocker_rates(
-    link: tuple[float, float],
-    t1: tuple[float, float],
-    t2: tuple[float, float],
+    link: Vector,
+    t1: Vector,
+    t2: Vector,
     slider_rate: float,
     slider_accel: float,
     singular: str,
-) -> tuple[float, float]:
+) -> Vector:
     """Rocker rates (rad/s, rad/s^2) from the rates of a link end sliding vertically.
 
     The link vector e = (rocker end) - (slider end) has constant length, with the rocker end
@@ -544,13 +526,13 @@ def _rocker_rates(
 
 
 def _slider_rates(
-    link: tuple[float, float],
-    t1: tuple[float, float],
-    t2: tuple[float, float],
+    link: Vector,
+    t1: Vector,
+    t2: Vector,
     omega: float,
     alpha: float,
     singular: str,
-) -> tuple[float, float]:
+) -> Vector:
     """Rates (m/s, m/s^2) of a vertically sliding link end driven by the rocker: the same
     two equations solved for y' and y''. ``singular``: the message when e_y = 0."""
     if link[1] == 0.0:

@@ -41,21 +41,16 @@ def measure(
         repeats,
     )
     span = f"{kinematic.stop_time - kinematic.start_time:g} s, {kinematic.steps} steps"
-    kinematic_row = Row(
-        BENCHMARK,
-        f"{KINEMATIC_SCENE} (kinematic, 2 FMUs)",
-        medians[kinematic.name]["wall"] * MILLI,
-        "ms",
-        repeats,
-        notes=f"wall time of Simulation.run; {span}",
-    )
-    dynamic_row = Row(
-        BENCHMARK,
-        f"{DYNAMIC_SCENE} (six effects, radau)",
-        medians[dynamic.name]["wall"] * MILLI,
-        "ms",
-        repeats,
-        notes=f"wall time of Simulation.run; {span}",
+    kinematic_row, dynamic_row = (
+        Row(
+            BENCHMARK,
+            f"{scene.name} ({label})",
+            medians[scene.name]["wall"] * MILLI,
+            "ms",
+            repeats,
+            notes=f"wall time of Simulation.run; {span}",
+        )
+        for scene, label in ((kinematic, "kinematic, 2 FMUs"), (dynamic, "six effects, radau"))
     )
     return [
         kinematic_row,

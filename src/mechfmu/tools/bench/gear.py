@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any, TYPE_CHECKING
+from typing import TYPE_CHECKING
 import dataclasses
 
 import numpy as np
 
 from ...cosim.scene import find_file, load_scene
 from ...references import landing_gear
-from ..scene_references import model_defaults, sample_times
+from ..scene_references import retraction_arguments
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from ...cosim.scene import Scene
@@ -29,22 +29,6 @@ def with_stop_time(scene: Scene, stop_time: float) -> Scene:
     """The same scene over [start_time, stop_time] s (the actuator holds its end after
     its stroke, so a longer gear scene keeps stepping in range)."""
     return dataclasses.replace(scene, stop_time=float(stop_time))
-
-
-def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
-    """Positional arguments of references.landing_gear.retraction for a gear scene:
-    its sample times (s) and the actuator's and gear's parameters over the defaults (m, s)."""
-    stroke = {**model_defaults("PistonActuator"), **scene.components["actuator"].parameters}
-    geometry = {**model_defaults("LandingGear"), **scene.components["gear"].parameters}
-    return (
-        sample_times(scene),
-        geometry["attachment_distance"],
-        geometry["pivot_height"],
-        stroke["start_extension"],
-        stroke["end_extension"],
-        stroke["stroke_time"],
-        stroke["profile"],
-    )
 
 
 def piston_table(scene: Scene) -> ndarray:

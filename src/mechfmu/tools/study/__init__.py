@@ -55,20 +55,7 @@ def _write_rows(path: Any, rows: Any):
     return atomic_write(path, write)
 
 
-NUMBER_COLUMNS = (
-    "tolerance",
-    "max_substep",
-    "step",
-    "max_error",
-    "rms_error",
-    "relative_error",
-    "max_error_all",
-    "reference_peak",
-    "loop_time_s",
-    "wall_time_s",
-    "ms_per_simulated_s",
-)
-INTEGER_COLUMNS = ("repeats", "communication_steps", "substeps", "rhs_evaluations")
+NUMBER_COLUMNS, INTEGER_COLUMNS = measure.NUMBER_COLUMNS, measure.INTEGER_COLUMNS
 
 
 def read_table(path: Path | str) -> pandas.DataFrame:
@@ -78,12 +65,7 @@ def read_table(path: Path | str) -> pandas.DataFrame:
     malformed file."""
     from ...io import read_table as read
 
-    text = [
-        name
-        for name in measure.COLUMNS
-        if name not in NUMBER_COLUMNS and name not in INTEGER_COLUMNS
-    ]
-    return read(path, text=text, integers=INTEGER_COLUMNS, required=measure.COLUMNS)
+    return read(path, text=measure.TEXT_COLUMNS, integers=INTEGER_COLUMNS, required=measure.COLUMNS)
 
 
 def read_rows(path: Path | str) -> list[dict[str, Any]]:

@@ -30,29 +30,34 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
 
 SLOW_RUN = 1.0  # s: a run this long is timed once (its spread is small against its length)
 
-# One row of accuracy_cost.csv per (point, recorded output).
-COLUMNS = (
-    "scene",
-    "integrator",
-    "tolerance",
-    "max_substep",
-    "step",
-    "coupling",
-    "output",
-    "max_error",
-    "rms_error",
-    "relative_error",
-    "max_error_all",
-    "reference_peak",
-    "loop_time_s",
-    "wall_time_s",
-    "ms_per_simulated_s",
-    "repeats",
-    "communication_steps",
-    "substeps",
-    "rhs_evaluations",
-    "status",
-)
+# One row of accuracy_cost.csv per (point, recorded output): each column and its type (str:
+# text, float: SI number or time in s, int: a counter), in the file's order.
+COLUMN_TYPES: dict[str, type] = {
+    "scene": str,
+    "integrator": str,
+    "tolerance": float,
+    "max_substep": float,
+    "step": float,
+    "coupling": str,
+    "output": str,
+    "max_error": float,
+    "rms_error": float,
+    "relative_error": float,
+    "max_error_all": float,
+    "reference_peak": float,
+    "loop_time_s": float,
+    "wall_time_s": float,
+    "ms_per_simulated_s": float,
+    "repeats": int,
+    "communication_steps": int,
+    "substeps": int,
+    "rhs_evaluations": int,
+    "status": str,
+}
+COLUMNS = tuple(COLUMN_TYPES)
+TEXT_COLUMNS = tuple(name for name, kind in COLUMN_TYPES.items() if kind is str)
+NUMBER_COLUMNS = tuple(name for name, kind in COLUMN_TYPES.items() if kind is float)
+INTEGER_COLUMNS = tuple(name for name, kind in COLUMN_TYPES.items() if kind is int)
 
 
 def reference(scene: Scene, study_scene: StudyScene) -> Any:
