@@ -330,3 +330,22 @@ def test_inputs_read_only_in_another_drive_may_stay_unfed(fmu_dir):
     )
     with pytest.raises(SceneError, match=r"input\(s\) camshaft_angle, camshaft_speed, "):
         Simulation(unfed, fmu_dir)
+
+
+def test_the_camshaft_drive_under_dopri5_meets_scipy_too():
+    """The camshaft drive with the default integrator: dopri5 on ValveTrain's closed forms
+    at every right-hand side, restarted at the cam law's segment boundaries, at 1 ms steps
+    (lift to 1e-10 m and the counts, as the exact integrator)."""
+    dt, steps = 1e-3, 12
+    rows = run_camshaft(camshaft_slave("dopri5"), 300.0, steps, dt)
+    shaft = {**model_defaults("CamshaftDrive"), "speed": 600.0, "initial_angle": -0.2}
+    reference, _ = ref.scene_columns(
+        np.arange(steps + 1) * dt,
+        shaft,
+        model_defaults("ValveTrain"),
+        model_defaults("ValveSpring"),
+    )
+    for i, row in enumerate(rows, start=1):
+        assert abs(row["valve_lift"] - reference["valve_lift"][i]) < 1e-10
+        assert row["seat_impacts"] == round(reference["seat_impacts"][i])
+    assert rows[-1]["seat_impacts"] == 6

@@ -414,16 +414,19 @@ class ValveSpring(IntegratingSlave):
                 self.integrator,
                 self.max_lift,
             )
-        else:
-            y = advance_through_events(
-                self.integrator,
-                self.rhs,
-                start,
-                self.state,
-                time,
-                lambda: self.events[self.modes.engaged],
-                on_event,
-            )
+        else:  # restarted where the camshaft drive's cam law changes segment (none else)
+            y = self.state
+            edges = [start, *self.drive.breakpoints(start, time), time]
+            for a, b in zip(edges[:-1], edges[1:]):
+                y = advance_through_events(
+                    self.integrator,
+                    self.rhs,
+                    a,
+                    y,
+                    b,
+                    lambda: self.events[self.modes.engaged],
+                    on_event,
+                )
         judge(time, y)
         created, peak = self._check_energy(start, self.state, time, y)
         return y, (found, phase[0], self.modes.engaged, created, peak)
