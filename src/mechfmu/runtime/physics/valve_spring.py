@@ -43,6 +43,13 @@ W(t) - W(0) = T + V - (T + V)(0) + (energy the dashpots dissipated): with both d
 the balance is exact, and with them on T + V can never gain more than W (the FMU refuses a
 step that does: an unstable integration).
 
+Drive and exact integration: L(t) comes from the rocker inputs interpolated across the step
+(StepDrive) or, with the drive from the camshaft (CamshaftStepDrive), from ValveTrain's closed
+forms at the camshaft's angle, the cam law's segment boundaries located in time. Between
+switches the valve is then a linear oscillator m x'' + c x' + K x = f(t) with f a polynomial
+on each drive piece, which integrate_exact solves in closed form (numerics/linear_ode.py),
+locating the switches on the closed form (the integrator value "exact").
+
 Travel limit: the valve can open only so far before its spring retainer meets the valve guide
 (or the spring reaches coil bind), max_valve_lift, 12.5 mm by default (2 mm beyond the 10.5
 mm of the default cam through the rocker). That is a collision that damages a valve train,
