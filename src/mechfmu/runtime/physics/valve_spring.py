@@ -312,7 +312,7 @@ class StepDrive:
     The right-hand side keeps one instance and reads it through drive_at.
     """
 
-    __slots__ = ("mode", "t0", "coefficients")
+    __slots__ = ("mode", "t0", "coefficients", "current")
 
     def __init__(self, mode: str = "interpolate") -> None:
         if mode not in INPUT_MODES:
@@ -327,6 +327,7 @@ class StepDrive:
         lift, rate, acceleration = start
         self.t0 = t
         self.coefficients: tuple[float, ...] = (lift, rate, 0.5 * acceleration)
+        self.current: tuple | None = None
 
     def set_step(
         self,
@@ -340,9 +341,13 @@ class StepDrive:
             self.set_constant(t0, start)
             return
         self.t0, self.coefficients = t0, hermite(t1 - t0, start, end)
+        self.current = None
 
     def at(self, t: float) -> tuple[float, float, float]:
-        """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step."""
+        """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step (inside the piece
+        the exact integrator is on: that piece's polynomial, what it integrates)."""
+        if self.current is not None and self.current[0] <= t <= self.current[1]:
+            return polynomial_motion(self.current[2], t - self.current[0])
         return polynomial_motion(self.coefficients, t - self.t0)
 
     def breakpoints(self, t0: float, t1: float) -> list[float]:
@@ -350,8 +355,11 @@ class StepDrive:
         return []
 
     def piece(self, a: float, b: float) -> tuple[float, ...]:
-        """Coefficients of L(a + tau) (m, tau in s) over [a, b] inside the current step."""
-        return linear_ode.shift(self.coefficients, a - self.t0)
+        """Coefficients of L(a + tau) (m, tau in s) over [a, b] inside the current step
+        (remembered for ``at`` until the next step)."""
+        coefficients = linear_ode.shift(self.coefficients, a - self.t0)
+        self.current = (a, b, coefficients)
+        return coefficients
 
 
 def drive_at(drive: "StepDrive | CamshaftStepDrive", t: float) -> tuple[float, float, float]:
@@ -414,7 +422,7 @@ class CamshaftStepDrive:
     lies inside one segment.
     """
 
-    __slots__ = ("mode", "profile", "geometry", "closed_height", "t0", "angle", "known")
+    __slots__ = ("mode", "profile", "geometry", "closed_height", "t0", "angle", "known", "current")
 
     def __init__(
         self,
@@ -441,6 +449,7 @@ class CamshaftStepDrive:
         """The camshaft over [t0, t1] from its (angle rad, speed rad/s, acceleration
         rad/s^2) at t0 and at t1."""
         self.t0 = t0
+        self.current: tuple | None = None
         if self.mode == "hold" or not t1 > t0:
             self.angle: tuple[float, ...] = (start[0], start[1], 0.5 * start[2])
         else:
@@ -479,7 +488,11 @@ class CamshaftStepDrive:
         return motion
 
     def at(self, t: float) -> tuple[float, float, float]:
-        """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step."""
+        """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step: inside the piece
+        the exact integrator is on, that piece's quintic (what it integrates, so that events
+        and the happenings judged there agree), else the closed forms."""
+        if self.current is not None and self.current[0] <= t <= self.current[1]:
+            return polynomial_motion(self.current[2], t - self.current[0])
         return self.motion(self.camshaft(t))
 
     def breakpoints(self, t0: float, t1: float) -> list[float]:
@@ -540,7 +553,9 @@ class CamshaftStepDrive:
         the quintic Hermite through L, L', L'' at both ends from that segment's law."""
         shaft_a, shaft_b = self.camshaft(a), self.camshaft(b)
         index = segment_index(self.profile, self.camshaft(0.5 * (a + b))[0])
-        return hermite(b - a, self.motion(shaft_a, index), self.motion(shaft_b, index))
+        coefficients = hermite(b - a, self.motion(shaft_a, index), self.motion(shaft_b, index))
+        self.current = (a, b, coefficients)
+        return coefficients
 
 
 MAX_REVOLUTIONS = 100  # camshaft revolutions per communication step the drive follows
@@ -1113,14 +1128,21 @@ def initial_state(p: "Parameters", rocker_lift: float, rocker_velocity: float) -
 
 
 def contact_phase(
-    p: "Parameters", rocker_lift: float, lift: float, landed: bool = False, velocity: float = 0.0
+    p: "Parameters",
+    rocker_lift: float,
+    lift: float,
+    landed: bool = False,
+    velocity: float = 0.0,
+    rocker_velocity: float = 0.0,
 ) -> "Phase":
-    """Phase(touching: d > 0, open: x > 0, or x = 0 moving up (velocity > 0 m/s), landed)
-    at a state; ``landed``: the valve has come down on its seat since the rocker last sat on
-    its base circle (L <= lash). (x = 0 exactly moving up is where leaving the seat and
-    leaving the rocker coincide, at an event that lands on the surface.)"""
+    """Phase(touching: d > 0, or d = 0 closing (L' - v > 0), open: x > 0, or x = 0 moving up
+    (velocity > 0 m/s), landed) at a state; ``landed``: the valve has come down on its seat
+    since the rocker last sat on its base circle (L <= lash). (A surface reached exactly,
+    d = 0 or x = 0, is where an event's located point can land: moving into contact or off
+    the seat there counts as being there.)"""
+    depth = penetration(p, rocker_lift, lift)
     return Phase(
-        penetration(p, rocker_lift, lift) > 0.0,
+        depth > 0.0 or (depth == 0.0 and rocker_velocity - velocity > 0.0),
         lift > 0.0 or (lift == 0.0 and velocity > 0.0),
         landed and rocker_lift - p.lash > 0.0,
     )
@@ -1151,7 +1173,7 @@ def next_phase(
     counted once each.
     """
     found = []
-    now = contact_phase(p, drive[0], lift, before.landed, velocity)
+    now = contact_phase(p, drive[0], lift, before.landed, velocity, drive[1])
     if before.open and not now.open and velocity < 0.0:
         found.append(Happening(SEAT_IMPACT, t, lift, velocity, drive))
         if not before.touching:
