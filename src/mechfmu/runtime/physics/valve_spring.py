@@ -508,11 +508,11 @@ class CamshaftStepDrive:
         tau0, span = t0 - self.t0, t1 - t0
         taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
         angles = [linear_ode.polynomial(self.angle, tau) for tau in taus]
-        turned = abs(angles[-1] - angles[0]) / cam_laws.TAU
-        if not turned <= MAX_REVOLUTIONS:
+        turned = (max(angles) - min(angles)) / cam_laws.TAU
+        if not turned <= MAX_REVOLUTIONS:  # also NaN and inf
             raise RangeError(
                 "camshaft_angle",
-                angles[-1],
+                max(angles, key=lambda angle: abs(angle - angles[0])),
                 f"{angles[0]!r} +- {MAX_REVOLUTIONS} revolutions",
                 "rad",
                 f"the camshaft would turn {turned:.3g} revolutions between t = {t0!r} s and "
