@@ -92,13 +92,13 @@ test-portable: $(FMUS)/.built
 
 # The fast numeric layer on the other CPythons that pyenv provides (OTHER_PYTHONS: versions
 # under `pyenv root`/versions), each in its own .venv-X.Y and fmus-X.Y.
-OTHER_PYTHONS ?= 3.10 3.13
+OTHER_PYTHONS ?= 3.10 3.12 3.13
 PYENV_ROOT ?= $(shell pyenv root 2>/dev/null || echo $(HOME)/.pyenv)
 OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.py \
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
 	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
-	tests/test_portable.py
+	tests/test_portable.py tests/test_sweep_faults.py
 test-other-python:
 	@set -e; for version in $(OTHER_PYTHONS); do \
 		python=$$(ls -d $(PYENV_ROOT)/versions/$$version.*/bin/python3 2>/dev/null \

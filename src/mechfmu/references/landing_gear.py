@@ -36,7 +36,7 @@ def design_geometry(retracted_length: float, extended_length: float) -> tuple[fl
         raise ValueError(f"need 0 < retracted_length < extended_length, got {x_r!r}, {x_e!r}")
     roots = np.roots([1.0, x_r, 0.5 * (x_r * x_r - x_e * x_e)])
     real = roots[np.abs(roots.imag) <= 1e-12 * x_e].real
-    d = float(real[real > 0.0].max())
+    d = float(np.max(real[real > 0.0]))
     h = float(np.sqrt(d * d + x_r * x_r))
     theta_1 = float(np.arctan(x_r / d))
     return d, h, theta_1

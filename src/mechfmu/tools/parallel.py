@@ -6,7 +6,21 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
+import signal
 from typing import Any
+
+
+def _start_worker(initializer: Callable[..., None] | None, initargs: tuple) -> None:
+    """First thing in a worker process: SIGTERM back to its default, then ``initializer``.
+
+    A forked worker inherits the parent's handlers, and the sweep's parent runs under an
+    InterruptGuard whose SIGTERM handler only takes note. A broken executor terminates its
+    surviving workers with SIGTERM and joins them; with the guard's handler they would live
+    on, and the join (CPython 3.12.1's, holding the executor's lock) would never return.
+    """
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if initializer is not None:
+        initializer(*initargs)
 
 
 class LocalPool:
@@ -38,8 +52,8 @@ class LocalPool:
     def _executor(self) -> ProcessPoolExecutor:
         return ProcessPoolExecutor(
             max_workers=self.workers,
-            initializer=self.initializer,
-            initargs=self.initargs,
+            initializer=_start_worker,
+            initargs=(self.initializer, self.initargs),
             mp_context=get_context(self.context) if self.context else None,
         )
 

@@ -497,7 +497,7 @@ def valve_float_point(
         minima = np.flatnonzero(
             np.isfinite(values) & (values <= padded[:-2]) & (values <= padded[2:])
         )
-        for i in minima:
+        for i in minima.tolist():
             lo, hi = x[max(i - 1, 0)], x[min(i + 1, x.size - 1)]
             found = minimize_scalar(
                 lambda z: float(ratio(segment, z)),
