@@ -67,6 +67,7 @@ LAYERS = {
     "test_gear_dynamics.py": "unit",
     "test_suspension_dynamics.py": "unit",
     "test_valve_spring.py": "unit",
+    "test_exact_valve.py": "unit",
     "test_docs.py": "unit",
     "test_work_precision.py": "unit",
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)

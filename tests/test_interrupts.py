@@ -22,9 +22,10 @@ EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
 def valve_scene(folder, stop_time):
     """valve_train_dynamic (three Python FMUs, one integrating) cut or stretched to
-    ``stop_time`` s at its 1e-5 s step."""
+    ``stop_time`` s at a 1e-5 s step (many steps: a run long enough to interrupt)."""
     text = (SCENES / "valve_train_dynamic.toml").read_text()
     text = text.replace("stop_time = 0.02", f"stop_time = {stop_time!r}")
+    text = text.replace("step = 0.001", "step = 0.00001")
     text = text.replace(
         'reference = "reference/', f'reference = "{(SCENES / "reference").as_posix()}/'
     )

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 import ctypes
+import re
 import functools
 import os
 import shutil
@@ -52,8 +53,25 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .scene import ComponentSpec, Connection, Scene
 
 EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.runtime.fmi.slave)
+# how a model marks an input it reads only in one configuration ("Only with drive = camshaft:
+# ..."; mechfmu.runtime.fmi.declarations.only_with): unfed, it is no mistake in the others
+ONLY_WITH = re.compile(r"^Only with (\w+) = (\w+): ")
 STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
 _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
+
+
+def _read(component: Any, variable: Any) -> bool:
+    """Whether the component reads ``variable`` (an input) in the scene's configuration:
+    always, unless its description says "Only with P = V: " and parameter P (the scene's
+    value, else its start value) is not V."""
+    match = ONLY_WITH.match(variable.description or "")
+    if match is None:
+        return True
+    name, wanted = match.groups()
+    value = component.spec.parameters.get(name)
+    if value is None and name in component.variables:
+        value = component.variables[name].start
+    return str(value) == wanted
 
 
 class SimulationError(RuntimeError):
@@ -494,6 +512,7 @@ class Simulation:
                 if v.causality == "input"
                 and (component.name, v.name) not in fed
                 and v.name not in component.spec.inputs
+                and _read(component, v)
             ]
             if unfed:
                 raise SceneError(

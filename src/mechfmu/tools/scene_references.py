@@ -208,10 +208,13 @@ def valve_train_scene(scene: Any) -> Any:
 
 def valve_spring_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain -> ValveSpring: the kinematic columns as valve_train_scene,
-    the valve's dynamics on that drive by scipy (references/valve_spring.py)."""
+    the valve's dynamics on that drive by scipy (references/valve_spring.py); with the
+    valve's drive = camshaft, the drive from the valve's own cam and geometry parameters."""
     _, shaft = _component(scene, "CamshaftDrive")
     _, train = _component(scene, "ValveTrain")
     name, parameters = _component(scene, "ValveSpring")
+    if parameters["drive"] == "camshaft":  # the valve's own cam law and rocker geometry
+        train = {**parameters, "mode": "forward"}
     columns = valve_train_scene(scene)
     dynamics, _ = valve_spring.scene_columns(sample_times(scene), shaft, train, parameters)
     columns.update({f"{name}.{key}": value for key, value in dynamics.items()})

@@ -187,6 +187,13 @@ def motion_outputs(
 EFFECT_PREFIX = "Effect: "
 
 
+def only_with(parameter_name: str, value: str, description: str) -> str:
+    """The description of an input read only while parameter ``parameter_name`` is
+    ``value``: "Only with P = V: ...". The master (cosim/master.py) accepts it unfed in
+    the other configurations."""
+    return f"Only with {parameter_name} = {value}: {description}"
+
+
 def effect(name: str, description: str) -> Variable:
     """A Boolean parameter that switches a physical effect on (all effects default off).
 
@@ -200,23 +207,32 @@ MAX_WALL_TIME = 60.0  # s, default wall-clock bound of one communication step
 
 
 def integrator_variables(
-    default: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-10, max_substep: float = 1e-3
+    default: str = "dopri5",
+    rtol: float = 1e-8,
+    atol: float = 1e-10,
+    max_substep: float = 1e-3,
+    own_methods: tuple[tuple[str, str], ...] = (),
 ) -> tuple[Variable, ...]:
     """The parameters and counters every integrating model declares, by the same names.
 
     A model that declares them is an IntegratingSlave, which keeps its integrator in
     ``self.integrator``: MechSlave then
     bounds the wall-clock time of each communication step by ``max_wall_time``.
+    ``own_methods``: (name, description) of methods only this model has (e.g. ValveSpring's
+    exact), accepted besides INTEGRATORS.
     """
+    methods = INTEGRATORS + tuple(name for name, _ in own_methods)
     return (
         parameter(
             "integrator",
             default,
             "Integration method inside each communication step: "
-            + ", ".join(INTEGRATORS)
+            + ", ".join(methods)
             + " (euler, rk4: fixed sub-step max_substep; "
-            "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases)",
-            values=INTEGRATORS,
+            "dopri5: adaptive Dormand-Prince 5(4); radau: implicit Radau IIA, stiff cases"
+            + "".join(f"; {name}: {text}" for name, text in own_methods)
+            + ")",
+            values=methods,
         ),
         parameter("rtol", rtol, "Relative tolerance of the adaptive methods", unit="1", min=0.0),
         parameter(

@@ -2,15 +2,19 @@
 contact and stopped by a compliant seat, integrated inside each communication step."""
 
 from ..fmi.integrating import IntegratingSlave
+from ..fmi.declarations import only_with
 from ..fmi.slave import Status, input_, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
 from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
 from ..numerics.stepping import advance_through_events
 from ..physics.valve_spring import Happening
+from .valve_train import cam_law_variables, cam_setup, geometry_variables
 from typing import Any
 
 _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
 _UNITS = ("m", "m/s", "m/s2")
+_CAMSHAFT = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
+_CAMSHAFT_UNITS = ("rad", "rad/s", "rad/s2")
 # Apart from the rocker's work the valve system is passive: T + V can grow by no more than
 # the contact work W, over a step and over the run. A step that gains more than
 # ENERGY_GROWTH times the energy in play (the sum of the magnitudes of the energy terms), or
@@ -128,21 +132,73 @@ class ValveSpring(IntegratingSlave):
             "acceleration held)",
             values=vs.INPUT_MODES,
         ),
-        *integrator_variables(default="dopri5", rtol=1e-10, atol=1e-12, max_substep=2e-5),
+        parameter(
+            "drive",
+            "rocker",
+            "What moves the rocker's valve end: rocker (the inputs rocker_lift, "
+            "rocker_velocity, rocker_acceleration, e.g. from ValveTrain) or camshaft (the "
+            "inputs camshaft_angle, camshaft_speed, camshaft_acceleration through the cam law "
+            "and rocker geometry below, ValveTrain's closed forms in forward mode, evaluated "
+            "at any time inside the step; the cam law's segment boundaries are located in "
+            "time)",
+            values=vs.DRIVES,
+        ),
+        *geometry_variables(),
+        *cam_law_variables(),
+        *integrator_variables(
+            default="dopri5",
+            rtol=1e-10,
+            atol=1e-12,
+            max_substep=2e-5,
+            own_methods=(
+                (
+                    vs.EXACT,
+                    "each contact mode solved in closed form on drive pieces of at most "
+                    "max_substep, switches located on it",
+                ),
+            ),
+        ),
         # nominal: the magnitude of a valve lift (the default cam's is 10.5 mm), not 1 m
         input_(
             "rocker_lift",
             0.0,
-            "L: position of the rocker's valve end, the kinematic valve lift (opening positive)",
+            only_with(
+                "drive",
+                "rocker",
+                "L: position of the rocker's valve end, the kinematic valve lift "
+                "(opening positive)",
+            ),
             unit="m",
             nominal=0.01,
         ),
-        input_("rocker_velocity", 0.0, "L' = d(rocker_lift)/dt", unit="m/s"),
+        input_(
+            "rocker_velocity",
+            0.0,
+            only_with("drive", "rocker", "L' = d(rocker_lift)/dt"),
+            unit="m/s",
+        ),
         input_(
             "rocker_acceleration",
             0.0,
-            "L'' = d(rocker_velocity)/dt (for the interpolation inside the step)",
+            only_with(
+                "drive",
+                "rocker",
+                "L'' = d(rocker_velocity)/dt (for the interpolation inside the step)",
+            ),
             unit="m/s2",
+        ),
+        input_("camshaft_angle", 0.0, only_with("drive", "camshaft", "Camshaft angle"), unit="rad"),
+        input_(
+            "camshaft_speed",
+            0.0,
+            only_with("drive", "camshaft", "Camshaft angular speed"),
+            unit="rad/s",
+        ),
+        input_(
+            "camshaft_acceleration",
+            0.0,
+            only_with("drive", "camshaft", "Camshaft angular acceleration"),
+            unit="rad/s2",
         ),
         output(
             "valve_lift",
@@ -157,7 +213,7 @@ class ValveSpring(IntegratingSlave):
             0.0,
             "dv/dt = (contact_force + seat_force - spring_force) / valve_mass",
             unit="m/s2",
-            depends=_INPUTS[:2],
+            depends=_INPUTS[:2] + _CAMSHAFT[:2],
         ),
         output(
             "contact_force",
@@ -165,7 +221,7 @@ class ValveSpring(IntegratingSlave):
             "F_c: force of the rocker on the valve, max(0, k_c d + c_c d') where d > 0",
             unit="N",
             min=0.0,
-            depends=_INPUTS[:2],
+            depends=_INPUTS[:2] + _CAMSHAFT[:2],
         ),
         output(
             "seat_force",
@@ -181,14 +237,14 @@ class ValveSpring(IntegratingSlave):
             "d = rocker_lift - valve_lift - lash: how far the rocker "
             "presses into the valve tip (negative: a gap)",
             unit="m",
-            depends=_INPUTS[:1],
+            depends=_INPUTS[:1] + _CAMSHAFT[:1],
         ),
         output(
             "contact_lost",
             False,
             "The valve is off the rocker (d <= 0) while the rocker "
             "holds it open (rocker_lift > lash): float, or a bounce at the closing",
-            depends=_INPUTS[:1],
+            depends=_INPUTS[:1] + _CAMSHAFT[:1],
         ),
         output(
             "float_events",
@@ -209,7 +265,7 @@ class ValveSpring(IntegratingSlave):
             "F0 x + k x^2 / 2 + k_c d^2 / 2 (d > 0) + k_s x^2 / 2 "
             "(x < 0): valve spring (relative to the closed valve), contact and seat",
             unit="J",
-            depends=_INPUTS[:1],
+            depends=_INPUTS[:1] + _CAMSHAFT[:1],
         ),
         output(
             "contact_work",
@@ -249,17 +305,40 @@ class ValveSpring(IntegratingSlave):
             v["lash"],
         )
         self.max_lift = require_positive("max_valve_lift", v["max_valve_lift"], "m")
-        self.drive = vs.StepDrive(v["input_interpolation"])
+        if v["drive"] not in vs.DRIVES:
+            raise MechanismError(f"drive = {v['drive']!r} is not one of {', '.join(vs.DRIVES)}")
+        if v["drive"] == "camshaft":
+            geometry, profile = cam_setup(v)
+            self.drive = vs.CamshaftStepDrive(profile, geometry, v["input_interpolation"])
+        else:
+            self.drive = vs.StepDrive(v["input_interpolation"])
         self.modes = vs.Modes()
         self.rhs = vs.build_rhs(self.parameters, self.drive, self.modes)
         self.events = vs.build_events(self.parameters, self.drive, self.max_lift)
         return True
 
+    def check_parameters(self) -> None:
+        if self.values["integrator"] != vs.EXACT:
+            super().check_parameters()
+            return
+        self.set_up()
+        self.integrator = vs.ExactIntegrator(
+            require_positive("max_substep", self.values["max_substep"], "s")
+        )
+
+    def rocker(self, inputs: tuple[float, float, float]) -> tuple[float, float, float]:
+        """(L m, L' m/s, L'' m/s^2) of the rocker end for the inputs given at a
+        communication point: the inputs themselves (drive = rocker) or ValveTrain's closed
+        forms at the camshaft's motion (drive = camshaft)."""
+        if isinstance(self.drive, vs.CamshaftStepDrive):
+            return self.drive.motion(inputs)
+        return inputs
+
     def initial_state(self, time: float) -> list[float]:
-        L, rate, _ = self.held_inputs
+        L, rate, _ = self.rocker(self.held_inputs)
         y = vs.initial_state(self.parameters, L, rate)
         if y[0] > self.max_lift:
-            self._refuse_travel(time, y, self.held_inputs)
+            self._refuse_travel(time, y, self.rocker(self.held_inputs))
         self.phase = vs.contact_phase(self.parameters, L, y[0])
         self.engaged = vs.engagement(self.parameters, L, rate, *y[:2])
         return y
@@ -282,8 +361,13 @@ class ValveSpring(IntegratingSlave):
 
     # --- stepping ----------------------------------------------------------------------------
     def read_inputs(self) -> tuple[float, ...]:
+        names, units = (
+            (_CAMSHAFT, _CAMSHAFT_UNITS)
+            if isinstance(self.drive, vs.CamshaftStepDrive)
+            else (_INPUTS, _UNITS)
+        )
         return tuple(
-            require_finite(name, self.values[name], unit) for name, unit in zip(_INPUTS, _UNITS)
+            require_finite(name, self.values[name], unit) for name, unit in zip(names, units)
         )
 
     def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
@@ -315,16 +399,34 @@ class ValveSpring(IntegratingSlave):
             judge(t, y)
             return y
 
-        self.modes.engaged = vs.resume(p, self.engaged, *self.held_inputs[:2], *self.state[:2])
-        y = advance_through_events(
-            self.integrator,
-            self.rhs,
-            start,
-            self.state,
-            time,
-            lambda: self.events[self.modes.engaged],
-            on_event,
+        self.modes.engaged = vs.resume(
+            p, self.engaged, *self.rocker(self.held_inputs)[:2], *self.state[:2]
         )
+        if isinstance(self.integrator, vs.ExactIntegrator):
+            y = vs.integrate_exact(
+                p,
+                self.drive,
+                self.modes,
+                start,
+                self.state,
+                time,
+                on_event,
+                self.integrator,
+                self.max_lift,
+            )
+        else:  # restarted where the camshaft drive's cam law changes segment (none else)
+            y = self.state
+            edges = [start, *self.drive.breakpoints(start, time), time]
+            for a, b in zip(edges[:-1], edges[1:]):
+                y = advance_through_events(
+                    self.integrator,
+                    self.rhs,
+                    a,
+                    y,
+                    b,
+                    lambda: self.events[self.modes.engaged],
+                    on_event,
+                )
         judge(time, y)
         created, peak = self._check_energy(start, self.state, time, y)
         return y, (found, phase[0], self.modes.engaged, created, peak)
@@ -384,7 +486,7 @@ class ValveSpring(IntegratingSlave):
                 f"{scale:.6g} J; gains since the start {created:.6g} J, largest energy in "
                 f"play {peak:.6g} J; a passive valve cannot gain energy): unstable: the "
                 f"sub-step max_substep = {v['max_substep']!r} s exceeds the method's "
-                f"stability limit; reduce max_substep or use radau"
+                f"stability limit; reduce max_substep or use radau or exact"
             )
         return created, peak
 
@@ -392,7 +494,7 @@ class ValveSpring(IntegratingSlave):
         """Outputs at ``time`` from the state and the inputs given for that time."""
         v, p = self.values, self.parameters
         lift, velocity, work = self.state
-        L, rate, _ = self.held_inputs
+        L, rate, _ = self.rocker(self.held_inputs)
         f = vs.forces(p, L, rate, lift, velocity)
         (
             v["valve_lift"],

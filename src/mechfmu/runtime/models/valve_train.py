@@ -42,40 +42,25 @@ _GEOMETRY_DESCRIPTIONS = {
 }
 
 
-class ValveTrain(LinkageSlave):
-    """Tappet, rocker and valve motion from the camshaft motion and a cam law.
-
-    mode = forward: the cam law is the tappet lift (the cam's displacement diagram) and the
-    rocker and valve follow. mode = inverse: the cam law is the desired valve lift and the
-    outputs give the tappet lift the cam must produce (the inverse problem of the coursework).
-    With the valve_spring effect, the contact force between rocker and valve is
-    m a + k lift + F0; where it would have to be negative the valve floats (leaves the
-    rocker): reported as a warning (or, with stop_on_float, as an error).
-    """
-
-    description = (
-        "Cam-driven pushrod valve train (tappet, rocker, valve) on the planar "
-        "constraint solver: forward (cam law on the tappet) or inverse (desired "
-        "valve motion in, cam displacement diagram out); valve spring and float"
-    )
-    VARIABLES = (
-        *(
-            parameter(
-                name,
-                value,
-                _GEOMETRY_DESCRIPTIONS[name],
-                unit="m",
-                min=None if name.startswith("rocker_pivot") or name == "valve_axis_x" else 0.0,
-            )
-            for name, value in GEOMETRY._asdict().items()
-        ),
+def geometry_variables() -> tuple:
+    """The rocker geometry's parameters (ValveGeometry's fields, m), declared once for
+    ValveTrain and ValveSpring's camshaft drive."""
+    return tuple(
         parameter(
-            "mode",
-            "forward",
-            "forward: the cam law is the tappet lift; inverse: the "
-            "cam law is the valve lift and the tappet lift is computed",
-            values=MODES,
-        ),
+            name,
+            value,
+            _GEOMETRY_DESCRIPTIONS[name],
+            unit="m",
+            min=None if name.startswith("rocker_pivot") or name == "valve_axis_x" else 0.0,
+        )
+        for name, value in GEOMETRY._asdict().items()
+    )
+
+
+def cam_law_variables() -> tuple:
+    """The cam law's parameters (CamProfile's fields), declared once for ValveTrain and
+    ValveSpring's camshaft drive."""
+    return (
         parameter(
             "cam_law",
             CAM.law,
@@ -102,6 +87,52 @@ class ValveTrain(LinkageSlave):
             "Camshaft angle of the return; the low dwell fills the rest of the revolution",
             "rad",
         ),
+    )
+
+
+def cam_setup(values: dict) -> tuple:
+    """(ValveGeometry, CamProfile) validated from the parameter values of geometry_variables
+    and cam_law_variables (RangeError names the parameter)."""
+    geometry = vt.check_geometry(
+        vt.ValveGeometry(*(values[name] for name in vt.ValveGeometry._fields))
+    )
+    profile = cam_laws.check_profile(
+        values["cam_law"],
+        values["lift"],
+        values["rise_start"],
+        values["rise_angle"],
+        values["high_dwell_angle"],
+        values["return_angle"],
+    )
+    return geometry, profile
+
+
+class ValveTrain(LinkageSlave):
+    """Tappet, rocker and valve motion from the camshaft motion and a cam law.
+
+    mode = forward: the cam law is the tappet lift (the cam's displacement diagram) and the
+    rocker and valve follow. mode = inverse: the cam law is the desired valve lift and the
+    outputs give the tappet lift the cam must produce (the inverse problem of the coursework).
+    With the valve_spring effect, the contact force between rocker and valve is
+    m a + k lift + F0; where it would have to be negative the valve floats (leaves the
+    rocker): reported as a warning (or, with stop_on_float, as an error).
+    """
+
+    description = (
+        "Cam-driven pushrod valve train (tappet, rocker, valve) on the planar "
+        "constraint solver: forward (cam law on the tappet) or inverse (desired "
+        "valve motion in, cam displacement diagram out); valve spring and float"
+    )
+    VARIABLES = (
+        *geometry_variables(),
+        parameter(
+            "mode",
+            "forward",
+            "forward: the cam law is the tappet lift; inverse: the "
+            "cam law is the valve lift and the tappet lift is computed",
+            values=MODES,
+        ),
+        *cam_law_variables(),
         *solver_variables("constraint_solver"),
         effect(
             "valve_spring",
@@ -166,17 +197,7 @@ class ValveTrain(LinkageSlave):
         v = self.values
         if v["mode"] not in MODES:
             raise RangeError("mode", v["mode"], "{" + ", ".join(MODES) + "}")
-        self.geometry = vt.check_geometry(
-            vt.ValveGeometry(*(v[name] for name in vt.ValveGeometry._fields))
-        )
-        self.profile = cam_laws.check_profile(
-            v["cam_law"],
-            v["lift"],
-            v["rise_start"],
-            v["rise_angle"],
-            v["high_dwell_angle"],
-            v["return_angle"],
-        )
+        self.geometry, self.profile = cam_setup(v)
         self.motion = cam_laws.motion_function(self.profile)
         self.closed_height = vt.rest_position(self.geometry)[1]
         v["float_camshaft_speed"] = -1.0

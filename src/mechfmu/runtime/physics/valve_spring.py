@@ -43,6 +43,13 @@ W(t) - W(0) = T + V - (T + V)(0) + (energy the dashpots dissipated): with both d
 the balance is exact, and with them on T + V can never gain more than W (the FMU refuses a
 step that does: an unstable integration).
 
+Drive and exact integration: L(t) comes from the rocker inputs interpolated across the step
+(StepDrive) or, with the drive from the camshaft (CamshaftStepDrive), from ValveTrain's closed
+forms at the camshaft's angle, the cam law's segment boundaries located in time. Between
+switches the valve is then a linear oscillator m x'' + c x' + K x = f(t) with f a polynomial
+on each drive piece, which integrate_exact solves in closed form (numerics/linear_ode.py),
+locating the switches on the closed form (the integrator value "exact").
+
 Travel limit: the valve can open only so far before its spring retainer meets the valve guide
 (or the spring reaches coil bind), max_valve_lift, 12.5 mm by default (2 mm beyond the 10.5
 mm of the default cam through the rocker). That is a collision that damages a valve train,
@@ -56,11 +63,22 @@ rocker's reaction (the rocker end is a prescribed motion), and the drive's compl
 than the lumped contact stiffness.
 """
 
+import math
+import time as _time
 from collections import namedtuple
 
-from ..errors import MechanismError, RangeError, require_finite, require_positive
-from ..numerics.integrators import Event
-from ..numerics.stepping import hermite, polynomial_motion
+from ..errors import (
+    IntegrationError,
+    MechanismError,
+    RangeError,
+    require_finite,
+    require_positive,
+)
+from ..numerics import linear_ode
+from ..numerics.integrators import EVENT_TOLERANCE, Event, Stats
+from ..numerics.stepping import MAX_EVENTS_PER_STEP, hermite, polynomial_motion
+from . import cam_laws
+from . import valve_train as vt
 from typing import Any
 from collections.abc import Callable
 
@@ -84,6 +102,7 @@ DEFAULT_LASH = 0.0  # m: a hydraulic lash adjuster keeps the rocker on the valve
 DEFAULT_MAX_LIFT = 0.0125
 
 INPUT_MODES = ("interpolate", "hold")
+DRIVES = ("rocker", "camshaft")  # what moves the rocker's valve end (the drive parameter)
 
 Parameters = namedtuple(
     "Parameters",
@@ -96,6 +115,7 @@ Engaged = namedtuple("Engaged", "contact seat")
 CONTACT, SEAT = 0, 1
 SWITCH_EVENTS = ("contact_switch", "seat_switch")  # event names, indexed by CONTACT, SEAT
 TRAVEL_LIMIT = "travel_limit"  # event name: the valve lift rising through max_valve_lift
+OPENING = "opening"  # event name: the valve lift rising through 0 (leaving the seat)
 Happening = namedtuple("Happening", "kind time lift velocity drive")
 FLOAT, REBOUND, SEAT_IMPACT, BOUNCE = "float", "rebound", "seat impact", "bounce"
 
@@ -218,7 +238,12 @@ def energy_scale(p: "Parameters", rocker_lift: float, lift: float, velocity: flo
 
 
 def energy_gain(
-    p: "Parameters", drive: "StepDrive", t0: float, y0: list[float], t1: float, y1: list[float]
+    p: "Parameters",
+    drive: "StepDrive | CamshaftStepDrive",
+    t0: float,
+    y0: list[float],
+    t1: float,
+    y1: list[float],
 ) -> tuple[float, float]:
     """(gain, scale) in J over [t0, t1]: the growth of T + V beyond the contact work,
     (T + V)(t1) - (T + V)(t0) - (W(t1) - W(t0)), which the exact solution keeps <= 0 (the
@@ -287,7 +312,7 @@ class StepDrive:
     The right-hand side keeps one instance and reads it through drive_at.
     """
 
-    __slots__ = ("mode", "t0", "coefficients")
+    __slots__ = ("mode", "t0", "coefficients", "current")
 
     def __init__(self, mode: str = "interpolate") -> None:
         if mode not in INPUT_MODES:
@@ -302,6 +327,7 @@ class StepDrive:
         lift, rate, acceleration = start
         self.t0 = t
         self.coefficients: tuple[float, ...] = (lift, rate, 0.5 * acceleration)
+        self.current: tuple | None = None
 
     def set_step(
         self,
@@ -315,11 +341,225 @@ class StepDrive:
             self.set_constant(t0, start)
             return
         self.t0, self.coefficients = t0, hermite(t1 - t0, start, end)
+        self.current = None
+
+    def at(self, t: float) -> tuple[float, float, float]:
+        """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step (inside the piece
+        the exact integrator is on: that piece's polynomial, what it integrates)."""
+        if self.current is not None and self.current[0] <= t <= self.current[1]:
+            return polynomial_motion(self.current[2], t - self.current[0])
+        return polynomial_motion(self.coefficients, t - self.t0)
+
+    def breakpoints(self, t0: float, t1: float) -> list[float]:
+        """Times in (t0, t1) where a derivative of L jumps: none inside a step."""
+        return []
+
+    def piece(self, a: float, b: float) -> tuple[float, ...]:
+        """Coefficients of L(a + tau) (m, tau in s) over [a, b] inside the current step
+        (remembered for ``at`` until the next step)."""
+        coefficients = linear_ode.shift(self.coefficients, a - self.t0)
+        self.current = (a, b, coefficients)
+        return coefficients
 
 
-def drive_at(drive: StepDrive, t: float) -> tuple[float, float, float]:
+def drive_at(drive: "StepDrive | CamshaftStepDrive", t: float) -> tuple[float, float, float]:
     """(L m, L' m/s, L'' m/s^2) of the rocker end at time t inside the current step."""
-    return polynomial_motion(drive.coefficients, t - drive.t0)
+    return drive.at(t)
+
+
+# --- the drive from the camshaft: ValveTrain's closed forms inside ValveSpring -------------
+
+_SEGMENT_NAMES = ("rise", "high dwell", "return", "low dwell")
+
+
+def _segment_starts(profile: "cam_laws.CamProfile") -> tuple[float, float, float, float]:
+    """Local camshaft angles (rad from rise_start) where rise, high dwell, return and low
+    dwell start."""
+    rise_end = profile.rise_angle
+    return_start = rise_end + profile.high_dwell_angle
+    return (0.0, rise_end, return_start, return_start + profile.return_angle)
+
+
+def segment_index(profile: "cam_laws.CamProfile", camshaft_angle: float) -> int:
+    """0 rise, 1 high dwell, 2 return, 3 low dwell at ``camshaft_angle`` (rad), closed on
+    the left as cam_laws.cam_lift."""
+    local = cam_laws.reduce_angle(camshaft_angle - profile.rise_start)
+    starts = _segment_starts(profile)
+    for index in (3, 2, 1):
+        if local >= starts[index]:
+            return index
+    return 0
+
+
+def segment_cam_lift(
+    profile: "cam_laws.CamProfile", index: int, camshaft_angle: float
+) -> tuple[float, float, float]:
+    """(s m, s1 m/rad, s2 m/rad^2) of segment ``index`` at ``camshaft_angle`` (rad),
+    clamped to the segment: at a boundary, the one-sided limit from inside the segment."""
+    if index == 1:
+        return profile.lift, 0.0, 0.0
+    if index == 3:
+        return 0.0, 0.0, 0.0
+    starts = _segment_starts(profile)
+    length = profile.rise_angle if index == 0 else profile.return_angle
+    offset = cam_laws.reduce_angle(camshaft_angle - profile.rise_start - starts[index])
+    if offset > length + 0.5 * (cam_laws.TAU - length):  # just before the segment's start
+        offset -= cam_laws.TAU
+    lift = cam_laws.segment_lift(profile, cam_laws.SEGMENTS[index // 2], offset / length)
+    return lift.s, lift.s1, lift.s2
+
+
+class CamshaftStepDrive:
+    """The rocker-end motion from the camshaft's motion over one communication step.
+
+    The FMU receives the camshaft's (angle, speed, acceleration) at the end of each step.
+    The angle over the step is a polynomial: ``interpolate`` the quintic Hermite through
+    both ends (exact at constant acceleration), ``hold`` the start's values at constant
+    acceleration. The rocker's valve end follows from the angle by ValveTrain's closed forms
+    (cam_laws.follower_motion, valve_train.forward): L, L', L'' at any time of the step.
+    ``breakpoints`` are the times where the cam law changes segment (the jerk jumps);
+    ``piece`` the quintic Hermite of L through its exact values at both ends of a piece that
+    lies inside one segment.
+    """
+
+    __slots__ = ("mode", "profile", "geometry", "closed_height", "t0", "angle", "known", "current")
+
+    def __init__(
+        self,
+        profile: "cam_laws.CamProfile",
+        geometry: "vt.ValveGeometry",
+        mode: str = "interpolate",
+    ) -> None:
+        if mode not in INPUT_MODES:
+            raise MechanismError(
+                f"input_interpolation = {mode!r} is not one of {', '.join(INPUT_MODES)}"
+            )
+        self.mode, self.profile, self.geometry = mode, profile, geometry
+        self.closed_height = vt.rest_position(geometry)[1]
+        self.known: dict[tuple, tuple[float, float, float]] = {}
+        self.set_step(0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+
+    def set_step(
+        self,
+        t0: float,
+        t1: float,
+        start: tuple[float, float, float],
+        end: tuple[float, float, float],
+    ) -> None:
+        """The camshaft over [t0, t1] from its (angle rad, speed rad/s, acceleration
+        rad/s^2) at t0 and at t1."""
+        self.t0 = t0
+        self.current: tuple | None = None
+        if self.mode == "hold" or not t1 > t0:
+            self.angle: tuple[float, ...] = (start[0], start[1], 0.5 * start[2])
+        else:
+            self.angle = hermite(t1 - t0, start, end)
+
+    def camshaft(self, t: float) -> tuple[float, float, float]:
+        """(angle rad, speed rad/s, acceleration rad/s^2) at time t (s)."""
+        return polynomial_motion(self.angle, t - self.t0)
+
+    def motion(self, shaft: tuple[float, float, float], index: int | None = None) -> tuple:
+        """(L m, L' m/s, L'' m/s^2) for the camshaft motion ``shaft``, on segment ``index``
+        (None: the segment the angle lies in, as ValveTrain). Remembered for the last few
+        calls (a piece's end is the next piece's start; on the dwells L is constant)."""
+        if index is None:
+            index = segment_index(self.profile, shaft[0])
+        key = (index,) if index in (1, 3) else (index, *shaft)
+        known = self.known.get(key)
+        if known is not None:
+            return known
+        angle, speed, acceleration = shaft
+        s, s1, s2 = segment_cam_lift(self.profile, index, angle)
+        train = vt._motion_from_tappet(
+            self.geometry,
+            self.closed_height,
+            s,
+            s1 * speed,
+            s2 * speed * speed + s1 * acceleration,
+        )
+        if len(self.known) > 16:
+            self.known = {k: v for k, v in self.known.items() if len(k) == 1}
+        motion = self.known[key] = (
+            train.valve_lift,
+            train.valve_velocity,
+            train.valve_acceleration,
+        )
+        return motion
+
+    def at(self, t: float) -> tuple[float, float, float]:
+        """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step: inside the piece
+        the exact integrator is on, that piece's quintic (what it integrates, so that events
+        and the happenings judged there agree), else the closed forms."""
+        if self.current is not None and self.current[0] <= t <= self.current[1]:
+            return polynomial_motion(self.current[2], t - self.current[0])
+        return self.motion(self.camshaft(t))
+
+    def breakpoints(self, t0: float, t1: float) -> list[float]:
+        """Sorted times in (t0, t1) (s) where the camshaft angle crosses a boundary of the
+        cam law's segments (located to EVENT_TOLERANCE), found between BREAKPOINT_SAMPLES
+        samples of the angle (monotone between them at any plausible speed)."""
+        boundaries = sorted(
+            {
+                cam_laws.reduce_angle(self.profile.rise_start + a)
+                for a in _segment_starts(self.profile)
+            }
+        )
+        tau0, span = t0 - self.t0, t1 - t0
+        taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
+        angles = [linear_ode.polynomial(self.angle, tau) for tau in taus]
+        turned = (max(angles) - min(angles)) / cam_laws.TAU
+        if not turned <= MAX_REVOLUTIONS:  # also NaN and inf
+            raise RangeError(
+                "camshaft_angle",
+                max(angles, key=lambda angle: abs(angle - angles[0])),
+                f"{angles[0]!r} +- {MAX_REVOLUTIONS} revolutions",
+                "rad",
+                f"the camshaft would turn {turned:.3g} revolutions between t = {t0!r} s and "
+                f"{t1!r} s; the camshaft drive follows at most {MAX_REVOLUTIONS} per step: "
+                f"reduce the step",
+            )
+        found = []
+        tolerance = EVENT_TOLERANCE * max(1.0, abs(t1))
+        for i in range(BREAKPOINT_SAMPLES):
+            low, high = sorted((angles[i], angles[i + 1]))
+            for boundary in boundaries:
+                first = math.ceil((low - boundary) / cam_laws.TAU)
+                last = math.floor((high - boundary) / cam_laws.TAU)
+                for n in range(first, last + 1):
+                    target = boundary + n * cam_laws.TAU
+                    g_a = angles[i] - target
+                    if g_a == 0.0:
+                        found.append(self.t0 + taus[i])
+                        continue
+
+                    def misfit(tau: float, target: float = target) -> float:
+                        return linear_ode.polynomial(self.angle, tau) - target
+
+                    root = linear_ode.find_root(
+                        misfit,
+                        taus[i],
+                        g_a,
+                        taus[i + 1],
+                        angles[i + 1] - target,
+                        tolerance,
+                    )
+                    found.append(self.t0 + root)
+        # a boundary within the location tolerance of a communication point is that point
+        return sorted(t for t in set(found) if t0 + tolerance < t < t1 - tolerance)
+
+    def piece(self, a: float, b: float) -> tuple[float, ...]:
+        """Coefficients of L(a + tau) (m, tau in s) over [a, b], a piece inside one segment:
+        the quintic Hermite through L, L', L'' at both ends from that segment's law."""
+        shaft_a, shaft_b = self.camshaft(a), self.camshaft(b)
+        index = segment_index(self.profile, self.camshaft(0.5 * (a + b))[0])
+        coefficients = hermite(b - a, self.motion(shaft_a, index), self.motion(shaft_b, index))
+        self.current = (a, b, coefficients)
+        return coefficients
+
+
+MAX_REVOLUTIONS = 100  # camshaft revolutions per communication step the drive follows
+BREAKPOINT_SAMPLES = 4  # samples of the camshaft angle per step between which boundaries are sought
 
 
 # --- the system for the integrator: contacts engaged or not -------------------------------
@@ -418,7 +658,7 @@ class Modes:
         self.engaged: Any = engaged  # an Engaged once the integration starts
 
 
-def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
+def build_rhs(p: "Parameters", drive: "StepDrive | CamshaftStepDrive", modes: Modes) -> Callable:
     """y' = rhs(t, y) for y = (x, v, W): the valve's motion and the contact work, with the
     contacts engaged as ``modes`` says (smooth between switches).
 
@@ -428,6 +668,18 @@ def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
     L'' and the Forces tuple (about half the time per call)."""
     m, k, preload, lash = p.mass, p.spring_stiffness, p.spring_preload, p.lash
     kc, cc, ks, cs = p.contact_stiffness, p.contact_damping, p.seat_stiffness, p.seat_damping
+
+    if not isinstance(drive, StepDrive):  # the camshaft drive: its closed forms at each t
+
+        def rhs_closed_form(t: float, y: Any):
+            L, rate, _ = drive.at(t)
+            x, v = y[0], y[1]
+            contact_on, seat_on = modes.engaged
+            contact = kc * (L - x - lash) + cc * (rate - v) if contact_on else 0.0
+            seat = -ks * x - cs * v if seat_on else 0.0
+            return [v, (contact + seat - (preload + k * x)) / m, contact * rate]
+
+        return rhs_closed_form
 
     def rhs(t: float, y: Any):
         tau = t - drive.t0
@@ -445,7 +697,7 @@ def build_rhs(p: "Parameters", drive: StepDrive, modes: Modes) -> Callable:
 
 
 def build_events(
-    p: "Parameters", drive: StepDrive, max_lift: float | None = None
+    p: "Parameters", drive: "StepDrive | CamshaftStepDrive", max_lift: float | None = None
 ) -> dict[Engaged, tuple[Event, ...]]:
     """{Engaged: events to watch in that mode}: each contact's switch function crossing
     towards the other mode (falling while engaged, rising while idle) ends the segment, and
@@ -462,7 +714,9 @@ def build_events(
     def separation(t: float, y: Any):
         return penetration(p, drive_at(drive, t)[0], y[0])
 
-    always = [Event("separation", separation, -1)]
+    # the valve leaving its seat (x rising through 0): judged for the next impact's count
+    # however many bounces one step holds
+    always = [Event("separation", separation, -1), Event(OPENING, lambda t, y: y[0], 1)]
     if max_lift is not None:
         always.append(Event(TRAVEL_LIMIT, lambda t, y: y[0] - max_lift, 1))
     return {
@@ -476,6 +730,395 @@ def build_events(
     }
 
 
+# --- the exact integrator: each contact mode in closed form ---------------------------------
+
+EXACT = "exact"  # the integrator parameter's value for integrate_exact
+MAX_PERIODS = 1000  # periods of the fastest mode per drive piece (a bound on the samples)
+SAMPLES_PER_PERIOD = 12  # switch functions sampled this often per period of the fastest mode
+PRIORITY = (3, 0, 1, 2, 4)  # coincident events: travel limit, contact, seat, separation, opening
+SAFETY = 1.01  # margin on the bounds of _cannot_switch (their own rounding)
+MAX_REFINEMENTS = 64  # turning points looked at per mode segment (short bounces)
+QUADRATURE_SPAN = 2.0  # rad: contact work integrated by 6-point Gauss over pieces this long
+GAUSS_4 = linear_ode.gauss_legendre(4)
+GAUSS_4_SPAN = 1.2  # rad: 4-point Gauss on cos + sin over 1.2 rad errs by 3e-9 relative
+GAUSS_6 = linear_ode.gauss_legendre(6)  # relative error about 1e-9 over 2 rad of oscillation
+
+
+class ExactIntegrator:
+    """Stands in the integrator's place for ValveSpring with integrator = exact: the drive
+    pieces' largest length (max_substep), the work counters (rhs_evaluations counts closed-form
+    evaluations of the state, substeps the drive pieces) and the wall-clock bound."""
+
+    method = EXACT
+
+    def __init__(self, max_substep: float) -> None:
+        if not max_substep > 0.0:
+            raise RangeError(
+                "max_substep", max_substep, "(0, inf]", "s", "the drive's pieces need a length"
+            )
+        self.max_substep = float(max_substep)
+        self.stats = Stats()
+        self.deadline: float | None = None
+
+    def snapshot(self) -> dict[str, Any]:
+        """The counters, for an FMU state."""
+        return self.stats.as_dict()
+
+    def restore(self, snapshot: dict[str, Any]) -> None:
+        for name, value in snapshot.items():
+            setattr(self.stats, name, value)
+
+    def start_clock(self, seconds: float) -> None:
+        """Bound the wall-clock time of the coming step to ``seconds`` (inf: none)."""
+        self.deadline = _time.monotonic() + seconds if math.isfinite(seconds) else None
+
+
+Fired = namedtuple("Fired", "name")  # what integrate_exact passes to its handler
+
+
+def mode_solution(
+    p: "Parameters", engaged: "Engaged", rocker: tuple[float, ...], lift: float, velocity: float
+) -> "linear_ode.Solution":
+    """The valve's motion x(tau) in mode ``engaged`` from (lift m, velocity m/s) at tau = 0,
+    the rocker end at L(tau) = sum rocker[j] tau^j (m): m x'' + c x' + K x = f(tau) with
+    K = k (+ k_c with the contact, + k_s with the seat), c = (c_c) (+ c_s) and
+    f = -F0 (+ k_c (L - lash) + c_c L' with the contact)."""
+    stiffness, damping = p.spring_stiffness, 0.0
+    forcing: tuple[float, ...] = (-p.spring_preload,)
+    if engaged.contact:
+        stiffness += p.contact_stiffness
+        damping += p.contact_damping
+        rate = linear_ode.derivative(rocker)
+        forcing = tuple(
+            p.contact_stiffness * rocker[j]
+            + (p.contact_damping * rate[j] if j < len(rate) else 0.0)
+            for j in range(len(rocker))
+        )
+        forcing = (forcing[0] - p.contact_stiffness * p.lash - p.spring_preload, *forcing[1:])
+    if engaged.seat:
+        stiffness += p.seat_stiffness
+        damping += p.seat_damping
+    return linear_ode.Solution(p.mass, damping, stiffness, forcing, lift, velocity)
+
+
+def integrate_exact(
+    p: "Parameters",
+    drive: "StepDrive | CamshaftStepDrive",
+    modes: "Modes",
+    t0: float,
+    y0: list[float],
+    t1: float,
+    handle: Callable,
+    integrator: "ExactIntegrator",
+    max_lift: float | None = None,
+) -> list[float]:
+    """(x, v, W) at t1 from y0 at t0: each contact mode solved in closed form.
+
+    The step is cut at the drive's breakpoints and into pieces of at most
+    integrator.max_substep; on each piece L(t) is the drive's polynomial (drive.piece) and
+    the valve, in the mode ``modes.engaged``, a linear oscillator driven by it
+    (mode_solution). The switch functions of the mode (each contact's, towards the other
+    mode), the separation (d falling through 0) and the travel limit (x rising through
+    ``max_lift``) are sampled SAMPLES_PER_PERIOD times per period of the mode's fastest
+    motion; the first sign change (as the integrators' events: from a nonzero value to the
+    other sign or 0) is located by find_root to EVENT_TOLERANCE, and ``handle(Fired(name),
+    t, y)`` is called with the state on the far side, as advance_through_events does; it
+    may flip modes.engaged. The contact work W gains the integral of F_c L' (Gauss).
+    """
+    stats = integrator.stats
+    edges = [t0, *drive.breakpoints(t0, t1), t1]
+    x, v, work = y0[0], y0[1], y0[2]
+    events = 0
+    for a, b in zip(edges[:-1], edges[1:]):
+        count = max(1, math.ceil((b - a) / integrator.max_substep * (1.0 - 1e-9)))
+        for i in range(count):
+            start = a + (b - a) * i / count
+            end = b if i == count - 1 else a + (b - a) * (i + 1) / count
+            if integrator.deadline is not None and _time.monotonic() > integrator.deadline:
+                raise IntegrationError(
+                    f"exact: the step to t = {t1!r} s passed its wall-clock bound at "
+                    f"t = {start!r} s; raise max_wall_time"
+                )
+            stats.substeps += 1
+            rocker = drive.piece(start, end)
+            t = start
+            while True:
+                found = _exact_segment(
+                    p, modes.engaged, rocker, t - start, end - start, x, v, max_lift, stats
+                )
+                tau, x, v, gained, name = found
+                work += gained
+                if name is None:
+                    break
+                t = start + tau
+                events += 1
+                if events > MAX_EVENTS_PER_STEP:
+                    raise IntegrationError(
+                        f"more than {MAX_EVENTS_PER_STEP} events before t = {t1!r} s "
+                        f"(last at t = {t!r} s): chattering; reduce the step or soften "
+                        f"the contact"
+                    )
+                x, v, work = handle(Fired(name), t, [x, v, work])
+    return [x, v, work]
+
+
+def _exact_segment(
+    p: "Parameters",
+    engaged: "Engaged",
+    rocker: tuple[float, ...],
+    tau0: float,
+    tau1: float,
+    x: float,
+    v: float,
+    max_lift: float | None,
+    stats: "Stats",
+) -> tuple:
+    """Solve one mode from (x, v) at tau0 over [tau0, tau1] of a piece with rocker
+    polynomial ``rocker`` (in the piece's tau): (tau reached, x, v, work gained, name of
+    the event there or None)."""
+    local = linear_ode.shift(rocker, tau0) if tau0 != 0.0 else rocker
+    rate = linear_ode.derivative(local)
+    rate2 = linear_ode.derivative(rate)
+    solution = mode_solution(p, engaged, local, x, v)
+    kc, cc, ks, cs, lash = (
+        p.contact_stiffness,
+        p.contact_damping,
+        p.seat_stiffness,
+        p.seat_damping,
+        p.lash,
+    )
+    contact_direction = -1 if engaged.contact else 1
+    seat_direction = -1 if engaged.seat else 1
+    polynomial = linear_ode.polynomial
+
+    def values(s: float) -> tuple:
+        """(s, switch values, (x, d), (x', d'), (x'', d'')) at s."""
+        xs, vs = solution.at(s)
+        depth = polynomial(local, s) - xs - lash
+        depth_rate = polynomial(rate, s) - vs
+        spring = kc * depth
+        seat = -ks * xs
+        g = (
+            min(spring, spring + cc * depth_rate),
+            min(seat, seat - cs * vs),
+            depth,
+            xs - max_lift if max_lift is not None else -1.0,
+            xs,
+        )
+        return s, g, (xs, depth), (vs, depth_rate)
+
+    def curvature(point: tuple) -> tuple[float, float]:
+        """(x'', d'') at a sample."""
+        s, _, (xs, _), (vs, _) = point
+        acceleration = solution.acceleration(s, xs, vs)
+        return acceleration, polynomial(rate2, s) - acceleration
+
+    directions = (contact_direction, seat_direction, -1, 1, 1)
+    names = (*SWITCH_EVENTS, "separation", TRAVEL_LIMIT, OPENING)
+    span = tau1 - tau0
+    periods = span * solution.oscillator.rate / (2.0 * math.pi)
+    if not periods <= MAX_PERIODS:
+        raise IntegrationError(
+            f"exact: a drive piece of {span!r} s holds {periods:.3g} periods of the valve's "
+            f"fastest motion (rate {solution.oscillator.rate:.6g} 1/s), more than "
+            f"{MAX_PERIODS}: reduce max_substep"
+        )
+    samples = max(2, math.ceil(periods * SAMPLES_PER_PERIOD))
+    tolerance = EVENT_TOLERANCE * max(1.0, abs(tau1))
+    previous = values(0.0)
+    stats.rhs_evaluations += 1
+    hit = None
+    pending: list[tuple] = []
+    next_sample, refinements = 1, 0
+    if _cannot_switch(p, solution, local, rate, previous, span, max_lift):
+        next_sample = samples + 1  # no sign can change: straight to the end
+    while pending or next_sample <= samples:
+        if pending:
+            current = pending.pop()
+        else:
+            current = values(span if next_sample == samples else span * next_sample / samples)
+            next_sample += 1
+            stats.rhs_evaluations += 1
+        # x or d may turn inside the interval and touch zero between two samples of the
+        # same sign (a short bounce): look at the turning point first where that is
+        # plausible, so that the earliest crossing is the one found
+        if refinements < MAX_REFINEMENTS:
+            turn = _turning_point(previous, current, curvature, solution, rate, tolerance)
+            if turn is not None:
+                refinements += 1
+                stats.rhs_evaluations += 1
+                pending.append(current)
+                pending.append(values(turn))
+                continue
+        s_old, old = previous[0], previous[1]
+        s, g = current[0], current[1]
+        crossing = [k for k in range(5) if _crossing(old[k], g[k], directions[k])]
+        if crossing:
+            best = None
+            for k in crossing:
+
+                def function(q: float, k: int = k) -> float:
+                    stats.rhs_evaluations += 1
+                    return values(q)[1][k]
+
+                root = linear_ode.find_root(function, s_old, old[k], s, g[k], tolerance)
+                if best is None or root < best[0]:
+                    best = (root, k)
+            assert best is not None
+            # functions that cross at the same point (without seat damping the seat's switch
+            # is -k_s x, the opening's x): the one that changes the mode is the event
+            there = values(best[0])[1]
+            fired = [k for k in crossing if _crossing(old[k], there[k], directions[k])]
+            hit = (best[0], min(fired or [best[1]], key=PRIORITY.index))
+            break
+        previous = current
+    end = span if hit is None else hit[0]
+    xs, vs = solution.at(end)
+    gained = _contact_work(p, engaged, solution, local, rate, end) if engaged.contact else 0.0
+    return tau0 + end, xs, vs, gained, None if hit is None else names[hit[1]]
+
+
+def _cannot_switch(
+    p: "Parameters",
+    solution: "linear_ode.Solution",
+    rocker: tuple[float, ...],
+    rate: tuple[float, ...],
+    start: tuple,
+    span: float,
+    max_lift: float | None,
+) -> bool:
+    """Whether no watched function can change sign over [0, span] (s) of the segment: each
+    of x, d, and the four force terms of the two switch functions (-k_s x, -k_s x - c_s v,
+    k_c d, k_c d + c_c d') starts farther from zero than the bound on its change (the
+    polynomial part's variation plus the free motion's bounds), and x stays below the
+    travel limit. A sufficient condition: the segment is then solved without samples."""
+    variation = linear_ode.variation
+    e_bound, rate_bound = solution.free_bounds(span)
+    x_change = variation(solution.particular, span) + 2.0 * e_bound
+    v_change = variation(solution.particular_rate, span) + 2.0 * rate_bound
+    gap = [
+        rocker[j] - (solution.particular[j] if j < len(solution.particular) else 0.0)
+        for j in range(max(len(rocker), len(solution.particular)))
+    ]
+    gap_rate = linear_ode.derivative(gap)
+    d_change = variation(gap, span) + 2.0 * e_bound
+    d_rate_change = variation(gap_rate, span) + 2.0 * rate_bound
+    x, depth = start[2]
+    v, depth_rate = start[3]
+    ks, cs, kc, cc = p.seat_stiffness, p.seat_damping, p.contact_stiffness, p.contact_damping
+    checks = (
+        (x, x_change),
+        (depth, d_change),
+        (ks * x, ks * x_change),
+        (ks * x + cs * v, ks * x_change + cs * v_change),
+        (kc * depth, kc * d_change),
+        (kc * depth + cc * depth_rate, kc * d_change + cc * d_rate_change),
+    )
+    if any(abs(value) <= SAFETY * change for value, change in checks):
+        return False
+    return max_lift is None or x + SAFETY * x_change < max_lift
+
+
+def _turning_point(
+    previous: tuple,
+    current: tuple,
+    curvature: Callable,
+    solution: "linear_ode.Solution",
+    rate: tuple[float, ...],
+    tolerance: float,
+) -> float | None:
+    """The time (s) inside (previous, current) where x or d turns, when it has the same
+    sign at both samples but might reach zero in between: its rate changes sign and the
+    excursion from either end to the turning point, y'^2 / (2 |y''|), reaches
+    at least half the smaller |y| at the ends. None when neither does."""
+    a, b = previous[0], current[0]
+    found = None
+    for j in (0, 1):  # x, then d
+        y_a, y_b = previous[2][j], current[2][j]
+        r_a, r_b = previous[3][j], current[3][j]
+        if (y_a > 0.0) != (y_b > 0.0) or y_a == 0.0 or y_b == 0.0 or r_a * r_b >= 0.0:
+            continue
+        c_a, c_b = curvature(previous)[j], curvature(current)[j]
+        excursion = max(
+            r_a * r_a / (2.0 * abs(c_a)) if c_a != 0.0 else math.inf,
+            r_b * r_b / (2.0 * abs(c_b)) if c_b != 0.0 else math.inf,
+        )
+        if 2.0 * excursion < min(abs(y_a), abs(y_b)):
+            continue
+
+        def speed(q: float, j: int = j) -> float:
+            v = solution.at(q)[1]
+            return v if j == 0 else linear_ode.polynomial(rate, q) - v
+
+        turn = linear_ode.find_root(speed, a, r_a, b, r_b, tolerance)
+        if a + tolerance < turn < b - tolerance and (found is None or turn < found):
+            found = turn
+    return found
+
+
+def _crossing(g0: float, g1: float, direction: int) -> bool:
+    """A crossing from nonzero g0 to the other sign or zero, in ``direction``."""
+    if g0 == 0.0:
+        return False
+    if g0 < 0.0:
+        return g1 >= 0.0 and direction >= 0
+    return g1 <= 0.0 and direction <= 0
+
+
+def _contact_work(
+    p: "Parameters",
+    engaged: "Engaged",
+    solution: "linear_ode.Solution",
+    rocker: tuple[float, ...],
+    rate: tuple[float, ...],
+    span: float,
+) -> float:
+    """Integral of F_c L' over [0, span] (J), the contact engaged, by Gauss-Legendre: 4 points
+    where span holds at most GAUSS_4_SPAN rad of the mode's fastest motion (relative error
+    about 3e-9), else 6 points on pieces of at most QUADRATURE_SPAN rad.
+
+    F_c = k_c (L - lash - x) + c_c (L' - v) with x = x_p + e: the polynomial part
+    k_c (L - lash - x_p) + c_c (L' - x_p') is evaluated as one polynomial, and e, e' from the
+    oscillator's basis (written out: this runs at every Gauss node)."""
+    polynomial = linear_ode.polynomial
+    kc, cc = p.contact_stiffness, p.contact_damping
+    n = max(len(rocker), len(solution.particular))
+    gap = [
+        (rocker[j] if j < len(rocker) else 0.0)
+        - (solution.particular[j] if j < len(solution.particular) else 0.0)
+        for j in range(n)
+    ]
+    gap[0] -= p.lash
+    gap_rate = linear_ode.derivative(gap)
+    force_polynomial = [
+        kc * gap[j] + (cc * gap_rate[j] if j < len(gap_rate) else 0.0) for j in range(n)
+    ]
+    oscillator, e0, rate0 = solution.oscillator, solution.e0, solution.rate0
+    sigma, w02 = oscillator.sigma, oscillator.w02
+    e_coefficient = rate0 + sigma * e0  # e = decay (e0 C + e_coefficient S)
+    rate_coefficient = sigma * rate0 + w02 * e0  # e' = decay (rate0 C - rate_coefficient S)
+    basis = oscillator.basis
+    turn = span * oscillator.rate
+    if turn <= GAUSS_4_SPAN:
+        pieces, (nodes, weights) = 1, GAUSS_4
+    else:
+        pieces, (nodes, weights) = max(1, math.ceil(turn / QUADRATURE_SPAN)), GAUSS_6
+    total = 0.0
+    width = span / pieces
+    for i in range(pieces):
+        half, middle = 0.5 * width, (i + 0.5) * width
+        piece = 0.0
+        for x, w in zip(nodes, weights):
+            s = middle + half * x
+            decay, c, sine = basis(s)
+            e = decay * (e0 * c + e_coefficient * sine)
+            e_rate = decay * (rate0 * c - rate_coefficient * sine)
+            force = polynomial(force_polynomial, s) - kc * e - cc * e_rate
+            piece += w * force * polynomial(rate, s)
+        total += half * piece
+    return total
+
+
 def initial_state(p: "Parameters", rocker_lift: float, rocker_velocity: float) -> list[float]:
     """(x, v, W) at the start: static equilibrium, moving with the rocker, no work done."""
     return [static_equilibrium(p, rocker_lift, rocker_velocity), float(rocker_velocity), 0.0]
@@ -485,12 +1128,23 @@ def initial_state(p: "Parameters", rocker_lift: float, rocker_velocity: float) -
 
 
 def contact_phase(
-    p: "Parameters", rocker_lift: float, lift: float, landed: bool = False
+    p: "Parameters",
+    rocker_lift: float,
+    lift: float,
+    landed: bool = False,
+    velocity: float = 0.0,
+    rocker_velocity: float = 0.0,
 ) -> "Phase":
-    """Phase(touching: d > 0, open: x > 0, landed) at a state; ``landed``: the valve has
-    come down on its seat since the rocker last sat on its base circle (L <= lash)."""
+    """Phase(touching: d > 0, or d = 0 closing (L' - v > 0), open: x > 0, or x = 0 moving up
+    (velocity > 0 m/s), landed) at a state; ``landed``: the valve has come down on its seat
+    since the rocker last sat on its base circle (L <= lash). (A surface reached exactly,
+    d = 0 or x = 0, is where an event's located point can land: moving into contact or off
+    the seat there counts as being there.)"""
+    depth = penetration(p, rocker_lift, lift)
     return Phase(
-        penetration(p, rocker_lift, lift) > 0.0, lift > 0.0, landed and rocker_lift - p.lash > 0.0
+        depth > 0.0 or (depth == 0.0 and rocker_velocity - velocity > 0.0),
+        lift > 0.0 or (lift == 0.0 and velocity > 0.0),
+        landed and rocker_lift - p.lash > 0.0,
     )
 
 
@@ -519,7 +1173,7 @@ def next_phase(
     counted once each.
     """
     found = []
-    now = contact_phase(p, drive[0], lift, before.landed)
+    now = contact_phase(p, drive[0], lift, before.landed, velocity, drive[1])
     if before.open and not now.open and velocity < 0.0:
         found.append(Happening(SEAT_IMPACT, t, lift, velocity, drive))
         if not before.touching:

@@ -100,13 +100,71 @@ def _whole_steps(scene: Any, fraction: float):
 CHECK_TOLERANCES = {"valve_train_dynamic": (1e-6, 1e-3), "valve_float_dynamic": (1e-5, 1e-3)}
 
 
+# the valve's configurations that sims/dynamic_step_accuracy.py compares: (ValveSpring's
+# parameters, what drives it): the rocker inputs from ValveTrain (the scenes before issue
+# 21's goal 4) or the camshaft itself
+CONFIGURATIONS: dict[str, tuple[dict, str]] = {
+    "rocker inputs, dopri5": ({"drive": "rocker", "integrator": "dopri5"}, "rocker"),
+    "rocker inputs, exact": (
+        {"drive": "rocker", "integrator": "exact", "max_substep": 1e-4},
+        "rocker",
+    ),
+    "camshaft, exact (shipped)": (
+        {"drive": "camshaft", "integrator": "exact", "max_substep": 1e-4},
+        "camshaft",
+    ),
+}
+_ROCKER = ("valve_lift", "valve_velocity", "valve_acceleration")
+_CAMSHAFT = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
+
+
+def configured(scene: Any, parameters: dict, driven_by: str) -> Any:
+    """``scene`` (a CamshaftDrive -> ValveTrain -> ValveSpring scene) with the valve's
+    parameters and inputs as given: ``driven_by`` "rocker" (ValveTrain's valve motion into
+    the rocker inputs) or "camshaft" (the camshaft's motion into the camshaft inputs)."""
+    from ...cosim.scene import Connection
+
+    valve = next(name for name, spec in scene.components.items() if spec.fmu == "ValveSpring")
+    train = next(name for name, spec in scene.components.items() if spec.fmu == "ValveTrain")
+    shaft = next(name for name, spec in scene.components.items() if spec.fmu == "CamshaftDrive")
+    kept = [c for c in scene.connections if c.target != valve]
+    if driven_by == "rocker":
+        fed = [
+            Connection(train, source, valve, target)
+            for source, target in zip(
+                _ROCKER, ("rocker_lift", "rocker_velocity", "rocker_acceleration")
+            )
+        ]
+    else:
+        fed = [Connection(shaft, name, valve, name) for name in _CAMSHAFT]
+    components = dict(scene.components)
+    spec = components[valve]
+    components[valve] = dataclasses.replace(
+        spec,
+        parameters={
+            **{k: v for k, v in spec.parameters.items() if k not in ("max_substep",)},
+            **parameters,
+        },
+    )
+    return dataclasses.replace(scene, components=components, connections=kept + fed)
+
+
 def step_accuracy(
-    scene_dir: Any, fmu_dir: Any, name: str, steps: Sequence[float], repeats: int = 3
+    scene_dir: Any,
+    fmu_dir: Any,
+    name: str,
+    steps: Sequence[float],
+    repeats: int = 3,
+    configurations: "dict[str, tuple[dict, str]] | None" = None,
+    reference_step: float = 1e-5,
 ) -> Any:
     """pandas DataFrame: ``name`` run at each communication step in ``steps`` (s, each
-    dividing the span), its loop wall time per simulated s (median of ``repeats``), the
-    right-hand-side evaluations, and its reference check at CHECK_TOLERANCES[name]: the
-    worst deviation as a fraction of its allowance (<= 1 passes), its column and time."""
+    dividing the span) in each of ``configurations`` (CONFIGURATIONS by default), its loop
+    wall time per simulated s (median of ``repeats``), the right-hand-side (exact: closed
+    form) evaluations, and its reference check at CHECK_TOLERANCES[name] against the scipy
+    reference sampled every ``reference_step`` s (computed here, by the same function as
+    the shipped CSV, so every step is checked at all its points): the worst deviation as a
+    fraction of its allowance (<= 1 passes), its column and time."""
     import tempfile
 
     import pandas as pd
@@ -114,34 +172,43 @@ def step_accuracy(
     from ...check import compare
     from ...cosim.run import run_scene
     from ...cosim.scene import find_file
+    from ...cosim.results import write_csv
+    from ..scene_references import REFERENCES, sample_times
 
     rtol, atol = CHECK_TOLERANCES[name]
     shipped = load_scene(find_file(name, (scene_dir,)))
     rows = []
     with tempfile.TemporaryDirectory(prefix="mechfmu_step_accuracy_") as out:
-        for step in steps:
-            scene = dataclasses.replace(shipped, step=float(step))
-            loops = []
-            for _ in range(repeats):
-                result, paths = run_scene(scene, out, fmu_dir, plot=False)
-                loops.append(result.meta["loop_time_s"])
-            assert scene.reference is not None  # every shipped dynamic scene has one
-            check = compare(paths["csv"], scene.reference, rtol, atol)
-            # the column whose largest deviation is the largest share of its allowance
-            worst = check.summary.sort_values("ratio").iloc[-1]
-            loops.sort()
-            rows.append(
-                {
-                    "scene": name,
-                    "step_s": float(step),
-                    "wall_per_simulated": loops[len(loops) // 2]
-                    / (scene.stop_time - scene.start_time),
-                    "rhs_evaluations": result.columns["valve.rhs_evaluations"][-1]
-                    if "valve.rhs_evaluations" in result.columns
-                    else float("nan"),
-                    "worst_of_allowance": float(worst["ratio"]),
-                    "worst_column": str(worst.name),
-                    "worst_time_s": float(worst["worst_time"]),
-                }
-            )
+        fine = dataclasses.replace(shipped, step=float(reference_step))
+        reference = write_csv(
+            Path(out) / f"{name}_reference.csv", sample_times(fine), REFERENCES[name](fine)
+        )
+        for label, (parameters, driven_by) in (configurations or CONFIGURATIONS).items():
+            for step in steps:
+                scene = dataclasses.replace(
+                    configured(shipped, parameters, driven_by), step=float(step)
+                )
+                loops = []
+                for _ in range(repeats):
+                    result, paths = run_scene(scene, out, fmu_dir, plot=False)
+                    loops.append(result.meta["loop_time_s"])
+                check = compare(paths["csv"], reference, rtol, atol)
+                # the column whose largest deviation is the largest share of its allowance
+                worst = check.summary.sort_values("ratio").iloc[-1]
+                loops.sort()
+                rows.append(
+                    {
+                        "scene": name,
+                        "valve": label,
+                        "step_s": float(step),
+                        "wall_per_simulated": loops[len(loops) // 2]
+                        / (scene.stop_time - scene.start_time),
+                        "rhs_evaluations": result.columns["valve.rhs_evaluations"][-1]
+                        if "valve.rhs_evaluations" in result.columns
+                        else float("nan"),
+                        "worst_of_allowance": float(worst["ratio"]),
+                        "worst_column": str(worst.name),
+                        "worst_time_s": float(worst["worst_time"]),
+                    }
+                )
     return pd.DataFrame(rows)

@@ -1,0 +1,245 @@
+"""Exact solution of a damped linear oscillator driven by a polynomial (standard library only).
+
+    m x'' + c x' + k x = g(tau),   g(tau) = sum g_j tau^j,   m > 0, c >= 0, k >= 0
+
+(SI units: m kg, c N.s/m, k N/m, g N, tau s, x m). The solution is a polynomial particular
+solution x_p plus the homogeneous e = x - x_p of e'' + 2 sigma e' + w0^2 e = 0 with
+sigma = c / (2 m), w0^2 = k / m and d2 = w0^2 - sigma^2:
+
+    e(tau)  = exp(-sigma tau) [e0 C(tau) + (e0' + sigma e0) S(tau)]
+    e'(tau) = exp(-sigma tau) [e0' C(tau) - (sigma e0' + w0^2 e0) S(tau)]
+
+with C = cos(w tau), S = sin(w tau) / w, w = sqrt(d2) (under-damped), C = cosh(mu tau),
+S = sinh(mu tau) / mu, mu = sqrt(-d2) (over-damped), and C = 1, S = tau at critical damping
+(the limit of both, so the form is continuous across it). k = 0 is allowed: the particular
+solution then has degree n + 1 (c > 0) or n + 2 (c = 0).
+
+Also here: polynomial evaluation and shifting, a bracketed root finder (Illinois) and
+Gauss-Legendre quadrature, small pure functions used by the exact valve integrator
+(physics/valve_spring.py) and tested alone against numpy/scipy.
+"""
+
+import math
+from collections.abc import Callable
+
+ROOT_ITERATIONS = 200  # Illinois iterations per root (the bracket at least halves every 3)
+
+
+def polynomial(coefficients: tuple[float, ...] | list[float], tau: float) -> float:
+    """p(tau) = sum a_j tau^j for coefficients (a0, a1, ...) (Horner)."""
+    value = 0.0
+    for a in reversed(coefficients):
+        value = value * tau + a
+    return value
+
+
+def derivative(coefficients: tuple[float, ...] | list[float]) -> tuple[float, ...]:
+    """Coefficients of p' for those of p."""
+    return tuple(j * coefficients[j] for j in range(1, len(coefficients))) or (0.0,)
+
+
+def shift(coefficients: tuple[float, ...] | list[float], delta: float) -> tuple[float, ...]:
+    """Coefficients of q(s) = p(s + delta) (repeated synthetic division, Taylor at delta)."""
+    a = list(coefficients)
+    n = len(a)
+    for i in range(n - 1):
+        for j in range(n - 2, i - 1, -1):
+            a[j] += delta * a[j + 1]
+    return tuple(a)
+
+
+def particular_polynomial(
+    mass: float, damping: float, stiffness: float, forcing: tuple[float, ...] | list[float]
+) -> tuple[float, ...]:
+    """Coefficients of the polynomial x_p with m x_p'' + c x_p' + k x_p = g (``forcing``
+    the coefficients of g, N per s^j). Degree of g for k > 0; one more for k = 0 < c (then
+    x_p(0) = 0), two more for k = c = 0 (x_p(0) = x_p'(0) = 0)."""
+    n = len(forcing)
+    if stiffness != 0.0:
+        p = [0.0] * (n + 2)
+        for j in range(n - 1, -1, -1):
+            p[j] = (
+                forcing[j] - damping * (j + 1) * p[j + 1] - mass * (j + 2) * (j + 1) * p[j + 2]
+            ) / stiffness
+        return tuple(p[:n])
+    if damping != 0.0:  # q = x_p': m q' + c q = g, then x_p = integral of q from 0
+        q = [0.0] * (n + 1)
+        for j in range(n - 1, -1, -1):
+            q[j] = (forcing[j] - mass * (j + 1) * q[j + 1]) / damping
+        return (0.0, *(q[j] / (j + 1) for j in range(n)))
+    return (0.0, 0.0, *(forcing[j] / (mass * (j + 1) * (j + 2)) for j in range(n)))
+
+
+class Oscillator:
+    """The homogeneous part of m x'' + c x' + k x = 0: sigma (1/s), w0^2 (1/s^2), d2 =
+    w0^2 - sigma^2 and the fastest rate max(w0, 2 sigma) (1/s) of its solutions."""
+
+    __slots__ = ("sigma", "w02", "d2", "root", "rate")
+
+    def __init__(self, mass: float, damping: float, stiffness: float) -> None:
+        self.sigma = 0.5 * damping / mass
+        self.w02 = stiffness / mass
+        self.d2 = self.w02 - self.sigma * self.sigma
+        self.root = math.sqrt(abs(self.d2))
+        self.rate = max(math.sqrt(self.w02), 2.0 * self.sigma)
+
+    def basis(self, tau: float) -> tuple[float, float, float]:
+        """(exp(-sigma tau), C(tau), S(tau)), see the module docstring."""
+        decay = math.exp(-self.sigma * tau)
+        r = self.root
+        if r * tau < 1e-8:  # critical (or tau tiny): the common limit, to O((r tau)^2)
+            return decay, 1.0, tau
+        if self.d2 > 0.0:
+            angle = r * tau
+            return decay, math.cos(angle), math.sin(angle) / r
+        # over-damped: exp(-sigma tau) cosh(mu tau) without overflowing
+        grow, shrink = math.exp((r - self.sigma) * tau), math.exp(-(r + self.sigma) * tau)
+        return 1.0, 0.5 * (grow + shrink), 0.5 * (grow - shrink) / r
+
+    def free(self, e0: float, rate0: float, tau: float) -> tuple[float, float]:
+        """(e, e') at tau of the free motion from e(0) = e0, e'(0) = rate0."""
+        decay, c, s = self.basis(tau)
+        return (
+            decay * (e0 * c + (rate0 + self.sigma * e0) * s),
+            decay * (rate0 * c - (self.sigma * rate0 + self.w02 * e0) * s),
+        )
+
+
+class Solution:
+    """x(tau), x'(tau) of m x'' + c x' + k x = g(tau) from x(0) = x0, x'(0) = v0."""
+
+    __slots__ = ("oscillator", "particular", "particular_rate", "e0", "rate0", "load")
+
+    def __init__(
+        self,
+        mass: float,
+        damping: float,
+        stiffness: float,
+        forcing: tuple[float, ...] | list[float],
+        x0: float,
+        v0: float,
+    ) -> None:
+        self.oscillator = Oscillator(mass, damping, stiffness)
+        self.load = tuple(g / mass for g in forcing)  # g / m, m/s^2 per s^j
+        self.particular = particular_polynomial(mass, damping, stiffness, forcing)
+        self.particular_rate = derivative(self.particular)
+        self.e0 = x0 - self.particular[0]
+        self.rate0 = v0 - self.particular_rate[0]
+
+    def at(self, tau: float) -> tuple[float, float]:
+        """(x m, x' m/s) at tau (s)."""
+        e, rate = self.oscillator.free(self.e0, self.rate0, tau)
+        return (
+            polynomial(self.particular, tau) + e,
+            polynomial(self.particular_rate, tau) + rate,
+        )
+
+    def free_bounds(self, span: float) -> tuple[float, float]:
+        """Bounds (m, m/s) on |e(tau)| and |e'(tau)| for tau in [0, span] (s): the free
+        motion's |e0| + |e0' + sigma e0| max|S| and |e0'| + |sigma e0' + w0^2 e0| max|S|,
+        with |C| exp(-sigma tau) <= 1 and max|S| <= span (also 1/w when under-damped)."""
+        o = self.oscillator
+        reach = span
+        if o.d2 > 0.0 and o.root * span > 1.0:
+            reach = 1.0 / o.root
+        return (
+            abs(self.e0) + abs(self.rate0 + o.sigma * self.e0) * reach,
+            abs(self.rate0) + abs(o.sigma * self.rate0 + o.w02 * self.e0) * reach,
+        )
+
+    def acceleration(self, tau: float, x: float, v: float) -> float:
+        """x'' (m/s^2) at tau where the state is (x m, v m/s): the equation itself."""
+        o = self.oscillator
+        return polynomial(self.load, tau) - 2.0 * o.sigma * v - o.w02 * x
+
+
+def variation(coefficients: tuple[float, ...] | list[float], span: float) -> float:
+    """A bound on |p(tau) - p(0)| for tau in [0, span] (s): sum of |a_j| span^j, j >= 1."""
+    bound, power = 0.0, 1.0
+    for a in coefficients[1:]:
+        power *= span
+        bound += abs(a) * power
+    return bound
+
+
+def find_root(
+    function: Callable[[float], float],
+    a: float,
+    g_a: float,
+    b: float,
+    g_b: float,
+    tolerance: float,
+) -> float:
+    """A point of [a, b] within ``tolerance`` (s) of a root of ``function``, on the side of
+    b: g(a) != 0 and g(b) has the other sign or is 0 (Illinois method with a bisection at
+    least every third iteration). Returns the end of the final bracket on the b side."""
+    w_a, w_b = g_a, g_b
+    last = 0
+    width_checked = b - a
+    margin = 0.25 * tolerance
+    for k in range(ROOT_ITERATIONS):
+        width = b - a
+        if width <= tolerance:
+            break
+        tau = None
+        if k % 3 == 2:
+            if width > 0.5 * width_checked:
+                tau = a + 0.5 * width
+            width_checked = width
+        if tau is None:
+            denominator = w_b - w_a
+            tau = b - w_b * width / denominator if denominator != 0.0 else a + 0.5 * width
+            if not math.isfinite(tau):
+                tau = a + 0.5 * width
+        tau = min(max(tau, a + margin), b - margin)
+        g = function(tau)
+        if g != 0.0 and (g > 0.0) == (g_a > 0.0):
+            a, g_a, w_a = tau, g, g
+            if last == -1:
+                w_b *= 0.5
+            last = -1
+        else:
+            b, w_b = tau, g
+            if last == 1:
+                w_a *= 0.5
+            last = 1
+    return b
+
+
+def gauss_legendre(n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """Nodes and weights of the n-point Gauss-Legendre rule on [-1, 1] (Newton on P_n)."""
+    nodes, weights = [], []
+    for i in range(1, n + 1):
+        x = math.cos(math.pi * (i - 0.25) / (n + 0.5))
+        for _ in range(100):
+            p0, p1 = 1.0, x
+            for j in range(2, n + 1):
+                p0, p1 = p1, ((2 * j - 1) * x * p1 - (j - 1) * p0) / j
+            slope = n * (x * p1 - p0) / (x * x - 1.0)
+            step = p1 / slope
+            x -= step
+            if abs(step) < 1e-16:
+                break
+        p0, p1 = 1.0, x
+        for j in range(2, n + 1):
+            p0, p1 = p1, ((2 * j - 1) * x * p1 - (j - 1) * p0) / j
+        slope = n * (x * p1 - p0) / (x * x - 1.0)
+        nodes.append(x)
+        weights.append(2.0 / ((1.0 - x * x) * slope * slope))
+    return tuple(reversed(nodes)), tuple(reversed(weights))
+
+
+GAUSS_8 = gauss_legendre(8)
+
+
+def integrate(
+    function: Callable[[float], float],
+    a: float,
+    b: float,
+    rule: tuple[tuple[float, ...], tuple[float, ...]] = GAUSS_8,
+) -> float:
+    """Integral of ``function`` over [a, b] by a Gauss-Legendre rule (default 8 points,
+    exact for polynomials of degree 15)."""
+    half, middle = 0.5 * (b - a), 0.5 * (a + b)
+    nodes, weights = rule
+    return half * sum(w * function(middle + half * x) for x, w in zip(nodes, weights))
