@@ -15,6 +15,7 @@ from fmu_driver import Driven
 from mechfmu.references import valve_spring as ref
 from mechfmu.runtime.models.valve_spring import ValveSpring
 from mechfmu.runtime.numerics import linear_ode as lo
+from mechfmu.runtime.numerics import roots
 from mechfmu.runtime.physics import cam_laws
 from mechfmu.runtime.physics import valve_spring as vs
 from mechfmu.runtime.physics import valve_train as vt
@@ -92,7 +93,7 @@ def test_gauss_legendre_and_the_root_finder():
         assert np.max(np.abs(np.array(nodes) - expected_nodes)) < 1e-14
         assert np.max(np.abs(np.array(weights) - expected_weights)) < 1e-14
     assert lo.integrate(math.exp, 0.0, 2.0) == pytest.approx(math.exp(2.0) - 1.0, rel=1e-14)
-    root = lo.find_root(math.cos, 0.0, 1.0, 3.0, math.cos(3.0), 1e-14)
+    root = roots.find_root(math.cos, 0.0, 1.0, 3.0, math.cos(3.0), 1e-14)
     assert abs(root - math.pi / 2) < 1e-13 and math.cos(root) <= 0.0  # the far side
 
 

@@ -52,6 +52,7 @@ from collections import namedtuple
 
 from ..errors import IntegrationError, MechanismError, RangeError
 from .linalg import Singular as _Singular
+from .roots import crosses, find_root
 from .linalg import lu_factor as _lu_factor
 from .linalg import lu_solve as _lu_solve
 from typing import Any
@@ -506,12 +507,12 @@ class Integrator:
         g_new = [self._event_value(e, t1, y1) for e in watched]
         for i, event in enumerate(watched):
             g0, g1 = g_old[i], g_new[i]
-            if not _crosses(g0, g1, event.direction):
+            if not crosses(g0, g1, event.direction):
                 continue
             t_hi, y_hi, g_hi = t1, y1, g1
             if best is not None:  # only look before the earliest event found so far
                 g_b = self._event_value(event, best[0], best[1])
-                if not _crosses(g0, g_b, event.direction):
+                if not crosses(g0, g_b, event.direction):
                     continue
                 t_hi, y_hi, g_hi = best[0], best[1], g_b
             t_e, y_e = self._locate(f, event, t0, y0, g0, t_hi, y_hi, g_hi, start)
@@ -534,37 +535,13 @@ class Integrator:
         g_b: float,
         start: Any,
     ) -> tuple[float, list[float]]:
-        """Root of g in (t0, b] by the Illinois method [DJ] with bisection safeguard.
+        """Root of g in (t0, b] by the Illinois method [DJ] with bisection safeguard
+        (roots.find_root): the bracket keeps g's old (nonzero) sign at its start, the new
+        sign or 0 at its end. The state at a trial time tau is ONE sub-step of the method
+        from (t0, y0)."""
+        states = {b: y_b}
 
-        Keeps the bracket [a, b]: g(a) has the old (nonzero) sign, g(b) the new sign or 0.
-        The state at a trial time tau is ONE sub-step of the method from (t0, y0). Every
-        second iteration that did not halve the bracket since the last check is a
-        bisection, so the width at least halves every three iterations.
-        """
-        tol = EVENT_TOLERANCE * max(1.0, abs(b))
-        margin = 0.25 * tol
-        a, g_a = t0, g0
-        w_a, w_b = g_a, g_b  # Illinois-weighted function values
-        last = 0  # side replaced last: -1 a, +1 b
-        width_checked = b - a
-        for k in range(MAX_EVENT_ITERATIONS):
-            width = b - a
-            if width <= tol:
-                break
-            if k % 3 == 2:
-                if width > 0.5 * width_checked:
-                    tau = a + 0.5 * width
-                else:
-                    tau = None
-                width_checked = width
-            else:
-                tau = None
-            if tau is None:
-                denominator = w_b - w_a
-                tau = b - w_b * width / denominator if denominator != 0 else a + 0.5 * width
-                if not math.isfinite(tau):
-                    tau = a + 0.5 * width
-            tau = min(max(tau, a + margin), b - margin)
+        def value(tau: float) -> float:
             y_tau = self._trial(f, t0, y0, tau, start)
             if not _all_finite(y_tau):
                 raise IntegrationError(
@@ -572,18 +549,12 @@ class Integrator:
                     f"t = {_fmt(tau)} s while locating event "
                     f"{event.name!r}; reduce max_substep or the tolerances"
                 )
-            g_tau = self._event_value(event, tau, y_tau)
-            if g_tau != 0.0 and (g_tau > 0.0) == (g0 > 0.0):  # still the old sign
-                a, g_a, w_a = tau, g_tau, g_tau
-                if last == -1:
-                    w_b *= 0.5
-                last = -1
-            else:
-                b, y_b, g_b, w_b = tau, y_tau, g_tau, g_tau
-                if last == 1:
-                    w_a *= 0.5
-                last = 1
-        return b, y_b
+            states[tau] = y_tau
+            return self._event_value(event, tau, y_tau)
+
+        tolerance = EVENT_TOLERANCE * max(1.0, abs(b))
+        t_event = find_root(value, t0, g0, b, g_b, tolerance, MAX_EVENT_ITERATIONS)
+        return t_event, states[t_event]
 
     # --- subclass interface ----------------------------------------------------------------
     def _begin_call(self) -> None:
@@ -594,15 +565,6 @@ class Integrator:
 
     def _trial(self, f: Any, t0: float, y0: Any, tau: Any, start: Any):
         raise NotImplementedError
-
-
-def _crosses(g0: float, g1: float, direction: int) -> bool:
-    """A crossing from nonzero g0 to the opposite sign or zero, in the given direction."""
-    if g0 == 0.0:
-        return False
-    if g0 < 0.0:
-        return g1 >= 0.0 and direction >= 0
-    return g1 <= 0.0 and direction <= 0
 
 
 def _is_terminal(event: Event) -> bool:

@@ -74,13 +74,15 @@ from ..errors import (
     require_finite,
     require_positive,
 )
-from ..numerics import linear_ode
+from ..numerics import linear_ode, roots
 from ..numerics.integrators import EVENT_TOLERANCE, Event, Stats
 from ..numerics.stepping import MAX_EVENTS_PER_STEP, hermite, polynomial_motion
 from . import cam_laws
 from . import valve_train as vt
 from typing import Any
 from collections.abc import Callable
+
+Triple = tuple[float, float, float]  # a coordinate (m or rad) and its two rates at one instant
 
 # Defaults (N, m, kg, s), documented in the README and the FMU:
 DEFAULT_MASS = 0.1  # kg: valve, retainer and a third of the spring, as ValveTrain's
@@ -329,13 +331,7 @@ class StepDrive:
         self.coefficients: tuple[float, ...] = (lift, rate, 0.5 * acceleration)
         self.current: tuple | None = None
 
-    def set_step(
-        self,
-        t0: float,
-        t1: float,
-        start: tuple[float, float, float],
-        end: tuple[float, float, float],
-    ) -> None:
+    def set_step(self, t0: float, t1: float, start: Triple, end: Triple) -> None:
         """The motion over [t0, t1] from (L, L', L'') at t0 and at t1."""
         if self.mode == "hold" or not t1 > t0:
             self.set_constant(t0, start)
@@ -439,13 +435,7 @@ class CamshaftStepDrive:
         self.known: dict[tuple, tuple[float, float, float]] = {}
         self.set_step(0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
-    def set_step(
-        self,
-        t0: float,
-        t1: float,
-        start: tuple[float, float, float],
-        end: tuple[float, float, float],
-    ) -> None:
+    def set_step(self, t0: float, t1: float, start: Triple, end: Triple) -> None:
         """The camshaft over [t0, t1] from its (angle rad, speed rad/s, acceleration
         rad/s^2) at t0 and at t1."""
         self.t0 = t0
@@ -536,7 +526,7 @@ class CamshaftStepDrive:
                     def misfit(tau: float, target: float = target) -> float:
                         return linear_ode.polynomial(self.angle, tau) - target
 
-                    root = linear_ode.find_root(
+                    root = roots.find_root(
                         misfit,
                         taus[i],
                         g_a,
@@ -952,7 +942,7 @@ def _exact_segment(
                 continue
         s_old, old = previous[0], previous[1]
         s, g = current[0], current[1]
-        crossing = [k for k in range(5) if _crossing(old[k], g[k], directions[k])]
+        crossing = [k for k in range(5) if roots.crosses(old[k], g[k], directions[k])]
         if crossing:
             best = None
             for k in crossing:
@@ -961,14 +951,14 @@ def _exact_segment(
                     stats.rhs_evaluations += 1
                     return values(q)[1][k]
 
-                root = linear_ode.find_root(function, s_old, old[k], s, g[k], tolerance)
+                root = roots.find_root(function, s_old, old[k], s, g[k], tolerance)
                 if best is None or root < best[0]:
                     best = (root, k)
             assert best is not None
             # functions that cross at the same point (without seat damping the seat's switch
             # is -k_s x, the opening's x): the one that changes the mode is the event
             there = values(best[0])[1]
-            fired = [k for k in crossing if _crossing(old[k], there[k], directions[k])]
+            fired = [k for k in crossing if roots.crosses(old[k], there[k], directions[k])]
             hit = (best[0], min(fired or [best[1]], key=PRIORITY.index))
             break
         previous = current
@@ -1050,19 +1040,10 @@ def _turning_point(
             v = solution.at(q)[1]
             return v if j == 0 else linear_ode.polynomial(rate, q) - v
 
-        turn = linear_ode.find_root(speed, a, r_a, b, r_b, tolerance)
+        turn = roots.find_root(speed, a, r_a, b, r_b, tolerance)
         if a + tolerance < turn < b - tolerance and (found is None or turn < found):
             found = turn
     return found
-
-
-def _crossing(g0: float, g1: float, direction: int) -> bool:
-    """A crossing from nonzero g0 to the other sign or zero, in ``direction``."""
-    if g0 == 0.0:
-        return False
-    if g0 < 0.0:
-        return g1 >= 0.0 and direction >= 0
-    return g1 <= 0.0 and direction <= 0
 
 
 def _contact_work(

@@ -285,21 +285,20 @@ def _measure_case(
     )
     check_null_held(case, last[null_fmu], last[model_fmu])
     span = f"{steps} steps of {loops[model_fmu].step:.3g} s"
-    model_row = Row(
-        BENCHMARK,
-        f"{case.label}: model",
-        medians["model"]["loop"] / steps * MICRO,
-        "us",
-        repeats,
-        notes=f"per step (set inputs, doStep, get outputs); {span}",
-    )
-    null_row = Row(
-        BENCHMARK,
-        f"{case.label}: null",
-        medians["null"]["loop"] / steps * MICRO,
-        "us",
-        repeats,
-        notes=f"per step; do_step returns at once; outputs held their initial values; {span}",
+    notes = {
+        "model": "per step (set inputs, doStep, get outputs)",
+        "null": "per step; do_step returns at once; outputs held their initial values",
+    }
+    model_row, null_row = (
+        Row(
+            BENCHMARK,
+            f"{case.label}: {kind}",
+            medians[kind]["loop"] / steps * MICRO,
+            "us",
+            repeats,
+            notes=f"{notes[kind]}; {span}",
+        )
+        for kind in ("model", "null")
     )
     target = SOLVER_TARGET if "constraint_solver" in case.label else TARGET
     return [
