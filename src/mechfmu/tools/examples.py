@@ -24,7 +24,7 @@ from ..runtime.physics import cam_laws, constraint_models, planar
 from ..runtime.physics import four_bar as fb
 from ..runtime.physics import suspension as statics
 from ..runtime.physics.valve_train import DEFAULT_VALVE_GEOMETRY, ValveGeometry, float_speed
-from .scene_references import model_defaults
+from .scene_references import model_defaults, retraction_arguments
 
 
 def _run(scene: Any, args: Any):
@@ -53,18 +53,8 @@ def gear(args: Any) -> Any:
     LandingGear), the worst deviation of angle, angular velocity and angular acceleration
     from the closed form evaluated at every recorded time."""
     result, paths = _run("gear_retraction", args)
-    stroke = {**model_defaults("PistonActuator"), **result.scene.components["actuator"].parameters}
-    geometry = {**model_defaults("LandingGear"), **result.scene.components["gear"].parameters}
     times = np.asarray(result.times)
-    exact = retraction(
-        times,
-        geometry["attachment_distance"],
-        geometry["pivot_height"],
-        stroke["start_extension"],
-        stroke["end_extension"],
-        stroke["stroke_time"],
-        stroke["profile"],
-    )
+    exact = retraction(times, *retraction_arguments(result.scene)[1:])
     print(
         f"gear retraction: {result.meta['steps']} steps of {result.scene.step} s in "
         f"{result.meta['wall_time_s']:.3f} s wall time"
