@@ -81,6 +81,7 @@ PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gea
 	tests/test_physics_suspension.py tests/test_references.py tests/test_hard_cases.py \
 	tests/test_integrators.py tests/test_planar.py tests/test_four_bar_boundary.py \
 	tests/test_gear_dynamics.py tests/test_suspension_dynamics.py tests/test_valve_spring.py \
+	tests/test_exact_valve.py \
 	tests/test_scenes.py tests/test_outputs.py tests/test_fmus.py tests/test_linkage_fmus.py \
 	tests/test_coupling.py tests/test_study.py tests/test_sweep.py \
 	tests/test_sweep_references.py tests/test_portable.py
@@ -98,7 +99,7 @@ OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.p
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
 	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
-	tests/test_portable.py tests/test_sweep_faults.py
+	tests/test_portable.py tests/test_sweep_faults.py tests/test_exact_valve.py
 test-other-python:
 	@set -e; for version in $(OTHER_PYTHONS); do \
 		python=$$(ls -d $(PYENV_ROOT)/versions/$$version.*/bin/python3 2>/dev/null \
