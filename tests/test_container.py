@@ -23,6 +23,7 @@ from fmu_checks import assert_fmutool_clean
 from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import load_scene
 from mechfmu.tools.container import export_scene_fmu
+from cli_process import run_mechfmu
 
 
 def _master(scene_name, fmu_dir, coupling):
@@ -154,21 +155,14 @@ def test_gear_container_runs_in_a_plain_c_host(fmu_dir, tmp_path):
 
 def test_export_fmu_command(fmu_dir, tmp_path):
     out = tmp_path / "road.fmu"
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mechfmu",
-            "export-fmu",
-            "suspension_road_bump",
-            str(out),
-            "--fmu-dir",
-            str(fmu_dir),
-            "--schedule",
-            "parallel",
-        ],
-        capture_output=True,
-        text=True,
+    done = run_mechfmu(
+        "export-fmu",
+        "suspension_road_bump",
+        str(out),
+        "--fmu-dir",
+        str(fmu_dir),
+        "--schedule",
+        "parallel",
     )
     assert done.returncode == 0, done.stderr
     assert f"wrote {out}: 3 FMUs (load, road, suspension), parallel" in done.stdout

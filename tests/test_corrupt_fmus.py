@@ -3,12 +3,11 @@ for this platform present and a complete shared library), every failure naming t
 the cause in one line, never a traceback or a bus error; a broken Python file inside an FMU
 reported with the FMU's own log (the Python error), not only "Failed to instantiate"."""
 
-import subprocess
-import sys
 import zipfile
 from pathlib import Path
 
 import pytest
+from cli_process import run_mechfmu
 
 ROOT = Path(__file__).resolve().parents[1]
 LIBRARY = "binaries/linux64/PistonActuator.so"
@@ -42,22 +41,8 @@ def rewritten(fmu_dir, target, change):
 def run(tmp_path, fmu, fmu_dir):
     scene = tmp_path / "corrupt.toml"
     scene.write_text(SCENE.format(fmu=Path(fmu).as_posix()))
-    return subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mechfmu",
-            "run",
-            str(scene),
-            "--out",
-            str(tmp_path / "out"),
-            "--fmu-dir",
-            str(fmu_dir),
-            "--no-plot",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
+    return run_mechfmu(
+        "run", str(scene), "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir), "--no-plot"
     )
 
 

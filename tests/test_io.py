@@ -6,8 +6,6 @@ the file, and the line and column."""
 import json
 import os
 import re
-import subprocess
-import sys
 
 import numpy as np
 import pandas as pd
@@ -15,6 +13,7 @@ import pytest
 from conftest import REFERENCES, SCENES
 
 from mechfmu.cosim.run import run_scene
+from cli_process import run_mechfmu
 from mechfmu.io import (
     ResultFileError,
     companion_json,
@@ -248,21 +247,12 @@ def test_read_table_keeps_empty_cells_apart_and_names_bad_cells(tmp_path):
 def test_a_malformed_result_given_to_the_cli_is_one_line_without_traceback(tmp_path):
     bad = tmp_path / "cut.csv"
     bad.write_text((REFERENCES / "gear_retraction.csv").read_text()[:-20])
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mechfmu",
-            "docs",
-            "--reference-plot",
-            str(_scene_with_reference(tmp_path, bad)),
-            "--out",
-            str(tmp_path / "p.png"),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
+    done = run_mechfmu(
+        "docs",
+        "--reference-plot",
+        str(_scene_with_reference(tmp_path, bad)),
+        "--out",
+        str(tmp_path / "p.png"),
     )
     assert done.returncode == 2, done.stderr
     lines = done.stderr.strip().splitlines()
@@ -347,23 +337,8 @@ def test_a_bad_table_is_a_scene_error_before_the_run(fmu_dir, tmp_path):
         '[components.load]\nfmu = "LoadProfile"\n'
         'parameters = { shape = "table", table_file = "load.csv" }\n'
     )
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mechfmu",
-            "run",
-            str(scene),
-            "--out",
-            str(tmp_path / "out"),
-            "--fmu-dir",
-            str(fmu_dir),
-            "--no-plot",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
+    done = run_mechfmu(
+        "run", str(scene), "--out", str(tmp_path / "out"), "--fmu-dir", str(fmu_dir), "--no-plot"
     )
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == [

@@ -7,8 +7,6 @@ rather than the end of the test session.
 
 import json
 import math
-import subprocess
-import sys
 import textwrap
 import time
 
@@ -18,6 +16,7 @@ from fmpy.fmi1 import FMICallException
 from fmu_driver import Driven
 from mechfmu.tools import fuzz
 from mechfmu.runtime.models import MODELS
+from cli_process import run_mechfmu
 
 SEQUENCES = 1000
 
@@ -120,23 +119,8 @@ def test_the_fuzz_harness_catches_crashes_nan_and_silent_discards(
 
 
 def test_fuzz_command_reproduces_one_sequence(fmu_dir, tmp_path):
-    out = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mechfmu",
-            "fuzz",
-            "CrankDrive",
-            "--only",
-            "7",
-            "--fmus",
-            str(fmu_dir),
-            "--out",
-            str(tmp_path),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
+    out = run_mechfmu(
+        "fuzz", "CrankDrive", "--only", "7", "--fmus", str(fmu_dir), "--out", str(tmp_path)
     )
     assert out.returncode == 0, out.stdout + out.stderr
     assert "ok   CrankDrive: 1 sequences" in out.stdout
@@ -350,22 +334,8 @@ _FAILING_SCENE = textwrap.dedent(f"""
 def test_a_failed_run_exits_non_zero_naming_component_time_and_message(fmu_dir, tmp_path):
     scene = tmp_path / "failing.toml"
     scene.write_text(_FAILING_SCENE)
-    out = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mechfmu",
-            "run",
-            str(scene),
-            "--out",
-            str(tmp_path),
-            "--fmu-dir",
-            str(fmu_dir),
-            "--no-plot",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
+    out = run_mechfmu(
+        "run", str(scene), "--out", str(tmp_path), "--fmu-dir", str(fmu_dir), "--no-plot"
     )
     assert out.returncode == 1, out.stdout + out.stderr
     assert "simulation failed: component 'gear' failed at t = 2." in out.stderr, out.stderr

@@ -15,6 +15,7 @@ from mechfmu.cosim.results import read_csv
 from mechfmu.cosim.run import run_scene
 from mechfmu.cosim.scene import Connection, SceneError, load_scene, parse_scene, read_toml
 from mechfmu.tools.scene_references import INTEGRATED, REFERENCES as GENERATED, generate
+from cli_process import run_mechfmu
 
 
 def gear_scene(**changes):
@@ -239,21 +240,14 @@ def test_cli_run_writes_outputs_and_checks_against_the_reference(fmu_dir, tmp_pa
 def test_a_shipped_scene_runs_and_checks_by_name_from_any_directory(fmu_dir, tmp_path):
     """`mechfmu run gear_retraction --check` from a folder that is not the repository: the
     scene and its reference CSV are package data."""
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "mechfmu",
-            "run",
-            "gear_retraction",
-            "--check",
-            "--no-plot",
-            "--fmu-dir",
-            str(fmu_dir),
-        ],
+    done = run_mechfmu(
+        "run",
+        "gear_retraction",
+        "--check",
+        "--no-plot",
+        "--fmu-dir",
+        str(fmu_dir),
         cwd=tmp_path,
-        capture_output=True,
-        text=True,
         timeout=300,
     )
     assert done.returncode == 0, done.stdout + done.stderr
