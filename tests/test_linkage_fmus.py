@@ -254,17 +254,7 @@ def test_four_bar_solver_state_rolls_back_and_re_steps_identically(fmu_dir):
         fmu.close()
 
 
-VALVE_OUTPUTS = (
-    "tappet_lift",
-    "tappet_velocity",
-    "tappet_acceleration",
-    "rocker_angle",
-    "rocker_angular_velocity",
-    "rocker_angular_acceleration",
-    "valve_lift",
-    "valve_velocity",
-    "valve_acceleration",
-)
+VALVE_OUTPUTS = vt_reference.MOTION_FIELDS  # the same names and order as the FMU's outputs
 
 
 def cam_run(path, parameters, speed=150.0, steps=400, revolutions=1.0):

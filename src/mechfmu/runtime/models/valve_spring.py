@@ -15,6 +15,10 @@ _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
 _UNITS = ("m", "m/s", "m/s2")
 _CAMSHAFT = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
 _CAMSHAFT_UNITS = ("rad", "rad/s", "rad/s2")
+# The inputs an output depends on directly, whichever drive feeds the rocker's valve end:
+# its position (rocker lift, or camshaft angle), and its rate too.
+_ON_POSITION = _INPUTS[:1] + _CAMSHAFT[:1]
+_ON_POSITION_AND_RATE = _INPUTS[:2] + _CAMSHAFT[:2]
 # Apart from the rocker's work the valve system is passive: T + V can grow by no more than
 # the contact work W, over a step and over the run. A step that gains more than
 # ENERGY_GROWTH times the energy in play (the sum of the magnitudes of the energy terms), or
@@ -213,7 +217,7 @@ class ValveSpring(IntegratingSlave):
             0.0,
             "dv/dt = (contact_force + seat_force - spring_force) / valve_mass",
             unit="m/s2",
-            depends=_INPUTS[:2] + _CAMSHAFT[:2],
+            depends=_ON_POSITION_AND_RATE,
         ),
         output(
             "contact_force",
@@ -221,7 +225,7 @@ class ValveSpring(IntegratingSlave):
             "F_c: force of the rocker on the valve, max(0, k_c d + c_c d') where d > 0",
             unit="N",
             min=0.0,
-            depends=_INPUTS[:2] + _CAMSHAFT[:2],
+            depends=_ON_POSITION_AND_RATE,
         ),
         output(
             "seat_force",
@@ -237,14 +241,14 @@ class ValveSpring(IntegratingSlave):
             "d = rocker_lift - valve_lift - lash: how far the rocker "
             "presses into the valve tip (negative: a gap)",
             unit="m",
-            depends=_INPUTS[:1] + _CAMSHAFT[:1],
+            depends=_ON_POSITION,
         ),
         output(
             "contact_lost",
             False,
             "The valve is off the rocker (d <= 0) while the rocker "
             "holds it open (rocker_lift > lash): float, or a bounce at the closing",
-            depends=_INPUTS[:1] + _CAMSHAFT[:1],
+            depends=_ON_POSITION,
         ),
         output(
             "float_events",
@@ -265,7 +269,7 @@ class ValveSpring(IntegratingSlave):
             "F0 x + k x^2 / 2 + k_c d^2 / 2 (d > 0) + k_s x^2 / 2 "
             "(x < 0): valve spring (relative to the closed valve), contact and seat",
             unit="J",
-            depends=_INPUTS[:1] + _CAMSHAFT[:1],
+            depends=_ON_POSITION,
         ),
         output(
             "contact_work",
