@@ -418,7 +418,17 @@ class CamshaftStepDrive:
     lies inside one segment.
     """
 
-    __slots__ = ("mode", "profile", "geometry", "closed_height", "t0", "angle", "known", "current")
+    __slots__ = (
+        "mode",
+        "profile",
+        "geometry",
+        "closed_height",
+        "boundaries",
+        "t0",
+        "angle",
+        "known",
+        "current",
+    )
 
     def __init__(
         self,
@@ -432,6 +442,10 @@ class CamshaftStepDrive:
             )
         self.mode, self.profile, self.geometry = mode, profile, geometry
         self.closed_height = vt.rest_position(geometry)[1]
+        # rad in [0, 2 pi): the camshaft angles where the cam law changes segment
+        self.boundaries = sorted(
+            {cam_laws.reduce_angle(profile.rise_start + a) for a in _segment_starts(profile)}
+        )
         self.known: dict[tuple, tuple[float, float, float]] = {}
         self.set_step(0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
@@ -461,7 +475,7 @@ class CamshaftStepDrive:
             return known
         angle, speed, acceleration = shaft
         s, s1, s2 = segment_cam_lift(self.profile, index, angle)
-        train = vt._motion_from_tappet(
+        train = vt.motion_from_tappet(
             self.geometry,
             self.closed_height,
             s,
@@ -489,12 +503,6 @@ class CamshaftStepDrive:
         """Sorted times in (t0, t1) (s) where the camshaft angle crosses a boundary of the
         cam law's segments (located to EVENT_TOLERANCE), found between BREAKPOINT_SAMPLES
         samples of the angle (monotone between them at any plausible speed)."""
-        boundaries = sorted(
-            {
-                cam_laws.reduce_angle(self.profile.rise_start + a)
-                for a in _segment_starts(self.profile)
-            }
-        )
         tau0, span = t0 - self.t0, t1 - t0
         taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
         angles = [linear_ode.polynomial(self.angle, tau) for tau in taus]
@@ -513,7 +521,7 @@ class CamshaftStepDrive:
         tolerance = EVENT_TOLERANCE * max(1.0, abs(t1))
         for i in range(BREAKPOINT_SAMPLES):
             low, high = sorted((angles[i], angles[i + 1]))
-            for boundary in boundaries:
+            for boundary in self.boundaries:
                 first = math.ceil((low - boundary) / cam_laws.TAU)
                 last = math.floor((high - boundary) / cam_laws.TAU)
                 for n in range(first, last + 1):

@@ -568,10 +568,12 @@ def _chain_rates(
     return omega, alpha, driven_rate, driven_acceleration
 
 
-def _motion_from_tappet(
+def motion_from_tappet(
     g: "ValveGeometry", y3_closed: float, lift: float, velocity: float, acceleration: float
 ) -> "ValveTrainMotion":
-    """forward without the input checks (float_speed calls it many times)."""
+    """``forward`` without the input checks, for callers that checked the drive and hold
+    ``y3_closed`` (m, rest_position(g)[1]): float_speed and ValveSpring's camshaft drive call
+    it many times."""
     y1 = g.cam_base_radius + lift
     phi = rocker_from_tappet(g, lift)
     y3 = valve_from_rocker(g, phi)
@@ -599,7 +601,7 @@ def forward(
     lift = require_finite("tappet_lift", tappet_lift, "m")
     velocity = require_finite("tappet_velocity", tappet_velocity, "m/s")
     acceleration = require_finite("tappet_acceleration", tappet_acceleration, "m/s^2")
-    return _motion_from_tappet(g, rest_position(g)[1], lift, velocity, acceleration)
+    return motion_from_tappet(g, rest_position(g)[1], lift, velocity, acceleration)
 
 
 def inverse(
@@ -750,7 +752,7 @@ def float_speed(
         if valve_law:
             lift, accel = s, s2
         else:
-            motion = _motion_from_tappet(g, y3_closed, s, s1, s2)
+            motion = motion_from_tappet(g, y3_closed, s, s1, s2)
             lift, accel = motion.valve_lift, motion.valve_acceleration
         if accel >= 0.0:
             return math.inf
