@@ -154,15 +154,19 @@ def motion_units(unit: str) -> tuple[str, str, str]:
 def motion_inputs(
     names: tuple[str, str, str],
     unit: str,
-    descriptions: tuple[str, str, str],
+    descriptions: tuple[str, ...],
     start: float = 0.0,
+    nominal: float | None = None,
 ) -> tuple[Variable, ...]:
     """Inputs q, dq/dt, d2q/dt2 of one driving coordinate (``names`` in that order, units
-    ``unit``, ``unit``/s, ``unit``/s2); q starts at ``start``, its rates at 0."""
-    starts = (start, 0.0, 0.0)
+    ``unit``, ``unit``/s, ``unit``/s2); q starts at ``start`` with typical magnitude
+    ``nominal`` (in ``unit``), its rates at 0."""
+    starts, nominals = (start, 0.0, 0.0), (nominal, None, None)
     return tuple(
-        input_(name, value, text, unit=u)
-        for name, value, text, u in zip(names, starts, descriptions, motion_units(unit))
+        input_(name, value, text, unit=u, nominal=n)
+        for name, value, text, u, n in zip(
+            names, starts, descriptions, motion_units(unit), nominals
+        )
     )
 
 

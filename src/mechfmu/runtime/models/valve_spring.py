@@ -2,19 +2,20 @@
 contact and stopped by a compliant seat, integrated inside each communication step."""
 
 from ..fmi.integrating import IntegratingSlave
-from ..fmi.declarations import only_with
-from ..fmi.slave import Status, input_, integrator_variables, output, parameter
+from ..fmi.declarations import motion_inputs, motion_units, only_with
+from ..fmi.slave import Status, integrator_variables, output, parameter
 from ..physics import valve_spring as vs
 from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
 from ..numerics.stepping import advance_through_events
 from ..physics.valve_spring import Happening
-from .valve_train import cam_law_variables, cam_setup, geometry_variables
+from .valve_train import CAMSHAFT_DESCRIPTIONS, CAMSHAFT_INPUTS, cam_law_variables, cam_setup
+from .valve_train import geometry_variables
 from typing import Any
 
 _INPUTS = ("rocker_lift", "rocker_velocity", "rocker_acceleration")
-_UNITS = ("m", "m/s", "m/s2")
-_CAMSHAFT = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
-_CAMSHAFT_UNITS = ("rad", "rad/s", "rad/s2")
+_UNITS = motion_units("m")
+_CAMSHAFT = CAMSHAFT_INPUTS
+_CAMSHAFT_UNITS = motion_units("rad")
 # The inputs an output depends on directly, whichever drive feeds the rocker's valve end:
 # its position (rocker lift, or camshaft angle), and its rate too.
 _ON_POSITION = _INPUTS[:1] + _CAMSHAFT[:1]
@@ -163,46 +164,24 @@ class ValveSpring(IntegratingSlave):
             ),
         ),
         # nominal: the magnitude of a valve lift (the default cam's is 10.5 mm), not 1 m
-        input_(
-            "rocker_lift",
-            0.0,
-            only_with(
-                "drive",
-                "rocker",
-                "L: position of the rocker's valve end, the kinematic valve lift "
-                "(opening positive)",
+        *motion_inputs(
+            _INPUTS,
+            "m",
+            tuple(
+                only_with("drive", "rocker", text)
+                for text in (
+                    "L: position of the rocker's valve end, the kinematic valve lift "
+                    "(opening positive)",
+                    "L' = d(rocker_lift)/dt",
+                    "L'' = d(rocker_velocity)/dt (for the interpolation inside the step)",
+                )
             ),
-            unit="m",
             nominal=0.01,
         ),
-        input_(
-            "rocker_velocity",
-            0.0,
-            only_with("drive", "rocker", "L' = d(rocker_lift)/dt"),
-            unit="m/s",
-        ),
-        input_(
-            "rocker_acceleration",
-            0.0,
-            only_with(
-                "drive",
-                "rocker",
-                "L'' = d(rocker_velocity)/dt (for the interpolation inside the step)",
-            ),
-            unit="m/s2",
-        ),
-        input_("camshaft_angle", 0.0, only_with("drive", "camshaft", "Camshaft angle"), unit="rad"),
-        input_(
-            "camshaft_speed",
-            0.0,
-            only_with("drive", "camshaft", "Camshaft angular speed"),
-            unit="rad/s",
-        ),
-        input_(
-            "camshaft_acceleration",
-            0.0,
-            only_with("drive", "camshaft", "Camshaft angular acceleration"),
-            unit="rad/s2",
+        *motion_inputs(
+            _CAMSHAFT,
+            "rad",
+            tuple(only_with("drive", "camshaft", text) for text in CAMSHAFT_DESCRIPTIONS),
         ),
         output(
             "valve_lift",

@@ -17,7 +17,12 @@ from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
 from .linkage import LinkageSlave, solver_variables
 
-_CAM = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
+_CAM = CAMSHAFT_INPUTS = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
+CAMSHAFT_DESCRIPTIONS = (
+    "Camshaft angle",
+    "Camshaft angular speed",
+    "Camshaft angular acceleration",
+)
 _TAPPET = ("tappet_lift", "tappet_velocity", "tappet_acceleration")
 _ROCKER = ("rocker_angle", "rocker_angular_velocity", "rocker_angular_acceleration")
 _VALVE = ("valve_lift", "valve_velocity", "valve_acceleration")
@@ -153,11 +158,7 @@ class ValveTrain(LinkageSlave):
             "valve_spring: treat loss of contact as an error "
             "(the step is discarded) instead of a warning",
         ),
-        *motion_inputs(
-            _CAM,
-            "rad",
-            ("Camshaft angle", "Camshaft angular speed", "Camshaft angular acceleration"),
-        ),
+        *motion_inputs(_CAM, "rad", CAMSHAFT_DESCRIPTIONS),
         *motion_outputs(_TAPPET, "m", "Tappet lift above the cam base circle", _CAM),
         *motion_outputs(_ROCKER, "rad", "Rocker angle from +x (counter-clockwise)", _CAM),
         *motion_outputs(_VALVE, "m", "Valve opening (downward displacement from closed)", _CAM),
