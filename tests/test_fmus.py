@@ -125,6 +125,55 @@ def test_same_fmu_loads_repeatedly_in_one_process(fmu_dir):
         assert result["deflection"][-1] == pytest.approx(0.1375, abs=5e-5)
 
 
+# Loads one FMU `loads` times (fmpy's Driven), then prints, for its entry module's namespace,
+# the interpreter's reference count and the references that objects hold, after each load.
+NAMESPACE_PROBE = """
+import gc, sys, types
+sys.path.insert(0, {tests!r})
+from fmu_driver import Driven
+
+def references(namespace):
+    held = 0
+    for holder in gc.get_referrers(namespace):
+        if isinstance(holder, (tuple, types.FrameType)):  # this call's own arguments
+            continue
+        if isinstance(holder, list):
+            for item in holder:
+                held += item is namespace
+        else:
+            held += 1
+    return sys.getrefcount(namespace) - 2, held  # less this function's name and argument
+
+for load in range({loads}):
+    driven = Driven({path!r}, instance=f"load{{load}}")
+    driven.step(0.01)
+    driven.close()
+    name = [module for module in sys.modules if module.startswith("mechfmu_entry")][0]
+    namespace = sys.modules[name].__dict__
+    print(*references(namespace))
+    del namespace
+"""
+
+
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_repeated_loads_leave_the_entry_namespace_count_true(fmi_version, request):
+    """pythonfmu's loader releases a reference to the entry module's namespace at each load
+    that it never took; the entry takes one for it that nothing releases. A count short of
+    the references held would free the namespace under its module when the interpreter shuts
+    down (a segmentation fault at exit, seen in CI on CPython 3.10)."""
+    folder = request.getfixturevalue("fmu_dir" if fmi_version == 2 else "fmu3_dir")
+    script = NAMESPACE_PROBE.format(
+        tests=str(Path(__file__).parent), loads=4, path=str(folder / "SliderCrank.fmu")
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    counts = [tuple(map(int, line.split())) for line in done.stdout.splitlines()]
+    assert len(counts) == 4, done.stdout
+    for counted, held in counts:
+        assert counted == held, counts
+    assert len(set(counts)) == 1, counts  # nothing gained or lost per load
+
+
 def test_landing_gear_fmu_matches_closed_form_for_direct_inputs(fmu_dir):
     gear = Driven(fmu_dir / "LandingGear.fmu")
     try:

@@ -239,7 +239,8 @@ class FakeServer:
         self.greeting, self.connections = greeting, []
         self.socket = socket.create_server(("127.0.0.1", 0))
         self.address = f"tcp://127.0.0.1:{self.socket.getsockname()[1]}"
-        threading.Thread(target=self._serve, daemon=True).start()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
 
     def _serve(self):
         while True:
@@ -255,7 +256,14 @@ class FakeServer:
                     pass
 
     def close(self):
+        # shutdown wakes the thread's accept (close alone leaves it blocked for the process's life)
+        try:
+            self.socket.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
         self.socket.close()
+        self.thread.join(timeout=5)
+        assert not self.thread.is_alive()
         for connection in self.connections:
             connection.close()
 

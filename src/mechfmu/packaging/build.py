@@ -170,14 +170,23 @@ def null_name(name: str) -> str:
 
 def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any = 2):
     """Source of the FMU's entry module: the model's class, or its null subclass."""
-    # pythonfmu 0.7's loader (findClass) re-runs this file at every instantiation and then
-    # releases one reference to the module namespace that it only borrowed: after the first
-    # instance is freed the namespace is gone and the next load crashes or fails. Each run
-    # of the file therefore keeps one reference of its own. Only the model may be a class here.
+    # pythonfmu's loader (findClass) re-runs this file at every instantiation, with locals of
+    # its own, then releases one reference to the module namespace that it only borrowed. The
+    # run it makes therefore takes one reference that nothing ever releases: held in a Python
+    # list, it would be released when the host's interpreter shuts down, and the namespace
+    # freed under its module (a segmentation fault at exit, seen in CI on CPython 3.10).
+    # ctypes is there in every Python host; a host without Python never finalises the
+    # interpreter, so a list is enough where ctypes is missing (an FMU's own Python does not
+    # ship it). Only the model may be a class here.
     header = (
         f'"""FMU entry point for {fmu_name} (FMI {fmi_version}.0)."""\n'
         "import sys\n"
-        "sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n"
+        "if locals() is not globals():  # run by pythonfmu's findClass\n"
+        "    try:\n"
+        "        import ctypes\n"
+        "        ctypes.pythonapi.Py_IncRef(ctypes.py_object(globals()))\n"
+        "    except (ImportError, AttributeError, OSError):\n"
+        "        sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n"
     )
     null_step = "    def do_step(self, current_time, step_size):\n        return True\n"
     if fmi_version == 3:
