@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 import sweep_worker_faults as faults
-from mechfmu.tools import sweep
+from mechfmu.tools import parallel, sweep
 from mechfmu.cli import main as cli_main
 from mechfmu.cosim.scene import SCENE_DIR as SCENES
 from test_sweep import FMU_DIR, metric, write_scene
@@ -177,6 +177,22 @@ def test_a_stopped_sweep_resumes_without_redoing_finished_points(tmp_path):
     rows, expected = rows_by_index(out), rows_by_index(clean)
     assert sorted(rows) == list(range(8))
     assert all(rows[i][METRIC] == expected[i][METRIC] for i in range(8))
+
+
+def test_no_thread_of_a_sweep_outlives_it(tmp_path, monkeypatch):
+    """Interrupted, restarted after a worker died, or finished with a point alone: the
+    executors' threads are gone when the sweep returns (a later fork would copy their locks;
+    CPython 3.12+ warns of forks in a multi-threaded process)."""
+    python_threads, os_threads = threading.active_count(), parallel.os_threads()
+    _interrupted_after(tmp_path, tmp_path / "stopped", 3)
+    assert threading.active_count() == python_threads
+    assert parallel.os_threads() <= os_threads
+    monkeypatch.setattr(sweep, "run_point", faults.run_point_or_die)
+    monkeypatch.setenv(faults.ALWAYS, "1")
+    summary = small_sweep(tmp_path, tmp_path / "killing", retries=1)
+    assert summary["failed_indices"] == [1] and summary["pool_restarts"] == 1, summary
+    assert threading.active_count() == python_threads
+    assert parallel.os_threads() <= os_threads
 
 
 def test_resume_redoes_the_failed_points(tmp_path):

@@ -6,7 +6,9 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import get_context
+import os
 import signal
+import time
 from typing import Any
 
 
@@ -21,6 +23,24 @@ def _start_worker(initializer: Callable[..., None] | None, initargs: tuple) -> N
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if initializer is not None:
         initializer(*initargs)
+
+
+def os_threads() -> int | None:
+    """How many threads this process has, as the OS counts them (None: no /proc)."""
+    try:
+        return len(os.listdir("/proc/self/task"))
+    except OSError:
+        return None
+
+
+def settle_threads(count: int | None, timeout: float = 1.0) -> None:
+    """Wait, up to ``timeout`` s, until this process is back to ``count`` OS threads.
+
+    Joining a Python thread returns just before its OS thread ends; a fork in that instant
+    still counts it (and CPython 3.12+ warns that the process is multi-threaded)."""
+    deadline = time.monotonic() + timeout
+    while count is not None and (os_threads() or 0) > count and time.monotonic() < deadline:
+        time.sleep(0.001)
 
 
 class LocalPool:
@@ -47,9 +67,10 @@ class LocalPool:
             initargs,
             context,
         )
-        self.executor = self._executor()
+        self.executor: ProcessPoolExecutor | None = self._executor()
 
     def _executor(self) -> ProcessPoolExecutor:
+        self.threads_before = os_threads()  # its threads start with its first point
         return ProcessPoolExecutor(
             max_workers=self.workers,
             initializer=_start_worker,
@@ -57,17 +78,22 @@ class LocalPool:
             mp_context=get_context(self.context) if self.context else None,
         )
 
+    def _running(self) -> ProcessPoolExecutor:
+        if self.executor is None:
+            self.executor = self._executor()
+        return self.executor
+
     def ship(self, paths: Iterable[str]) -> None:
         """Local workers read the FMUs where they are: nothing to send."""
         return None
 
     def submit(self, *arguments: Any) -> Future:
-        """``task(*arguments)`` on a worker."""
-        return self.executor.submit(self.task, *arguments)
+        """``task(*arguments)`` on a worker (new workers after ``idle``)."""
+        return self._running().submit(self.task, *arguments)
 
     def map(self, items: Iterable[Any]) -> Iterator[Any]:
         """``task(item)`` of each item on the workers, in the items' order."""
-        return self.executor.map(self.task, items)
+        return self._running().map(self.task, items)
 
     @staticmethod
     def wait(futures: list[Future], timeout: float) -> set[Future]:
@@ -80,9 +106,16 @@ class LocalPool:
         return isinstance(error, BrokenProcessPool)
 
     def restart(self) -> None:
-        """A new executor in place of a broken one."""
-        self.executor.shutdown(wait=False, cancel_futures=True)
+        """A new executor in place of a broken one (the broken one's workers and thread gone
+        first: see ``close``)."""
+        self.close()
         self.executor = self._executor()
+
+    def idle(self) -> None:
+        """Let the workers go until the next ``submit``: while a point runs ``alone``, no
+        other executor's thread is there when its worker is forked (see ``close``)."""
+        self.close()
+        self.executor = None
 
     def alone(self) -> "LocalPool":
         """A pool of one new worker process, for a point on its last attempt: if that worker
@@ -90,5 +123,17 @@ class LocalPool:
         return LocalPool(1, self.task, self.initializer, self.initargs, self.context)
 
     def close(self, interrupted: bool = False) -> None:
-        """Shut the workers down: at once (``interrupted``) or after their points."""
-        self.executor.shutdown(wait=not interrupted, cancel_futures=interrupted)
+        """Shut the workers down: at once (``interrupted``: their points are abandoned) or
+        after their points.
+
+        Either way this returns once the workers and the executor's thread are gone: a thread
+        still running when later workers are forked (the next sweep's, a restart's) may hold
+        a lock at that instant, and the forked worker inherits it locked for good (CPython
+        3.12+ warns of such forks)."""
+        if self.executor is None:
+            return
+        if interrupted:
+            for worker in list((getattr(self.executor, "_processes", None) or {}).values()):
+                worker.terminate()
+        self.executor.shutdown(wait=True, cancel_futures=interrupted)
+        settle_threads(self.threads_before)

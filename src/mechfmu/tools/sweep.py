@@ -581,6 +581,9 @@ class DaskCluster:
     def restart(self) -> None:
         pass
 
+    def idle(self) -> None:
+        pass
+
     def alone(self) -> Any:
         return self
 
@@ -739,7 +742,8 @@ def _run_points(
     while waiting or last_chance:
         if waiting:
             pool, batch, waiting = runner, waiting, []
-        else:
+        else:  # the runner's part is over: only points on their last attempt remain
+            runner.idle()
             pool, batch = runner.alone(), [last_chance.pop(0)]
         lost = []
         try:
