@@ -198,22 +198,17 @@ def test_fmu_state_round_trip_in_the_dynamics_drive(fmu_dir):
     try:
         for _ in range(50):
             assert gear.step(0.01) is True
-        state = gear.slave.getFMUstate()
-        first = []
-        for _ in range(30):
-            assert gear.step(0.01) is True
-            first.append(
-                (gear.get("gear_angle"), gear.get("cap_pressure"), gear.get("rhs_evaluations"))
-            )
-        gear.slave.setFMUstate(state)
-        gear.time -= 0.3
-        second = []
-        for _ in range(30):
-            assert gear.step(0.01) is True
-            second.append(
-                (gear.get("gear_angle"), gear.get("cap_pressure"), gear.get("rhs_evaluations"))
-            )
-        gear.slave.freeFMUstate(state)
+
+        def steps():
+            rows = []
+            for _ in range(30):
+                assert gear.step(0.01) is True
+                rows.append(
+                    (gear.get("gear_angle"), gear.get("cap_pressure"), gear.get("rhs_evaluations"))
+                )
+            return rows
+
+        first, second = gear.replayed(steps)
         assert first == second
     finally:
         gear.close()

@@ -50,7 +50,8 @@ class LocalPool:
     start method (None: the platform's default; "spawn": a fresh interpreter with no FMU
     loaded). A worker process that dies (killed, out of memory, a crash in an FMU) breaks
     the whole executor: every point not finished is lost with BrokenProcessPool.
-    ``restart`` replaces the executor; the sweep resubmits the lost points."""
+    ``restart`` replaces the executor; the sweep resubmits the lost points. The executor
+    starts with the first point after construction, ``restart`` or ``idle``."""
 
     def __init__(
         self,
@@ -67,20 +68,18 @@ class LocalPool:
             initargs,
             context,
         )
-        self.executor: ProcessPoolExecutor | None = self._executor()
-
-    def _executor(self) -> ProcessPoolExecutor:
-        self.threads_before = os_threads()  # its threads start with its first point
-        return ProcessPoolExecutor(
-            max_workers=self.workers,
-            initializer=_start_worker,
-            initargs=(self.initializer, self.initargs),
-            mp_context=get_context(self.context) if self.context else None,
-        )
+        self.executor: ProcessPoolExecutor | None = None
+        self.threads_before = os_threads()
 
     def _running(self) -> ProcessPoolExecutor:
         if self.executor is None:
-            self.executor = self._executor()
+            self.threads_before = os_threads()  # the executor's threads start now
+            self.executor = ProcessPoolExecutor(
+                max_workers=self.workers,
+                initializer=_start_worker,
+                initargs=(self.initializer, self.initargs),
+                mp_context=get_context(self.context) if self.context else None,
+            )
         return self.executor
 
     def ship(self, paths: Iterable[str]) -> None:
@@ -88,7 +87,7 @@ class LocalPool:
         return None
 
     def submit(self, *arguments: Any) -> Future:
-        """``task(*arguments)`` on a worker (new workers after ``idle``)."""
+        """``task(*arguments)`` on a worker."""
         return self._running().submit(self.task, *arguments)
 
     def map(self, items: Iterable[Any]) -> Iterator[Any]:
@@ -105,17 +104,16 @@ class LocalPool:
         """Whether a point failed because its worker process died (not because of itself)."""
         return isinstance(error, BrokenProcessPool)
 
-    def restart(self) -> None:
-        """A new executor in place of a broken one (the broken one's workers and thread gone
-        first: see ``close``)."""
-        self.close()
-        self.executor = self._executor()
-
     def idle(self) -> None:
-        """Let the workers go until the next ``submit``: while a point runs ``alone``, no
-        other executor's thread is there when its worker is forked (see ``close``)."""
+        """Let the workers go (``close``) until the next ``submit``: while a point runs
+        ``alone``, no other executor's thread is there when its worker is forked."""
         self.close()
         self.executor = None
+
+    def restart(self) -> None:
+        """A new executor in place of a broken one, from the next ``submit`` (the broken
+        one's workers and thread gone first)."""
+        self.idle()
 
     def alone(self) -> "LocalPool":
         """A pool of one new worker process, for a point on its last attempt: if that worker

@@ -14,36 +14,15 @@ S = sinh(mu tau) / mu, mu = sqrt(-d2) (over-damped), and C = 1, S = tau at criti
 (the limit of both, so the form is continuous across it). k = 0 is allowed: the particular
 solution then has degree n + 1 (c > 0) or n + 2 (c = 0).
 
-Also here: polynomial evaluation and shifting, a bracketed root finder (Illinois) and
-Gauss-Legendre quadrature, small pure functions used by the exact valve integrator
-(physics/valve_spring.py) and tested alone against numpy/scipy.
+Also here: Gauss-Legendre quadrature. Small pure functions used by the exact valve
+integrator (physics/valve_spring.py) and tested alone against numpy/scipy; the polynomial
+arithmetic is numerics/polynomials.py's.
 """
 
 import math
 from collections.abc import Callable
 
-
-def polynomial(coefficients: tuple[float, ...] | list[float], tau: float) -> float:
-    """p(tau) = sum a_j tau^j for coefficients (a0, a1, ...) (Horner)."""
-    value = 0.0
-    for a in reversed(coefficients):
-        value = value * tau + a
-    return value
-
-
-def derivative(coefficients: tuple[float, ...] | list[float]) -> tuple[float, ...]:
-    """Coefficients of p' for those of p."""
-    return tuple(j * coefficients[j] for j in range(1, len(coefficients))) or (0.0,)
-
-
-def shift(coefficients: tuple[float, ...] | list[float], delta: float) -> tuple[float, ...]:
-    """Coefficients of q(s) = p(s + delta) (repeated synthetic division, Taylor at delta)."""
-    a = list(coefficients)
-    n = len(a)
-    for i in range(n - 1):
-        for j in range(n - 2, i - 1, -1):
-            a[j] += delta * a[j + 1]
-    return tuple(a)
+from .polynomials import derivative, polynomial
 
 
 def particular_polynomial(
@@ -151,13 +130,12 @@ class Solution:
         return polynomial(self.load, tau) - 2.0 * o.sigma * v - o.w02 * x
 
 
-def variation(coefficients: tuple[float, ...] | list[float], span: float) -> float:
-    """A bound on |p(tau) - p(0)| for tau in [0, span] (s): sum of |a_j| span^j, j >= 1."""
-    bound, power = 0.0, 1.0
-    for a in coefficients[1:]:
-        power *= span
-        bound += abs(a) * power
-    return bound
+def _legendre(n: int, x: float) -> tuple[float, float]:
+    """(P_n(x), P_n'(x)) by the three-term recurrence, for |x| < 1."""
+    p0, p1 = 1.0, x
+    for j in range(2, n + 1):
+        p0, p1 = p1, ((2 * j - 1) * x * p1 - (j - 1) * p0) / j
+    return p1, n * (x * p1 - p0) / (x * x - 1.0)
 
 
 def gauss_legendre(n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
@@ -166,18 +144,12 @@ def gauss_legendre(n: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
     for i in range(1, n + 1):
         x = math.cos(math.pi * (i - 0.25) / (n + 0.5))
         for _ in range(100):
-            p0, p1 = 1.0, x
-            for j in range(2, n + 1):
-                p0, p1 = p1, ((2 * j - 1) * x * p1 - (j - 1) * p0) / j
-            slope = n * (x * p1 - p0) / (x * x - 1.0)
-            step = p1 / slope
+            value, slope = _legendre(n, x)
+            step = value / slope
             x -= step
             if abs(step) < 1e-16:
                 break
-        p0, p1 = 1.0, x
-        for j in range(2, n + 1):
-            p0, p1 = p1, ((2 * j - 1) * x * p1 - (j - 1) * p0) / j
-        slope = n * (x * p1 - p0) / (x * x - 1.0)
+        slope = _legendre(n, x)[1]
         nodes.append(x)
         weights.append(2.0 / ((1.0 - x * x) * slope * slope))
     return tuple(reversed(nodes)), tuple(reversed(weights))

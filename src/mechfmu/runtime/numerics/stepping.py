@@ -50,8 +50,8 @@ def hermite(step: float, start: tuple[float, ...], end: tuple[float, ...]) -> tu
     ``start`` and ``end`` are (value, rate) or (value, rate, second rate) at tau = 0 and
     tau = ``step`` (s); the result is the coefficients (a0, a1, ...) of
     p(tau) = sum a_k tau^k, cubic from two values per end, quintic from three, for
-    polynomial_motion. Written as the Taylor polynomial at the start plus the correction
-    b_k = a_k step^k that meets the end values: with the end's misfits of that Taylor
+    polynomials.polynomial_motion. Written as the Taylor polynomial at the start plus the
+    correction b_k = a_k step^k that meets the end values: with the end's misfits of that Taylor
     polynomial P (value), Q (rate, times step) and R (second rate, times step^2), the
     cubic has b2 = 3P - Q, b3 = Q - 2P and the quintic b3 = 10P - 4Q + R/2,
     b4 = -15P + 7Q - R, b5 = 6P - 3Q + R/2 (the solutions of the end conditions). Exact for
@@ -89,13 +89,3 @@ def hermite(step: float, start: tuple[float, ...], end: tuple[float, ...]) -> tu
         (-15.0 * misfit + 7.0 * rate_misfit - second_misfit) / (h3 * h),
         (6.0 * misfit - 3.0 * rate_misfit + 0.5 * second_misfit) / (h3 * h * h),
     )
-
-
-def polynomial_motion(coefficients: tuple[float, ...], tau: float) -> tuple[float, float, float]:
-    """(p, p', p'') at tau of p(tau) = sum a_k tau^k, coefficients (a0, a1, ...) (Horner)."""
-    value = rate = rate2 = 0.0
-    for a in reversed(coefficients):
-        rate2 = rate2 * tau + 2.0 * rate
-        rate = rate * tau + value
-        value = value * tau + a
-    return value, rate, rate2

@@ -49,7 +49,8 @@ from collections import namedtuple
 
 from . import suspension as statics
 from ..errors import MechanismError, RangeError, require_finite, require_positive
-from ..numerics.stepping import hermite, polynomial_motion
+from ..numerics.polynomials import polynomial_motion
+from ..numerics.stepping import hermite
 from .suspension import Spring
 from collections.abc import Callable
 

@@ -74,9 +74,10 @@ from ..errors import (
     require_finite,
     require_positive,
 )
-from ..numerics import linear_ode, roots
+from ..numerics import linear_ode, polynomials, roots
 from ..numerics.integrators import EVENT_TOLERANCE, Event, Stats
-from ..numerics.stepping import MAX_EVENTS_PER_STEP, hermite, polynomial_motion
+from ..numerics.polynomials import polynomial_motion
+from ..numerics.stepping import MAX_EVENTS_PER_STEP, hermite
 from . import cam_laws
 from . import valve_train as vt
 from typing import Any
@@ -353,7 +354,7 @@ class StepDrive:
     def piece(self, a: float, b: float) -> tuple[float, ...]:
         """Coefficients of L(a + tau) (m, tau in s) over [a, b] inside the current step
         (remembered for ``at`` until the next step)."""
-        coefficients = linear_ode.shift(self.coefficients, a - self.t0)
+        coefficients = polynomials.shift(self.coefficients, a - self.t0)
         self.current = (a, b, coefficients)
         return coefficients
 
@@ -505,7 +506,7 @@ class CamshaftStepDrive:
         samples of the angle (monotone between them at any plausible speed)."""
         tau0, span = t0 - self.t0, t1 - t0
         taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
-        angles = [linear_ode.polynomial(self.angle, tau) for tau in taus]
+        angles = [polynomials.polynomial(self.angle, tau) for tau in taus]
         turned = (max(angles) - min(angles)) / cam_laws.TAU
         if not turned <= MAX_REVOLUTIONS:  # also NaN and inf
             raise RangeError(
@@ -532,7 +533,7 @@ class CamshaftStepDrive:
                         continue
 
                     def misfit(tau: float, target: float = target) -> float:
-                        return linear_ode.polynomial(self.angle, tau) - target
+                        return polynomials.polynomial(self.angle, tau) - target
 
                     root = roots.find_root(
                         misfit,
@@ -786,7 +787,7 @@ def mode_solution(
     if engaged.contact:
         stiffness += p.contact_stiffness
         damping += p.contact_damping
-        rate = linear_ode.derivative(rocker)
+        rate = polynomials.derivative(rocker)
         forcing = tuple(
             p.contact_stiffness * rocker[j]
             + (p.contact_damping * rate[j] if j < len(rate) else 0.0)
@@ -874,9 +875,9 @@ def _exact_segment(
     """Solve one mode from (x, v) at tau0 over [tau0, tau1] of a piece with rocker
     polynomial ``rocker`` (in the piece's tau): (tau reached, x, v, work gained, name of
     the event there or None)."""
-    local = linear_ode.shift(rocker, tau0) if tau0 != 0.0 else rocker
-    rate = linear_ode.derivative(local)
-    rate2 = linear_ode.derivative(rate)
+    local = polynomials.shift(rocker, tau0) if tau0 != 0.0 else rocker
+    rate = polynomials.derivative(local)
+    rate2 = polynomials.derivative(rate)
     solution = mode_solution(p, engaged, local, x, v)
     kc, cc, ks, cs, lash = (
         p.contact_stiffness,
@@ -887,7 +888,7 @@ def _exact_segment(
     )
     contact_direction = -1 if engaged.contact else 1
     seat_direction = -1 if engaged.seat else 1
-    polynomial = linear_ode.polynomial
+    polynomial = polynomials.polynomial
 
     def values(s: float) -> tuple:
         """(s, switch values, (x, d), (x', d'), (x'', d'')) at s."""
@@ -990,7 +991,7 @@ def _cannot_switch(
     k_c d, k_c d + c_c d') starts farther from zero than the bound on its change (the
     polynomial part's variation plus the free motion's bounds), and x stays below the
     travel limit. A sufficient condition: the segment is then solved without samples."""
-    variation = linear_ode.variation
+    variation = polynomials.variation
     e_bound, rate_bound = solution.free_bounds(span)
     x_change = variation(solution.particular, span) + 2.0 * e_bound
     v_change = variation(solution.particular_rate, span) + 2.0 * rate_bound
@@ -998,7 +999,7 @@ def _cannot_switch(
         rocker[j] - (solution.particular[j] if j < len(solution.particular) else 0.0)
         for j in range(max(len(rocker), len(solution.particular)))
     ]
-    gap_rate = linear_ode.derivative(gap)
+    gap_rate = polynomials.derivative(gap)
     d_change = variation(gap, span) + 2.0 * e_bound
     d_rate_change = variation(gap_rate, span) + 2.0 * rate_bound
     x, depth = start[2]
@@ -1046,7 +1047,7 @@ def _turning_point(
 
         def speed(q: float, j: int = j) -> float:
             v = solution.at(q)[1]
-            return v if j == 0 else linear_ode.polynomial(rate, q) - v
+            return v if j == 0 else polynomials.polynomial(rate, q) - v
 
         turn = roots.find_root(speed, a, r_a, b, r_b, tolerance)
         if a + tolerance < turn < b - tolerance and (found is None or turn < found):
@@ -1069,7 +1070,7 @@ def _contact_work(
     F_c = k_c (L - lash - x) + c_c (L' - v) with x = x_p + e: the polynomial part
     k_c (L - lash - x_p) + c_c (L' - x_p') is evaluated as one polynomial, and e, e' from the
     oscillator's basis (written out: this runs at every Gauss node)."""
-    polynomial = linear_ode.polynomial
+    polynomial = polynomials.polynomial
     kc, cc = p.contact_stiffness, p.contact_damping
     n = max(len(rocker), len(solution.particular))
     gap = [
@@ -1078,7 +1079,7 @@ def _contact_work(
         for j in range(n)
     ]
     gap[0] -= p.lash
-    gap_rate = linear_ode.derivative(gap)
+    gap_rate = polynomials.derivative(gap)
     force_polynomial = [
         kc * gap[j] + (cc * gap_rate[j] if j < len(gap_rate) else 0.0) for j in range(n)
     ]
