@@ -60,7 +60,7 @@ lock:
 	$(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/python -m pip install --quiet --disable-pip-version-check uv
 	.venv-lock/bin/uv pip compile pyproject.toml --universal --python-version 3.10 \
-		--generate-hashes --extra test --extra docs --extra cluster --no-header --quiet \
+		--generate-hashes --extra test --extra docs --extra cluster --extra video --extra parquet --no-header --quiet \
 		-o requirements.lock.txt
 
 # The suite against the newest releases pyproject.toml allows (not the lock): its own
