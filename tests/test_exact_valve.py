@@ -18,6 +18,7 @@ from mechfmu.runtime.numerics import linear_ode as lo
 from mechfmu.runtime.numerics import polynomials
 from mechfmu.runtime.numerics import roots
 from mechfmu.runtime.physics import cam_laws
+from mechfmu.runtime.physics import valve_exact
 from mechfmu.runtime.physics import valve_spring as vs
 from mechfmu.runtime.physics import valve_train as vt
 from mechfmu.tools.scene_references import model_defaults
@@ -83,8 +84,12 @@ def test_polynomial_helpers_agree_with_numpy():
     for tau in (-0.5, 0.0, 0.8):
         assert shifted(tau) == pytest.approx(numpy_p(tau + 0.4), rel=1e-12)
     assert polynomials.derivative(coefficients) == pytest.approx(tuple(numpy_p.deriv().coef))
-    taus = np.linspace(0.0, 0.9, 301)
-    assert np.max(np.abs(numpy_p(taus) - numpy_p(0.0))) <= polynomials.variation(coefficients, 0.9)
+    for start, end in ((0.0, 0.9), (0.3, 0.9), (0.5, 0.5)):
+        taus = np.linspace(start, end, 301)
+        change = numpy_p(taus) - numpy_p(start)
+        lowest, highest = polynomials.change_bounds(coefficients, start, end)
+        assert lowest <= change.min() + 1e-15 and change.max() <= highest + 1e-15
+        assert lowest <= 0.0 <= highest
 
 
 def test_gauss_legendre_and_the_root_finder():
@@ -104,11 +109,12 @@ def test_gauss_legendre_and_the_root_finder():
 @pytest.mark.parametrize("contact", [False, True])
 @pytest.mark.parametrize("seat", [False, True])
 def test_each_mode_meets_a_tight_scipy_solution(contact, seat):
-    """mode_solution: the valve in one mode driven by a quintic rocker motion."""
+    """ForcedMotion and ModeSegment: the valve in one mode driven by a quintic rocker motion,
+    from the piece's start and from inside it."""
     rocker = (2e-3, 1.5, 300.0, -2e5, 4e7, -3e9)  # m per s^j: a lift of 2 mm rising
     engaged = vs.Engaged(contact, seat)
     x0, v0, span = 1.9e-3, 1.2, 3e-4
-    solution = vs.mode_solution(P, engaged, rocker, x0, v0)
+    forced = valve_exact.ForcedMotion(P, engaged, rocker)
     L = np.polynomial.Polynomial(rocker)
 
     def rhs(t, y):
@@ -121,10 +127,20 @@ def test_each_mode_meets_a_tight_scipy_solution(contact, seat):
         spring = P.spring_preload + P.spring_stiffness * y[0]
         return [y[1], (contact_force + seat_force - spring) / P.mass]
 
-    expected = solve_ivp(rhs, (0, span), [x0, v0], method="DOP853", rtol=1e-13, atol=1e-18)
-    x, v = solution.at(span)
+    expected = solve_ivp(
+        rhs, (0, span), [x0, v0], method="DOP853", rtol=1e-13, atol=1e-18, dense_output=True
+    )
+    x, v, depth, depth_rate = valve_exact.ModeSegment(forced, 0.0, x0, v0).state(span)
     assert x == pytest.approx(expected.y[0, -1], rel=1e-9, abs=1e-15)
     assert v == pytest.approx(expected.y[1, -1], rel=1e-8, abs=1e-11)
+    assert depth == pytest.approx(L(span) - x - P.lash, rel=1e-12, abs=1e-18)
+    assert depth_rate == pytest.approx(L.deriv()(span) - v, rel=1e-12, abs=1e-15)
+    # a segment that starts inside the piece: the same motion from its state there
+    middle = 0.4 * span
+    x1, v1 = expected.sol(middle)
+    again = valve_exact.ModeSegment(forced, middle, x1, v1).state(span - middle)
+    assert again[0] == pytest.approx(expected.y[0, -1], rel=1e-9, abs=1e-15)
+    assert again[1] == pytest.approx(expected.y[1, -1], rel=1e-8, abs=1e-11)
 
 
 def camshaft_slave(integrator="exact", speed=300.0, **parameters):

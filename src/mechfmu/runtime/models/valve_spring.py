@@ -4,6 +4,7 @@ contact and stopped by a compliant seat, integrated inside each communication st
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.declarations import motion_inputs, motion_units, only_with
 from ..fmi.slave import Status, integrator_variables, output, parameter
+from ..physics import valve_exact
 from ..physics import valve_spring as vs
 from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
 from ..numerics.stepping import advance_through_events
@@ -157,7 +158,7 @@ class ValveSpring(IntegratingSlave):
             max_substep=2e-5,
             own_methods=(
                 (
-                    vs.EXACT,
+                    valve_exact.EXACT,
                     "each contact mode solved in closed form on drive pieces of at most "
                     "max_substep, switches located on it",
                 ),
@@ -301,11 +302,11 @@ class ValveSpring(IntegratingSlave):
         return True
 
     def check_parameters(self) -> None:
-        if self.values["integrator"] != vs.EXACT:
+        if self.values["integrator"] != valve_exact.EXACT:
             super().check_parameters()
             return
         self.set_up()
-        self.integrator = vs.ExactIntegrator(
+        self.integrator = valve_exact.ExactIntegrator(
             require_positive("max_substep", self.values["max_substep"], "s")
         )
 
@@ -385,8 +386,8 @@ class ValveSpring(IntegratingSlave):
         self.modes.engaged = vs.resume(
             p, self.engaged, *self.rocker(self.held_inputs)[:2], *self.state[:2]
         )
-        if isinstance(self.integrator, vs.ExactIntegrator):
-            y = vs.integrate_exact(
+        if isinstance(self.integrator, valve_exact.ExactIntegrator):
+            y = valve_exact.integrate_exact(
                 p,
                 self.drive,
                 self.modes,
