@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from conftest import ROOT, SCENES
-from mechfmu.cosim.results import read_csv
+from mechfmu.io import read_csv
 from mechfmu.cosim.scene import load_scene
 from mechfmu.tools.docs import TYPES, declared_units, interface_table, model_class
 from mechfmu.runtime.models import MODELS
