@@ -98,7 +98,7 @@ PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gea
 	tests/test_exact_valve.py \
 	tests/test_scenes.py tests/test_outputs.py tests/test_fmus.py tests/test_linkage_fmus.py \
 	tests/test_coupling.py tests/test_study.py tests/test_sweep.py \
-	tests/test_sweep_references.py tests/test_portable.py
+	tests/test_sweep_references.py tests/test_portable.py tests/test_tolerances.py
 test-portable: $(FMUS)/.built
 	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx512)" $(PY) -m pytest -q \
 		-p no:cacheprovider $(PORTABLE_TESTS)
@@ -113,7 +113,8 @@ OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.p
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
 	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
-	tests/test_portable.py tests/test_sweep_faults.py tests/test_exact_valve.py
+	tests/test_portable.py tests/test_sweep_faults.py tests/test_exact_valve.py \
+	tests/test_tolerances.py
 test-other-python:
 	@set -e; for version in $(OTHER_PYTHONS); do \
 		python=$$(ls -d $(PYENV_ROOT)/versions/$$version.*/bin/python3 2>/dev/null \

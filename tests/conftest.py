@@ -77,6 +77,7 @@ LAYERS = {
     "test_api.py": "fmu",
     "test_baseline.py": "fmu",
     "test_check_cli.py": "fmu",
+    "test_readme.py": "fmu",
     "test_command_line.py": "fmu",
     "test_pytest_plugin.py": "fmu",
     "test_bench.py": "fmu",
@@ -106,6 +107,7 @@ LAYERS = {
 # seconds each or many seconds together (measured with `pytest --durations=0`).
 SLOW_FILES = {
     "test_docs.py",
+    "test_readme.py",
     "test_interrupts.py",
     "test_robustness.py",
     "test_scenes.py",
