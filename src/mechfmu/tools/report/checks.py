@@ -68,7 +68,9 @@ def junit_xml(run: CheckRun) -> str:
                 ET.SubElement(case, "skipped", message=skipped)
     for key, value in counts.items():
         suite.set(key, str(value))
-    root = ET.Element("testsuites", name="mechfmu check", **{k: str(v) for k, v in counts.items()})
+    root = ET.Element("testsuites", {"name": "mechfmu check"})
+    for key, value in counts.items():
+        root.set(key, str(value))
     root.append(suite)
     ET.indent(root)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, "unicode") + "\n"
