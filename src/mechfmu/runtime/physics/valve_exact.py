@@ -121,16 +121,13 @@ class ForcedMotion:
         "engaged",
         "oscillator",
         "particular",
-        "particular_rate",
         "gap",
-        "gap_rate",
         "pairs",
         "gap_reversed",
         "moving",
-        "mass",
-        "forcing",
         "rocker",
-        "_curvature",
+        "force_law",
+        "_rocker_rate2",
         "_work",
     )
 
@@ -141,15 +138,25 @@ class ForcedMotion:
         gap = polynomials.combine(1.0, rocker, -1.0, particular)
         gap[0] -= p.lash
         padded = list(particular) + [0.0] * (len(gap) - len(particular))
-        self.engaged, self.mass, self.forcing, self.rocker = engaged, p.mass, forcing, rocker
+        self.engaged, self.rocker = engaged, rocker
         self.particular = particular
-        self.particular_rate = polynomials.derivative(particular)
         self.gap = tuple(gap)
-        self.gap_rate = polynomials.derivative(gap)
         self.pairs = tuple(zip(reversed(padded), reversed(gap)))  # for ModeSegment.state
         self.gap_reversed = tuple(reversed(gap))
         self.moving = any(rocker[1:])  # L' not identically 0: the contact can do work
-        self._curvature: tuple | None = None
+        # the acceleration from the state: (k_c, c_c, k_s, c_s of the contacts engaged, F0,
+        # k, m), for ModeSegment.curvature
+        contact, seat = engaged
+        self.force_law = (
+            p.contact_stiffness if contact else 0.0,
+            p.contact_damping if contact else 0.0,
+            p.seat_stiffness if seat else 0.0,
+            p.seat_damping if seat else 0.0,
+            p.spring_preload,
+            p.spring_stiffness,
+            p.mass,
+        )
+        self._rocker_rate2: tuple | None = None
         self._work: tuple | None = None
 
     def work_forms(self, p: Parameters) -> tuple:
@@ -159,7 +166,7 @@ class ForcedMotion:
         P = k_c gap + c_c gap' (N) and R = L' (m/s)."""
         if self._work is None:
             kc, cc = p.contact_stiffness, p.contact_damping
-            force = polynomials.combine(kc, self.gap, cc, self.gap_rate)
+            force = polynomials.combine(kc, self.gap, cc, polynomials.derivative(self.gap))
             rocker_rate = polynomials.derivative(self.rocker)
             rate = complex(-self.oscillator.sigma, self.oscillator.root)
             self._work = (
@@ -170,13 +177,11 @@ class ForcedMotion:
             )
         return self._work
 
-    def curvature_polynomials(self) -> tuple:
-        """(f / m in m/s^2 per s^j, L'' in m/s^2 per s^j): what ModeSegment.curvature needs,
-        worked out the first time a turning point is looked at."""
-        if self._curvature is None:
-            rate2 = polynomials.derivative(polynomials.derivative(self.rocker))
-            self._curvature = (tuple(g / self.mass for g in self.forcing), rate2)
-        return self._curvature
+    def rocker_rate2(self) -> tuple:
+        """L'' (m/s^2 per s^j) of the piece, worked out the first time it is asked for."""
+        if self._rocker_rate2 is None:
+            self._rocker_rate2 = polynomials.derivative(polynomials.derivative(self.rocker))
+        return self._rocker_rate2
 
 
 class ModeSegment:
@@ -204,7 +209,8 @@ class ModeSegment:
         self.constant_particular = len(forced.particular) == 1
         oscillator = self.oscillator = forced.oscillator
         if tau0 == 0.0:  # a piece's first segment (most of them)
-            xp, xp_rate = forced.particular[0], forced.particular_rate[0]
+            particular = forced.particular
+            xp, xp_rate = particular[0], particular[1] if len(particular) > 1 else 0.0
         else:
             xp, xp_rate, _ = polynomials.polynomial_motion(forced.particular, tau0)
         self.e0, self.rate0 = x - xp, v - xp_rate
@@ -241,14 +247,16 @@ class ModeSegment:
         e_rate = decay * (self.rate0 * c - self.rate_coefficient * sine)
         return xp + e, xp_rate + e_rate, gap - e, gap_rate - e_rate
 
-    def curvature(self, s: float, x: float, v: float) -> tuple[float, float]:
-        """(x'', d'') (m/s^2) at local time s where the state is (x m, v m/s): the equation
-        of motion, and L'' - x''."""
-        tau = self.tau0 + s
-        o = self.oscillator
-        load, rocker_rate2 = self.forced.curvature_polynomials()
-        acceleration = polynomials.polynomial(load, tau) - 2.0 * o.sigma * v - o.w02 * x
-        return acceleration, polynomials.polynomial(rocker_rate2, tau) - acceleration
+    def curvature(
+        self, s: float, x: float, v: float, depth: float, depth_rate: float
+    ) -> tuple[float, float]:
+        """(x'', d'') (m/s^2) at local time s where the state is (x m, v m/s, d m, d' m/s):
+        the forces of the mode, (k_c d + c_c d' - k_s x - c_s v - F0 - k x) / m with the
+        contacts engaged, and L'' - x''."""
+        kc, cc, ks, cs, preload, k, mass = self.forced.force_law
+        acceleration = (kc * depth + cc * depth_rate - ks * x - cs * v - preload - k * x) / mass
+        rocker_rate2 = polynomials.polynomial(self.forced.rocker_rate2(), self.tau0 + s)
+        return acceleration, rocker_rate2 - acceleration
 
 
 # --- the step: pieces of the drive, segments of one mode, events ---------------------------
@@ -369,15 +377,19 @@ def _exact_segment(
     def slope(point: tuple, k: int) -> float:
         """The rate of watched function k at a point of ``values`` (of the branch of a
         switch function that is the smaller there)."""
-        s, _, (xs, _), (vs, depth_rate) = point
+        s, _, (xs, depth), (vs, depth_rate) = point
         if k == 0:
             if cc * depth_rate >= 0.0:  # k_c d, the spring's branch
                 return kc * depth_rate
-            return kc * depth_rate + cc * mode.curvature(s, xs, vs)[1]
+            return kc * depth_rate + cc * mode.curvature(s, xs, vs, depth, depth_rate)[1]
         if k == 1:
             if -cs * vs >= 0.0:  # -k_s x
                 return -ks * vs
-            return -ks * vs - cs * mode.curvature(s, xs, vs)[0]
+            law = forced.force_law  # the acceleration alone: no polynomial
+            acceleration = (
+                law[0] * depth + law[1] * depth_rate - (law[2] + law[5]) * xs - law[3] * vs - law[4]
+            ) / law[6]
+            return -ks * vs - cs * acceleration
         return depth_rate if k == 2 else vs
 
     directions = (-1 if engaged.contact else 1, -1 if engaged.seat else 1, -1, 1, 1)
@@ -613,8 +625,10 @@ def _turning_point(
         r_a, r_b = previous[3][j], current[3][j]
         if (y_a > 0.0) != (y_b > 0.0) or y_a == 0.0 or y_b == 0.0 or r_a * r_b >= 0.0:
             continue
-        c_a = mode.curvature(a, previous[2][0], previous[3][0])[j]
-        c_b = mode.curvature(b, current[2][0], current[3][0])[j]
+        (x_a, d_a), (v_a, d_rate_a) = previous[2], previous[3]
+        (x_b, d_b), (v_b, d_rate_b) = current[2], current[3]
+        c_a = mode.curvature(a, x_a, v_a, d_a, d_rate_a)[j]
+        c_b = mode.curvature(b, x_b, v_b, d_b, d_rate_b)[j]
         excursion = max(
             r_a * r_a / (2.0 * abs(c_a)) if c_a != 0.0 else math.inf,
             r_b * r_b / (2.0 * abs(c_b)) if c_b != 0.0 else math.inf,

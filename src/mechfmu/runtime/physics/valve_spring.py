@@ -564,15 +564,20 @@ class CamshaftStepDrive:
         return segment_index(self.profile, self.camshaft(0.5 * (a + b))[0]) in (1, 3)
 
     def piece(self, a: float, b: float) -> tuple[float, ...]:
-        """Coefficients of L(a + tau) (m, tau in s) over [a, b], a piece inside one segment:
-        the quintic Hermite through L, L', L'' at both ends from that segment's law."""
+        """Coefficients of L(a + tau) (m, tau in s) over [a, b], a piece inside one segment of
+        the cam law: on a dwell the constant (L,), else the polynomial of degree
+        3 PIECE_NODES - 1 through L, L', L'' at PIECE_NODES equally spaced points of the
+        piece from that segment's law (stepping.hermite_nodes)."""
         index = segment_index(self.profile, self.camshaft(0.5 * (a + b))[0])
-        last = PIECE_NODES - 1
-        motions = [
-            self.motion(self.camshaft(a + (b - a) * i / last if i < last else b), index)
-            for i in range(PIECE_NODES)
-        ]
-        coefficients = hermite_nodes(b - a, motions)
+        if index in (1, 3):
+            coefficients: tuple[float, ...] = (self.motion((0.0, 0.0, 0.0), index)[0],)
+        else:
+            last = PIECE_NODES - 1
+            motions = [
+                self.motion(self.camshaft(a + (b - a) * i / last if i < last else b), index)
+                for i in range(PIECE_NODES)
+            ]
+            coefficients = hermite_nodes(b - a, motions)
         self.current = (a, b, coefficients)
         return coefficients
 
