@@ -613,11 +613,13 @@ class Simulation:
             if stop.requested:
                 raise _Stopped(scene.start_time)
             plan.start(result, scene.start_time)
-            loop_started = clock.perf_counter()
+            loop_started, loop_cpu_started = clock.perf_counter(), clock.process_time()
             try:
                 plan.run(result, scene, stop)
             finally:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
+                # the process's CPU time: the loop's work whatever else runs on the machine
+                result.meta["loop_cpu_time_s"] = clock.process_time() - loop_cpu_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
         except _InstantiationFailed as failure:

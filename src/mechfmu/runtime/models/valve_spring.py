@@ -500,7 +500,7 @@ class ValveSpring(IntegratingSlave):
         ) = (lift, velocity, f.acceleration, f.contact, f.seat, f.spring, f.penetration)
         v["contact_lost"] = f.penetration <= 0.0 and L - p.lash > 0.0
         if isinstance(self.drive, vs.CamshaftStepDrive):
-            lift_rate = self.drive.valve_lift_rate(self.held_inputs[0])
+            lift_rate = self.drive.valve_lift_rate(self.held_inputs)
             v["camshaft_torque"] = cam_geometry.camshaft_torque(f.contact, lift_rate)
         v["kinetic_energy"] = vs.kinetic_energy(p, velocity)
         v["elastic_energy"] = vs.elastic_energy(p, L, lift)

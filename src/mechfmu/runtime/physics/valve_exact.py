@@ -212,7 +212,10 @@ class ModeSegment:
             particular = forced.particular
             xp, xp_rate = particular[0], particular[1] if len(particular) > 1 else 0.0
         else:
-            xp, xp_rate, _ = polynomials.polynomial_motion(forced.particular, tau0)
+            xp = xp_rate = 0.0
+            for a in reversed(forced.particular):
+                xp_rate = xp_rate * tau0 + xp
+                xp = xp * tau0 + a
         self.e0, self.rate0 = x - xp, v - xp_rate
         self.sigma, self.root = oscillator.sigma, oscillator.root
         self.under_damped = oscillator.d2 > 0.0
@@ -318,14 +321,15 @@ def integrate_exact(
             if forced and next(iter(forced.values())).rocker != rocker:
                 forced.clear()
             t = start
+            point = None  # the event's values, where the next segment starts
             while True:
                 engaged = modes.engaged
                 if engaged not in forced:
                     forced[engaged] = ForcedMotion(p, engaged, rocker)
                 found = _exact_segment(
-                    p, forced[engaged], t - start, end - start, x, v, max_lift, stats
+                    p, forced[engaged], t - start, end - start, x, v, max_lift, stats, point
                 )
-                tau, x, v, gained, name = found
+                tau, x, v, gained, name, point = found
                 work += gained
                 if name is None:
                     break
@@ -338,6 +342,8 @@ def integrate_exact(
                         f"the contact"
                     )
                 x, v, work = handle(Fired(name), t, [x, v, work])
+                if point[2][0] != x or point[3][0] != v:  # the handler moved the state
+                    point = None
     return [x, v, work]
 
 
@@ -350,19 +356,21 @@ def _exact_segment(
     v: float,
     max_lift: float | None,
     stats: Stats,
+    start: tuple | None = None,
 ) -> tuple:
     """Solve one mode (``forced``, the piece's forced motion in it) from (x, v) at tau0 over
     [tau0, tau1] of the piece: (tau reached, x, v, work gained, name of the event there or
-    None)."""
+    None, the values there or None). ``start``: the values at tau0 where known (the event
+    that ended the last segment: x, v, d, d' and so the watched functions do not depend on
+    the mode)."""
     engaged = forced.engaged
     mode = ModeSegment(forced, tau0, x, v)
     state = mode.state
     kc, cc, ks, cs = p.contact_stiffness, p.contact_damping, p.seat_stiffness, p.seat_damping
     limit = max_lift if max_lift is not None else math.inf
 
-    def values(s: float) -> tuple:
-        """(s, watched functions' values, (x, d), (x', d')) at s."""
-        xs, vs, depth, depth_rate = state(s)
+    def watched(s: float, xs: float, vs: float, depth: float, depth_rate: float) -> tuple:
+        """(s, watched functions' values, (x, d), (x', d')) at s for the state there."""
         spring = kc * depth
         seat = -ks * xs
         g = (
@@ -373,6 +381,10 @@ def _exact_segment(
             xs,
         )
         return s, g, (xs, depth), (vs, depth_rate)
+
+    def values(s: float) -> tuple:
+        """watched() at s (local time, s) of the closed form."""
+        return watched(s, *state(s))
 
     def slope(point: tuple, k: int) -> float:
         """The rate of watched function k at a point of ``values`` (of the branch of a
@@ -404,8 +416,16 @@ def _exact_segment(
         )
     samples = max(2, math.ceil(periods * SAMPLES_PER_PERIOD))
     tolerance = EVENT_TOLERANCE * max(1.0, abs(tau1))
-    previous = values(0.0)
-    stats.rhs_evaluations += 1
+    if start is not None:
+        previous = (0.0, *start[1:])
+    elif tau0 == 0.0:  # a piece's start: e = e0 and the polynomials' first coefficients
+        gap = forced.gap
+        previous = watched(
+            0.0, x, v, gap[0] - mode.e0, (gap[1] if len(gap) > 1 else 0.0) - mode.rate0
+        )
+    else:
+        previous = values(0.0)
+        stats.rhs_evaluations += 1
     hit = None
     pending: list[tuple] = []
     next_sample, refinements = 1, 0
@@ -440,22 +460,26 @@ def _exact_segment(
             or (old[k] < 0.0 and g[k] >= 0.0 and directions[k] > 0)
         ]  # roots.crosses written out (five functions at every sample)
         if crossing:
-            s, fired, evaluations = _first_crossing(
+            point, fired, evaluations = _first_crossing(
                 values, slope, previous, current, crossing, directions, tolerance
             )
             stats.rhs_evaluations += evaluations
             # functions that cross at the same point (without seat damping the seat's switch
             # is -k_s x, the opening's x): the one that changes the mode is the event
-            hit = (s, min(fired, key=PRIORITY.index))
+            hit = (point, min(fired, key=PRIORITY.index))
             break
         previous = current
-    if hit is None and previous[0] == span:  # the last sample is the end
+    if hit is not None:
+        end, xs, vs = hit[0][0], hit[0][2][0], hit[0][3][0]
+    elif previous[0] == span:  # the last sample is the end
         end, xs, vs = span, previous[2][0], previous[3][0]
     else:
-        end = span if hit is None else hit[0]
+        end = span
         xs, vs, _, _ = state(end)
     gained = _contact_work(p, mode, end) if engaged.contact and forced.moving else 0.0
-    return tau0 + end, xs, vs, gained, None if hit is None else NAMES[hit[1]]
+    if hit is None:
+        return tau0 + end, xs, vs, gained, None, None
+    return tau0 + end, xs, vs, gained, NAMES[hit[1]], hit[0]
 
 
 def _first_crossing(
@@ -467,10 +491,10 @@ def _first_crossing(
     directions: tuple[int, ...],
     tolerance: float,
 ) -> tuple[float, list[int], int]:
-    """(s, the functions crossed there, evaluations made): the earliest sign change among
-    the watched functions ``crossing`` (indices into the samples' values, each crossed from
-    ``previous`` to ``current`` in its direction), located to ``tolerance`` (s); s is on the
-    far side, a point where ``values`` was evaluated or current's.
+    """(point, the functions crossed there, evaluations made): the earliest sign change
+    among the watched functions ``crossing`` (indices into the samples' values, each crossed
+    from ``previous`` to ``current`` in its direction), located to ``tolerance`` (s); the
+    point (values' result) is on the far side: one ``values`` returned, or current.
 
     One bracket for them all (coincident crossings, such as the valve landing on its seat
     as it meets the rocker, cost one search, not one each): a function that has not crossed
@@ -520,7 +544,7 @@ def _first_crossing(
             high, crossing = latest, now
         else:
             low = latest
-    return high[0], crossing, evaluations
+    return high, crossing, evaluations
 
 
 def _earliest(low: tuple, high: tuple, crossing: list[int]) -> int:

@@ -432,6 +432,8 @@ class CamshaftStepDrive:
         "angle",
         "known",
         "current",
+        "end",
+        "span",
     )
 
     def __init__(
@@ -458,13 +460,20 @@ class CamshaftStepDrive:
         rad/s^2) at t0 and at t1."""
         self.t0 = t0
         self.current: tuple | None = None
+        self.span: tuple | None = None  # segment's (a, b, index)
         if self.mode == "hold" or not t1 > t0:
             self.angle: tuple[float, ...] = (start[0], start[1], 0.5 * start[2])
+            self.end: tuple = (None, None)
         else:
             self.angle = hermite(t1 - t0, start, end)
+            self.end = (t1, tuple(end))
 
     def camshaft(self, t: float) -> tuple[float, float, float]:
-        """(angle rad, speed rad/s, acceleration rad/s^2) at time t (s)."""
+        """(angle rad, speed rad/s, acceleration rad/s^2) at time t (s): at the end of an
+        interpolated step the inputs given for it, as they are (the polynomial meets them
+        up to rounding; so the drive there is the one the outputs are published with)."""
+        if t == self.end[0]:
+            return self.end[1]
         return polynomial_motion(self.angle, t - self.t0)
 
     def motion(self, shaft: tuple[float, float, float], index: int | None = None) -> tuple:
@@ -486,8 +495,9 @@ class CamshaftStepDrive:
             s1 * speed,
             s2 * speed * speed + s1 * acceleration,
         )
-        if len(self.known) > 16:
-            self.known = {k: v for k, v in self.known.items() if len(k) == 1}
+        if len(self.known) > 16:  # the dwells' and the newest half kept
+            kept = list(self.known.items())
+            self.known = {k: v for k, v in kept[:8] if len(k) == 1} | dict(kept[8:])
         motion = self.known[key] = (
             train.valve_lift,
             train.valve_velocity,
@@ -495,12 +505,18 @@ class CamshaftStepDrive:
         )
         return motion
 
-    def valve_lift_rate(self, camshaft_angle: float) -> float:
-        """dL/dtheta (m/rad) of the rocker's valve end at ``camshaft_angle`` (rad), on the
-        segment ValveTrain's closed form uses there: what turns the contact force into the
-        camshaft torque."""
-        index = segment_index(self.profile, camshaft_angle)
-        s, s1, _ = segment_cam_lift(self.profile, index, camshaft_angle)
+    def valve_lift_rate(self, shaft: tuple[float, float, float]) -> float:
+        """dL/dtheta (m/rad) of the rocker's valve end at the camshaft motion ``shaft``
+        (angle rad, speed rad/s, acceleration rad/s^2), on the segment ValveTrain's closed
+        form uses there: what turns the contact force into the camshaft torque. L' / speed
+        where the camshaft turns (its motion is known: the outputs were just published
+        with it), 0 on a dwell."""
+        index = segment_index(self.profile, shaft[0])
+        if index in (1, 3):
+            return 0.0
+        if shaft[1] != 0.0:
+            return self.motion(shaft, index)[1] / shaft[1]
+        s, s1, _ = segment_cam_lift(self.profile, index, shaft[0])
         return vt.valve_lift_rate(self.geometry, self.closed_height, s, s1)
 
     def at(self, t: float) -> tuple[float, float, float]:
@@ -529,8 +545,15 @@ class CamshaftStepDrive:
                 f"{t1!r} s; the camshaft drive follows at most {MAX_REVOLUTIONS} per step: "
                 f"reduce the step",
             )
-        found = []
+        found: list[float] = []
         tolerance = EVENT_TOLERANCE * max(1.0, abs(t1))
+        lowest, highest = min(angles), max(angles)
+        if not any(
+            math.ceil((lowest - boundary) / cam_laws.TAU)
+            <= math.floor((highest - boundary) / cam_laws.TAU)
+            for boundary in self.boundaries
+        ):
+            return found  # no boundary within the step's angles (most steps)
         for i in range(BREAKPOINT_SAMPLES):
             low, high = sorted((angles[i], angles[i + 1]))
             for boundary in self.boundaries:
@@ -558,17 +581,27 @@ class CamshaftStepDrive:
         # a boundary within the location tolerance of a communication point is that point
         return sorted(t for t in set(found) if t0 + tolerance < t < t1 - tolerance)
 
+    def segment(self, a: float, b: float) -> int:
+        """The cam law's segment (0 rise, 1 high dwell, 2 return, 3 low dwell) of [a, b] (s),
+        a span inside one segment: the one at its middle (remembered for the pieces of the
+        last span asked for)."""
+        if self.span is not None and self.span[0] <= a and b <= self.span[1]:
+            return self.span[2]
+        index = segment_index(self.profile, self.camshaft(0.5 * (a + b))[0])
+        self.span = (a, b, index)
+        return index
+
     def constant(self, a: float, b: float) -> bool:
         """Whether L stands still over [a, b] (s), a span inside one segment of the cam law:
         on a dwell."""
-        return segment_index(self.profile, self.camshaft(0.5 * (a + b))[0]) in (1, 3)
+        return self.segment(a, b) in (1, 3)
 
     def piece(self, a: float, b: float) -> tuple[float, ...]:
         """Coefficients of L(a + tau) (m, tau in s) over [a, b], a piece inside one segment of
         the cam law: on a dwell the constant (L,), else the polynomial of degree
         3 PIECE_NODES - 1 through L, L', L'' at PIECE_NODES equally spaced points of the
         piece from that segment's law (stepping.hermite_nodes)."""
-        index = segment_index(self.profile, self.camshaft(0.5 * (a + b))[0])
+        index = self.segment(a, b)
         if index in (1, 3):
             coefficients: tuple[float, ...] = (self.motion((0.0, 0.0, 0.0), index)[0],)
         else:
@@ -582,7 +615,7 @@ class CamshaftStepDrive:
         return coefficients
 
 
-PIECE_NODES = 4  # points of the camshaft drive per piece: L, L', L'' at each, a degree-11 fit
+PIECE_NODES = 5  # points of the camshaft drive per piece: L, L', L'' at each, a degree-14 fit
 MAX_REVOLUTIONS = 100  # camshaft revolutions per communication step the drive follows
 BREAKPOINT_SAMPLES = 4  # samples of the camshaft angle per step between which boundaries are sought
 
