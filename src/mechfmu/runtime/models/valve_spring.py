@@ -371,8 +371,9 @@ class ValveSpring(IntegratingSlave):
         found = []
         phase = [self.phase]
 
-        def judge(t: float, y: Any):
-            phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], vs.drive_at(self.drive, t))
+        def judge(t: float, y: Any, drive: Any = None):
+            drive = drive or vs.drive_at(self.drive, t)
+            phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], drive)
             found.extend(new)
             for happening in new:
                 if happening.kind == vs.FLOAT and self.values["stop_on_float"]:
@@ -384,12 +385,18 @@ class ValveSpring(IntegratingSlave):
                 self._refuse_travel(
                     t, y, vs.drive_at(self.drive, t), floated[-1] if floated else self.last_float
                 )
+            drive = vs.drive_at(self.drive, t)
             if event.name in vs.SWITCH_EVENTS:
-                L, rate, _ = vs.drive_at(self.drive, t)
                 self.modes.engaged = vs.after_switch(
-                    p, self.modes.engaged, vs.SWITCH_EVENTS.index(event.name), L, rate, y[0], y[1]
+                    p,
+                    self.modes.engaged,
+                    vs.SWITCH_EVENTS.index(event.name),
+                    drive[0],
+                    drive[1],
+                    y[0],
+                    y[1],
                 )
-            judge(t, y)
+            judge(t, y, drive)
             return y
 
         self.modes.engaged = vs.resume(

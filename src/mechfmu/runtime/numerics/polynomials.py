@@ -106,7 +106,7 @@ def confluent_inverse(nodes: int) -> tuple[tuple[float, ...], ...]:
     (Gauss-Jordan with partial pivoting; its rounding, about 1e-16 of its entries, only ever
     multiplies small misfits: stepping.hermite_nodes)."""
     size = 3 * nodes
-    rows = []
+    rows: list[list[float]] = []
     for i in range(nodes):
         u = i / (nodes - 1)
         for order in range(3):

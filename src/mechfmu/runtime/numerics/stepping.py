@@ -108,7 +108,7 @@ def hermite_nodes(step: float, motions: list[tuple[float, float, float]]) -> tup
     if nodes == 2:
         return base
     rows = polynomials.interior_inverse(nodes)
-    misfits = []
+    misfits: list[float] = []
     last = nodes - 1
     for i in range(1, last):
         value, rate, rate2 = polynomials.polynomial_motion(base, step * i / last)
