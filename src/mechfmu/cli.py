@@ -1,5 +1,5 @@
 """The ``mechfmu`` command: build, run, example, export-ssp, export-fmu, check, references,
-report, docs, study, bench, fuzz, sweep.
+report, docs, cam-profile, cam-size, study, bench, fuzz, sweep.
 
 One argparse tree: every verb and its options are declared here, and each verb calls one
 function of the package (imported when the verb runs, so ``mechfmu run`` never loads the
@@ -323,6 +323,69 @@ def _docs(args: Any) -> int:
     return 0
 
 
+def parse_assignments(texts: list[str]) -> dict[str, Any]:
+    """``--set component.parameter=value`` texts as {"component.parameter": value}: the
+    value read as a TOML value when it parses (``0.02``, ``true``, ``"roller"``), else kept
+    as the bare string (``roller``). ValueError naming the text without ``=`` or a name."""
+    from .cosim.scene import tomllib  # the standard library's, or tomli on Python 3.10
+
+    assignments: dict[str, Any] = {}
+    for text in texts:
+        name, equals, value = text.partition("=")
+        if not equals or not name.strip():
+            raise ValueError(f"--set {text!r}: expected component.parameter=value")
+        try:
+            assignments[name.strip()] = tomllib.loads(f"value = {value.strip()}")["value"]
+        except tomllib.TOMLDecodeError:
+            assignments[name.strip()] = value.strip()
+    return assignments
+
+
+def _cam_setup_failure(error: Exception) -> int:
+    print(f"cam error: {error}", file=sys.stderr)
+    return 2
+
+
+def _cam_profile(args: argparse.Namespace) -> int:
+    from .cosim.files import OutputError
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_profile, summary_markdown, write_cam_files
+
+    try:
+        table = cam_profile(args.scene, parse_assignments(args.set), args.component, args.points)
+        paths = write_cam_files(table, args.out)
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    print(summary_markdown(table), end="")
+    for kind, path in paths.items():
+        print(f"{kind}: {path}")
+    return 1 if table.attrs["design"]["problems"] else 0
+
+
+def _cam_size(args: argparse.Namespace) -> int:
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_setup_of, smallest_base_circle
+
+    try:
+        setup = cam_setup_of(args.scene, parse_assignments(args.set), args.component)
+        sizing = smallest_base_circle(setup, args.min_radius_of_curvature)
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    where = "" if sizing.angle != sizing.angle else f" at camshaft angle {sizing.angle:.6g} rad"
+    print(
+        f"{setup.scene.name}.{setup.component} ({setup.follower.kind} follower, "
+        f"{setup.profile.law} {setup.parameters['mode']}): smallest cam_base_radius "
+        f"{sizing.base_circle_radius!r} m (set by {sizing.limit}{where}); "
+        f"now {setup.geometry.cam_base_radius!r} m"
+    )
+    return 0
+
+
 def _study(args: argparse.Namespace):
     from .tools.study import command
 
@@ -406,6 +469,59 @@ def _example_verbs(verbs: argparse._SubParsersAction) -> None:
                 help="run on this Dask cluster (pip install mechfmu[cluster])",
             )
     example.set_defaults(func=_example)
+
+
+def _set_option(verb: argparse.ArgumentParser) -> None:
+    verb.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="COMPONENT.PARAMETER=VALUE",
+        help="set a parameter of a component (repeatable; the value read as TOML when it "
+        "parses, else as a string; default: the scene's values)",
+    )
+
+
+def _cam_verbs(verbs: argparse._SubParsersAction) -> None:
+    """cam-profile and cam-size: the cam a scene's valve train needs."""
+    profile = verbs.add_parser(
+        "cam-profile",
+        help="the cam of a scene's ValveTrain: profile CSV, DXF (mm), drawing and summary "
+        "with the design checks; exit 1 if a check fails (pressure angle), 2 if no cam "
+        "can be made (cusp, undercut) or the input is bad",
+    )
+    profile.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    _set_option(profile)
+    profile.add_argument(
+        "--component", help="the ValveTrain component (default: the scene's only one)"
+    )
+    profile.add_argument(
+        "--points",
+        type=int,
+        default=3600,
+        help="profile points per revolution (default: 3600, every 0.1 degree)",
+    )
+    profile.add_argument("--out", default="out", help="output folder (default: out)")
+    profile.set_defaults(func=_cam_profile)
+    size = verbs.add_parser(
+        "cam-size",
+        help="the smallest base circle (cam_base_radius) with which a scene's ValveTrain's "
+        "cam law and follower make a cam meeting the limits",
+    )
+    size.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    _set_option(size)
+    size.add_argument(
+        "--component", help="the ValveTrain component (default: the scene's only one)"
+    )
+    size.add_argument(
+        "--min-radius-of-curvature",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="least radius of curvature of the cam surface, m (default: 0, the cusp or "
+        "undercut limit itself: add a margin)",
+    )
+    size.set_defaults(func=_cam_size)
 
 
 def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
@@ -754,6 +870,7 @@ def parser() -> argparse.ArgumentParser:
     docs.add_argument("--out", help="PNG file for --reference-plot")
     docs.set_defaults(func=_docs)
 
+    _cam_verbs(verbs)
     _measurement_verbs(verbs)
     return main
 
