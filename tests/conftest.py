@@ -59,6 +59,7 @@ LAYERS = {
     "test_physics_cam_valve.py": "unit",
     "test_cam_geometry.py": "unit",
     "test_cam_design.py": "unit",
+    "test_camshaft.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
     "test_physics_profiles.py": "unit",

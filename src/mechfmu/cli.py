@@ -174,6 +174,7 @@ EXAMPLES = {
     "suspension": ("out", "suspension load ramp past the limit load: snap-through"),
     "suspension_dynamics": ("out", "road bump and sudden load against solve_ivp"),
     "valve_train": ("out", "valve train forward, inverse and valve float"),
+    "camshaft": ("out", "a whole camshaft's torque, firing order against wrong sequences"),
     "sweeps": ("out/sweeps", "the shipped sweeps against their references (make sweeps)"),
 }
 
