@@ -483,18 +483,25 @@ def _set_option(verb: argparse.ArgumentParser) -> None:
     )
 
 
+def _cam_verb(verbs: argparse._SubParsersAction, name: str, help: str) -> argparse.ArgumentParser:
+    """A verb about the cam of a scene's ValveTrain: SCENE, --set, --component."""
+    verb = verbs.add_parser(name, help=help)
+    verb.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    _set_option(verb)
+    verb.add_argument(
+        "--component", help="the ValveTrain component (default: the scene's only one)"
+    )
+    return verb
+
+
 def _cam_verbs(verbs: argparse._SubParsersAction) -> None:
     """cam-profile and cam-size: the cam a scene's valve train needs."""
-    profile = verbs.add_parser(
+    profile = _cam_verb(
+        verbs,
         "cam-profile",
-        help="the cam of a scene's ValveTrain: profile CSV, DXF (mm), drawing and summary "
+        "the cam of a scene's ValveTrain: profile CSV, DXF (mm), drawing and summary "
         "with the design checks; exit 1 if a check fails (pressure angle), 2 if no cam "
         "can be made (cusp, undercut) or the input is bad",
-    )
-    profile.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
-    _set_option(profile)
-    profile.add_argument(
-        "--component", help="the ValveTrain component (default: the scene's only one)"
     )
     profile.add_argument(
         "--points",
@@ -504,15 +511,11 @@ def _cam_verbs(verbs: argparse._SubParsersAction) -> None:
     )
     profile.add_argument("--out", default="out", help="output folder (default: out)")
     profile.set_defaults(func=_cam_profile)
-    size = verbs.add_parser(
+    size = _cam_verb(
+        verbs,
         "cam-size",
-        help="the smallest base circle (cam_base_radius) with which a scene's ValveTrain's "
+        "the smallest base circle (cam_base_radius) with which a scene's ValveTrain's "
         "cam law and follower make a cam meeting the limits",
-    )
-    size.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
-    _set_option(size)
-    size.add_argument(
-        "--component", help="the ValveTrain component (default: the scene's only one)"
     )
     size.add_argument(
         "--min-radius-of-curvature",

@@ -23,7 +23,7 @@ import numpy as np
 import pandas
 
 from ..api import SceneLike, configured_scene
-from ..cosim.files import atomic_write_all, output_folder
+from ..cosim.files import atomic_write_all, figure_bytes, output_folder
 from ..cosim.scene import Scene, SceneError
 from ..runtime.models.valve_train import cam_setup
 from ..runtime.physics import cam_geometry
@@ -319,12 +319,10 @@ def drawing_png(table: pandas.DataFrame, followers: int = 8) -> bytes:
         if index == len(panels) - 1:
             axis.set_xlabel("camshaft angle [deg]")
     figure.tight_layout()
-    buffer = io.BytesIO()
     try:
-        figure.savefig(buffer, format="png", dpi=100)
+        return figure_bytes(figure, dpi=100)
     finally:
         pyplot.close(figure)
-    return buffer.getvalue()
 
 
 def verdicts(table: pandas.DataFrame) -> list[tuple[str, str]]:

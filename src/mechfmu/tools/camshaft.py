@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 import pandas
 
+from ..cosim.files import figure_bytes
 from ..cosim.scene import Scene, SceneError
 
 LOBE = re.compile(r"^(intake|exhaust)_(\d+)$")
@@ -168,8 +169,6 @@ def table_text(table: pandas.DataFrame) -> str:
 
 def figure_png(curves: Mapping[str, pandas.DataFrame], angle: Any) -> bytes:
     """PNG: the total camshaft torque of each phasing against the camshaft angle (deg)."""
-    import io
-
     import matplotlib
 
     matplotlib.use("Agg")
@@ -186,9 +185,7 @@ def figure_png(curves: Mapping[str, pandas.DataFrame], angle: Any) -> bytes:
     axis.grid(True, lw=0.3)
     axis.legend(fontsize=8)
     figure.tight_layout()
-    buffer = io.BytesIO()
     try:
-        figure.savefig(buffer, format="png", dpi=100)
+        return figure_bytes(figure, dpi=100)
     finally:
         pyplot.close(figure)
-    return buffer.getvalue()
