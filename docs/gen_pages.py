@@ -7,11 +7,12 @@
   (the same command a user runs, called in-process through its console-script entry point):
   ``<!-- mechfmu:interface MODEL -->`` becomes the model's interface table, generated from
   its declarations; ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
-  committed reference CSV; ``<!-- mechfmu:cam-profile SCENE -->`` the drawing and summary
-  ``mechfmu cam-profile SCENE`` writes; ``<!-- mechfmu:camshaft-torque SCENE -->`` the total
-  camshaft torque of a camshaft scene in each phasing (tools/camshaft.py, on the scene's
-  reference: no FMU is needed), plot and table. A registered model without an interface
-  marker on some page fails the build.
+  committed reference CSV; ``<!-- mechfmu:scenes --tolerances -->`` becomes the table of
+  each shipped scene's check tolerances (its [check] table); ``<!-- mechfmu:cam-profile
+  SCENE -->`` the drawing and summary ``mechfmu cam-profile SCENE`` writes;
+  ``<!-- mechfmu:camshaft-torque SCENE -->`` the total camshaft torque of a camshaft scene in
+  each phasing (tools/camshaft.py, on the scene's reference: no FMU is needed), plot and
+  table. A registered model without an interface marker on some page fails the build.
 - The accuracy study's committed plots (``data/study/*.png``) as ``study/*.png``.
 - The tube-versus-pointwise figure of checks.md (``plots/tube_vs_pointwise.png``).
 """
@@ -28,7 +29,7 @@ import mkdocs_gen_files
 import mechfmu
 
 MARKER = re.compile(
-    r"^<!-- mechfmu:(interface|reference-plot|cam-profile|camshaft-torque) (\S+) -->$",
+    r"^<!-- mechfmu:(interface|reference-plot|scenes|cam-profile|camshaft-torque) (\S+) -->$",
     re.MULTILINE,
 )
 MODEL_HEADING = re.compile(r"^### `(\w+)\.fmu`$", re.MULTILINE)
@@ -121,15 +122,17 @@ def fill_markers(docs_dir: Path) -> None:
 
         def replace(match):
             kind, name = match.groups()
+            if kind == "scenes":  # <!-- mechfmu:scenes --tolerances -->
+                return mechfmu_command("scenes", name).strip()
+            if kind == "cam-profile":
+                return cam_profile_section(name, page)
+            if kind == "camshaft-torque":
+                return camshaft_torque_section(name, page)
             if kind == "interface":
                 if name not in tables:
                     raise RuntimeError(f"{page}: no model {name!r}; models: {', '.join(tables)}")
                 documented.add(name)
                 return tables[name]
-            if kind == "cam-profile":
-                return cam_profile_section(name, page)
-            if kind == "camshaft-torque":
-                return camshaft_torque_section(name, page)
             target = reference_plot(name, plots)
             relative = Path(*[".."] * (len(page.parts) - 1), target).as_posix()
             return f"![{name}: reference]({relative})"
