@@ -45,7 +45,9 @@ def follower_of(parameters):
 
 
 def test_effect_off_costs_no_output(fmu_dir):
-    scene = scene_recording("valve_train", *DESIGN_OUTPUTS, "pressure_angle")
+    scene = scene_recording(
+        "valve_train", *DESIGN_OUTPUTS, "pressure_angle", "pitch_radius_of_curvature"
+    )
     table = mechfmu.simulate(scene, parameters={"valve.cam_geometry": False}, stop_time=0.002)
     for name in DESIGN_OUTPUTS:
         assert (table[f"valve.{name}"] == -1.0).all()
