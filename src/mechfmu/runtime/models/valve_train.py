@@ -3,6 +3,7 @@
 from typing import Any
 import math
 
+from ..fmi.geometry import geometry_effect, geometry_output
 from ..fmi.slave import (
     non_negative,
     Status,
@@ -12,10 +13,11 @@ from ..fmi.slave import (
     output,
     parameter,
 )
-from ..physics import cam_laws, constraint_models
+from ..physics import cam_laws, constraint_models, joint_positions
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
 from .linkage import LinkageSlave, solver_variables
+from ..fmi.declarations import Variable
 
 _CAM = CAMSHAFT_INPUTS = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
 CAMSHAFT_DESCRIPTIONS = (
@@ -45,6 +47,28 @@ _GEOMETRY_DESCRIPTIONS = {
     "valve_axis_x": "x of the valve axis (the valve foot Q slides on it)",
     "valve_link_length": "Valve link length from V down to the valve foot Q",
 }
+
+
+# The valve train's joints (physics/joint_positions.py), shared by ValveTrain and ValveSpring.
+VALVE_TRAIN_FRAME = "origin at the camshaft centre, +x right, +y up (valve_train.py's frame)"
+VALVE_TRAIN_POINTS = {
+    "cam_centre": "the camshaft centre (the origin)",
+    "tappet_foot": "P, the tappet's flat face on the cam, on the tappet axis x = 0",
+    "rocker_fulcrum": "the rocker's pivot on the block (rocker_pivot_x, rocker_pivot_y)",
+    "pushrod_end": "T, the pushrod-rocker joint",
+    "valve_end": "V, the rocker-valve link joint",
+}
+
+
+def cam_angle_output(depends: tuple[str, ...]) -> Variable:
+    """The geometry output of the cam's angle (rad): the camshaft angle it turns by,
+    counter-clockwise, from the angle 0 of its cam law."""
+    return geometry_output(
+        "cam_angle",
+        "the cam's angle, counter-clockwise: the camshaft angle of its cam law",
+        unit="rad",
+        depends=depends,
+    )
 
 
 def geometry_variables() -> tuple:
@@ -110,6 +134,19 @@ def cam_setup(values: dict) -> tuple:
         values["return_angle"],
     )
     return geometry, profile
+
+
+def valve_train_geometry_effect() -> tuple:
+    """ValveTrain's geometry effect: the joints and the valve foot Q (the valve)."""
+    return geometry_effect(
+        VALVE_TRAIN_FRAME,
+        {
+            **VALVE_TRAIN_POINTS,
+            "valve_foot": "Q, the valve (link foot) on the valve axis x = valve_axis_x",
+        },
+        depends=_CAM[:1],
+        extra=(cam_angle_output(_CAM[:1]),),
+    )
 
 
 class ValveTrain(LinkageSlave):
@@ -184,6 +221,7 @@ class ValveTrain(LinkageSlave):
             "the valve starts to float with this cam and spring (-1: effect off)",
             unit="rad/s",
         ),
+        *valve_train_geometry_effect(),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -254,6 +292,19 @@ class ValveTrain(LinkageSlave):
             "valve_velocity": -qdot[_VALVE_Y],
             "valve_acceleration": -qddot[_VALVE_Y],
         }
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        points = joint_positions.flattened(
+            joint_positions.valve_train_points(
+                self.geometry,
+                v["tappet_lift"],
+                v["rocker_angle"],
+                self.closed_height - v["valve_lift"],
+            )
+        )
+        points["cam_angle"] = v["camshaft_angle"]
+        return points
 
     # --- valve spring -----------------------------------------------------------------
     def after_update(self, time: float) -> Any:
