@@ -59,6 +59,7 @@ LAYERS = {
     "test_physics_cam_valve.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
+    "test_joint_positions.py": "unit",  # the geometry effect's points, drawings, frames
     "test_physics_profiles.py": "unit",
     "test_physics_suspension.py": "unit",
     "test_references.py": "unit",
@@ -73,6 +74,7 @@ LAYERS = {
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)
     "test_compare.py": "unit",
     "test_api.py": "fmu",
+    "test_animate.py": "fmu",  # animations of the shipped scenes, files, the commands
     "test_baseline.py": "fmu",
     "test_check_cli.py": "fmu",
     "test_pytest_plugin.py": "fmu",

@@ -8,6 +8,7 @@ host side. The Python API returns pandas DataFrames::
     ref = mechfmu.reference("gear_retraction")        # its closed form on the same grid
     mechfmu.write_result(df, "out/gear.csv")          # the CSV + JSON pair of mechfmu run
     df = mechfmu.read_result("out/gear.csv")
+    mechfmu.animate(mechfmu.simulate("four_bar_crank_rocker", geometry=True))  # see it move
 
 The API is imported on first use, so ``import mechfmu`` (and the command line) stays light.
 """
@@ -22,6 +23,7 @@ _API = {
     "simulate": "api",
     "reference": "api",
     "sweep": "api",
+    "animate": "tools.animate",
     "read_result": "io",
     "write_result": "io",
     "read_table": "io",
@@ -32,6 +34,7 @@ _API = {
 
 __all__ = [
     "Comparison",
+    "animate",
     "ResultFileError",
     "__version__",
     "compare",
@@ -47,6 +50,7 @@ if TYPE_CHECKING:
     from .api import reference, simulate, sweep
     from .comparison import Comparison, compare
     from .io import ResultFileError, read_result, read_table, write_result
+    from .tools.animate import animate
 
 
 def __getattr__(name: str) -> Any:

@@ -196,6 +196,7 @@ def simulate(
     stop_time: float | None = None,
     step: float | None = None,
     fmu_dir: StrPath | None = None,
+    geometry: bool = False,
 ) -> pandas.DataFrame:
     """Run ``scene`` and return its recorded variables as a DataFrame.
 
@@ -205,7 +206,9 @@ def simulate(
     values (``{"actuator.stroke_time": 2.0}``, in SI units); a constant input the scene
     sets may be given the same way. ``start_time``, ``stop_time`` and ``step`` (s) replace
     the scene's. ``fmu_dir``: the folder of the built FMUs (default: ./fmus, else the
-    fmus/ of the source checkout mechfmu runs from).
+    fmus/ of the source checkout mechfmu runs from). ``geometry``: switch the geometry
+    effect on in every mechanism component and record its outputs (the joints' positions
+    that mechfmu.animate draws).
 
     Returns a DataFrame indexed by ``time`` (s), one float64 column per recorded variable
     named ``component.variable`` as in the CSV of ``mechfmu run``, and in ``attrs``:
@@ -231,6 +234,10 @@ def simulate(
         return description.modelName, [v.name for v in variables if v.causality == "parameter"]
 
     apply_parameters(chosen, parameters, declared)
+    if geometry:
+        from .tools.animate import with_geometry
+
+        chosen = with_geometry(chosen)
     check_tables(chosen)
     simulation = Simulation(chosen, folder)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
