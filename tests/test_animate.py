@@ -19,7 +19,7 @@ from PIL import Image
 import mechfmu
 from conftest import SCENES
 from mechfmu.cli import main as cli
-from mechfmu.cosim.scene import SceneError, load_scene
+from mechfmu.cosim.scene import Connection, SceneError, load_scene
 from mechfmu.runtime.physics import landing_gear as gear
 from mechfmu.runtime.physics import suspension as susp
 from mechfmu.runtime.physics import valve_train as vt
@@ -349,3 +349,28 @@ def test_with_geometry_needs_a_mechanism():
     assert chosen.components["valve"].effects == ["geometry"]
     assert "valve.valve_tip_y" in chosen.record and "valve_train.cam_angle" in chosen.record
     assert math.isclose(chosen.stop_time, 0.02)
+
+
+def test_the_valve_with_the_rocker_drive_is_drawn_on_its_axis(fmu_dir):
+    scene = load_scene(SCENES / "valve_train_dynamic.toml")
+    scene.components["valve"].parameters["drive"] = "rocker"
+    scene.connections = [c for c in scene.connections if c.target != "valve"]
+    scene.connections += [
+        Connection("valve_train", f"valve_{rate}", "valve", f"rocker_{rate}")
+        for rate in ("lift", "velocity", "acceleration")
+    ]
+    scene.record += ["valve.penetration"]
+    table = mechfmu.simulate(with_geometry(scene), fmu_dir=fmu_dir, stop_time=0.01)
+    animation = mechfmu.animate(table, speed=0.001, fps=10)
+    assert not table["valve.cam_angle"].any() and not table["valve.pushrod_end_y"].any()
+    p = table.attrs["components"]["valve"]["parameters"]
+    closed = vt.rest_position(geometry_of(p))[1]
+    size = p["pushrod_length"]
+    for frame in range(len(animation)):
+        row = int(animation.frame_rows[frame])
+        drawn = animation.shapes(frame)["valve"]
+        assert "cam" not in drawn and "pushrod" not in drawn  # the valve axis alone
+        end, tip = drawn["rocker_end"].xy.mean(axis=0), drawn["valve"].xy[0]
+        assert near(end[0], p["valve_axis_x"], size)
+        assert near(end[1], closed - table["valve_train.valve_lift"].iloc[row], size)
+        assert near(end[1] - tip[1], -table["valve.penetration"].iloc[row], size)

@@ -85,8 +85,8 @@ def drawn_components(table: pandas.DataFrame) -> list[DrawnComponent]:
     drawn, problems = [], []
     for name, variables in _component_names(table).items():
         model = _model_of(name, variables, metadata)
-        needed = geometry_outputs(model) if model else ()
-        if not needed:
+        needed = geometry_outputs(model) if model is not None else ()
+        if model is None or not needed:
             continue
         missing = [v for v in needed if v not in variables]
         if missing:

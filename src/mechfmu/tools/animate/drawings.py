@@ -111,7 +111,7 @@ class SliderCrankDrawing(Drawing):
             "slider_guide": Shape(
                 GROUND,
                 shapes.hatching(
-                    ((self.line[0] + self.line[1]) / 2, line_y),
+                    np.array([(self.line[0] + self.line[1]) / 2, line_y]),
                     self.line[1] - self.line[0],
                     strokes=12,
                     depth=0.06 * self.rod,
@@ -189,12 +189,12 @@ class SuspensionDrawing(Drawing):
     def shapes(self, row: int) -> dict[str, Shape]:
         left, right, apex = self.left[row], self.right[row], self.apex[row]
         centre = 0.5 * (left + right)
-        coil = {"coils": 7, "width": 0.1 * self.span}
+        width = 0.1 * self.span
         mass = (0.5 * self.span, 0.18 * self.span)
         drawn = {
             "base": Shape(LINK, points(left, right)),
-            "left_spring": Shape(SPRING, shapes.spring(left, apex, **coil)),
-            "right_spring": Shape(SPRING, shapes.spring(right, apex, **coil)),
+            "left_spring": Shape(SPRING, shapes.spring(left, apex, coils=7, width=width)),
+            "right_spring": Shape(SPRING, shapes.spring(right, apex, coils=7, width=width)),
             "mass": Shape(BODY, shapes.block(apex + np.array([0.0, 0.5 * mass[1]]), *mass)),
         }
         if self.moving:

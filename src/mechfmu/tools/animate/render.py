@@ -45,6 +45,7 @@ STYLES: dict[str, dict[str, Any]] = {
     TRACE: dict(color="#d62728", linewidth=1.0, alpha=0.8),
 }
 SUFFIXES = (".gif", ".mp4", ".html")
+GIF_COLOURS = 128  # the GIF's palette: the drawing's colours and their antialiased blends
 GIF_MAX_FPS = 50.0  # GIF delays count centiseconds, and viewers slow delays below 2 cs
 DPI = 100
 
@@ -172,13 +173,13 @@ class Animation:
         axes.tick_params(labelsize=7)
         axes.set_xlabel("x [m]", fontsize=8)
         axes.grid(True, linewidth=0.3, alpha=0.5)
-        artists: dict[str, Any] = {}
+        artists: dict[str, Any] = {}  # shape name -> its Line2D or (bodies) Polygon
         rows = self.schedule.rows
 
         def draw(frame: int) -> None:
             drawn = drawing.shapes(int(rows[frame]))
             for name, shape in sorted(drawn.items(), key=lambda item: KINDS.index(item[1].kind)):
-                artist = artists.get(name)
+                artist: Any = artists.get(name)
                 if artist is None:
                     if shape.kind == BODY:
                         artist = Polygon(shape.xy, closed=True, animated=True, **STYLES[BODY])
@@ -256,7 +257,9 @@ class Animation:
         starts, durations = self.gif_frames()
         # one palette for every frame, from the first and the last (the whole trace)
         ends = np.vstack([image for _, image in self.images([0, len(self) - 1])])
-        palette = Image.fromarray(ends).quantize(colors=255, method=Image.Quantize.MEDIANCUT)
+        palette = Image.fromarray(ends).quantize(
+            colors=GIF_COLOURS, method=Image.Quantize.MEDIANCUT
+        )
         frames = [
             Image.fromarray(image).quantize(palette=palette, dither=Image.Dither.NONE)
             for _, image in self.images(starts)
@@ -269,7 +272,6 @@ class Animation:
             append_images=frames[1:],
             duration=durations,
             loop=0,
-            optimize=False,
             disposal=1,
         )
         self._gif = buffer.getvalue()
