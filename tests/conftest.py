@@ -57,6 +57,7 @@ LAYERS = {
     "test_planar.py": "unit",
     "test_planar_kernel.py": "unit",
     "test_physics_cam_valve.py": "unit",
+    "test_cam_geometry.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
     "test_joint_positions.py": "unit",  # the geometry effect's points, drawings, frames
@@ -86,6 +87,7 @@ LAYERS = {
     "test_fmus.py": "fmu",
     "test_interrupts.py": "fmu",
     "test_linkage_fmus.py": "fmu",
+    "test_cam_fmu.py": "fmu",
     "test_outputs.py": "fmu",
     "test_robustness.py": "fmu",
     "test_scenes.py": "fmu",
