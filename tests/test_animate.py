@@ -130,13 +130,20 @@ def check_chain(drawn, p, size):
     assert abs(cross(t - fulcrum, v - fulcrum)) <= TOLERANCE * size**2
     assert near(length(drawn["valve_link"]), g.valve_link_length, size)
     assert end[0] == g.valve_axis_x  # on the valve axis
-    # the cam touches the tappet's face within its width (the default cam is undercut for
-    # a flat face: its envelope has a cusp that may reach above the face elsewhere)
-    cam, face = drawn["cam"].xy, drawn["tappet_face"].xy
-    on_face = (np.abs(cam[:, 1] - foot[1]) <= TOLERANCE * size) & (
-        (cam[:, 0] >= face[0, 0]) & (cam[:, 0] <= face[1, 0])
-    )
-    assert on_face.any()
+    # the cam touches its follower: the roller at its radius from the tappet foot, or the
+    # flat face within its width (a cam that folds, a cusp, may reach past it elsewhere)
+    cam = drawn["cam"].xy
+    if p.get("follower", "flat_faced") == "roller":
+        gaps = np.abs(np.hypot(*(cam - foot).T) - p["roller_radius"])
+        assert gaps.min() <= TOLERANCE * size
+        rim = np.hypot(*(drawn["roller"].xy - foot).T)  # the roller drawn round the foot
+        assert np.all(np.abs(rim - p["roller_radius"]) <= TOLERANCE * size)
+    else:
+        face = drawn["tappet_face"].xy
+        on_face = (np.abs(cam[:, 1] - foot[1]) <= TOLERANCE * size) & (
+            (cam[:, 0] >= face[0, 0]) & (cam[:, 0] <= face[1, 0])
+        )
+        assert on_face.any()
     return end
 
 

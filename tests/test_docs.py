@@ -106,7 +106,7 @@ def test_docs_site_builds_strictly(tmp_path, fmu_dir):
     assert images >= 20  # the models' reference plots and the study's
     # each mechanism's page shows its reference scene moving
     frames = {path.name: Image.open(path).n_frames for path in (site / "moving").glob("*.gif")}
-    assert len(frames) == 6 and min(frames.values()) > 10, frames
+    assert len(frames) == 7 and min(frames.values()) > 10, frames
     showing = {path.parent.name for path, text in pages.items() if 'src="../../moving/' in text}
     assert showing == {
         "four_bar",

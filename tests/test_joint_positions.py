@@ -24,6 +24,7 @@ from mechfmu.tools.animate.frames import schedule
 from mechfmu.tools.animate.shapes import hatching, spring
 
 PROPERTY = settings(derandomize=True, max_examples=150, deadline=None)
+CAMS = settings(derandomize=True, max_examples=40, deadline=None)  # a cam: 360 profile points
 TOLERANCE = 1e-9  # of the mechanism's size
 lengths = st.floats(0.01, 2.0)
 angles = st.floats(-10.0, 10.0)
@@ -195,7 +196,7 @@ def convex(parameters):
     )
 
 
-@PROPERTY
+@CAMS
 @given(cam_parameters(), st.floats(-20.0, 20.0))
 def test_cam_touches_the_tappet_face_at_its_highest_point(parameters, angle):
     assume(
@@ -212,6 +213,37 @@ def test_cam_touches_the_tappet_face_at_its_highest_point(parameters, angle):
     assert abs(drawn[top, 0] - lift.s1) <= TOLERANCE * face  # contact s' right of the axis
     assert np.all(drawn[:, 1] <= face * (1 + TOLERANCE))
     assert np.array_equal(drawn[0], drawn[-1])  # closed
+
+
+@CAMS
+@given(
+    cam_parameters(),
+    st.floats(0.002, 0.02),
+    st.floats(-0.6, 0.6),
+    st.booleans(),
+    st.floats(-20.0, 20.0),
+)
+def test_the_drawn_cam_touches_its_follower(parameters, roller, offset, rolling, angle):
+    """Flat face or roller, with an offset: the turned profile holds the point where the
+    cam touches the follower (cam_geometry's), on the face or at the roller's radius from its
+    centre, the follower resting on the cam at the tappet foot (cam_centre)."""
+    assume(sum(parameters[k] for k in CAM_LAW[3:]) < 2 * math.pi)
+    parameters = dict(parameters, follower="roller" if rolling else "flat_faced")
+    parameters["roller_radius"] = roller
+    parameters["follower_offset"] = offset * parameters["cam_base_radius"]
+    cam = cam_of(parameters)
+    centre = np.array(joint_positions.cam_centre(cam.follower))
+    drawn = centre + turned_profile(cam, angle)
+    s, s1, _, _ = cam_laws.cam_lift(profile_of(parameters), angle)
+    foot = np.array([0.0, parameters["cam_base_radius"] + s])  # the tappet foot: the trace point
+    size = parameters["cam_base_radius"]
+    if rolling:
+        distances = np.hypot(*(drawn - foot).T)
+        assert np.min(np.abs(distances - roller)) <= TOLERANCE * size
+    else:
+        on_face = np.abs(drawn[:, 1] - foot[1]) <= TOLERANCE * size
+        contact = s1 - parameters["follower_offset"]  # on the face, from the tappet's axis
+        assert np.any(on_face & (np.abs(drawn[:, 0] - contact) <= TOLERANCE * size))
 
 
 @PROPERTY

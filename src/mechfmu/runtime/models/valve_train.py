@@ -50,9 +50,13 @@ _GEOMETRY_DESCRIPTIONS = {
 
 
 # The valve train's joints (physics/joint_positions.py), shared by ValveTrain and ValveSpring.
-VALVE_TRAIN_FRAME = "origin at the camshaft centre, +x right, +y up (valve_train.py's frame)"
+VALVE_TRAIN_FRAME = (
+    "origin at the camshaft centre of a flat-faced tappet without offset, +x right, +y up "
+    "(valve_train.py's frame)"
+)
 VALVE_TRAIN_POINTS = {
-    "cam_centre": "the camshaft centre (the origin)",
+    "cam_centre": "the camshaft centre: the origin, or under a roller or an offset follower "
+    "(cam_geometry's follower parameters) where the cam holds it at the tappet foot",
     "tappet_foot": "P, the tappet's flat face on the cam, on the tappet axis x = 0",
     "rocker_fulcrum": "the rocker's pivot on the block (rocker_pivot_x, rocker_pivot_y)",
     "pushrod_end": "T, the pushrod-rocker joint",
@@ -338,6 +342,7 @@ class ValveTrain(LinkageSlave):
         self.motion = cam_laws.motion_function(CAM)  # follower_motion of self.profile
         self.closed_height = 0.0  # m, valve foot height with the valve closed
         self.cam_follower: Any = None  # cam_geometry.Follower with the cam_geometry effect
+        self.drawn_cam_centre = (0.0, 0.0)  # m, the cam's centre (geometry effect)
         self.reported: set = set()  # design warnings logged (initialisation may run twice)
 
     # --- parameters -------------------------------------------------------------------
@@ -366,6 +371,15 @@ class ValveTrain(LinkageSlave):
             v[name] = -1.0
         if v["cam_geometry"]:
             self._design_cam()
+        if v["geometry"]:  # where the cam sits under its follower (a roller, an offset)
+            self.drawn_cam_centre = joint_positions.cam_centre(
+                cam_geometry.check_follower(
+                    v["follower"],
+                    self.geometry.cam_base_radius,
+                    v["roller_radius"],
+                    v["follower_offset"],
+                )
+            )
 
     def _design_cam(self) -> None:
         """The cam_geometry effect at initialisation: the follower checked, the cam designed
@@ -439,6 +453,7 @@ class ValveTrain(LinkageSlave):
                 v["tappet_lift"],
                 v["rocker_angle"],
                 self.closed_height - v["valve_lift"],
+                self.drawn_cam_centre,
             )
         )
         points["cam_angle"] = v["camshaft_angle"]

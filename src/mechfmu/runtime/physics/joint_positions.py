@@ -13,6 +13,8 @@ All lengths in m, angles in rad (counter-clockwise positive).
 import math
 from collections import namedtuple
 
+from . import cam_geometry
+
 Point = tuple[float, float]  # (x, y) in m
 
 FourBarPoints = namedtuple("FourBarPoints", "crank_pivot rocker_pivot crank_pin rocker_pin")
@@ -94,21 +96,33 @@ def suspension_points(
     )
 
 
+def cam_centre(follower: "cam_geometry.Follower") -> Point:
+    """The cam's centre in the valve train's frame for a cam_geometry.Follower: the
+    follower's axis is the tappet axis x = 0, and at zero lift the follower's trace point
+    (a flat face on the axis, a roller's centre) is the tappet foot (0, r_b) with the
+    follower on the base circle, so the centre lies at (-e, r_b - d), d = trace_height (e
+    the follower's offset). The origin for a flat face without offset."""
+    base = follower.base_circle_radius
+    return (-follower.offset, base - cam_geometry.trace_height(follower))
+
+
 def valve_train_points(
     geometry: tuple[float, ...],
     tappet_lift: float,
     rocker_angle: float,
     valve_foot_height: float,
+    centre: Point = (0.0, 0.0),
 ) -> ValveTrainPoints:
     """The pushrod valve train's joints (valve_train.py's frame): origin at the camshaft
-    centre, +x right, +y up. ``geometry``: a valve_train.ValveGeometry. The tappet foot P =
+    centre of a flat-faced tappet without offset, +x right, +y up; ``centre``: where the cam's
+    centre is (cam_centre). ``geometry``: a valve_train.ValveGeometry. The tappet foot P =
     (0, r_b + tappet lift) on the tappet axis, the rocker pivot (a, b), its tappet end T =
     (a - lt cos phi, b - lt sin phi) and valve end V = (a + lv cos phi, b + lv sin phi), the
     valve foot Q = (c, y3) on the valve axis (``valve_foot_height``: y3)."""
     (base_radius, _, pivot_x, pivot_y, tappet_arm, valve_arm, axis_x, _) = geometry
     cos_phi, sin_phi = math.cos(rocker_angle), math.sin(rocker_angle)
     return ValveTrainPoints(
-        (0.0, 0.0),
+        centre,
         (0.0, base_radius + tappet_lift),
         (pivot_x, pivot_y),
         (pivot_x - tappet_arm * cos_phi, pivot_y - tappet_arm * sin_phi),

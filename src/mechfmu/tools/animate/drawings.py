@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from . import shapes
-from .cam import Cam, cam_contact_offsets, cam_of, turned_profile
+from .cam import Cam, cam_of, turned_profile
 from .columns import DrawnComponent
 from .shapes import BAR, BODY, GROUND, GUIDE, LINK, OUTLINE, SPRING, TRACE, Shape, points
 
@@ -214,8 +214,9 @@ class SuspensionDrawing(Drawing):
 
 
 class ValveTrainDrawing(Drawing):
-    """The cam turning with its profile (from the cam law of the result's parameters; its
-    base circle alone without them), the tappet's flat face and body in its guide, the
+    """The cam turning about its centre with its profile (cam.py: the runtime's cam geometry
+    for the cam law and follower of the result's parameters; the base circle alone without
+    them), the tappet's body in its guide with its flat face or roller, the
     pushrod P-T, the rocker T-pivot-V (hatched pivot), the valve link V-Q, and the valve:
     its stem down from Q with its head, the valve spring from the retainer to its fixed
     seat, the valve seat hatched at the closed head. Decorations are sized from the pushrod
@@ -236,16 +237,19 @@ class ValveTrainDrawing(Drawing):
         self.angle = component.columns["cam_angle"]
         self.cam: Cam | None = cam_of(component.parameters)
         self.base_radius = (
-            self.cam.base_radius if self.cam is not None else float(np.min(self.foot[:, 1]))
+            self.cam.follower.base_circle_radius
+            if self.cam is not None
+            else float(np.min(self.foot[:, 1]))
         )
+        self.roller = self.cam.follower.roller_radius if self.cam is not None else 0.0
         reach = self.valve_top[:, 1]
         self.size = (
             float(np.max(_distance(self.foot, self.t)))
             if self.chain
             else 10.0 * float(np.ptp(reach) or 0.01)
         )
-        # the tappet's face covers the contact's travel across it: s' (m/rad) each side
-        offsets = np.abs(cam_contact_offsets(self.cam)) if self.cam is not None else np.zeros(1)
+        # a flat face covers the contact's travel across it (s' - e each side of the axis)
+        offsets = np.abs(self.cam.face_contact) if self.cam is not None else np.zeros(1)
         self.face = max(2.4 * float(np.max(offsets)), 0.3 * self.size)
         self.closed = float(np.max(reach))  # the valve's highest (closed) top
         self.stem = 0.45 * self.size
@@ -318,16 +322,21 @@ class ValveTrainDrawing(Drawing):
                 ),
             ),
             "rocker_support": Shape(GROUND, shapes.hatching(fulcrum, 0.2 * size, np.pi / 2)),
-            "tappet": Shape(BODY, shapes.block(foot + np.array([0.0, 0.5 * body]), body, body)),
-            "tappet_face": Shape(
-                BAR, points(foot - (0.5 * self.face, 0.0), foot + (0.5 * self.face, 0.0))
+            "tappet": Shape(
+                BODY,
+                shapes.block(foot + np.array([0.0, 0.5 * body + 0.6 * self.roller]), body, body),
             ),
             "pushrod": Shape(LINK, points(foot, t)),
             "rocker": Shape(LINK, points(t, fulcrum, v)),
             "valve_link": Shape(LINK, points(v, self.rocker_end[row])),
         }
+        if self.roller > 0.0:
+            drawn["roller"] = Shape(BODY, shapes.circle(foot, self.roller))
+        else:
+            half = np.array([0.5 * self.face, 0.0])
+            drawn["tappet_face"] = Shape(BAR, points(foot - half, foot + half))
         if self.cam is not None:
-            drawn["base_circle"] = Shape(GUIDE, shapes.circle(centre, self.cam.base_radius))
+            drawn["base_circle"] = Shape(GUIDE, shapes.circle(centre, self.base_radius))
             drawn["cam"] = Shape(BODY, centre + turned_profile(self.cam, float(self.angle[row])))
         else:
             drawn["base_circle"] = Shape(OUTLINE, shapes.circle(centre, self.base_radius))
