@@ -144,9 +144,16 @@ def valve_axis_points(
     )
 
 
+def output_names(kind: type) -> tuple[str, ...]:
+    """The geometry outputs of a namedtuple type of points: <point>_x, <point>_y of each."""
+    return tuple(f"{name}_{axis}" for name in kind._fields for axis in ("x", "y"))  # type: ignore[attr-defined]
+
+
+_NAMES: dict[type, tuple[str, ...]] = {}  # output_names of each points type, once
+
+
 def flattened(points: tuple[Point, ...]) -> dict[str, float]:
     """{<point>_x: x, <point>_y: y} of a namedtuple of points: the geometry outputs."""
-    values = {}
-    for name, (x, y) in zip(points._fields, points):  # type: ignore[attr-defined]
-        values[f"{name}_x"], values[f"{name}_y"] = x, y
-    return values
+    kind = type(points)
+    names = _NAMES.get(kind) or _NAMES.setdefault(kind, output_names(kind))
+    return dict(zip(names, [coordinate for point in points for coordinate in point]))
