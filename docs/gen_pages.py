@@ -7,8 +7,9 @@
   (the same command a user runs, called in-process through its console-script entry point):
   ``<!-- mechfmu:interface MODEL -->`` becomes the model's interface table, generated from
   its declarations; ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
-  committed reference CSV. A registered model without an interface marker on some page
-  fails the build.
+  committed reference CSV; ``<!-- mechfmu:scenes --tolerances -->`` becomes the table of
+  each shipped scene's check tolerances (its [check] table). A registered model without an
+  interface marker on some page fails the build.
 - ``<!-- mechfmu:animation SCENE [speed=S] [fps=N] [panel=COLUMN] -->`` becomes the scene
   moving: run on the built FMUs with the geometry effect and animated as a small GIF, by
   the Python API a user calls (mechfmu.simulate(scene, geometry=True), mechfmu.animate). The
@@ -28,7 +29,7 @@ import mkdocs_gen_files
 
 import mechfmu
 
-MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot) (\S+) -->$", re.MULTILINE)
+MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot|scenes) (\S+) -->$", re.MULTILINE)
 ANIMATION = re.compile(r"^<!-- mechfmu:animation (\S+)((?: \w+=\S+)*) -->$", re.MULTILINE)
 # The docs' animations: small files (a few hundred kB), quick to draw at build time.
 ANIMATION_WIDTH = 440
@@ -110,6 +111,8 @@ def fill_markers(docs_dir: Path) -> None:
 
         def replace(match):
             kind, name = match.groups()
+            if kind == "scenes":  # <!-- mechfmu:scenes --tolerances -->
+                return mechfmu_command("scenes", name).strip()
             if kind == "interface":
                 if name not in tables:
                     raise RuntimeError(f"{page}: no model {name!r}; models: {', '.join(tables)}")
