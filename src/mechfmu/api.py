@@ -83,6 +83,7 @@ def simulate(
     stop_time: float | None = None,
     step: float | None = None,
     fmu_dir: StrPath | None = None,
+    geometry: bool = False,
 ) -> pandas.DataFrame:
     """Run ``scene`` and return its recorded variables as a DataFrame.
 
@@ -93,7 +94,8 @@ def simulate(
     sets may be given the same way. ``start_time``, ``stop_time`` and ``step`` (s) replace
     the scene's. ``fmu_dir``: the folder of the built FMUs (default: the first of
     $MECHFMU_FMU_DIR, ./fmus, the source checkout's and the user cache that holds them:
-    mechfmu.cosim.locate).
+    mechfmu.cosim.locate). ``geometry``: switch the geometry effect on in every mechanism
+    component and record its outputs (the joints' positions that mechfmu.animate draws).
 
     Returns a DataFrame indexed by ``time`` (s), one float64 column per recorded variable
     named ``component.variable`` as in the CSV of ``mechfmu run``, and in ``attrs``:
@@ -111,18 +113,19 @@ def simulate(
     ``result`` holds the rows computed before). Ctrl-C (SIGINT, in the main thread) stops
     the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
     """
+    times: dict[str, float | None] = {
+        "start_time": start_time,
+        "stop_time": stop_time,
+        "step": step,
+    }
+    if geometry:  # the geometry effect on in every mechanism, its outputs recorded
+        from .tools.animate import with_geometry
+
+        scene, times = with_geometry(choose_scene(scene, **times)), {}
     overrides = _plain_parameters(parameters)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
         try:
-            simulation, result = run_simulation(
-                scene,
-                fmu_dir,
-                overrides,
-                guard,
-                start_time=start_time,
-                stop_time=stop_time,
-                step=step,
-            )
+            simulation, result = run_simulation(scene, fmu_dir, overrides, guard, **times)
         except SimulationInterrupted as stopped:
             raise KeyboardInterrupt(str(stopped)) from None
     chosen = simulation.scene
@@ -149,6 +152,30 @@ def simulate(
     )
 
 
+def configured_scene(
+    scene: SceneLike,
+    parameters: Mapping[str, Any] | None = None,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+) -> Scene:
+    """The Scene ``scene`` names (a shipped scene's name, a scene file or a Scene, copied)
+    with ``parameters`` ({"component.parameter": value}) and the times (s) applied, the
+    names checked against the models' declarations: no FMU is needed. SceneError for an
+    unknown component or a parameter the model does not declare."""
+    from .tools.docs import model_class
+
+    chosen = choose_scene(scene, start_time, stop_time, step)
+
+    def declared(spec: Any) -> tuple[str, list[str]]:
+        model: Any = model_class(Path(spec.fmu).stem)
+        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
+        return Path(spec.fmu).stem, names
+
+    apply_parameters(chosen, _plain_parameters(parameters), declared)
+    return chosen
+
+
 def reference(
     scene: SceneLike,
     *,
@@ -169,24 +196,17 @@ def reference(
     FMU is needed. SceneError for a scene without a reference, an unknown component or
     a parameter the model does not declare.
     """
-    from .tools.docs import declared_units, model_class
+    from .tools.docs import declared_units
     from .tools.scene_references import REFERENCES, sample_times
 
-    chosen = choose_scene(scene, start_time, stop_time, step)
+    overrides = _plain_parameters(parameters)
+    chosen = configured_scene(scene, overrides, start_time, stop_time, step)
     build = REFERENCES.get(chosen.name)
     if build is None:
         raise SceneError(
             f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
             f"scenes with one: {', '.join(REFERENCES)}"
         )
-
-    def declared(spec: Any) -> tuple[str, list[str]]:
-        model: Any = model_class(Path(spec.fmu).stem)
-        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
-        return Path(spec.fmu).stem, names
-
-    overrides = _plain_parameters(parameters)
-    apply_parameters(chosen, overrides, declared)
     columns = build(chosen)
     return frame(
         sample_times(chosen),
