@@ -5,7 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from mechfmu.cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
+from mechfmu.cosim.locate import fmu_folder
+from mechfmu.cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR, SceneError
 from mechfmu.packaging.build import build_all
 from mechfmu.runtime.models import MODELS
 
@@ -18,11 +19,15 @@ SWEEPS = SWEEP_DIR
 
 @pytest.fixture(scope="session")
 def fmu_dir():
-    """fmus/ as built by `make fmus`; built here when missing (e.g. a bare `pytest`)."""
-    missing = [name for name in MODELS if not (FMU_DIR / f"{name}.fmu").is_file()]
-    if missing:
+    """The built FMUs, found by the rule every command follows (cosim/locate.py:
+    $MECHFMU_FMU_DIR, which make sets, ./fmus, the checkout's, the user cache); built into
+    FMU_DIR when none holds them all (e.g. a bare `pytest` on a fresh clone)."""
+    try:
+        return fmu_folder(MODELS)
+    except SceneError:
+        missing = [name for name in MODELS if not (FMU_DIR / f"{name}.fmu").is_file()]
         build_all(FMU_DIR, missing)
-    return FMU_DIR
+        return FMU_DIR
 
 
 @pytest.fixture(scope="session")

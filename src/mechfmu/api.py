@@ -10,8 +10,6 @@ Pa, ...); ``df.attrs["units"]`` names the unit of each column.
 
 from __future__ import annotations
 
-import copy
-import math
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from os import PathLike
@@ -25,61 +23,13 @@ from .cosim.interrupt import InterruptGuard
 from .cosim.locate import scene_fmu_folder
 from .cosim.master import Simulation, SimulationInterrupted, parameter_values
 from .cosim.results import versions
-from .cosim.run import simulate as run_simulation
-from .cosim.scene import (
-    SCENE_DIR,
-    Scene,
-    SceneError,
-    apply_parameters,
-    check_times,
-    find_file,
-    load_scene,
-)
+from .cosim.run import choose_scene, simulate as run_simulation
+from .cosim.scene import Scene, SceneError, apply_parameters, load_scene
 
 __all__ = ["reference", "simulate", "sweep"]
 
 SceneLike = str | PathLike | Scene
 StrPath = str | PathLike
-
-
-def _scene(
-    scene: SceneLike,
-    start_time: float | None = None,
-    stop_time: float | None = None,
-    step: float | None = None,
-) -> Scene:
-    """The Scene ``scene`` names (a Scene, a path, or a shipped scene's name), with the given
-    times replacing its own (checked as in the scene file: a whole number of steps)."""
-    overrides = {
-        key: value
-        for key, value in (("start_time", start_time), ("stop_time", stop_time), ("step", step))
-        if value is not None
-    }
-    if isinstance(scene, Scene):
-        chosen = copy.deepcopy(scene)
-        for key, value in overrides.items():
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, (int, float))
-                or not math.isfinite(value)
-            ):
-                raise SceneError(f"{key} = {value!r} must be a finite number")
-            setattr(chosen, key, float(value))
-        check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
-        return chosen
-    if not isinstance(scene, (str, PathLike)):
-        raise TypeError(
-            f"scene must be a shipped scene's name, a scene file or a Scene, got "
-            f"{type(scene).__name__}"
-        )
-    path = find_file(str(scene))
-    if not path.exists() and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
-        shipped = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
-        raise SceneError(
-            f"no shipped scene named {str(scene)!r} and no such file; shipped "
-            f"scenes: {', '.join(shipped)}"
-        )
-    return load_scene(path, overrides)
 
 
 def _plain(value: Any) -> Any:
@@ -163,17 +113,22 @@ def simulate(
     ``result`` holds the rows computed before). Ctrl-C (SIGINT, in the main thread) stops
     the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
     """
-    chosen = _scene(scene, start_time, stop_time, step)
-    if geometry:
+    times: dict[str, float | None] = {
+        "start_time": start_time,
+        "stop_time": stop_time,
+        "step": step,
+    }
+    if geometry:  # the geometry effect on in every mechanism, its outputs recorded
         from .tools.animate import with_geometry
 
-        chosen = with_geometry(chosen)
+        scene, times = with_geometry(choose_scene(scene, **times)), {}
     overrides = _plain_parameters(parameters)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
         try:
-            simulation, result = run_simulation(chosen, fmu_dir, overrides, guard)
+            simulation, result = run_simulation(scene, fmu_dir, overrides, guard, **times)
         except SimulationInterrupted as stopped:
             raise KeyboardInterrupt(str(stopped)) from None
+    chosen = simulation.scene
     return frame(
         result.times,
         result.columns,
@@ -210,7 +165,7 @@ def configured_scene(
     unknown component or a parameter the model does not declare."""
     from .tools.docs import model_class
 
-    chosen = _scene(scene, start_time, stop_time, step)
+    chosen = choose_scene(scene, start_time, stop_time, step)
 
     def declared(spec: Any) -> tuple[str, list[str]]:
         model: Any = model_class(Path(spec.fmu).stem)
