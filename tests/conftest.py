@@ -56,6 +56,7 @@ LAYERS = {
     "test_integrators.py": "unit",
     "test_planar.py": "unit",
     "test_planar_kernel.py": "unit",
+    "test_link_forces.py": "unit",
     "test_physics_cam_valve.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",

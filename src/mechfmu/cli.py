@@ -291,8 +291,10 @@ def _baseline_update(args: argparse.Namespace) -> int:
 
 
 def _references(args: Any) -> int:
-    from .tools.scene_references import generate
+    from .tools.scene_references import generate, generate_tables
 
+    for path in generate_tables(args.scenes):
+        print(f"wrote {path}")
     for path in generate(args.scenes, args.out):
         print(f"wrote {path}")
     return 0
@@ -728,7 +730,9 @@ def parser() -> argparse.ArgumentParser:
     update.add_argument("--dry-run", action="store_true", help="only say what would change")
     update.set_defaults(func=_baseline_update)
 
-    references = verbs.add_parser("references", help="regenerate the reference CSVs")
+    references = verbs.add_parser(
+        "references", help="regenerate the reference CSVs and the scenes' input tables"
+    )
     _scene_folder_option(references)
     references.add_argument(
         "--out",

@@ -320,12 +320,16 @@ def norton_slider_crank(
     coupler_length: float,
     coupler_force: tuple[Any, Any] = (0.0, 0.0),
     slider_force_x: Any = 0.0,
+    counterweight: tuple[float, float] = (0.0, 0.0),
 ) -> dict[str, ndarray]:
     """Pin forces, guide force and crank torque of the slider-crank by an 8 x 8 matrix.
 
     Unknowns x = (F12x, F12y, F32x, F32y, F43x, F43y, F14y, T12); rows: crank and rod as in
     the four-bar, the slider (a point mass at B on a frictionless guide along x) by its two
-    force equations. ``slider_force_x``: the external force on the slider along +x (N)."""
+    force equations. ``slider_force_x``: the external force on the slider along +x (N).
+    ``counterweight``: (mass kg, radius m) of a point mass on the crank opposite the pin,
+    carried as a part of its own: its m a - m g joins the crank's force rows and its moment
+    about the crank's centre of mass the moment row."""
     crank, rod, slider = links
     o2 = (0.0, 0.0)
     pin_a = crank.point(crank_length, 0.0)
@@ -333,6 +337,11 @@ def norton_slider_crank(
     (g2, f2, i2), (g3, f3, i3), (_, f4, _) = (
         _link_terms(link, layout, gravity) for link, layout in zip(links, layouts)
     )
+    mass_cw, radius_cw = counterweight
+    if mass_cw:
+        gc, fc, _ = _link_terms(crank, (mass_cw, -radius_cw, 0.0, 0.0), gravity)
+        i2 = i2 + _cross(gc[0] - g2[0], gc[1] - g2[1], fc[0], fc[1])
+        f2 = (f2[0] + fc[0], f2[1] + fc[1])
     p = rod.point(*coupler_point)
     fpx, fpy = coupler_force
 

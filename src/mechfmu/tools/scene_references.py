@@ -16,12 +16,16 @@ from pathlib import Path
 import numpy as np
 
 from ..cosim.results import write_csv
+from ..io import read_profile_table
 from ..cosim.scene import find_file, load_scene
 from ..runtime.models import MODELS
 from ..references import (
     drives,
+    engine,
     gear_dynamics,
+    gear_forces,
     landing_gear,
+    link_forces,
     linkages,
     suspension,
     suspension_dynamics,
@@ -221,6 +225,117 @@ def valve_spring_scene(scene: Any) -> Any:
     return _recorded(scene, columns)
 
 
+def _layouts(p: dict, links: tuple[str, ...]) -> list[tuple[float, float, float, float]]:
+    """(mass, com_along, com_across, inertia) of each link from a model's parameters."""
+    return [
+        (p[f"{link}_mass"], p[f"{link}_com_along"], p[f"{link}_com_across"], p[f"{link}_inertia"])
+        for link in links
+    ]
+
+
+def _gravity(p: dict, effects: Any) -> tuple[float, float]:
+    """Gravity (m/s^2) of a linkage with the forces effect: none unless the scene lists it."""
+    if "gravity" not in effects:
+        return (0.0, 0.0)
+    return (
+        p["gravity_acceleration"] * np.cos(p["gravity_direction"]),
+        p["gravity_acceleration"] * np.sin(p["gravity_direction"]),
+    )
+
+
+def _inputs(scene: Any, name: str, model: str) -> dict:
+    """The model's input start values under the scene's constant inputs."""
+    return {**start_values(model, "input"), **scene.components[name].inputs}
+
+
+def four_bar_forces_scene(scene: Any) -> Any:
+    """CrankDrive -> FourBar with the forces effect: the motion as four_bar_scene, the pin
+    forces and crank torque by Norton's matrix, the energies and shaking from the links'
+    motion (references/link_forces.py)."""
+    columns = four_bar_scene(scene)
+    crank_name, crank = _shaft_columns(scene)
+    name, p = _component(scene, "FourBar")
+    lengths = [p[key] for key in ("ground_length", "crank_length", "coupler_length", "rocker_length")]
+    drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
+    motion = linkages.four_bar(*lengths, p["circuit"], *drive)
+    links = link_forces.four_bar_links(lengths, drive, motion)
+    layouts = _layouts(p, ("crank", "coupler", "rocker"))
+    gravity = _gravity(p, scene.components[name].effects)
+    loads = _inputs(scene, name, "FourBar")
+    point = (p["coupler_point_along"], p["coupler_point_across"])
+    force = (loads["coupler_force_x"], loads["coupler_force_y"])
+    forces = link_forces.norton_four_bar(
+        lengths, links, layouts, gravity, point, force, loads["rocker_torque"]
+    )
+    forces.update(link_forces.energies(links, layouts, gravity))
+    with np.errstate(divide="ignore"):
+        forces["mechanical_advantage"] = drive[1] / motion["rocker_angular_velocity"]
+    columns.update({f"{name}.{key}": value for key, value in forces.items()})
+    return _recorded(scene, columns)
+
+
+def slider_crank_engine_scene(scene: Any) -> Any:
+    """CrankDrive and LoadProfile(table) -> SliderCrank with the forces effect: the motion as
+    slider_crank_scene, the gas force interpolated in the scene's table, the forces by the
+    slider-crank's matrix (references/link_forces.py)."""
+    columns = slider_crank_scene(scene)
+    _, crank = _shaft_columns(scene)
+    name, p = _component(scene, "SliderCrank")
+    gas_name, gas = _component(scene, "LoadProfile")
+    geometry = [p[key] for key in ("crank_length", "coupler_length", "offset")]
+    drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
+    motion = linkages.slider_crank(*geometry, p["circuit"], *drive)
+    links = link_forces.slider_crank_links(geometry, drive, motion)
+    layouts = _layouts(p, ("crank", "coupler")) + [(p["slider_mass"], 0.0, 0.0, 0.0)]
+    gravity = _gravity(p, scene.components[name].effects)
+    loads = _inputs(scene, name, "SliderCrank")
+    table = read_profile_table(gas["table_file"])
+    load = np.interp(sample_times(scene), table.index.to_numpy(), table.iloc[:, 0].to_numpy())
+    towards_crank = -1.0 if p["circuit"] == 0 else 1.0
+    counterweight = (p["counterweight_mass"], p["counterweight_radius"])
+    forces = link_forces.norton_slider_crank(
+        links,
+        layouts,
+        gravity,
+        (p["coupler_point_along"], p["coupler_point_across"]),
+        geometry[0],
+        geometry[1],
+        (loads["coupler_force_x"], loads["coupler_force_y"]),
+        towards_crank * load,
+        counterweight,
+    )
+    forces.update(
+        link_forces.energies(
+            [*links, links[0]],  # the counterweight turns with the crank
+            [*layouts, (counterweight[0], -counterweight[1], 0.0, 0.0)],
+            gravity,
+        )
+    )
+    forces["mechanical_advantage"] = towards_crank * motion["slider_speed"] / drive[1]
+    columns[f"{gas_name}.load"] = load
+    columns.update({f"{name}.{key}": value for key, value in forces.items()})
+    return _recorded(scene, columns)
+
+
+def gear_loads_scene(scene: Any) -> Any:
+    """PistonActuator -> LandingGear (motion drive) with the forces effect: the retraction
+    as gear_retraction, the required piston force and the pivot and anchor loads from
+    references/gear_forces.py."""
+    columns = gear_retraction(scene)
+    actuator, _ = _component(scene, "PistonActuator")
+    name, p = _component(scene, "LandingGear")
+    effects = scene.components[name].effects
+    values = {**p, **{effect: effect in effects for effect in gear_forces.EFFECTS}}
+    values.update(_inputs(scene, name, "LandingGear"))
+    x, v, a = (
+        columns[f"{actuator}.piston_{key}"] for key in ("extension", "speed", "acceleration")
+    )
+    columns.update(
+        {f"{name}.{key}": value for key, value in gear_forces.loads(values, x, v, a).items()}
+    )
+    return _recorded(scene, columns)
+
+
 REFERENCES = {
     "gear_retraction": gear_retraction,
     "gear_retraction_cycloidal": gear_retraction,
@@ -237,6 +352,9 @@ REFERENCES = {
     "valve_float": valve_train_scene,
     "valve_train_dynamic": valve_spring_scene,
     "valve_float_dynamic": valve_spring_scene,
+    "four_bar_forces": four_bar_forces_scene,
+    "slider_crank_engine": slider_crank_engine_scene,
+    "gear_retraction_loads": gear_loads_scene,
 }
 
 
@@ -250,6 +368,25 @@ INTEGRATED = {
     "valve_train_dynamic",
     "valve_float_dynamic",
 }
+
+
+def engine_gas_force() -> tuple[ndarray, dict[str, ndarray]]:
+    """The slider_crank_engine scene's gas force table: one four-stroke cycle at its crank
+    speed, 3000 rpm (references/engine.py)."""
+    times, force = engine.gas_force_table(100.0 * np.pi)
+    return times, {"load": force}
+
+
+# Input tables of the shipped scenes (paths relative to the scene folder), generated from
+# the documented models in references/ by the same command as the references.
+TABLES = {"tables/engine_gas_force.csv": engine_gas_force}
+
+
+def generate_tables(scene_dir: Any) -> list[Path]:
+    """Write every table of TABLES under ``scene_dir``; return their paths."""
+    return [
+        write_csv(Path(scene_dir) / relative, *build()) for relative, build in TABLES.items()
+    ]
 
 
 def generate(scene_dir: Any, out_dir: Any) -> Any:
