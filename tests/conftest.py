@@ -83,6 +83,7 @@ LAYERS = {
     "test_coupling.py": "fmu",
     "test_four_bar_boundary.py": "fmu",
     "test_fmus.py": "fmu",
+    "test_force_fmus.py": "fmu",
     "test_interrupts.py": "fmu",
     "test_linkage_fmus.py": "fmu",
     "test_outputs.py": "fmu",

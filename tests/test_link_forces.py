@@ -87,7 +87,9 @@ def test_four_bar_forces_match_norton_power_balance_and_each_link(
     out = forces.analyse((angle, *rates), motion, lf.FourBarLoads(*loads))
     torque, force_x, force_y = loads
 
-    norton = ref.norton_four_bar(lengths, links, layouts, gravity, point, (force_x, force_y), torque)
+    norton = ref.norton_four_bar(
+        lengths, links, layouts, gravity, point, (force_x, force_y), torque
+    )
     scale = max(abs(column(norton, key, 0)) for key in norton) + 1.0
     for key in norton:
         assert_close(out[key], column(norton, key, 0), scale, what=key)
@@ -114,7 +116,9 @@ def test_four_bar_forces_match_norton_power_balance_and_each_link(
     def force(name):
         return np.array([out[f"{name}_force_x"], out[f"{name}_force_y"]])
 
-    f12, f32, f43, f14 = (force(n) for n in ("crank_pivot", "crank_pin", "rocker_pin", "rocker_pivot"))
+    f12, f32, f43, f14 = (
+        force(n) for n in ("crank_pivot", "crank_pin", "rocker_pin", "rocker_pivot")
+    )
     on_link = [
         [(f12, (0.0, 0.0)), (f32, (lengths[1], 0.0))],
         [(-f32, (0.0, 0.0)), (f43, (lengths[2], 0.0)), (np.array([force_x, force_y]), point)],
@@ -162,7 +166,9 @@ def test_slider_crank_forces_match_the_matrix_and_the_power_balance(
     out = forces.analyse((angle, *rates), motion, lf.SliderCrankLoads(*loads))
 
     drive = (np.array([angle]), np.array([rates[0]]), np.array([rates[1]]))
-    links = ref.slider_crank_links(geometry, drive, linkages.slider_crank(*geometry, circuit, *drive))
+    links = ref.slider_crank_links(
+        geometry, drive, linkages.slider_crank(*geometry, circuit, *drive)
+    )
     along = (-1.0 if circuit == 0 else 1.0) * loads[0]
     reference_layouts = [layouts[0], layouts[1], slider]
     norton = ref.norton_slider_crank(
@@ -179,7 +185,10 @@ def test_slider_crank_forces_match_the_matrix_and_the_power_balance(
     scale = max(abs(column(norton, key, 0)) for key in norton) + 1.0
     for key in norton:
         assert_close(out[key], column(norton, key, 0), scale, what=key)
-    weighted = [*links, links[0]], [*reference_layouts, (counterweight[0], -counterweight[1], 0.0, 0.0)]
+    weighted = (
+        [*links, links[0]],
+        [*reference_layouts, (counterweight[0], -counterweight[1], 0.0, 0.0)],
+    )
     power = ref.load_power(links, point, loads[1:], 0.0, along)
     balance = ref.power_balance_torque(*weighted, gravity, power)
     energy = ref.energies(*weighted, gravity)
@@ -218,7 +227,9 @@ def test_four_bar_at_rest_needs_the_virtual_work_torque(
         positions, angle, layouts, gravity, point, loads[1:], loads[0]
     )
     # the loads' own size sets the scale (a four-point central difference: ~1e-10 relative)
-    scale = sum(m for m, *_ in layouts) * math.hypot(*gravity) * sum(lengths) + sum(map(abs, loads)) * (1.0 + sum(lengths))
+    scale = sum(m for m, *_ in layouts) * math.hypot(*gravity) * sum(lengths) + sum(
+        map(abs, loads)
+    ) * (1.0 + sum(lengths))
     assert_close(out["crank_torque"], float(expected), scale + 1e-12, rtol=1e-7)
 
 
@@ -241,9 +252,9 @@ def test_slider_crank_at_rest_needs_the_virtual_work_torque(
     assume(abs(math.cos(motion["coupler_angle"])) > 0.1)
     slider = MassLayout(layouts[2].mass, 0.0, 0.0, 0.0)
     point = (0.5 * geometry[1], 0.0)
-    out = lf.SliderCrankForces(checked, 0, [layouts[0], layouts[1], slider], gravity, point).analyse(
-        (angle, 0.0, 0.0), motion, lf.SliderCrankLoads(force, 0.0, 0.0)
-    )
+    out = lf.SliderCrankForces(
+        checked, 0, [layouts[0], layouts[1], slider], gravity, point
+    ).analyse((angle, 0.0, 0.0), motion, lf.SliderCrankLoads(force, 0.0, 0.0))
     expected = ref.virtual_work_torque(
         ref.slider_crank_positions(geometry, 0),
         angle,
@@ -252,7 +263,10 @@ def test_slider_crank_at_rest_needs_the_virtual_work_torque(
         point,
         slider_force_x=-force,
     )
-    scale = sum(m for m, *_ in layouts) * math.hypot(*gravity) * sum(map(abs, geometry)) + abs(force) * geometry[0]
+    scale = (
+        sum(m for m, *_ in layouts) * math.hypot(*gravity) * sum(map(abs, geometry))
+        + abs(force) * geometry[0]
+    )
     assert_close(out["crank_torque"], float(expected), scale + 1e-12, rtol=1e-7)
     # the piston drives: its force's torque on the crank is the mechanical advantage times it
     if not any(m for m, *_ in layouts) or gravity == (0.0, 0.0):
@@ -275,7 +289,11 @@ def test_shaking_is_what_the_pins_and_the_motor_put_on_the_frame(lengths, angle,
     out = lf.FourBarForces(checked, layouts).analyse((angle, *rates), motion)
     f21 = -np.array([out["crank_pivot_force_x"], out["crank_pivot_force_y"]])
     f41 = -np.array([out["rocker_pivot_force_x"], out["rocker_pivot_force_y"]])
-    scale = np.abs(np.concatenate([f21, f41])).max() * (1.0 + lengths[0]) + abs(out["crank_torque"]) + 1e-9
+    scale = (
+        np.abs(np.concatenate([f21, f41])).max() * (1.0 + lengths[0])
+        + abs(out["crank_torque"])
+        + 1e-9
+    )
     assert_close(out["shaking_force_x"], f21[0] + f41[0], scale)
     assert_close(out["shaking_force_y"], f21[1] + f41[1], scale)
     assert_close(out["shaking_moment"], -out["crank_torque"] + lengths[0] * f41[1], scale)
@@ -388,7 +406,9 @@ def test_counterweight_balances_the_rotating_mass_and_half_the_reciprocating():
     half_x, half_y = peaks((m_a + 0.5 * m_b) * r / radius)
     unit = omega**2 * r
     assert rotating_y < 1e-9 * bare_y  # the rotating mass balanced: no vertical shaking
-    assert rotating_x < bare_x and rotating_x == pytest.approx(m_b * unit * (1 + r / length), rel=0.05)
+    assert rotating_x < bare_x and rotating_x == pytest.approx(
+        m_b * unit * (1 + r / length), rel=0.05
+    )
     assert half_y == pytest.approx(0.5 * m_b * unit, rel=1e-6)  # half moved to vertical
     assert half_x == pytest.approx(m_b * unit * (0.5 + r / length), rel=0.05)
 
@@ -437,7 +457,9 @@ def gear_setup(values):
     airspeed=st.floats(-60.0, 60.0),
     effects=st.fixed_dictionaries({name: st.booleans() for name in GEAR_EFFECTS}),
 )
-def test_gear_loads_match_the_vector_reference(extension, speed, acceleration, pitch, airspeed, effects):
+def test_gear_loads_match_the_vector_reference(
+    extension, speed, acceleration, pitch, airspeed, effects
+):
     values = gear_values(airframe_pitch=pitch, airspeed=airspeed, **effects)
     body, geometry = gear_setup(values)
     d, h = geometry.attachment_distance, geometry.pivot_height
@@ -447,8 +469,14 @@ def test_gear_loads_match_the_vector_reference(extension, speed, acceleration, p
     out = gear_forces.GearForces(values, body, geometry).reactions(
         *motion, published["piston_force_required"], airspeed
     )
-    expected = gear_reference.loads(values, np.array([extension]), np.array([speed]), np.array([acceleration]))
-    assert_close(published["piston_force_required"], float(expected["piston_force_required"][0]), abs(float(expected["piston_force_required"][0])) + 1.0)
+    expected = gear_reference.loads(
+        values, np.array([extension]), np.array([speed]), np.array([acceleration])
+    )
+    assert_close(
+        published["piston_force_required"],
+        float(expected["piston_force_required"][0]),
+        abs(float(expected["piston_force_required"][0])) + 1.0,
+    )
     for key, value in out.items():
         assert_close(value, float(expected[key][0]), abs(float(expected[key][0])) + 1.0, what=key)
 
@@ -479,19 +507,32 @@ def test_gear_retraction_power_balance_from_the_kinematics():
     t = np.linspace(0.05, 2.95, 59)
     x, xdot, xddot = gear_kinematics.stroke(t, 0.381, 0.6096, 3.0, "cycloidal")
     loads = gear_reference.loads(values, x, xdot, xddot)
-    theta, omega, alpha = gear_kinematics.gear_from_piston(x, xdot, xddot, geometry.attachment_distance, geometry.pivot_height)
+    theta, omega, alpha = gear_kinematics.gear_from_piston(
+        x, xdot, xddot, geometry.attachment_distance, geometry.pivot_height
+    )
     inertia = gd.inertia(body)
     lever = gd.gravity_lever(body) * values["gravity_acceleration"]
     psi = theta - geometry.down_angle + geometry.airframe_pitch
     drag = 0.5 * values["air_density"] * values["drag_area"] * 40.0**2 * body.bar_length
-    friction = values["viscous_friction"] * omega + values["coulomb_friction"] * np.tanh(omega / values["friction_speed"])
-    expected = inertia * omega * alpha + lever * np.sin(psi) * omega + drag * np.cos(psi) * omega + friction * omega
-    np.testing.assert_allclose(loads["piston_power"], expected, rtol=1e-10, atol=1e-9 * np.max(np.abs(expected)))
+    friction = values["viscous_friction"] * omega + values["coulomb_friction"] * np.tanh(
+        omega / values["friction_speed"]
+    )
+    expected = (
+        inertia * omega * alpha
+        + lever * np.sin(psi) * omega
+        + drag * np.cos(psi) * omega
+        + friction * omega
+    )
+    np.testing.assert_allclose(
+        loads["piston_power"], expected, rtol=1e-10, atol=1e-9 * np.max(np.abs(expected))
+    )
 
 
 def test_gear_dead_centre_reports_the_unbounded_piston_force():
     values = gear_values()
     body, geometry = gear_setup(values)
-    with pytest.raises(SingularConfiguration, match=r"piston force unbounded.*dead centre.*gear angle"):
+    with pytest.raises(
+        SingularConfiguration, match=r"piston force unbounded.*dead centre.*gear angle"
+    ):
         gear_forces.check_moment_arm(1e-12, geometry, 3.14, 0.7)
     gear_forces.check_moment_arm(1e-6, geometry, 3.0, 0.7)  # small but finite: answered

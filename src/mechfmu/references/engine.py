@@ -50,8 +50,7 @@ def cylinder_volume(
     """Cylinder volume (m^3) at the cycle angle (rad), the piston at x = s(phi) of an in-line
     slider-crank (linkages.slider_crank), the head beyond top dead centre."""
     angle = np.asarray(cycle_angle, dtype=float)
-    zero = np.zeros_like(angle)
-    slider = linkages.slider_crank(crank, rod, 0.0, 0, angle, zero, zero)["slider_position"]
+    slider = linkages.slider_crank(crank, rod, 0.0, 0, angle, 0.0, 0.0)["slider_position"]
     area = piston_area(bore)
     clearance = area * 2.0 * crank / (COMPRESSION_RATIO - 1.0)
     return clearance + area * ((crank + rod) - slider)

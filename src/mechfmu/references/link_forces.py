@@ -87,7 +87,7 @@ def _pin(length: float, angle: ndarray, omega: ndarray, alpha: ndarray) -> tuple
 
 
 def four_bar_links(
-    lengths: Sequence[float], crank: Sequence[ndarray], motion: Mapping[str, ndarray]
+    lengths: Sequence[float], crank: Sequence[Any], motion: Mapping[str, Any]
 ) -> list[Link]:
     """Crank, coupler and rocker poses from the crank (angle, speed, acceleration) and the
     coupler and rocker motion (linkages.four_bar's columns). ``lengths``: ground, crank,
@@ -119,7 +119,7 @@ def four_bar_links(
 
 
 def slider_crank_links(
-    geometry: Sequence[float], crank: Sequence[ndarray], motion: Mapping[str, ndarray]
+    geometry: Sequence[float], crank: Sequence[Any], motion: Mapping[str, Any]
 ) -> list[Link]:
     """Crank, connecting rod and slider poses from the crank motion and the slider-crank's
     columns (linkages.slider_crank's). ``geometry``: crank, coupler, offset (m)."""
@@ -153,8 +153,13 @@ def energies(
 ) -> dict[str, ndarray]:
     """kinetic_energy, potential_energy (J) and their rates (W), and the shaking force
     (N) and moment (N m, about the ground origin), from the links' motion alone."""
-    kinetic = potential = kinetic_rate = potential_rate = 0.0
-    force_x = force_y = moment = 0.0
+    kinetic: Any = 0.0
+    potential: Any = 0.0
+    kinetic_rate: Any = 0.0
+    potential_rate: Any = 0.0
+    force_x: Any = 0.0
+    force_y: Any = 0.0
+    moment: Any = 0.0
     for link, (m, cx, cy, inertia) in zip(links, layouts):
         gx, gy = link.point(cx, cy)
         vx, vy = link.point_velocity(cx, cy)
@@ -392,7 +397,9 @@ def four_bar_positions(lengths: Sequence[float], circuit: int) -> Callable[[Any]
     def at(angle: Any) -> list[Link]:
         angle = np.asarray(angle, dtype=float)
         zero = np.zeros_like(angle)
-        motion = linkages.four_bar(*lengths, circuit, angle, zero, zero)
+        motion = linkages.four_bar(
+            lengths[0], lengths[1], lengths[2], lengths[3], circuit, angle, 0.0, 0.0
+        )
         return four_bar_links(lengths, (angle, zero, zero), motion)
 
     return at
@@ -404,7 +411,9 @@ def slider_crank_positions(geometry: Sequence[float], circuit: int) -> Callable[
     def at(angle: Any) -> list[Link]:
         angle = np.asarray(angle, dtype=float)
         zero = np.zeros_like(angle)
-        motion = linkages.slider_crank(*geometry, circuit, angle, zero, zero)
+        motion = linkages.slider_crank(
+            geometry[0], geometry[1], geometry[2], circuit, angle, 0.0, 0.0
+        )
         return slider_crank_links(geometry, (angle, zero, zero), motion)
 
     return at
@@ -441,7 +450,9 @@ def virtual_work_torque(
         total = total + coupler_force[0] * (px - qx) + coupler_force[1] * (py - qy)
         # the rocker angle is wrapped to (-pi, pi]: its change, wrapped again
         turn = np.remainder(links[2].angle - rest[2].angle + np.pi, 2.0 * np.pi) - np.pi
-        return total + output_torque * turn + slider_force_x * (links[2].origin[0] - rest[2].origin[0])
+        return (
+            total + output_torque * turn + slider_force_x * (links[2].origin[0] - rest[2].origin[0])
+        )
 
     def potential(offset: float) -> Any:
         return work(positions(angle + offset))

@@ -255,9 +255,11 @@ def four_bar_forces_scene(scene: Any) -> Any:
     columns = four_bar_scene(scene)
     crank_name, crank = _shaft_columns(scene)
     name, p = _component(scene, "FourBar")
-    lengths = [p[key] for key in ("ground_length", "crank_length", "coupler_length", "rocker_length")]
+    lengths = [
+        p[key] for key in ("ground_length", "crank_length", "coupler_length", "rocker_length")
+    ]
     drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
-    motion = linkages.four_bar(*lengths, p["circuit"], *drive)
+    motion = linkages.four_bar(lengths[0], lengths[1], lengths[2], lengths[3], p["circuit"], *drive)
     links = link_forces.four_bar_links(lengths, drive, motion)
     layouts = _layouts(p, ("crank", "coupler", "rocker"))
     gravity = _gravity(p, scene.components[name].effects)
@@ -284,7 +286,7 @@ def slider_crank_engine_scene(scene: Any) -> Any:
     gas_name, gas = _component(scene, "LoadProfile")
     geometry = [p[key] for key in ("crank_length", "coupler_length", "offset")]
     drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
-    motion = linkages.slider_crank(*geometry, p["circuit"], *drive)
+    motion = linkages.slider_crank(geometry[0], geometry[1], geometry[2], p["circuit"], *drive)
     links = link_forces.slider_crank_links(geometry, drive, motion)
     layouts = _layouts(p, ("crank", "coupler")) + [(p["slider_mass"], 0.0, 0.0, 0.0)]
     gravity = _gravity(p, scene.components[name].effects)
@@ -384,9 +386,7 @@ TABLES = {"tables/engine_gas_force.csv": engine_gas_force}
 
 def generate_tables(scene_dir: Any) -> list[Path]:
     """Write every table of TABLES under ``scene_dir``; return their paths."""
-    return [
-        write_csv(Path(scene_dir) / relative, *build()) for relative, build in TABLES.items()
-    ]
+    return [write_csv(Path(scene_dir) / relative, *build()) for relative, build in TABLES.items()]
 
 
 def generate(scene_dir: Any, out_dir: Any) -> Any:

@@ -27,7 +27,9 @@ def only_with_forces(description: str) -> str:
     return only_with(FORCES, "True", description)
 
 
-def link_mass_variables(link: str, layout: MassLayout, what: str, along: str) -> tuple[Variable, ...]:
+def link_mass_variables(
+    link: str, layout: MassLayout, what: str, along: str
+) -> tuple[Variable, ...]:
     """``<link>_mass``, ``_com_along``, ``_com_across`` and ``_inertia`` of one moving link
     (``what``: its name in descriptions; ``along``: the direction its x axis runs), starting
     at ``layout``."""
@@ -135,8 +137,7 @@ def shaking_outputs(about: str, depends: tuple[str, ...]) -> tuple[Variable, ...
         output(
             "shaking_moment",
             0.0,
-            f"forces: shaking moment on the frame about {about}, "
-            "-sum (I_G alpha + r_G x m a_G)",
+            f"forces: shaking moment on the frame about {about}, -sum (I_G alpha + r_G x m a_G)",
             unit="N.m",
             depends=depends,
         ),
@@ -183,7 +184,6 @@ def crank_drive_outputs(depends: tuple[str, ...]) -> tuple[Variable, ...]:
             depends=depends,
         ),
     )
-
 
 
 def gravity_setting(values: dict) -> tuple[float, float]:

@@ -440,7 +440,9 @@ class LandingGear(IntegratingSlave):
         v["piston_length"], v["piston_rate"] = v["piston_extension"], v["piston_speed"]
         self.model.publish(v, motion)
         if self.forces is not None:
-            gear_forces.check_moment_arm(arm, self.forces.geometry, motion.angle, v["piston_length"])
+            gear_forces.check_moment_arm(
+                arm, self.forces.geometry, motion.angle, v["piston_length"]
+            )
             force = v["piston_force_required"]
             v.update(self.forces.reactions(*motion, force, v["airspeed"]))
             v["piston_power"] = force * v["piston_speed"]

@@ -266,7 +266,11 @@ def magnitude(force: tuple[float, float]) -> float:
 def output_values(prefix: str, force: tuple[float, float]) -> dict[str, float]:
     """{prefix_x, prefix_y, prefix_magnitude} of a force (N): how every joint force is
     published."""
-    return {f"{prefix}_x": force[0], f"{prefix}_y": force[1], f"{prefix}_magnitude": magnitude(force)}
+    return {
+        f"{prefix}_x": force[0],
+        f"{prefix}_y": force[1],
+        f"{prefix}_magnitude": magnitude(force),
+    }
 
 
 def gravity_vector(acceleration: float, direction: float) -> tuple[float, float]:
@@ -289,9 +293,10 @@ def point_velocity(
     return qdot[i] - omega * py, qdot[i + 1] + omega * px
 
 
-def point_position(q: Sequence[float], body: int, local: tuple[float, float]) -> tuple[float, float]:
+def point_position(
+    q: Sequence[float], body: int, local: tuple[float, float]
+) -> tuple[float, float]:
     """Position (m) of a point fixed in ``body`` at ``local`` (body frame, m)."""
     i = 3 * body
     px, py = rotate(q[i + 2], *local)
     return q[i] + px, q[i + 1] + py
-

@@ -98,7 +98,17 @@ def four_bar_state(
     coupler_angle, rocker_angle and their rates, as FourBarMotion's fields)."""
     (ax, ay), (vx, vy), (accx, accy) = _crank_pin(lengths.crank, t2, w2, al2)
     return (
-        [0.0, 0.0, t2, ax, ay, motion["coupler_angle"], lengths.ground, 0.0, motion["rocker_angle"]],
+        [
+            0.0,
+            0.0,
+            t2,
+            ax,
+            ay,
+            motion["coupler_angle"],
+            lengths.ground,
+            0.0,
+            motion["rocker_angle"],
+        ],
         [
             0.0,
             0.0,
@@ -132,8 +142,28 @@ def slider_crank_state(
     fields)."""
     (ax, ay), (vx, vy), (accx, accy) = _crank_pin(geometry.crank, t2, w2, al2)
     return (
-        [0.0, 0.0, t2, ax, ay, motion["coupler_angle"], motion["slider_position"], geometry.offset, 0.0],
-        [0.0, 0.0, w2, vx, vy, motion["coupler_angular_velocity"], motion["slider_speed"], 0.0, 0.0],
+        [
+            0.0,
+            0.0,
+            t2,
+            ax,
+            ay,
+            motion["coupler_angle"],
+            motion["slider_position"],
+            geometry.offset,
+            0.0,
+        ],
+        [
+            0.0,
+            0.0,
+            w2,
+            vx,
+            vy,
+            motion["coupler_angular_velocity"],
+            motion["slider_speed"],
+            0.0,
+            0.0,
+        ],
         [
             0.0,
             0.0,
@@ -324,4 +354,3 @@ class SliderCrankForces(_CrankForces):
             forces.append((OUTPUT, (0.0, 0.0), self.towards_crank * loads.slider_force, 0.0))
         advantage = slider_crank_mechanical_advantage(self.geometry.crank, t2, q[5], self.circuit)
         return self._publish(q, qdot, qddot, forces, [], {"mechanical_advantage": advantage})
-
