@@ -33,7 +33,8 @@ EXPECTED = {
         f"{case.label}: {what}"
         for case in model_cost.CASES
         for what in ("model", "null", "model / null")
-    ],
+    ]
+    + [f"{case.label}: effect on / off" for case in model_cost.CASES if case.effect_of],
     "effects": [
         "gear_retraction (kinematic, 2 FMUs)",
         "gear_retraction_dynamic (six effects, radau)",
@@ -125,7 +126,15 @@ def test_model_cost_covers_every_kinematic_configuration():
             for model in ("FourBar", "SliderCrank", "ValveTrain")
             for solver in ("closed_form", "constraint_solver")
         ),
+        # the forces effect on (issue 29), each against its case with it off
+        "LandingGear (motion drive, forces)",
+        "FourBar (closed_form, forces)",
+        "FourBar (constraint_solver, forces)",
+        "SliderCrank (closed_form, forces)",
     }
+    for case in model_cost.CASES:
+        if case.effect_of:
+            assert case.parameters["forces"] and case.effect_of in labels
 
 
 def test_times_finite_and_positive(bench):

@@ -49,7 +49,7 @@ def model_defaults(model: str) -> dict[str, float]:
     return start_values(model, "parameter")
 
 
-def _component(scene: Scene, model: str):
+def component(scene: Scene, model: str) -> tuple[str, dict[str, Any]]:
     """(name, parameters over defaults) of the scene's component using ``model``."""
     for name, spec in scene.components.items():
         if Path(spec.fmu).stem == model:
@@ -65,8 +65,8 @@ def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
     """Positional arguments of references.landing_gear.retraction for a PistonActuator ->
     LandingGear scene: its sample times (s) and the actuator's and gear's parameters over the
     defaults (m, s, the profile's name)."""
-    _, stroke = _component(scene, "PistonActuator")
-    _, geometry = _component(scene, "LandingGear")
+    _, stroke = component(scene, "PistonActuator")
+    _, geometry = component(scene, "LandingGear")
     return (
         sample_times(scene),
         geometry["attachment_distance"],
@@ -80,8 +80,8 @@ def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
 
 def gear_retraction(scene: Any) -> Any:
     """Piston stroke and gear motion columns for a PistonActuator -> LandingGear scene."""
-    actuator, _ = _component(scene, "PistonActuator")
-    gear, _ = _component(scene, "LandingGear")
+    actuator, _ = component(scene, "PistonActuator")
+    gear, _ = component(scene, "LandingGear")
     columns = landing_gear.retraction(*retraction_arguments(scene))
     owner = {
         "piston_extension": actuator,
@@ -93,8 +93,8 @@ def gear_retraction(scene: Any) -> Any:
 
 def suspension_load_ramp(scene: Any) -> Any:
     """Load and equilibrium columns for a LoadProfile(ramp) -> Suspension scene."""
-    source, ramp = _component(scene, "LoadProfile")
-    name, spring = _component(scene, "Suspension")
+    source, ramp = component(scene, "LoadProfile")
+    name, spring = component(scene, "Suspension")
     if ramp["shape"] != "ramp":
         raise ValueError(f"scene {scene.name}: the reference covers ramp loads only")
     times = sample_times(scene)
@@ -111,12 +111,12 @@ def suspension_load_ramp(scene: Any) -> Any:
 
 def suspension_dynamics_scene(scene: Any) -> Any:
     """LoadProfile [-> RoadProfile] -> Suspension with the dynamics effect: solve_ivp columns."""
-    source, load = _component(scene, "LoadProfile")
-    name, parameters = _component(scene, "Suspension")
+    source, load = component(scene, "LoadProfile")
+    name, parameters = component(scene, "Suspension")
     parameters.update({effect: True for effect in scene.components[name].effects})
     road_name, road = None, None
     if any(Path(spec.fmu).stem == "RoadProfile" for spec in scene.components.values()):
-        road_name, road = _component(scene, "RoadProfile")
+        road_name, road = component(scene, "RoadProfile")
     return suspension_dynamics.scene_columns(
         sample_times(scene), source, load, name, parameters, road_name, road, scene.record
     )
@@ -124,7 +124,7 @@ def suspension_dynamics_scene(scene: Any) -> Any:
 
 def gear_dynamics_scene(scene: Scene) -> Any:
     """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
-    name, _ = _component(scene, "LandingGear")
+    name, _ = component(scene, "LandingGear")
     spec = scene.components[name]
     values = gear_dynamics.gear_values(
         start_values("LandingGear"), spec.parameters, spec.effects, spec.inputs
@@ -141,7 +141,7 @@ def _shaft_columns(
     scene: Any, model: str = "CrankDrive", prefix: str = "crank", ratio: float = 1.0
 ):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
-    name, shaft = _component(scene, model)
+    name, shaft = component(scene, model)
     columns = drives.shaft_rotation(sample_times(scene), shaft, ratio)
     return name, {f"{prefix}_{key}": value for key, value in columns.items()}
 
@@ -157,7 +157,7 @@ def _linkage_scene(scene: Any, model: str, solve: Any, dimensions: tuple[str, ..
     with the linkage's ``dimensions`` (m), its circuit and the crank's angle, speed and
     acceleration."""
     crank_name, crank = _shaft_columns(scene)
-    name, p = _component(scene, model)
+    name, p = component(scene, model)
     motion = solve(
         *(p[key] for key in dimensions),
         p["circuit"],
@@ -191,7 +191,7 @@ def valve_train_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain: the cam law composed with the closed-form rocker geometry
     (forward or inverse), and the valve spring's contact force where the effect is on."""
     cam_name, cam = _shaft_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
-    name, p = _component(scene, "ValveTrain")
+    name, p = component(scene, "ValveTrain")
     angle, speed, acceleration = (
         cam[f"camshaft_{key}"] for key in ("angle", "speed", "acceleration")
     )
@@ -214,9 +214,9 @@ def valve_spring_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain -> ValveSpring: the kinematic columns as valve_train_scene,
     the valve's dynamics on that drive by scipy (references/valve_spring.py); with the
     valve's drive = camshaft, the drive from the valve's own cam and geometry parameters."""
-    _, shaft = _component(scene, "CamshaftDrive")
-    _, train = _component(scene, "ValveTrain")
-    name, parameters = _component(scene, "ValveSpring")
+    _, shaft = component(scene, "CamshaftDrive")
+    _, train = component(scene, "ValveTrain")
+    name, parameters = component(scene, "ValveSpring")
     if parameters["drive"] == "camshaft":  # the valve's own cam law and rocker geometry
         train = {**parameters, "mode": "forward"}
     columns = valve_train_scene(scene)
@@ -225,7 +225,7 @@ def valve_spring_scene(scene: Any) -> Any:
     return _recorded(scene, columns)
 
 
-def _layouts(p: dict, links: tuple[str, ...]) -> list[tuple[float, float, float, float]]:
+def link_layouts(p: dict, links: tuple[str, ...]) -> list[tuple[float, float, float, float]]:
     """(mass, com_along, com_across, inertia) of each link from a model's parameters."""
     return [
         (p[f"{link}_mass"], p[f"{link}_com_along"], p[f"{link}_com_across"], p[f"{link}_inertia"])
@@ -233,7 +233,7 @@ def _layouts(p: dict, links: tuple[str, ...]) -> list[tuple[float, float, float,
     ]
 
 
-def _gravity(p: dict, effects: Any) -> tuple[float, float]:
+def linkage_gravity(p: dict, effects: Any) -> tuple[float, float]:
     """Gravity (m/s^2) of a linkage with the forces effect: none unless the scene lists it."""
     if "gravity" not in effects:
         return (0.0, 0.0)
@@ -243,7 +243,7 @@ def _gravity(p: dict, effects: Any) -> tuple[float, float]:
     )
 
 
-def _inputs(scene: Any, name: str, model: str) -> dict:
+def constant_inputs(scene: Any, name: str, model: str) -> dict:
     """The model's input start values under the scene's constant inputs."""
     return {**start_values(model, "input"), **scene.components[name].inputs}
 
@@ -254,16 +254,16 @@ def four_bar_forces_scene(scene: Any) -> Any:
     motion (references/link_forces.py)."""
     columns = four_bar_scene(scene)
     crank_name, crank = _shaft_columns(scene)
-    name, p = _component(scene, "FourBar")
+    name, p = component(scene, "FourBar")
     lengths = [
         p[key] for key in ("ground_length", "crank_length", "coupler_length", "rocker_length")
     ]
     drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
     motion = linkages.four_bar(lengths[0], lengths[1], lengths[2], lengths[3], p["circuit"], *drive)
     links = link_forces.four_bar_links(lengths, drive, motion)
-    layouts = _layouts(p, ("crank", "coupler", "rocker"))
-    gravity = _gravity(p, scene.components[name].effects)
-    loads = _inputs(scene, name, "FourBar")
+    layouts = link_layouts(p, ("crank", "coupler", "rocker"))
+    gravity = linkage_gravity(p, scene.components[name].effects)
+    loads = constant_inputs(scene, name, "FourBar")
     point = (p["coupler_point_along"], p["coupler_point_across"])
     force = (loads["coupler_force_x"], loads["coupler_force_y"])
     forces = link_forces.norton_four_bar(
@@ -282,15 +282,15 @@ def slider_crank_engine_scene(scene: Any) -> Any:
     slider-crank's matrix (references/link_forces.py)."""
     columns = slider_crank_scene(scene)
     _, crank = _shaft_columns(scene)
-    name, p = _component(scene, "SliderCrank")
-    gas_name, gas = _component(scene, "LoadProfile")
+    name, p = component(scene, "SliderCrank")
+    gas_name, gas = component(scene, "LoadProfile")
     geometry = [p[key] for key in ("crank_length", "coupler_length", "offset")]
     drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
     motion = linkages.slider_crank(geometry[0], geometry[1], geometry[2], p["circuit"], *drive)
     links = link_forces.slider_crank_links(geometry, drive, motion)
-    layouts = _layouts(p, ("crank", "coupler")) + [(p["slider_mass"], 0.0, 0.0, 0.0)]
-    gravity = _gravity(p, scene.components[name].effects)
-    loads = _inputs(scene, name, "SliderCrank")
+    layouts = link_layouts(p, ("crank", "coupler")) + [(p["slider_mass"], 0.0, 0.0, 0.0)]
+    gravity = linkage_gravity(p, scene.components[name].effects)
+    loads = constant_inputs(scene, name, "SliderCrank")
     table = read_profile_table(gas["table_file"])
     load = np.interp(sample_times(scene), table.index.to_numpy(), table.iloc[:, 0].to_numpy())
     towards_crank = -1.0 if p["circuit"] == 0 else 1.0
@@ -324,11 +324,11 @@ def gear_loads_scene(scene: Any) -> Any:
     as gear_retraction, the required piston force and the pivot and anchor loads from
     references/gear_forces.py."""
     columns = gear_retraction(scene)
-    actuator, _ = _component(scene, "PistonActuator")
-    name, p = _component(scene, "LandingGear")
+    actuator, _ = component(scene, "PistonActuator")
+    name, p = component(scene, "LandingGear")
     effects = scene.components[name].effects
     values = {**p, **{effect: effect in effects for effect in gear_forces.EFFECTS}}
-    values.update(_inputs(scene, name, "LandingGear"))
+    values.update(constant_inputs(scene, name, "LandingGear"))
     x, v, a = (
         columns[f"{actuator}.piston_{key}"] for key in ("extension", "speed", "acceleration")
     )

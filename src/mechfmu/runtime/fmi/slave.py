@@ -67,6 +67,9 @@ class MechSlave(Binding):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 
     VARIABLES: tuple[Variable, ...] = ()
+    # Outputs only an effect changes, by effect name: with the effect off they keep their
+    # start values, so the per-step finiteness check leaves them out (it is what they cost).
+    EFFECT_OUTPUTS: dict[str, tuple[str, ...]] = {}
     # False for a model whose update never changes its internal_state (a source's table
     # read at initialisation): its do_step then saves only the values for a rollback.
     STEP_CHANGES_STATE = True
@@ -149,6 +152,7 @@ class MechSlave(Binding):
         values_before = dict(self.values)
         try:
             self.check_parameters()
+            self._watch_live_outputs()
             self.outputs_at_start(self.start_time)
             self._check_outputs(values_before)
             return None
@@ -157,6 +161,17 @@ class MechSlave(Binding):
                 if variable.causality == "output":
                     self.values[variable.name] = variable.start
             return self._describe(error, self.start_time)
+
+    def _watch_live_outputs(self) -> None:
+        """Check at every step only the outputs the enabled effects can change."""
+        values = self.values
+        idle = {
+            name
+            for switch, names in self.EFFECT_OUTPUTS.items()
+            if not values[switch]
+            for name in names
+        }
+        self._outputs_of = _tuple_getter(tuple(n for n in self.real_outputs if n not in idle))
 
     def refresh_initial_outputs(self) -> None:
         """Before the binding reads outputs: in initialisation mode, compute them from the

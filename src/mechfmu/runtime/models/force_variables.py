@@ -205,3 +205,8 @@ def coupler_point(values: dict) -> tuple[float, float]:
         require_finite("coupler_point_along", values["coupler_point_along"], "m"),
         require_finite("coupler_point_across", values["coupler_point_across"], "m"),
     )
+
+
+def outputs_of(variables: tuple[Variable, ...]) -> tuple[str, ...]:
+    """The names of the outputs among ``variables`` (a model's EFFECT_OUTPUTS entry)."""
+    return tuple(v.name for v in variables if v.causality == "output")

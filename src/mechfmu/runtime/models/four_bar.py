@@ -117,6 +117,7 @@ class FourBar(LinkageSlave):
         ),
         *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {fv.FORCES: fv.outputs_of(FORCE_VARIABLES)}
 
     def _lengths(self) -> tuple[float, float, float, float]:
         v = self.values

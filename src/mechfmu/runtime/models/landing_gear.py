@@ -16,6 +16,7 @@ from ..physics.landing_gear import (
     COURSEWORK_RETRACTED_LENGTH,
     DEFAULT_GEOMETRY,
 )
+from .force_variables import outputs_of
 from .hydraulic_actuator import HYDRAULIC_PARAMETERS
 from typing import Any
 
@@ -307,6 +308,7 @@ class LandingGear(IntegratingSlave):
         output("stop_contacts", 0, "End-stop contacts started so far"),
         *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {"forces": outputs_of(FORCE_VARIABLES)}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)

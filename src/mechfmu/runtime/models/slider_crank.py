@@ -111,6 +111,7 @@ class SliderCrank(LinkageSlave):
         ),
         *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {fv.FORCES: fv.outputs_of(FORCE_VARIABLES)}
 
     def _geometry(self) -> tuple[float, float, float]:
         v = self.values
