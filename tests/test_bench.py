@@ -131,6 +131,7 @@ def test_model_cost_covers_every_kinematic_configuration():
         "FourBar (closed_form, forces)",
         "FourBar (constraint_solver, forces)",
         "SliderCrank (closed_form, forces)",
+        "ValveTrain (constraint_solver, forces)",
     }
     for case in model_cost.CASES:
         if case.effect_of:

@@ -20,7 +20,11 @@ from mechfmu.references import engine, gear_forces as gear_reference
 from mechfmu.references import landing_gear as gear_kinematics
 from mechfmu.references import link_forces as ref
 from mechfmu.references import linkages
+from mechfmu.references import valve_forces as valve_reference
+from mechfmu.runtime.physics import cam_geometry, cam_laws
 from mechfmu.runtime.physics import four_bar as fb
+from mechfmu.runtime.physics import valve_forces
+from mechfmu.runtime.physics import valve_train as vt
 from mechfmu.runtime.physics import gear_dynamics as gd
 from mechfmu.runtime.physics import gear_forces
 from mechfmu.runtime.physics import landing_gear as gear
@@ -536,3 +540,74 @@ def test_gear_dead_centre_reports_the_unbounded_piston_force():
     ):
         gear_forces.check_moment_arm(1e-12, geometry, 3.14, 0.7)
     gear_forces.check_moment_arm(1e-6, geometry, 3.0, 0.7)  # small but finite: answered
+
+
+VALVE = vt.DEFAULT_VALVE_GEOMETRY
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    angle=st.floats(0.0, 2.0 * math.pi),
+    speed=st.floats(-150.0, 150.0),
+    acceleration=st.floats(-2e3, 2e3),
+    pushrod=layout_st.map(
+        lambda m: MassLayout(m.mass * 0.1, m.com_x, m.com_y * 0.1, m.inertia * 0.01)
+    ),
+    rocker=layout_st.map(
+        lambda m: MassLayout(m.mass * 0.1, m.com_x * 0.1, m.com_y * 0.1, m.inertia * 1e-3)
+    ),
+    spring=st.tuples(st.floats(0.0, 0.3), st.floats(0.0, 1e5), st.floats(0.0, 600.0)),
+    gravity=gravity_st,
+    inverse=st.booleans(),
+)
+def test_valve_train_cam_power_from_the_kinematics_alone(
+    angle, speed, acceleration, pushrod, rocker, spring, gravity, inverse
+):
+    law = cam_laws.motion_function(cam_laws.DEFAULT_CAM_PROFILE)(angle, speed, acceleration)
+    motion = (vt.inverse if inverse else vt.forward)(VALVE, *law)._asdict()
+    closed = vt.rest_position(VALVE)[1]
+    forces = valve_forces.ValveTrainForces(
+        VALVE,
+        valve_forces.pushrod_frame(pushrod),
+        rocker,
+        valve_forces.ValveSpringLoad(*spring),
+        gravity,
+    )
+    out = forces.analyse(motion, closed, 0.0)
+    columns = {key: np.array([value]) for key, value in motion.items()}
+    layouts = [
+        tuple(valve_forces.pushrod_frame(pushrod)),
+        tuple(rocker),
+        (spring[0], 0.0, 0.0, 0.0),
+    ]
+    power = valve_reference.cam_power(VALVE._asdict(), columns, layouts, gravity, spring[1:])[0]
+    scale = (abs(out["cam_force"]) + spring[2] + 1.0) * (abs(motion["tappet_velocity"]) + 1e-3)
+    assert_close(out["input_power"], power, scale, what="cam power")
+
+
+def test_massless_valve_train_gives_the_valve_springs_contact_force_and_camshaft_torque():
+    # pushrod and rocker without mass: the rocker's push on the valve is the valve_spring
+    # effect's contact force, and the cam torque its camshaft_torque (virtual work)
+    closed = vt.rest_position(VALVE)[1]
+    profile = cam_laws.DEFAULT_CAM_PROFILE
+    law = cam_laws.motion_function(profile)
+    forces = valve_forces.ValveTrainForces(
+        VALVE,
+        link_forces.NO_MASS,
+        link_forces.NO_MASS,
+        valve_forces.ValveSpringLoad(0.1, 5e4, 300.0),
+    )
+    for angle in np.linspace(0.0, 2.0 * math.pi, 25):
+        s, s1, _, _ = cam_laws.cam_lift(profile, angle)
+        motion = vt.forward(VALVE, *law(angle, 157.0, 0.0))._asdict()
+        out = forces.analyse(motion, closed, s1)
+        contact = vt.contact_force(
+            0.1, 5e4, 300.0, motion["valve_lift"], motion["valve_acceleration"]
+        )
+        torque = cam_geometry.camshaft_torque(contact, vt.valve_lift_rate(VALVE, closed, s, s1))
+        assert out["valve_link_force_y"] == pytest.approx(-contact, rel=1e-12)
+        assert out["cam_torque"] == pytest.approx(torque, rel=1e-9, abs=1e-12 * 300.0)
+        # the pushrod is a two-force member: its end forces lie along it
+        assert out["tappet_guide_force_x"] == pytest.approx(
+            -out["pushrod_force_x"], rel=1e-9, abs=1e-9
+        )

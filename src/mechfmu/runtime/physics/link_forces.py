@@ -182,20 +182,9 @@ class NewtonEuler:
             rhs[3 * body + 2] += moment
         return rhs, -sum_x, -sum_y, -sum_moment, kinetic, potential
 
-    def solve(
-        self,
-        q: Sequence[float],
-        qdot: Sequence[float],
-        qddot: Sequence[float],
-        forces: Sequence[PointForce] = (),
-        moments: Sequence[BodyMoment] = (),
-    ) -> Analysis:
-        """The multipliers of (2) (one per constraint row, in the joints' order) and the
-        shaking force and moment, for the motion (q, q', q'') and the applied ``forces``
-        and ``moments`` (besides gravity). The shaking force and moment are those the moving
-        links' inertia puts on the frame: -sum m a_G and -sum (I_G alpha + r_G x m a_G)
-        about the ground origin. Raises SingularConfiguration where the joints cannot carry
-        the loads (condition number above the threshold)."""
+    def _factored(self, q: Sequence[float]) -> tuple[Any, Any, float]:
+        """(LU kernel, factors, condition number) of the scaled constraint Jacobian at q;
+        SingularConfiguration where the joints cannot carry loads (above the threshold)."""
         kernel = self.kernel
         values = kernel.jacobian(q)
         factored = kernel.factor(values, self.order)
@@ -214,14 +203,60 @@ class NewtonEuler:
                 f"the loads there"
             )
         self.order, self.column = lu.order, column
+        return lu, factors, condition
+
+    def _multipliers(
+        self,
+        lu: Any,
+        factors: Any,
+        condition: float,
+        motion: tuple[Sequence[float], Sequence[float], Sequence[float]],
+        forces: Sequence[PointForce],
+        moments: Sequence[BodyMoment],
+    ) -> Analysis:
+        """Solve (2) with the factors of Phi_q for the motion (q, q', q'')."""
         rhs, shaking_x, shaking_y, shaking_moment, kinetic, potential = self.generalised_forces(
-            q, qdot, qddot, forces, moments
+            *motion, forces, moments
         )
-        scaled = lu.solve_t(factors, [b * c for b, c in zip(rhs, kernel.column_scale)])
+        scaled = lu.solve_t(factors, [b * c for b, c in zip(rhs, self.kernel.column_scale)])
         multipliers = [m * r for m, r in zip(scaled, self.mechanism.row_scale)]
         return Analysis(
             multipliers, shaking_x, shaking_y, shaking_moment, kinetic, potential, condition
         )
+
+    def solve(
+        self,
+        q: Sequence[float],
+        qdot: Sequence[float],
+        qddot: Sequence[float],
+        forces: Sequence[PointForce] = (),
+        moments: Sequence[BodyMoment] = (),
+    ) -> Analysis:
+        """The multipliers of (2) (one per constraint row, in the joints' order) and the
+        shaking force and moment, for the motion (q, q', q'') and the applied ``forces``
+        and ``moments`` (besides gravity). The shaking force and moment are those the moving
+        links' inertia puts on the frame: -sum m a_G and -sum (I_G alpha + r_G x m a_G)
+        about the ground origin. Raises SingularConfiguration where the joints cannot carry
+        the loads (condition number above the threshold)."""
+        lu, factors, condition = self._factored(q)
+        return self._multipliers(lu, factors, condition, (q, qdot, qddot), forces, moments)
+
+    def solve_driven(
+        self,
+        q: Sequence[float],
+        drive: Sequence[tuple[float, float, float]],
+        forces: Sequence[PointForce] = (),
+        moments: Sequence[BodyMoment] = (),
+    ) -> tuple[Analysis, list[float], list[float]]:
+        """``solve`` at an assembled position q whose rates follow from the drivers' values
+        ``drive`` ((f, f', f'') each): q' and q'' by the velocity and acceleration equations
+        with the same factors of Phi_q (the constraint solver's kernels). Returns (the
+        analysis, q', q'')."""
+        lu, factors, condition = self._factored(q)
+        qdot = lu.solve_scaled(factors, self.kernel.rates(drive))
+        qddot = lu.acceleration(factors, q, qdot, drive)
+        analysis = self._multipliers(lu, factors, condition, (q, qdot, qddot), forces, moments)
+        return analysis, qdot, qddot
 
     def on_first_body(
         self, analysis: Analysis, joint_index: int, q: Sequence[float]

@@ -165,6 +165,7 @@ CASES += tuple(
         ("FourBar (closed_form)", {"gravity": True}),
         ("FourBar (constraint_solver)", {"gravity": True}),
         ("SliderCrank (closed_form)", {}),
+        ("ValveTrain (constraint_solver)", {"valve_spring": True}),
     )
     if case.label == label
 )

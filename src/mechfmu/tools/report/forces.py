@@ -15,6 +15,8 @@ from matplotlib.figure import Figure
 from ...cosim.scene import find_file, load_scene
 from ...references import link_forces as ref
 from ...references import linkages
+from ...references import valve_forces as valve_reference
+from ...runtime.physics import cam_geometry, cam_laws
 from ...runtime.physics import four_bar as fb
 from ...runtime.physics import gear_dynamics as gd
 from ...runtime.physics import gear_forces
@@ -22,6 +24,8 @@ from ...runtime.physics import landing_gear as gear
 from ...runtime.physics import link_forces
 from ...runtime.physics import linkage_forces as lf
 from ...runtime.physics import slider_crank as sc
+from ...runtime.physics import valve_forces
+from ...runtime.physics import valve_train as vt
 from .. import scene_references as sr
 
 
@@ -249,8 +253,76 @@ def gear_figure() -> bytes:
     return _png(figure)
 
 
+def valve_figure() -> bytes:
+    """The valve train over a camshaft revolution at 3000 engine rpm, defaults with the valve
+    spring: the cam's push and the joint loads, the cam torque with and without the links'
+    inertia against the valve spring effect's camshaft torque, and the power balance."""
+    geometry = vt.DEFAULT_VALVE_GEOMETRY
+    profile = cam_laws.DEFAULT_CAM_PROFILE
+    law = cam_laws.motion_function(profile)
+    closed = vt.rest_position(geometry)[1]
+    spring = valve_forces.ValveSpringLoad(0.1, 50e3, 300.0)
+    speed = 50.0 * math.pi
+    pushrod = valve_forces.pushrod_frame(valve_forces.DEFAULT_PUSHROD)
+    heavy = valve_forces.ValveTrainForces(geometry, pushrod, valve_forces.DEFAULT_ROCKER, spring)
+    light = valve_forces.ValveTrainForces(
+        geometry, link_forces.NO_MASS, link_forces.NO_MASS, spring
+    )
+    angles = np.linspace(0.0, 2.0 * math.pi, 721)
+    rows, light_rows, spring_torque, motions = [], [], [], []
+    for angle in angles:
+        s, s1, _, _ = cam_laws.cam_lift(profile, angle)
+        motion = vt.forward(geometry, *law(angle, speed, 0.0))._asdict()
+        motions.append(motion)
+        rows.append(heavy.analyse(motion, closed, s1))
+        light_rows.append(light.analyse(motion, closed, s1))
+        contact = vt.contact_force(
+            0.1, 50e3, 300.0, motion["valve_lift"], motion["valve_acceleration"]
+        )
+        spring_torque.append(
+            cam_geometry.camshaft_torque(contact, vt.valve_lift_rate(geometry, closed, s, s1))
+        )
+    columns = {key: np.array([m[key] for m in motions]) for key in motions[0]}
+    layouts = [tuple(pushrod), tuple(valve_forces.DEFAULT_ROCKER), (spring.mass, 0.0, 0.0, 0.0)]
+    balance = valve_reference.cam_power(
+        geometry._asdict(), columns, layouts, (0.0, 0.0), spring[1:]
+    )
+    power = np.array([row["input_power"] for row in rows])
+    degrees = np.degrees(angles)
+    figure = Figure(figsize=(10, 7), layout="constrained")
+    (a, b), (c, d) = figure.subplots(2, 2)
+    for key, label in (
+        ("cam_force", "cam on tappet"),
+        ("pushrod_force_magnitude", "pushrod (at T)"),
+        ("rocker_pivot_force_magnitude", "rocker pivot"),
+        ("valve_link_force_magnitude", "rocker on valve"),
+    ):
+        a.plot(degrees, [row[key] for row in rows], label=label)
+    a.set(xlabel="camshaft angle [deg]", ylabel="force [N]")
+    a.legend(fontsize=8)
+    b.plot(degrees, [row["cam_torque"] for row in rows], label="cam_torque (forces)")
+    b.plot(degrees, [row["cam_torque"] for row in light_rows], "--", label="massless links")
+    b.plot(degrees[::12], spring_torque[::12], "x", label="camshaft_torque (valve_spring)")
+    b.set(xlabel="camshaft angle [deg]", ylabel="torque [N m]")
+    b.set_title(
+        f"mean over the revolution {np.mean(np.array([r['cam_torque'] for r in rows])[:-1]):.1e} N m",
+        fontsize=9,
+    )
+    b.legend(fontsize=8)
+    c.plot(degrees, power, label="cam_force x tappet velocity (runtime)")
+    c.plot(degrees[::12], balance[::12], "o", mfc="none", label="power balance (kinematics only)")
+    c.set(xlabel="camshaft angle [deg]", ylabel="power [W]")
+    c.legend(fontsize=8)
+    scale = np.max(np.abs(power))
+    d.semilogy(degrees, np.abs(power - balance) / scale + 1e-18)
+    d.set(xlabel="camshaft angle [deg]", ylabel="|difference| / max |power|")
+    d.set_title(f"largest {np.max(np.abs(power - balance)) / scale:.1e}", fontsize=9)
+    return _png(figure)
+
+
 FIGURES = {
     "four_bar_forces.png": four_bar_validation,
     "slider_crank_engine.png": engine_figure,
     "gear_loads.png": gear_figure,
+    "valve_train_forces.png": valve_figure,
 }
