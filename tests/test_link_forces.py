@@ -70,7 +70,7 @@ def four_bar_case(lengths, circuit, angle, speed, acceleration):
     return checked, motion, links
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=80, deadline=None)
 @given(
     lengths=st.tuples(lengths_st, lengths_st, lengths_st, lengths_st),
     circuit=st.sampled_from((0, 1)),
@@ -143,7 +143,7 @@ def test_four_bar_forces_match_norton_power_balance_and_each_link(
         assert_close(about_g, inertia * float(link.alpha[0]), scale * 1.0, what="sum M_G")
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=60, deadline=None)
 @given(
     geometry=st.tuples(st.floats(0.02, 0.2), st.floats(0.05, 0.6), st.floats(-0.1, 0.1)),
     circuit=st.sampled_from((0, 1)),

@@ -293,19 +293,9 @@ class NewtonEuler:
         raise KeyError(name)
 
 
-def magnitude(force: tuple[float, float]) -> float:
-    """|F| (N) of a planar force."""
-    return math.hypot(force[0], force[1])
-
-
-def output_values(prefix: str, force: tuple[float, float]) -> dict[str, float]:
-    """{prefix_x, prefix_y, prefix_magnitude} of a force (N): how every joint force is
-    published."""
-    return {
-        f"{prefix}_x": force[0],
-        f"{prefix}_y": force[1],
-        f"{prefix}_magnitude": magnitude(force),
-    }
+def force_keys(prefix: str) -> tuple[str, str, str]:
+    """The names a force (N) is published under: prefix_x, prefix_y, prefix_magnitude."""
+    return f"{prefix}_x", f"{prefix}_y", f"{prefix}_magnitude"
 
 
 def gravity_vector(acceleration: float, direction: float) -> tuple[float, float]:

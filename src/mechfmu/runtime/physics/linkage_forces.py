@@ -30,7 +30,7 @@ from typing import Any
 from ..errors import SingularConfiguration
 from . import constraint_models
 from .four_bar import COURSEWORK_FOUR_BAR, FourBar
-from .link_forces import MassLayout, NewtonEuler, output_values, point_position, point_velocity
+from .link_forces import MassLayout, NewtonEuler, force_keys, point_position, point_velocity
 from .planar import DEFAULT_SINGULARITY_THRESHOLD
 from .slider_crank import SliderCrank
 
@@ -224,6 +224,10 @@ class _CrankForces:
         self.equations = NewtonEuler(mechanism, layouts, gravity, threshold)
         self.coupler_point = (float(coupler_point[0]), float(coupler_point[1]))
         self.driver = len(mechanism.joints) - 1  # the crank angle driver comes last
+        # (joint index, output names of its force): worked out once, not at every step
+        self.joint_outputs = [
+            (index, force_keys(f"{name}_force")) for index, name in enumerate(self.JOINTS)
+        ]
 
     def _publish(
         self,
@@ -234,25 +238,27 @@ class _CrankForces:
         moments: list[Any],
         extra: dict[str, float],
     ) -> dict[str, float]:
-        analysis = self.equations.solve(q, qdot, qddot, forces, moments)
-        values: dict[str, float] = {}
-        for index, name in enumerate(self.JOINTS):
-            values.update(
-                output_values(f"{name}_force", self.equations.on_first_body(analysis, index, q))
-            )
-        torque = self.equations.effort(analysis, self.driver)
+        equations = self.equations
+        analysis = equations.solve(q, qdot, qddot, forces, moments)
+        torque = equations.effort(analysis, self.driver)
         point = point_position(q, COUPLER, self.coupler_point)
-        values.update(
-            crank_torque=torque,
-            input_power=torque * qdot[2],
-            shaking_moment=analysis.shaking_moment,
-            kinetic_energy=analysis.kinetic_energy,
-            potential_energy=analysis.potential_energy,
-            coupler_point_x=point[0],
-            coupler_point_y=point[1],
-            **output_values("shaking_force", (analysis.shaking_force_x, analysis.shaking_force_y)),
+        shaking_x, shaking_y = analysis.shaking_force_x, analysis.shaking_force_y
+        values = {
+            "crank_torque": torque,
+            "input_power": torque * qdot[2],
+            "shaking_force_x": shaking_x,
+            "shaking_force_y": shaking_y,
+            "shaking_force_magnitude": math.hypot(shaking_x, shaking_y),
+            "shaking_moment": analysis.shaking_moment,
+            "kinetic_energy": analysis.kinetic_energy,
+            "potential_energy": analysis.potential_energy,
+            "coupler_point_x": point[0],
+            "coupler_point_y": point[1],
             **extra,
-        )
+        }
+        for index, (x, y, size) in self.joint_outputs:
+            fx, fy = equations.on_first_body(analysis, index, q)
+            values[x], values[y], values[size] = fx, fy, math.hypot(fx, fy)
         return values
 
     def coupler_load(

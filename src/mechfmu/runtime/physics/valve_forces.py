@@ -35,7 +35,7 @@ from typing import Any
 
 from . import constraint_models
 from .cam_geometry import camshaft_torque
-from .link_forces import MassLayout, NewtonEuler, output_values
+from .link_forces import MassLayout, NewtonEuler, force_keys
 from .planar import DEFAULT_SINGULARITY_THRESHOLD
 from .valve_train import ValveGeometry
 
@@ -49,12 +49,15 @@ ValveSpringLoad = namedtuple("ValveSpringLoad", "mass stiffness preload")
 TAPPET, ROCKER, VALVE = constraint_models.TAPPET, constraint_models.ROCKER, constraint_models.VALVE
 # joints of constraint_models.valve_train, in order
 TAPPET_GUIDE, ROCKER_PIVOT, PUSHROD_TOP, VALVE_LINK_TOP, VALVE_GUIDE, DRIVER = range(6)
-_PUBLISHED = (
-    (TAPPET_GUIDE, "tappet_guide_force"),
-    (PUSHROD_TOP, "pushrod_force"),
-    (ROCKER_PIVOT, "rocker_pivot_force"),
-    (VALVE_LINK_TOP, "valve_link_force"),
-    (VALVE_GUIDE, "valve_guide_force"),
+_PUBLISHED = tuple(
+    (joint, force_keys(name))
+    for joint, name in (
+        (TAPPET_GUIDE, "tappet_guide_force"),
+        (PUSHROD_TOP, "pushrod_force"),
+        (ROCKER_PIVOT, "rocker_pivot_force"),
+        (VALVE_LINK_TOP, "valve_link_force"),
+        (VALVE_GUIDE, "valve_guide_force"),
+    )
 )
 
 
@@ -121,6 +124,7 @@ class ValveTrainForces:
             "cam_torque": camshaft_torque(cam, lift_rate),
             "input_power": cam * motion["tappet_velocity"],
         }
-        for joint, name in _PUBLISHED:
-            values.update(output_values(name, self.equations.on_first_body(analysis, joint, q)))
+        for joint, (x, y, size) in _PUBLISHED:
+            fx, fy = self.equations.on_first_body(analysis, joint, q)
+            values[x], values[y], values[size] = fx, fy, math.hypot(fx, fy)
         return values
