@@ -14,6 +14,7 @@ from fmu_driver import Driven
 from mechfmu.cosim.master import SimulationError
 from mechfmu.references import gear_forces as gear_reference
 from mechfmu.references import link_forces as ref
+from mechfmu.runtime.physics import four_bar as fb
 from mechfmu.tools.scene_references import start_values
 
 LINKS = ("crank", "coupler", "rocker")
@@ -22,17 +23,7 @@ LINKS = ("crank", "coupler", "rocker")
 def power_balance(table, lengths, layouts, gravity, point, loads):
     """Input power from the recorded kinematics alone (references/link_forces.py)."""
     crank = [table[f"crank.crank_{k}"].to_numpy() for k in ("angle", "speed", "acceleration")]
-    motion = {
-        key: table[f"linkage.{key}"].to_numpy()
-        for key in (
-            "coupler_angle",
-            "rocker_angle",
-            "coupler_angular_velocity",
-            "rocker_angular_velocity",
-            "coupler_angular_acceleration",
-            "rocker_angular_acceleration",
-        )
-    }
+    motion = {key: table[f"linkage.{key}"].to_numpy() for key in fb.FourBarMotion._fields[:6]}
     links = ref.four_bar_links(lengths, crank, motion)
     power = ref.load_power(links, point, loads[1:], loads[0])
     return ref.power_balance_torque(links, layouts, gravity, power)["input_power"]

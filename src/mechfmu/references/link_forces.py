@@ -86,18 +86,15 @@ def _pin(length: float, angle: ndarray, omega: ndarray, alpha: ndarray) -> tuple
     )
 
 
-def four_bar_links(
-    lengths: Sequence[float], crank: Sequence[Any], motion: Mapping[str, Any]
-) -> list[Link]:
-    """Crank, coupler and rocker poses from the crank (angle, speed, acceleration) and the
-    coupler and rocker motion (linkages.four_bar's columns). ``lengths``: ground, crank,
-    coupler, rocker (m)."""
-    d, a = lengths[0], lengths[1]
-    t2, w2, al2 = (np.asarray(v, dtype=float) for v in crank)
-    t2, w2, al2 = np.broadcast_arrays(t2, w2, al2)
+def _crank_and_coupler(
+    crank_length: float, crank: Sequence[Any], motion: Mapping[str, Any]
+) -> tuple[ndarray, list[Link]]:
+    """(zeros shaped like the samples, [crank, coupler]) of both linkages: the crank about the
+    origin, the coupler's frame at the crank pin."""
+    t2, w2, al2 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in crank))
     zero = np.zeros_like(t2)
-    pin, velocity, acceleration = _pin(a, t2, w2, al2)
-    return [
+    pin, velocity, acceleration = _pin(crank_length, t2, w2, al2)
+    return zero, [
         Link((zero, zero), (zero, zero), (zero, zero), t2, w2, al2),
         Link(
             pin,
@@ -107,15 +104,25 @@ def four_bar_links(
             motion["coupler_angular_velocity"],
             motion["coupler_angular_acceleration"],
         ),
-        Link(
-            (zero + d, zero),
-            (zero, zero),
-            (zero, zero),
-            motion["rocker_angle"],
-            motion["rocker_angular_velocity"],
-            motion["rocker_angular_acceleration"],
-        ),
     ]
+
+
+def four_bar_links(
+    lengths: Sequence[float], crank: Sequence[Any], motion: Mapping[str, Any]
+) -> list[Link]:
+    """Crank, coupler and rocker poses from the crank (angle, speed, acceleration) and the
+    coupler and rocker motion (linkages.four_bar's columns). ``lengths``: ground, crank,
+    coupler, rocker (m)."""
+    zero, links = _crank_and_coupler(lengths[1], crank, motion)
+    rocker = Link(
+        (zero + lengths[0], zero),
+        (zero, zero),
+        (zero, zero),
+        motion["rocker_angle"],
+        motion["rocker_angular_velocity"],
+        motion["rocker_angular_acceleration"],
+    )
+    return [*links, rocker]
 
 
 def slider_crank_links(
@@ -123,29 +130,16 @@ def slider_crank_links(
 ) -> list[Link]:
     """Crank, connecting rod and slider poses from the crank motion and the slider-crank's
     columns (linkages.slider_crank's). ``geometry``: crank, coupler, offset (m)."""
-    a, e = geometry[0], geometry[2]
-    t2, w2, al2 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in crank))
-    zero = np.zeros_like(t2)
-    pin, velocity, acceleration = _pin(a, t2, w2, al2)
-    return [
-        Link((zero, zero), (zero, zero), (zero, zero), t2, w2, al2),
-        Link(
-            pin,
-            velocity,
-            acceleration,
-            motion["coupler_angle"],
-            motion["coupler_angular_velocity"],
-            motion["coupler_angular_acceleration"],
-        ),
-        Link(
-            (motion["slider_position"], zero + e),
-            (motion["slider_speed"], zero),
-            (motion["slider_acceleration"], zero),
-            zero,
-            zero,
-            zero,
-        ),
-    ]
+    zero, links = _crank_and_coupler(geometry[0], crank, motion)
+    slider = Link(
+        (motion["slider_position"], zero + geometry[2]),
+        (motion["slider_speed"], zero),
+        (motion["slider_acceleration"], zero),
+        zero,
+        zero,
+        zero,
+    )
+    return [*links, slider]
 
 
 def energies(
@@ -241,6 +235,29 @@ def _link_terms(
     )
 
 
+def _arm(point: Any, centre: Any) -> tuple[Any, Any]:
+    """The vector from ``centre`` to ``point`` (m)."""
+    return point[0] - centre[0], point[1] - centre[1]
+
+
+def _crank_and_coupler_rows(size: int, r12: Any, r32: Any, r23: Any, r43: Any) -> list[list[Any]]:
+    """The six rows of the crank's and the coupler's Newton-Euler equations in the unknowns
+    (F12x, F12y, F32x, F32y, F43x, F43y, ..., T12 last) of a system of ``size``: sum F and
+    sum of moments about G (r x F = rx Fy - ry Fx), F23 = -F32."""
+
+    def row(*head: Any, torque: float = 0.0) -> list[Any]:
+        return [*head, *([0.0] * (size - 1 - len(head))), torque]
+
+    return [
+        row(1.0, 0.0, 1.0, 0.0),
+        row(0.0, 1.0, 0.0, 1.0),
+        row(-r12[1], r12[0], -r32[1], r32[0], torque=1.0),
+        row(0.0, 0.0, -1.0, 0.0, 1.0, 0.0),
+        row(0.0, 0.0, 0.0, -1.0, 0.0, 1.0),
+        row(0.0, 0.0, r23[1], -r23[0], -r43[1], r43[0]),
+    ]
+
+
 def _forces(prefix: str, fx: ndarray, fy: ndarray) -> dict[str, ndarray]:
     return {f"{prefix}_x": fx, f"{prefix}_y": fy, f"{prefix}_magnitude": np.hypot(fx, fy)}
 
@@ -270,26 +287,14 @@ def norton_four_bar(
     )
     p = coupler.point(*coupler_point)
     fpx, fpy = coupler_force
-
-    def arm(point: Any, centre: Any) -> tuple[Any, Any]:
-        return point[0] - centre[0], point[1] - centre[1]
-
-    r12, r32 = arm(o2, g2), arm(pin_a, g2)
-    r23, r43 = arm(pin_a, g3), arm(pin_b, g3)
-    r34, r14 = arm(pin_b, g4), arm(o4, g4)
-    rp = arm(p, g3)
-    one, zero = 1.0, 0.0
-    # moment of F about G: r x F = rx Fy - ry Fx
-    rows = [
-        [one, zero, one, zero, zero, zero, zero, zero, zero],
-        [zero, one, zero, one, zero, zero, zero, zero, zero],
-        [-r12[1], r12[0], -r32[1], r32[0], zero, zero, zero, zero, one],
-        [zero, zero, -one, zero, one, zero, zero, zero, zero],
-        [zero, zero, zero, -one, zero, one, zero, zero, zero],
-        [zero, zero, r23[1], -r23[0], -r43[1], r43[0], zero, zero, zero],
-        [zero, zero, zero, zero, -one, zero, one, zero, zero],
-        [zero, zero, zero, zero, zero, -one, zero, one, zero],
-        [zero, zero, zero, zero, r34[1], -r34[0], -r14[1], r14[0], zero],
+    r34, r14, rp = _arm(pin_b, g4), _arm(o4, g4), _arm(p, g3)
+    rows = _crank_and_coupler_rows(
+        9, _arm(o2, g2), _arm(pin_a, g2), _arm(pin_a, g3), _arm(pin_b, g3)
+    )
+    rows += [
+        [0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 0.0, r34[1], -r34[0], -r14[1], r14[0], 0.0],
     ]
     rhs = [
         f2[0],
@@ -349,23 +354,13 @@ def norton_slider_crank(
         f2 = (f2[0] + fc[0], f2[1] + fc[1])
     p = rod.point(*coupler_point)
     fpx, fpy = coupler_force
-
-    def arm(point: Any, centre: Any) -> tuple[Any, Any]:
-        return point[0] - centre[0], point[1] - centre[1]
-
-    r12, r32 = arm(o2, g2), arm(pin_a, g2)
-    r23, r43 = arm(pin_a, g3), arm(pin_b, g3)
-    rp = arm(p, g3)
-    one, zero = 1.0, 0.0
-    rows = [
-        [one, zero, one, zero, zero, zero, zero, zero],
-        [zero, one, zero, one, zero, zero, zero, zero],
-        [-r12[1], r12[0], -r32[1], r32[0], zero, zero, zero, one],
-        [zero, zero, -one, zero, one, zero, zero, zero],
-        [zero, zero, zero, -one, zero, one, zero, zero],
-        [zero, zero, r23[1], -r23[0], -r43[1], r43[0], zero, zero],
-        [zero, zero, zero, zero, -one, zero, zero, zero],
-        [zero, zero, zero, zero, zero, -one, one, zero],
+    rp = _arm(p, g3)
+    rows = _crank_and_coupler_rows(
+        8, _arm(o2, g2), _arm(pin_a, g2), _arm(pin_a, g3), _arm(pin_b, g3)
+    )
+    rows += [
+        [0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0],
     ]
     rhs = [
         f2[0],

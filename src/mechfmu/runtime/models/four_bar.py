@@ -147,12 +147,6 @@ class FourBar(LinkageSlave):
             v["singularity_threshold"],
         )
 
-    def after_update(self, time: float) -> None:
-        if self.forces is not None:
-            v = self.values
-            loads = lf.FourBarLoads(*(v[name] for name in _LOADS))
-            v.update(self.forces.analyse(self.driver_inputs(), v, loads))
-
     def closed_form(self, time: float) -> dict[str, float]:
         # lengths and circuit validated in check_geometry, the inputs finite (do_step)
         motion = fb.checked_motion(self.lengths, self.values["circuit"], *self.driver_inputs())

@@ -128,7 +128,10 @@ class LinkageSlave(MechSlave):
         raise NotImplementedError
 
     def after_update(self, time: float) -> None:
-        """Hook for effects computed from the kinematic outputs (contact forces, ...)."""
+        """Hook for effects computed from the kinematic outputs (contact forces, ...); here
+        the forces effect of a crank-driven linkage (its analysis' ``outputs``)."""
+        if self.forces is not None:
+            self.values.update(self.forces.outputs(self.driver_inputs(), self.values))
 
     # --- MechSlave contract -------------------------------------------------------------
     def check_parameters(self) -> Any:

@@ -146,12 +146,6 @@ class SliderCrank(LinkageSlave):
             v["singularity_threshold"],
         )
 
-    def after_update(self, time: float) -> None:
-        if self.forces is not None:
-            v = self.values
-            loads = lf.SliderCrankLoads(*(v[name] for name in _LOADS))
-            v.update(self.forces.analyse(self.driver_inputs(), v, loads))
-
     def closed_form(self, time: float) -> Any:
         # the lengths and circuit validated once (check_geometry), the inputs by the step
         motion = sc.checked_motion(

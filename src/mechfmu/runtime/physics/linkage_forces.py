@@ -90,48 +90,30 @@ def _crank_pin(
     )
 
 
+def _crank_and_coupler(
+    crank: float, t2: float, w2: float, al2: float, motion: Mapping[str, float]
+) -> tuple[list[float], list[float], list[float]]:
+    """(q, q', q'') of the crank and the coupler (the first two bodies of both linkages):
+    the crank about the origin at t2, the coupler's frame at the crank pin."""
+    (ax, ay), (vx, vy), (accx, accy) = _crank_pin(crank, t2, w2, al2)
+    return (
+        [0.0, 0.0, t2, ax, ay, motion["coupler_angle"]],
+        [0.0, 0.0, w2, vx, vy, motion["coupler_angular_velocity"]],
+        [0.0, 0.0, al2, accx, accy, motion["coupler_angular_acceleration"]],
+    )
+
+
 def four_bar_state(
     lengths: FourBar, t2: float, w2: float, al2: float, motion: Mapping[str, float]
 ) -> tuple[list[float], list[float], list[float]]:
     """(q, q', q'') in the coordinates of constraint_models.four_bar from the crank's angle
     (rad), speed (rad/s), acceleration (rad/s^2) and the coupler and rocker motion (``motion``:
     coupler_angle, rocker_angle and their rates, as FourBarMotion's fields)."""
-    (ax, ay), (vx, vy), (accx, accy) = _crank_pin(lengths.crank, t2, w2, al2)
-    return (
-        [
-            0.0,
-            0.0,
-            t2,
-            ax,
-            ay,
-            motion["coupler_angle"],
-            lengths.ground,
-            0.0,
-            motion["rocker_angle"],
-        ],
-        [
-            0.0,
-            0.0,
-            w2,
-            vx,
-            vy,
-            motion["coupler_angular_velocity"],
-            0.0,
-            0.0,
-            motion["rocker_angular_velocity"],
-        ],
-        [
-            0.0,
-            0.0,
-            al2,
-            accx,
-            accy,
-            motion["coupler_angular_acceleration"],
-            0.0,
-            0.0,
-            motion["rocker_angular_acceleration"],
-        ],
-    )
+    q, qdot, qddot = _crank_and_coupler(lengths.crank, t2, w2, al2, motion)
+    q += [lengths.ground, 0.0, motion["rocker_angle"]]
+    qdot += [0.0, 0.0, motion["rocker_angular_velocity"]]
+    qddot += [0.0, 0.0, motion["rocker_angular_acceleration"]]
+    return q, qdot, qddot
 
 
 def slider_crank_state(
@@ -140,42 +122,11 @@ def slider_crank_state(
     """(q, q', q'') in the coordinates of constraint_models.slider_crank from the crank's
     angle, speed, acceleration and the slider and coupler motion (SliderCrankMotion's
     fields)."""
-    (ax, ay), (vx, vy), (accx, accy) = _crank_pin(geometry.crank, t2, w2, al2)
-    return (
-        [
-            0.0,
-            0.0,
-            t2,
-            ax,
-            ay,
-            motion["coupler_angle"],
-            motion["slider_position"],
-            geometry.offset,
-            0.0,
-        ],
-        [
-            0.0,
-            0.0,
-            w2,
-            vx,
-            vy,
-            motion["coupler_angular_velocity"],
-            motion["slider_speed"],
-            0.0,
-            0.0,
-        ],
-        [
-            0.0,
-            0.0,
-            al2,
-            accx,
-            accy,
-            motion["coupler_angular_acceleration"],
-            motion["slider_acceleration"],
-            0.0,
-            0.0,
-        ],
-    )
+    q, qdot, qddot = _crank_and_coupler(geometry.crank, t2, w2, al2, motion)
+    q += [motion["slider_position"], geometry.offset, 0.0]
+    qdot += [motion["slider_speed"], 0.0, 0.0]
+    qddot += [motion["slider_acceleration"], 0.0, 0.0]
+    return q, qdot, qddot
 
 
 def four_bar_mechanical_advantage(
@@ -212,6 +163,7 @@ class _CrankForces:
     """What both linkages share: the equations, the coupler point and the published dict."""
 
     JOINTS: tuple[str, ...] = ()
+    LOADS: Any = None  # the namedtuple of the external loads (inputs of the same names)
 
     def __init__(
         self,
@@ -261,6 +213,22 @@ class _CrankForces:
             values[x], values[y], values[size] = fx, fy, math.hypot(fx, fy)
         return values
 
+    def outputs(
+        self, crank: tuple[float, float, float], values: Mapping[str, Any]
+    ) -> dict[str, float]:
+        """``analyse`` with the motion and the loads read from a model's ``values`` (the
+        loads by their field names)."""
+        return self.analyse(
+            crank, values, self.LOADS(*(values[name] for name in self.LOADS._fields))
+        )
+
+    def analyse(
+        self, crank: tuple[float, float, float], motion: Mapping[str, float], loads: Any
+    ) -> dict[str, float]:
+        """Output values for the crank's (angle, speed, acceleration), the linkage's motion
+        and its loads (the subclasses')."""
+        raise NotImplementedError
+
     def coupler_load(
         self, q: list[float], force_x: float, force_y: float
     ) -> list[tuple[int, tuple[float, float], float, float]]:
@@ -281,6 +249,7 @@ class FourBarForces(_CrankForces):
     singularity threshold of the constraint Jacobian's condition number."""
 
     JOINTS = _FOUR_BAR_JOINTS
+    LOADS = FourBarLoads
 
     def __init__(
         self,
@@ -328,6 +297,7 @@ class SliderCrankForces(_CrankForces):
     singularity threshold."""
 
     JOINTS = _SLIDER_CRANK_JOINTS
+    LOADS = SliderCrankLoads
 
     def __init__(
         self,
