@@ -258,6 +258,13 @@ def _crank_and_coupler_rows(size: int, r12: Any, r32: Any, r23: Any, r43: Any) -
     ]
 
 
+def _crank_and_coupler_rhs(f2: Any, i2: Any, f3: Any, i3: Any, rp: Any, force: Any) -> list[Any]:
+    """The right-hand sides of _crank_and_coupler_rows: m a_G - m g and I_G alpha of crank
+    and coupler, less the force at the coupler point P and its moment (``rp``: G3 -> P)."""
+    fpx, fpy = force
+    return [f2[0], f2[1], i2, f3[0] - fpx, f3[1] - fpy, i3 - _cross(rp[0], rp[1], fpx, fpy)]
+
+
 def _forces(prefix: str, fx: ndarray, fy: ndarray) -> dict[str, ndarray]:
     return {f"{prefix}_x": fx, f"{prefix}_y": fy, f"{prefix}_magnitude": np.hypot(fx, fy)}
 
@@ -286,7 +293,6 @@ def norton_four_bar(
         _link_terms(link, layout, gravity) for link, layout in zip(links, layouts)
     )
     p = coupler.point(*coupler_point)
-    fpx, fpy = coupler_force
     r34, r14, rp = _arm(pin_b, g4), _arm(o4, g4), _arm(p, g3)
     rows = _crank_and_coupler_rows(
         9, _arm(o2, g2), _arm(pin_a, g2), _arm(pin_a, g3), _arm(pin_b, g3)
@@ -296,17 +302,8 @@ def norton_four_bar(
         [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 1.0, 0.0],
         [0.0, 0.0, 0.0, 0.0, r34[1], -r34[0], -r14[1], r14[0], 0.0],
     ]
-    rhs = [
-        f2[0],
-        f2[1],
-        i2,
-        f3[0] - fpx,
-        f3[1] - fpy,
-        i3 - _cross(rp[0], rp[1], fpx, fpy),
-        f4[0],
-        f4[1],
-        i4 - rocker_torque,
-    ]
+    rhs = _crank_and_coupler_rhs(f2, i2, f3, i3, rp, coupler_force)
+    rhs += [f4[0], f4[1], i4 - rocker_torque]
     x = _solve_rows(rows, rhs, 9)
     columns = {
         **_forces("crank_pivot_force", x[..., 0], x[..., 1]),
@@ -353,7 +350,6 @@ def norton_slider_crank(
         i2 = i2 + _cross(gc[0] - g2[0], gc[1] - g2[1], fc[0], fc[1])
         f2 = (f2[0] + fc[0], f2[1] + fc[1])
     p = rod.point(*coupler_point)
-    fpx, fpy = coupler_force
     rp = _arm(p, g3)
     rows = _crank_and_coupler_rows(
         8, _arm(o2, g2), _arm(pin_a, g2), _arm(pin_a, g3), _arm(pin_b, g3)
@@ -362,16 +358,8 @@ def norton_slider_crank(
         [0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0],
         [0.0, 0.0, 0.0, 0.0, 0.0, -1.0, 1.0, 0.0],
     ]
-    rhs = [
-        f2[0],
-        f2[1],
-        i2,
-        f3[0] - fpx,
-        f3[1] - fpy,
-        i3 - _cross(rp[0], rp[1], fpx, fpy),
-        f4[0] - slider_force_x,
-        f4[1],
-    ]
+    rhs = _crank_and_coupler_rhs(f2, i2, f3, i3, rp, coupler_force)
+    rhs += [f4[0] - slider_force_x, f4[1]]
     x = _solve_rows(rows, rhs, 8)
     zeros = np.zeros_like(x[..., 6])
     return {
