@@ -74,9 +74,13 @@ LAYERS = {
     "test_work_precision.py": "unit",
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)
     "test_compare.py": "unit",
+    "test_import_graph.py": "unit",
+    "test_tolerances.py": "unit",
     "test_api.py": "fmu",
     "test_baseline.py": "fmu",
     "test_check_cli.py": "fmu",
+    "test_readme.py": "fmu",
+    "test_command_line.py": "fmu",
     "test_pytest_plugin.py": "fmu",
     "test_bench.py": "fmu",
     "test_binary_patch.py": "fmu",
@@ -107,6 +111,7 @@ LAYERS = {
 # seconds each or many seconds together (measured with `pytest --durations=0`).
 SLOW_FILES = {
     "test_docs.py",
+    "test_readme.py",
     "test_interrupts.py",
     "test_robustness.py",
     "test_scenes.py",

@@ -424,7 +424,7 @@ def test_gas_force_table_is_generated_and_shipped(tmp_path):
 
     (written,) = generate_tables(tmp_path)
     fresh = read_profile_table(written)
-    shipped = read_profile_table(SCENES / next(iter(TABLES)))
+    shipped = read_profile_table(SCENES / "tables" / next(iter(TABLES)))
     np.testing.assert_allclose(fresh.to_numpy(), shipped.to_numpy(), rtol=1e-12, atol=1e-9)
     assert len(shipped) == 1441 and shipped.index[-1] == pytest.approx(0.04)
     # intake and exhaust at ambient pressure; the peak after the firing top dead centre

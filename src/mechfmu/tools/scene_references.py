@@ -15,10 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cosim.results import write_csv
+from ..cosim.files import atomic_write_all
+from ..cosim.results import csv_writer, json_text, write_csv
 from ..io import read_profile_table
 from ..cosim.scene import find_file, load_scene
 from ..runtime.models import MODELS
+from .docs import declared_units
 from ..references import (
     cam_geometry,
     drives,
@@ -426,6 +428,22 @@ INTEGRATED = {
 }
 
 
+def reference_metadata(scene: Scene, columns: list[str]) -> dict[str, Any]:
+    """The JSON beside a reference CSV: the scene, the columns' declared units, and the
+    scene's check tolerances (its [check] table, which ``mechfmu check`` and
+    ``mechfmu.compare`` apply when comparing a result with this reference)."""
+    units = declared_units(scene)
+    return {
+        "scene": scene.name,
+        "kind": "reference",
+        "description": scene.description,
+        "recorded": columns,
+        "units": {name: units[name] for name in columns if name in units},
+        "check": scene.check.as_dict() if scene.check else None,
+        "generated_by": "mechfmu references",
+    }
+
+
 def engine_gas_force() -> tuple[ndarray, dict[str, ndarray]]:
     """The slider_crank_engine scene's gas force table: one four-stroke cycle at its crank
     speed, 3000 rpm (references/engine.py)."""
@@ -433,22 +451,29 @@ def engine_gas_force() -> tuple[ndarray, dict[str, ndarray]]:
     return times, {"load": force}
 
 
-# Input tables of the shipped scenes (paths relative to the scene folder), generated from
-# the documented models in references/ by the same command as the references.
-TABLES = {"tables/engine_gas_force.csv": engine_gas_force}
+# Input tables of the shipped scenes (file names in the scenes' tables/ folder), generated
+# from the documented models in references/ by the same command as the references.
+TABLES = {"engine_gas_force.csv": engine_gas_force}
 
 
-def generate_tables(scene_dir: Any) -> list[Path]:
-    """Write every table of TABLES under ``scene_dir``; return their paths."""
-    return [write_csv(Path(scene_dir) / relative, *build()) for relative, build in TABLES.items()]
+def generate_tables(out_dir: Any) -> list[Path]:
+    """Write every table of TABLES into ``out_dir``; return their paths."""
+    return [write_csv(Path(out_dir) / name, *build()) for name, build in TABLES.items()]
 
 
 def generate(scene_dir: Any, out_dir: Any) -> Any:
-    """Write one reference CSV per entry of REFERENCES; return their paths."""
+    """Write one reference CSV per entry of REFERENCES, each with its JSON
+    (reference_metadata) beside it, both or neither; return the CSV paths."""
     paths = []
     for scene_name, build in REFERENCES.items():
         scene = load_scene(find_file(scene_name, (scene_dir,)))
-        paths.append(
-            write_csv(Path(out_dir) / f"{scene_name}.csv", sample_times(scene), build(scene))
+        columns = build(scene)
+        path = Path(out_dir) / f"{scene_name}.csv"
+        atomic_write_all(
+            {
+                path: csv_writer(list(sample_times(scene)), columns),
+                path.with_suffix(".json"): json_text(reference_metadata(scene, list(columns))),
+            }
         )
+        paths.append(path)
     return paths
