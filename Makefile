@@ -95,7 +95,7 @@ PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gea
 	tests/test_physics_suspension.py tests/test_references.py tests/test_hard_cases.py \
 	tests/test_integrators.py tests/test_planar.py tests/test_four_bar_boundary.py \
 	tests/test_gear_dynamics.py tests/test_suspension_dynamics.py tests/test_valve_spring.py \
-	tests/test_exact_valve.py \
+	tests/test_exact_valve.py tests/test_link_forces.py tests/test_force_fmus.py \
 	tests/test_scenes.py tests/test_outputs.py tests/test_fmus.py tests/test_linkage_fmus.py \
 	tests/test_coupling.py tests/test_study.py tests/test_sweep.py \
 	tests/test_sweep_references.py tests/test_portable.py tests/test_tolerances.py
