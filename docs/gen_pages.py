@@ -8,8 +8,11 @@
   ``<!-- mechfmu:interface MODEL -->`` becomes the model's interface table, generated from
   its declarations; ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
   committed reference CSV; ``<!-- mechfmu:scenes --tolerances -->`` becomes the table of
-  each shipped scene's check tolerances (its [check] table). A registered model without an
-  interface marker on some page fails the build.
+  each shipped scene's check tolerances (its [check] table); ``<!-- mechfmu:cam-profile
+  SCENE -->`` the drawing and summary ``mechfmu cam-profile SCENE`` writes;
+  ``<!-- mechfmu:camshaft-torque SCENE -->`` the total camshaft torque of a camshaft scene in
+  each phasing (tools/camshaft.py, on the scene's reference: no FMU is needed), plot and
+  table. A registered model without an interface marker on some page fails the build.
 - The accuracy study's committed plots (``data/study/*.png``) as ``study/*.png``.
 - The tube-versus-pointwise figure of checks.md (``plots/tube_vs_pointwise.png``).
 - The forces pages' validation figures (``forces/*.png``), drawn from the runtime's force
@@ -27,7 +30,10 @@ import mkdocs_gen_files
 
 import mechfmu
 
-MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot|scenes) (\S+) -->$", re.MULTILINE)
+MARKER = re.compile(
+    r"^<!-- mechfmu:(interface|reference-plot|scenes|cam-profile|camshaft-torque) (\S+) -->$",
+    re.MULTILINE,
+)
 MODEL_HEADING = re.compile(r"^### `(\w+)\.fmu`$", re.MULTILINE)
 STUDY_PLOTS = Path("data/study")
 
@@ -73,6 +79,39 @@ def reference_plot(scene: str, plots: dict) -> str:
     return plots[scene]
 
 
+def cam_profile_section(scene: str, page: PurePosixPath) -> str:
+    """The drawing and summary of ``mechfmu cam-profile SCENE`` (Markdown)."""
+    with tempfile.TemporaryDirectory() as folder:
+        mechfmu_command("cam-profile", scene, "--out", folder)
+        (summary,) = Path(folder).glob("*_cam.md")
+        (png,) = Path(folder).glob("*_cam.png")
+        target = f"plots/{png.name}"
+        with mkdocs_gen_files.open(target, "wb") as handle:
+            handle.write(png.read_bytes())
+        text = summary.read_text(encoding="utf-8").split("\n", 2)[2]  # past its heading
+    relative = Path(*[".."] * (len(page.parts) - 1), target).as_posix()
+    return f"![the cam of {scene}]({relative})\n\n{text}"
+
+
+def camshaft_torque_section(scene_name: str, page: PurePosixPath) -> str:
+    """The camshaft scene's total torque in each phasing, on its reference: plot and table."""
+    from mechfmu.cosim.scene import find_file, load_scene
+    from mechfmu.tools import camshaft
+
+    scene = load_scene(find_file(scene_name))
+
+    def run(chosen, parameters):
+        return mechfmu.reference(chosen, parameters=parameters)
+
+    table, curves = camshaft.compare_phasings(scene, run)
+    angle = run(scene, {})["camshaft.camshaft_angle"]
+    target = f"plots/{scene_name}_torque.png"
+    with mkdocs_gen_files.open(target, "wb") as handle:
+        handle.write(camshaft.figure_png(curves, angle))
+    relative = Path(*[".."] * (len(page.parts) - 1), target).as_posix()
+    return f"![{scene_name}: total camshaft torque]({relative})\n\n{camshaft.table_text(table)}"
+
+
 def fill_markers(docs_dir: Path) -> None:
     """Replace the markers of every hand-written page; check every model has its table."""
     tables = {}
@@ -87,6 +126,10 @@ def fill_markers(docs_dir: Path) -> None:
             kind, name = match.groups()
             if kind == "scenes":  # <!-- mechfmu:scenes --tolerances -->
                 return mechfmu_command("scenes", name).strip()
+            if kind == "cam-profile":
+                return cam_profile_section(name, page)
+            if kind == "camshaft-torque":
+                return camshaft_torque_section(name, page)
             if kind == "interface":
                 if name not in tables:
                     raise RuntimeError(f"{page}: no model {name!r}; models: {', '.join(tables)}")

@@ -59,6 +59,8 @@ LAYERS = {
     "test_link_forces.py": "unit",
     "test_physics_cam_valve.py": "unit",
     "test_cam_geometry.py": "unit",
+    "test_cam_design.py": "unit",
+    "test_camshaft.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
     "test_physics_profiles.py": "unit",

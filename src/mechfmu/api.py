@@ -191,6 +191,30 @@ def simulate(
     )
 
 
+def configured_scene(
+    scene: SceneLike,
+    parameters: Mapping[str, Any] | None = None,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+) -> Scene:
+    """The Scene ``scene`` names (a shipped scene's name, a scene file or a Scene, copied)
+    with ``parameters`` ({"component.parameter": value}) and the times (s) applied, the
+    names checked against the models' declarations: no FMU is needed. SceneError for an
+    unknown component or a parameter the model does not declare."""
+    from .tools.docs import model_class
+
+    chosen = _scene(scene, start_time, stop_time, step)
+
+    def declared(spec: Any) -> tuple[str, list[str]]:
+        model: Any = model_class(Path(spec.fmu).stem)
+        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
+        return Path(spec.fmu).stem, names
+
+    apply_parameters(chosen, _plain_parameters(parameters), declared)
+    return chosen
+
+
 def reference(
     scene: SceneLike,
     *,
@@ -211,24 +235,17 @@ def reference(
     FMU is needed. SceneError for a scene without a reference, an unknown component or
     a parameter the model does not declare.
     """
-    from .tools.docs import declared_units, model_class
+    from .tools.docs import declared_units
     from .tools.scene_references import REFERENCES, sample_times
 
-    chosen = _scene(scene, start_time, stop_time, step)
+    overrides = _plain_parameters(parameters)
+    chosen = configured_scene(scene, overrides, start_time, stop_time, step)
     build = REFERENCES.get(chosen.name)
     if build is None:
         raise SceneError(
             f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
             f"scenes with one: {', '.join(REFERENCES)}"
         )
-
-    def declared(spec: Any) -> tuple[str, list[str]]:
-        model: Any = model_class(Path(spec.fmu).stem)
-        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
-        return Path(spec.fmu).stem, names
-
-    overrides = _plain_parameters(parameters)
-    apply_parameters(chosen, overrides, declared)
     columns = build(chosen)
     return frame(
         sample_times(chosen),

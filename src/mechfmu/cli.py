@@ -245,6 +245,7 @@ EXAMPLES = {
     "suspension": ("out", "suspension load ramp past the limit load: snap-through"),
     "suspension_dynamics": ("out", "road bump and sudden load against solve_ivp"),
     "valve_train": ("out", "valve train forward, inverse and valve float"),
+    "camshaft": ("out", "a whole camshaft's torque, firing order against wrong sequences"),
     "sweeps": ("out/sweeps", "the shipped sweeps against their references (make sweeps)"),
 }
 
@@ -455,6 +456,51 @@ def _docs(args: Any) -> int:
     return 0
 
 
+def _cam_setup_failure(error: Exception) -> int:
+    print(f"cam error: {error}", file=sys.stderr)
+    return 2
+
+
+def _cam_profile(args: argparse.Namespace) -> int:
+    from .cosim.files import OutputError
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_profile, summary_markdown, write_cam_files
+
+    try:
+        table = cam_profile(args.scene, parse_assignments(args.set), args.component, args.points)
+        paths = write_cam_files(table, args.out)
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    print(summary_markdown(table), end="")
+    for kind, path in paths.items():
+        print(f"{kind}: {path}")
+    return 1 if table.attrs["design"]["problems"] else 0
+
+
+def _cam_size(args: argparse.Namespace) -> int:
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_setup_of, smallest_base_circle
+
+    try:
+        setup = cam_setup_of(args.scene, parse_assignments(args.set), args.component)
+        sizing = smallest_base_circle(setup, args.min_radius_of_curvature)
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    where = "" if sizing.angle != sizing.angle else f" at camshaft angle {sizing.angle:.6g} rad"
+    print(
+        f"{setup.scene.name}.{setup.component} ({setup.follower.kind} follower, "
+        f"{setup.profile.law} {setup.parameters['mode']}): smallest cam_base_radius "
+        f"{sizing.base_circle_radius!r} m (set by {sizing.limit}{where}); "
+        f"now {setup.geometry.cam_base_radius!r} m"
+    )
+    return 0
+
+
 def _study(args: argparse.Namespace):
     from .runtime.models import MODELS
     from .tools.study import command
@@ -574,6 +620,64 @@ def _example_verbs(verbs: argparse._SubParsersAction) -> None:
                 "local processes)",
             )
     example.set_defaults(func=_example)
+
+
+def _set_option(verb: argparse.ArgumentParser) -> None:
+    """--set COMPONENT.PARAMETER=VALUE (repeatable), read by parse_assignments."""
+    verb.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="COMPONENT.PARAMETER=VALUE",
+        help="replace a parameter (or a constant input, or an effect: true/false) of the "
+        'scene, in SI units; the value is read as TOML (2.5, true, "text") or as plain '
+        "text; repeatable (default: the scene's values)",
+    )
+
+
+def _cam_verb(verbs: argparse._SubParsersAction, name: str, help: str) -> argparse.ArgumentParser:
+    """A verb about the cam of a scene's ValveTrain: SCENE, --set, --component."""
+    verb = verbs.add_parser(name, help=help)
+    verb.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    _set_option(verb)
+    verb.add_argument(
+        "--component", help="the ValveTrain component (default: the scene's only one)"
+    )
+    return verb
+
+
+def _cam_verbs(verbs: argparse._SubParsersAction) -> None:
+    """cam-profile and cam-size: the cam a scene's valve train needs."""
+    profile = _cam_verb(
+        verbs,
+        "cam-profile",
+        "the cam of a scene's ValveTrain: profile CSV, DXF (mm), drawing and summary "
+        "with the design checks; exit 1 if a check fails (pressure angle), 2 if no cam "
+        "can be made (cusp, undercut) or the input is bad",
+    )
+    profile.add_argument(
+        "--points",
+        type=int,
+        default=3600,
+        help="profile points per revolution (default: 3600, every 0.1 degree)",
+    )
+    profile.add_argument("--out", default="out", help="output folder (default: out)")
+    profile.set_defaults(func=_cam_profile)
+    size = _cam_verb(
+        verbs,
+        "cam-size",
+        "the smallest base circle (cam_base_radius) with which a scene's ValveTrain's "
+        "cam law and follower make a cam meeting the limits",
+    )
+    size.add_argument(
+        "--min-radius-of-curvature",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="least radius of curvature of the cam surface, m (default: 0, the cusp or "
+        "undercut limit itself: add a margin)",
+    )
+    size.set_defaults(func=_cam_size)
 
 
 def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
@@ -824,15 +928,7 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "check); a failing scene does not stop the others",
     )
     _scene_options(run)
-    run.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="COMPONENT.PARAMETER=VALUE",
-        help="replace a parameter (or a constant input, or an effect: true/false) of the "
-        'scene, in SI units; the value is read as TOML (2.5, true, "text") or as plain '
-        "text; repeatable (default: the scene's values)",
-    )
+    _set_option(run)
     run.add_argument(
         "--check",
         action="store_true",
@@ -1040,6 +1136,7 @@ def parser() -> argparse.ArgumentParser:
     )
     docs.set_defaults(func=_docs)
 
+    _cam_verbs(verbs)
     _measurement_verbs(verbs)
     return main
 

@@ -413,6 +413,7 @@ REFERENCES = {
     "four_bar_forces": four_bar_forces_scene,
     "slider_crank_engine": slider_crank_engine_scene,
     "gear_retraction_loads": gear_loads_scene,
+    "camshaft_inline_four": valve_train_scene,
 }
 
 
