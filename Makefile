@@ -175,8 +175,9 @@ sweeps: $(FMUS)/.built
 	$(PY) sims/run_sweeps.py
 
 # The docs site into site/ (open site/index.html); strict: a broken link or reference fails.
-# The variables hush a banner of the mkdocs 1.x plugins about a future mkdocs 2.
-docs: $(VENV)/.installed
+# The FMUs run the model pages' animations. The variables hush a banner of the mkdocs 1.x
+# plugins about a future mkdocs 2.
+docs: $(FMUS)/.built
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict
 
 clean:

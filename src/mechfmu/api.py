@@ -133,6 +133,7 @@ def simulate(
     stop_time: float | None = None,
     step: float | None = None,
     fmu_dir: StrPath | None = None,
+    geometry: bool = False,
 ) -> pandas.DataFrame:
     """Run ``scene`` and return its recorded variables as a DataFrame.
 
@@ -143,7 +144,8 @@ def simulate(
     sets may be given the same way. ``start_time``, ``stop_time`` and ``step`` (s) replace
     the scene's. ``fmu_dir``: the folder of the built FMUs (default: the first of
     $MECHFMU_FMU_DIR, ./fmus, the source checkout's and the user cache that holds them:
-    mechfmu.cosim.locate).
+    mechfmu.cosim.locate). ``geometry``: switch the geometry effect on in every mechanism
+    component and record its outputs (the joints' positions that mechfmu.animate draws).
 
     Returns a DataFrame indexed by ``time`` (s), one float64 column per recorded variable
     named ``component.variable`` as in the CSV of ``mechfmu run``, and in ``attrs``:
@@ -162,6 +164,10 @@ def simulate(
     the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
     """
     chosen = _scene(scene, start_time, stop_time, step)
+    if geometry:
+        from .tools.animate import with_geometry
+
+        chosen = with_geometry(chosen)
     overrides = _plain_parameters(parameters)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
         try:

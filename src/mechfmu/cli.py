@@ -205,11 +205,16 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
     from .cosim.interrupt import exit_code, signal_name
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
-    from .cosim.scene import SceneError
+    from .cosim.scene import Scene, SceneError, load_scene
 
     try:
+        scene: Path | Scene = scene_path
+        if getattr(args, "animate", None):
+            from .tools.animate import with_geometry
+
+            scene = with_geometry(load_scene(scene_path))
         result, paths = run_scene(
-            scene_path,
+            scene,
             args.out,
             args.fmu_dir,
             plot=not args.no_plot,
@@ -234,7 +239,52 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
             print(f"  {kind}: {path}", file=sys.stderr)
         return 2
     print("\n".join(lines))
-    return 0 if comparison is None or comparison.ok else 1
+    status = 0 if comparison is None or comparison.ok else 1
+    if getattr(args, "animate", None):
+        animation = paths["csv"].with_suffix("." + args.animate)
+        return max(status, _animate_result(paths["csv"], animation))
+    return status
+
+
+def _animate_result(
+    result: Path | str,
+    out: Path | str,
+    speed: float = 1.0,
+    fps: float | None = None,
+    panels: list[str] | None = None,
+    width: int | None = None,
+) -> int:
+    """Write the animation of the result CSV ``result`` to ``out`` and say so; the exit
+    status (2 when it cannot be animated or written)."""
+    from .cosim.files import OutputError
+    from .tools.animate import DEFAULT_FPS, DEFAULT_WIDTH, animate, speed_hint
+
+    try:
+        animation = animate(
+            result,
+            speed=speed,
+            fps=DEFAULT_FPS if fps is None else fps,
+            panels=panels or (),
+            width=DEFAULT_WIDTH if width is None else width,
+        )
+        path = animation.save(out)
+    except (ValueError, OutputError) as error:  # AnimationError, ResultFileError
+        print(f"animate error: {error}", file=sys.stderr)
+        return 2
+    times = animation.frame_times
+    print(
+        f"  animation: {path} ({len(animation)} frames at {animation.fps:g} frames/s, "
+        f"speed {animation.schedule.speed:g}: t = {times[0]:g} .. {times[-1]:g} s)"
+    )
+    hint = speed_hint(animation)
+    if hint:
+        print(f"  note: {hint}")
+    return 0
+
+
+def _animate(args: argparse.Namespace) -> int:
+    out = args.out or Path(args.result).with_suffix(".gif")
+    return _animate_result(args.result, out, args.speed, args.fps, args.panel, args.width)
 
 
 # name: (default output folder, what it shows); each is a function of tools/examples.py
@@ -912,6 +962,40 @@ def _export_verb(
     return verb
 
 
+def _animate_verb(verbs: argparse._SubParsersAction) -> None:
+    animate = verbs.add_parser(
+        "animate",
+        help="animate the mechanisms of a result CSV recorded with the geometry effect "
+        "(mechfmu run SCENE --animate records it): GIF, MP4 or HTML",
+    )
+    animate.add_argument("result", help="result CSV (its JSON beside it names the models)")
+    animate.add_argument(
+        "--out",
+        help="the .gif, .mp4 (needs the video extra: imageio-ffmpeg) or .html file to "
+        "write (default: RESULT with .gif)",
+    )
+    animate.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        help="playback speed against real time (default 1: real time; 0.01 plays a "
+        "hundred times slower)",
+    )
+    animate.add_argument(
+        "--fps", type=float, default=None, help="frames per second (default 25; GIF at most 50)"
+    )
+    animate.add_argument(
+        "--panel",
+        action="append",
+        default=[],
+        metavar="COLUMN",
+        help="a result column to plot against time beside the mechanism, with a cursor "
+        "(repeatable; default: none)",
+    )
+    animate.add_argument("--width", type=int, default=None, help="width in pixels (default 720)")
+    animate.set_defaults(func=_animate)
+
+
 def _run_verb(verbs: argparse._SubParsersAction) -> None:
     run = verbs.add_parser(
         "run", help="run a scene (or every shipped scene) and write CSV, JSON and PNG"
@@ -938,6 +1022,15 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "--reference", metavar="CSV", help="compare with this CSV afterwards (one scene)"
     )
     _tolerance_options(run)
+    run.add_argument(
+        "--animate",
+        nargs="?",
+        const="gif",
+        choices=("gif", "mp4", "html"),
+        help="also record the mechanisms' geometry (the geometry effect) and write "
+        "<scene>.gif (or .mp4, .html) into --out, played in real time (default: no "
+        "animation; without a format: gif)",
+    )
     run.set_defaults(func=_run)
 
 
@@ -1059,6 +1152,7 @@ def parser() -> argparse.ArgumentParser:
     build.set_defaults(func=_build)
 
     _run_verb(verbs)
+    _animate_verb(verbs)
     _example_verbs(verbs)
 
     export = _export_verb(
