@@ -96,7 +96,7 @@ PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_cam_geometry.py tes
 	tests/test_physics_suspension.py tests/test_references.py tests/test_hard_cases.py \
 	tests/test_integrators.py tests/test_planar.py tests/test_four_bar_boundary.py \
 	tests/test_gear_dynamics.py tests/test_suspension_dynamics.py tests/test_valve_spring.py \
-	tests/test_exact_valve.py \
+	tests/test_exact_valve.py tests/test_link_forces.py tests/test_force_fmus.py \
 	tests/test_scenes.py tests/test_outputs.py tests/test_fmus.py tests/test_linkage_fmus.py \
 	tests/test_coupling.py tests/test_study.py tests/test_sweep.py \
 	tests/test_sweep_references.py tests/test_portable.py tests/test_tolerances.py
@@ -133,7 +133,8 @@ test-subset: $(FMUS)/.built
 	$(PY) -m pytest -q -p no:cacheprovider $(TESTS)
 
 references: $(VENV)/.installed
-	$(VENV)/bin/mechfmu references --out src/mechfmu/scenes/reference
+	$(VENV)/bin/mechfmu references --out src/mechfmu/scenes/reference \
+		--tables src/mechfmu/scenes/tables
 
 # What each shipped scene's check tolerance rests on (docs/checks.md): every scene run on each
 # CPython that has a venv here (and with the C library's FMA and AVX2 variants off), every

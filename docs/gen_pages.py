@@ -19,6 +19,8 @@
   FMUs are found as simulate finds them ($MECHFMU_FMU_DIR: `make docs` builds them first).
 - The accuracy study's committed plots (``data/study/*.png``) as ``study/*.png``.
 - The tube-versus-pointwise figure of checks.md (``plots/tube_vs_pointwise.png``).
+- The forces pages' validation figures (``forces/*.png``), drawn from the runtime's force
+  analysis and the references (mechfmu.tools.report.forces).
 """
 
 import contextlib
@@ -189,6 +191,15 @@ def study_plots() -> None:
             handle.write(png.read_bytes())
 
 
+def force_plots() -> None:
+    """The forces pages' validation figures (mechfmu.tools.report.forces), as forces/*.png."""
+    from mechfmu.tools.report.forces import FIGURES
+
+    for name, draw in FIGURES.items():
+        with mkdocs_gen_files.open(f"forces/{name}", "wb") as handle:
+            handle.write(draw())
+
+
 def check_plots() -> None:
     """checks.md's tube-versus-pointwise figure, drawn by mechfmu's own comparison."""
     from mechfmu.tools.report.checks import tube_example
@@ -201,3 +212,4 @@ api_pages(Path(mechfmu.__file__).parent, mkdocs_gen_files.Nav())
 fill_markers(Path(mkdocs_gen_files.config["docs_dir"]))
 study_plots()
 check_plots()
+force_plots()

@@ -33,7 +33,8 @@ EXPECTED = {
         f"{case.label}: {what}"
         for case in model_cost.CASES
         for what in ("model", "null", "model / null")
-    ],
+    ]
+    + [f"{case.label}: effect on / off" for case in model_cost.CASES if case.effect_of],
     "effects": [
         "gear_retraction (kinematic, 2 FMUs)",
         "gear_retraction_dynamic (six effects, radau)",
@@ -127,7 +128,16 @@ def test_model_cost_covers_every_kinematic_configuration():
             for model in ("FourBar", "SliderCrank", "ValveTrain")
             for solver in ("closed_form", "constraint_solver")
         ),
+        # the forces effect on (issue 29), each against its case with it off
+        "LandingGear (motion drive, forces)",
+        "FourBar (closed_form, forces)",
+        "FourBar (constraint_solver, forces)",
+        "SliderCrank (closed_form, forces)",
+        "ValveTrain (constraint_solver, forces)",
     }
+    for case in model_cost.CASES:
+        if case.effect_of:
+            assert case.parameters["forces"] and case.effect_of in labels
 
 
 def test_times_finite_and_positive(bench):
@@ -147,7 +157,8 @@ def test_ratios_are_the_quotients_of_their_parts(bench):
     _, _, records, _ = bench
     rows = _rows(records)
     ratios = [r for r in records if r["unit"] == RATIO_UNIT]
-    assert len(ratios) == 2 + 3 + len(model_cost.CASES) + 2 + 1 + len(growth.FACTORS)
+    effects = [case for case in model_cost.CASES if case.effect_of]  # their on / off rows
+    assert len(ratios) == 2 + 3 + len(model_cost.CASES) + len(effects) + 2 + 1 + len(growth.FACTORS)
     for record in ratios:
         row = Row(
             record["benchmark"],
@@ -192,6 +203,14 @@ def test_targets_reported_not_asserted(bench):
         targets[f"{case.label}: model / null"]
         == ("<= 6" if "constraint_solver" in case.label else "<= 1.3")
         for case in model_cost.CASES
+        if not case.effect_of
+    )
+    # an effect's cost is reported without a target (the issue asks to show it)
+    assert not any(
+        f"{case.label}: {what}" in targets
+        for case in model_cost.CASES
+        if case.effect_of
+        for what in ("model / null", "effect on / off")
     )
     for record in records:
         if record["target"]:

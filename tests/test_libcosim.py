@@ -65,7 +65,14 @@ CASES = [
     (
         "gear_motion_effects",
         "LandingGear",
-        {"inertia": True, "gravity": True, "aero_drag": True, "pivot_friction": True},
+        # with the forces effect: its loads move too (at least half the outputs must)
+        {
+            "inertia": True,
+            "gravity": True,
+            "aero_drag": True,
+            "pivot_friction": True,
+            "forces": True,
+        },
         {
             "piston_extension": lambda t: 0.381 + 0.0762 * t,
             "piston_speed": 0.0762,
@@ -186,7 +193,7 @@ CASES = [
     (
         "four_bar_solver",
         "FourBar",
-        {"solver": "constraint_solver", "geometry": True},
+        {"solver": "constraint_solver", "forces": True, "geometry": True},
         {
             "crank_angle": lambda t: math.pi / 6.0 + TWO_PI * t,
             "crank_speed": TWO_PI,
@@ -205,7 +212,7 @@ CASES = [
     (
         "slider_crank_offset",
         "SliderCrank",
-        {"offset": 0.01},
+        {"offset": 0.01, "forces": True},
         {
             "crank_angle": lambda t: ENGINE_CRANK_SPEED * t,
             "crank_speed": ENGINE_CRANK_SPEED,
@@ -227,7 +234,7 @@ CASES = [
     (
         "valve_train_spring",
         "ValveTrain",
-        {"valve_spring": True, "cam_law": "polynomial_345", "geometry": True},
+        {"valve_spring": True, "cam_law": "polynomial_345", "forces": True, "geometry": True},
         {
             "camshaft_angle": lambda t: CAMSHAFT_SPEED * t,
             "camshaft_speed": CAMSHAFT_SPEED,

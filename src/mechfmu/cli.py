@@ -439,11 +439,14 @@ def _baseline_update(args: argparse.Namespace) -> int:
 
 def _references(args: Any) -> int:
     from .cosim.files import OutputError, output_folder
-    from .tools.scene_references import generate
+    from .tools.scene_references import generate, generate_tables
 
     try:
         for path in generate(args.scenes, output_folder(args.out)):
             print(f"wrote {path} (and its JSON)")
+        if args.tables is not None:
+            for path in generate_tables(output_folder(args.tables)):
+                print(f"wrote {path}")
     except OutputError as error:
         print(f"output error: {error}", file=sys.stderr)
         return 2
@@ -1208,7 +1211,7 @@ def parser() -> argparse.ArgumentParser:
     references = verbs.add_parser(
         "references",
         help="regenerate the shipped scenes' reference CSVs (and their JSON: units and "
-        "check tolerances)",
+        "check tolerances) and their generated input tables",
     )
     _scene_folder_option(references)
     references.add_argument(
@@ -1217,6 +1220,13 @@ def parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="output folder (default: reference, in the current folder; make references "
         "writes the shipped ones)",
+    )
+    references.add_argument(
+        "--tables",
+        default=None,
+        metavar="DIR",
+        help="also write the scenes' generated input tables, such as the engine's gas force, "
+        "into DIR (default: not written; make references writes the shipped ones)",
     )
     references.set_defaults(func=_references)
 

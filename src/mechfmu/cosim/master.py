@@ -63,12 +63,12 @@ _PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "S
 def _read(component: Any, variable: Any) -> bool:
     """Whether the component reads ``variable`` (an input) in the scene's configuration:
     always, unless its description says "Only with P = V: " and parameter P (the scene's
-    value, else its start value) is not V."""
+    value, True for an effect the scene lists, else its start value) is not V."""
     match = ONLY_WITH.match(variable.description or "")
     if match is None:
         return True
     name, wanted = match.groups()
-    value = component.spec.parameters.get(name)
+    value = True if name in component.spec.effects else component.spec.parameters.get(name)
     if value is None and name in component.variables:
         value = component.variables[name].start
     return str(value) == wanted

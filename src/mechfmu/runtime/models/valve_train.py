@@ -14,8 +14,11 @@ from ..fmi.slave import (
     parameter,
 )
 from ..physics import cam_geometry, cam_laws, constraint_models, joint_positions
+from ..physics import valve_forces
+from ..physics.link_forces import mass_layout
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
+from . import force_variables as fv
 from .linkage import LinkageSlave, solver_variables
 from ..fmi.declarations import Variable
 
@@ -186,6 +189,52 @@ _CAM_OUTPUTS = (
 )
 
 
+# The forces effect's variables (force_variables): pushrod and rocker masses, gravity, the
+# cam's push, each joint's force, the camshaft torque with the links' inertia.
+FORCE_VARIABLES = (
+    fv.forces_effect(
+        "the cam's push on the tappet, the pushrod, rocker pivot, valve link and guide forces, "
+        "the camshaft torque and input power with the pushrod's and rocker's inertia (and the "
+        "valve's mass and spring with valve_spring)"
+    ),
+    *fv.gravity_variables(),
+    *fv.link_mass_variables(
+        "pushrod", valve_forces.DEFAULT_PUSHROD, "tappet and pushrod", "P -> T"
+    ),
+    *fv.link_mass_variables(
+        "rocker", valve_forces.DEFAULT_ROCKER, "rocker", "the pivot -> the valve arm"
+    ),
+    output(
+        "cam_force",
+        0.0,
+        "forces: the cam's push on the tappet along the follower's axis (roller: the "
+        "normal force's axial part; the guide carries the rest)",
+        unit="N",
+        depends=_CAM,
+    ),
+    output(
+        "cam_torque",
+        0.0,
+        "forces: torque the camshaft supplies to this cam, cam_force ds/dtheta (with the "
+        "pushrod's and rocker's inertia; camshaft_torque when they are massless)",
+        unit="N.m",
+        depends=_CAM,
+    ),
+    output(
+        "input_power",
+        0.0,
+        "forces: power the cam delivers, cam_force times the tappet velocity",
+        unit="W",
+        depends=_CAM,
+    ),
+    *fv.joint_force_outputs("tappet_guide", "tappet guide on tappet at P", _CAM),
+    *fv.joint_force_outputs("pushrod", "rocker on pushrod at T", _CAM),
+    *fv.joint_force_outputs("rocker_pivot", "cylinder head on rocker at its pivot", _CAM),
+    *fv.joint_force_outputs("valve_link", "rocker on valve link at V", _CAM),
+    *fv.joint_force_outputs("valve_guide", "valve guide on valve at Q", _CAM),
+)
+
+
 def cam_setup(values: dict) -> tuple:
     """(ValveGeometry, CamProfile) validated from the parameter values of geometry_variables
     and cam_law_variables (RangeError names the parameter)."""
@@ -333,7 +382,9 @@ class ValveTrain(LinkageSlave):
             unit="m",
         ),
         *valve_train_geometry_effect(),
+        *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {fv.FORCES: fv.outputs_of(FORCE_VARIABLES)}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
@@ -380,6 +431,29 @@ class ValveTrain(LinkageSlave):
                     v["follower_offset"],
                 )
             )
+        self.forces = self.force_analysis()
+
+    def force_analysis(self) -> "valve_forces.ValveTrainForces | None":
+        """The forces effect's analysis from the parameters, or None with the effect off."""
+        v = self.values
+        gravity = fv.gravity_setting(v)
+        if not v[fv.FORCES]:
+            return None
+        spring = None
+        if v["valve_spring"]:
+            spring = valve_forces.ValveSpringLoad(
+                mass_layout("valve", v["valve_mass"], 0.0, 0.0, 0.0).mass,
+                v["spring_stiffness"],
+                v["spring_preload"],
+            )
+        return valve_forces.ValveTrainForces(
+            self.geometry,
+            valve_forces.pushrod_frame(fv.link_layout(v, "pushrod")),
+            fv.link_layout(v, "rocker"),
+            spring,
+            gravity,
+            v["singularity_threshold"],
+        )
 
     def _design_cam(self) -> None:
         """The cam_geometry effect at initialisation: the follower checked, the cam designed
@@ -479,6 +553,9 @@ class ValveTrain(LinkageSlave):
 
     def after_update(self, time: float) -> Any:
         v = self.values
+        if self.forces is not None:
+            lift_rate = self.tappet_diagram()[1]
+            v.update(self.forces.analyse(v, self.closed_height, lift_rate))
         if v["cam_geometry"]:
             point = cam_geometry.cam_point(
                 self.cam_follower, v["camshaft_angle"], *self.tappet_diagram()
