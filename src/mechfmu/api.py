@@ -11,7 +11,6 @@ Pa, ...); ``df.attrs["units"]`` names the unit of each column.
 from __future__ import annotations
 
 import copy
-import math
 import tempfile
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from os import PathLike
@@ -22,6 +21,7 @@ from typing import Any
 import numpy
 import pandas
 
+from .cosim import limits
 from .cosim.interrupt import InterruptGuard
 from .cosim.master import (
     Simulation,
@@ -67,13 +67,10 @@ def _scene(
     if isinstance(scene, Scene):
         chosen = copy.deepcopy(scene)
         for key, value in overrides.items():
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, (int, float))
-                or not math.isfinite(value)
-            ):
-                raise SceneError(f"{key} = {value!r} must be a finite number")
-            setattr(chosen, key, float(value))
+            number = limits.finite_float(value)
+            if number is None:
+                raise SceneError(f"{key} = {limits.shortened(value)} must be a finite number")
+            setattr(chosen, key, number)
         check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
         return chosen
     if not isinstance(scene, (str, PathLike)):
@@ -129,9 +126,19 @@ def apply_parameters(
     place. A name may also be a constant input the scene gives a value, or an effect (True
     or False). ``declared(spec)``: the model name and parameter names of a component.
     SceneError naming the item for an unknown component or a name the component's model
-    has no parameter of; the value's type is checked with the scene."""
+    has no parameter of, or a value that is not a number, a bool or a string within
+    mechfmu.cosim.limits (value_problem); the value's type is checked with the scene."""
+    if parameters is not None and not isinstance(parameters, Mapping):
+        raise SceneError(
+            f"parameters must map 'component.parameter' names to values, got "
+            f"{type(parameters).__name__} {limits.shortened(parameters)}"
+        )
     for name, value in (parameters or {}).items():
-        component, dot, variable = str(name).partition(".")
+        if not isinstance(name, str):
+            raise SceneError(
+                f"parameters: {limits.shortened(name)} is not of the form component.parameter"
+            )
+        component, dot, variable = name.partition(".")
         if not dot or not component or not variable:
             raise SceneError(f"parameters: {name!r} is not of the form component.parameter")
         spec = scene.components.get(component)
@@ -141,6 +148,9 @@ def apply_parameters(
                 f"{component!r}; its components: {', '.join(scene.components)}"
             )
         value = _plain(value)
+        problem = limits.value_problem(value)
+        if problem:
+            raise SceneError(f"parameters: {name} = {limits.shortened(value)} {problem}")
         if variable in spec.inputs:
             spec.inputs[variable] = value
             continue

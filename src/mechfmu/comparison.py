@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pandas as pd
 
+from .cosim.text import plot_text
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -324,7 +326,7 @@ class Comparison:
             axis.axvline(data.times[first], color="tab:red", linewidth=0.6)
         units = {**self.reference.attrs.get("units", {}), **self.result.attrs.get("units", {})}
         unit = units.get(column)
-        axis.set_ylabel(f"[{unit}]" if unit else "")
+        axis.set_ylabel(plot_text(f"[{unit}]") if unit else "")
         axis.grid(True, linewidth=0.3)
         if legend:
             axis.legend(fontsize=7, loc="best")
@@ -356,7 +358,7 @@ class Comparison:
         )
         for row, name in zip(axes, columns):
             self.draw(row[0], name)
-            row[0].set_title(name, fontsize=9, loc="left")
+            row[0].set_title(plot_text(name), fontsize=9, loc="left")
             data = self._columns[name]
             if zoomed and data.failing.any():
                 i = int(np.argmax(data.failing))

@@ -15,8 +15,8 @@ they apply.
 
 from __future__ import annotations
 
-import json
 import math
+import os
 import re
 import warnings
 from collections.abc import Iterable
@@ -27,8 +27,9 @@ from typing import Any
 import numpy
 import pandas
 
-from .cosim.files import atomic_write_all
-from .cosim.results import csv_writer, json_text
+from .cosim import limits
+from .cosim.files import atomic_write_all, remove_stale_temporaries
+from .cosim.results import csv_writer, pair_problem, sealed_pair
 
 __all__ = [
     "ResultFileError",
@@ -52,13 +53,20 @@ def companion_json(path: StrPath) -> Path:
     return Path(path).with_suffix(".json")
 
 
+def _check_file(path: Path, max_bytes: int, kind: str) -> None:
+    """ResultFileError unless ``path`` is a regular file of at most ``max_bytes``
+    (mechfmu.cosim.limits.file_problem); ``kind`` names what a directory is not."""
+    problem = limits.file_problem(path, max_bytes)
+    if problem:
+        if problem.startswith("is a directory"):
+            problem = f"is a directory, not {kind}"
+        raise ResultFileError(f"{path}: {problem}")
+
+
 def _raw_rows(path: Path) -> pandas.DataFrame:
     """Every line of the CSV at ``path`` as strings (row 0 is the header), trailing blank
     lines dropped; ResultFileError for a missing, empty or unreadable file."""
-    if not path.exists():
-        raise ResultFileError(f"{path}: file not found")
-    if path.is_dir():
-        raise ResultFileError(f"{path}: is a directory, not a CSV file")
+    _check_file(path, limits.MAX_CSV_BYTES, "a CSV file")
     try:
         raw = pandas.read_csv(
             path, header=None, dtype=str, na_filter=False, skip_blank_lines=False, encoding="utf-8"
@@ -90,6 +98,9 @@ def _raw_rows(path: Path) -> pandas.DataFrame:
 
 def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
     names = [name.strip() for name in raw.iloc[0]]
+    problem = _names_problem(names)
+    if problem:
+        raise ResultFileError(f"{path}: line 1: {problem}")
     if first is not None and names[0] != first:
         raise ResultFileError(
             f"{path}: line 1: the first column must be {first!r}, got {names[0]!r} (no header?)"
@@ -100,6 +111,19 @@ def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
         if name in names[:index]:
             raise ResultFileError(f"{path}: line 1: column {name!r} appears twice")
     return names
+
+
+def _names_problem(names: list[str]) -> str | None:
+    """Why a CSV header of ``names`` is beyond the limits (columns, name length), or None."""
+    if len(names) > limits.MAX_COLUMNS:
+        return f"{len(names)} columns, more than the limit of {limits.MAX_COLUMNS}"
+    for index, name in enumerate(names):
+        if len(name) > limits.MAX_COLUMN_NAME:
+            return (
+                f"column {index + 1} has a name of {len(name)} characters, more than the "
+                f"limit of {limits.MAX_COLUMN_NAME}"
+            )
+    return None
 
 
 def _problem_cell(
@@ -161,7 +185,12 @@ def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
             path, header=None, nrows=1, dtype=str, na_filter=False, encoding="utf-8"
         )
         names = [name.strip() for name in header.iloc[0]]
-        if names[0] != "time" or "" in names or len(set(names)) != len(names):
+        if (
+            names[0] != "time"
+            or "" in names
+            or len(set(names)) != len(names)
+            or _names_problem(names)
+        ):
             return None, []
         table = pandas.read_csv(
             path,
@@ -183,18 +212,16 @@ def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
 
 
 def _metadata(path: Path) -> dict[str, Any]:
-    """The JSON beside the result CSV at ``path`` as a dict ({} when there is none)."""
+    """The JSON beside the result CSV at ``path`` as a dict ({} when there is none), read
+    within the limits of mechfmu.cosim.limits and checked to describe this very CSV
+    (mechfmu.cosim.results.pair_problem: a pair whose two files come from two runs is
+    refused)."""
     meta_path = companion_json(path)
-    if not meta_path.is_file():
+    if not os.path.lexists(meta_path):
         return {}
-    try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as error:
-        raise ResultFileError(f"{meta_path}: cannot be read: {error}") from None
-    except json.JSONDecodeError as error:
-        raise ResultFileError(
-            f"{meta_path}: malformed JSON: {error.msg} at line {error.lineno}, column {error.colno}"
-        ) from None
+    meta, problem = limits.load_json(meta_path)
+    if problem:
+        raise ResultFileError(f"{meta_path}: {problem}")
     if not isinstance(meta, dict):
         raise ResultFileError(f"{meta_path}: must hold a JSON object, got {type(meta).__name__}")
     units = meta.get("units", {})
@@ -202,6 +229,9 @@ def _metadata(path: Path) -> dict[str, Any]:
         isinstance(unit, str) or unit is None for unit in units.values()
     ):
         raise ResultFileError(f"{meta_path}: 'units' must map column names to unit strings")
+    problem = pair_problem(path, meta, meta_path)
+    if problem:
+        raise ResultFileError(problem)
     return meta
 
 
@@ -222,6 +252,7 @@ def read_result(path: StrPath) -> pandas.DataFrame:
     not increase; and for a malformed JSON beside it.
     """
     path = Path(path)
+    _check_file(path, limits.MAX_CSV_BYTES, "a CSV file")
     values, names = _fast_values(path)
     if values is None:  # something is wrong: read it again as text to say what and where
         raw = _raw_rows(path)
@@ -296,11 +327,14 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
     units = meta.get("units") or {}
     meta["units"] = {name: units[name] for name in names if name in units}
     meta["recorded"] = names
+    remove_stale_temporaries(path.parent)
     atomic_write_all(
-        {
-            path: csv_writer(frame.index.to_numpy(dtype=float).tolist(), columns),
-            companion_json(path): json_text(meta),
-        }
+        sealed_pair(
+            path,
+            companion_json(path),
+            csv_writer(frame.index.to_numpy(dtype=float).tolist(), columns),
+            meta,
+        )
     )
     return path
 
@@ -388,9 +422,7 @@ def read_profile_table(path: StrPath) -> pandas.DataFrame:
     non-finite number, a time that does not increase, or no data rows.
     """
     path = Path(path)
-    if not path.is_file():
-        problem = "is a directory, not a table file" if path.is_dir() else "file not found"
-        raise ResultFileError(f"{path}: {problem}")
+    _check_file(path, limits.MAX_TABLE_BYTES, "a table file")
     try:
         with warnings.catch_warnings():  # lines with more values: the first two are kept
             warnings.simplefilter("ignore", pandas.errors.ParserWarning)

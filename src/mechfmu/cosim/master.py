@@ -18,7 +18,6 @@ import functools
 import os
 import shutil
 from array import array
-import tempfile
 import time as clock
 import weakref
 from ctypes import byref
@@ -27,7 +26,6 @@ from pathlib import Path
 from typing import Any
 from collections.abc import Callable
 
-from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -43,7 +41,7 @@ from fmpy.fmi2 import (
 )
 from fmpy import calloc, free
 
-from .fmu_file import FmuError, checked_description
+from .fmu_file import FmuError, checked_description, unpack
 from .interrupt import signal_name
 from .scene import SceneError, split_name
 
@@ -238,7 +236,7 @@ class Instances:
         version = file_version(component.path)
         folder = self._folders.get(version)
         if folder is None:
-            folder = extract(str(component.path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_"))
+            folder = unpack(component.path)
             self._folders[version] = folder
         idle = self._idle.get((folder, component.name))
         if idle:
