@@ -71,6 +71,7 @@ LAYERS = {
     "test_docs.py": "unit",
     "test_work_precision.py": "unit",
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)
+    "test_hostile_inputs.py": "unit",
     "test_compare.py": "unit",
     "test_api.py": "fmu",
     "test_baseline.py": "fmu",
