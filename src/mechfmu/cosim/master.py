@@ -236,7 +236,10 @@ class Instances:
         version = file_version(component.path)
         folder = self._folders.get(version)
         if folder is None:
-            folder = unpack(component.path)
+            try:
+                folder = unpack(component.path)
+            except FmuError as error:
+                raise FmuError(f"component {component.name!r}: FMU file {error}") from None
             self._folders[version] = folder
         idle = self._idle.get((folder, component.name))
         if idle:
