@@ -6,7 +6,8 @@
 - Markers in the hand-written pages (each alone on its line), replaced by what the ``mechfmu docs`` command prints
   (the same command a user runs, called in-process through its console-script entry point):
   ``<!-- mechfmu:interface MODEL -->`` becomes the model's interface table, generated from
-  its declarations; ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
+  its declarations; ``<!-- mechfmu:limits inputs -->`` the table of the input files' limits
+  (mechfmu.cosim.limits.LIMITS); ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
   committed reference CSV. A registered model without an interface marker on some page
   fails the build.
 - The accuracy study's committed plots (``data/study/*.png``) as ``study/*.png``.
@@ -24,7 +25,7 @@ import mkdocs_gen_files
 
 import mechfmu
 
-MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot) (\S+) -->$", re.MULTILINE)
+MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot|limits) (\S+) -->$", re.MULTILINE)
 MODEL_HEADING = re.compile(r"^### `(\w+)\.fmu`$", re.MULTILINE)
 STUDY_PLOTS = Path("data/study")
 
@@ -70,6 +71,17 @@ def reference_plot(scene: str, plots: dict) -> str:
     return plots[scene]
 
 
+def limits_table() -> str:
+    """The limits every input file is checked against (mechfmu.cosim.limits.LIMITS)."""
+    from mechfmu.cosim.limits import LIMITS
+
+    rows = [
+        f"| {limit.applies_to} | {limit.what} | {limit.value} | {limit.reason} |"
+        for limit in LIMITS
+    ]
+    return "\n".join(["| file | what | limit | why |", "|---|---|---|---|", *rows])
+
+
 def fill_markers(docs_dir: Path) -> None:
     """Replace the markers of every hand-written page; check every model has its table."""
     tables = {}
@@ -82,6 +94,8 @@ def fill_markers(docs_dir: Path) -> None:
 
         def replace(match):
             kind, name = match.groups()
+            if kind == "limits":
+                return limits_table()
             if kind == "interface":
                 if name not in tables:
                     raise RuntimeError(f"{page}: no model {name!r}; models: {', '.join(tables)}")

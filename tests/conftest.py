@@ -73,6 +73,7 @@ LAYERS = {
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)
     "test_hostile_inputs.py": "unit",
     "test_result_pairs.py": "unit",
+    "test_input_fuzz.py": "fmu",
     "test_compare.py": "unit",
     "test_api.py": "fmu",
     "test_baseline.py": "fmu",

@@ -220,7 +220,10 @@ MEMBERS = {
     ),
     "drive letter": (("C:/evil.txt", b"evil"), "member 'C:/evil.txt' holds a colon"),
     "backslash": (("..\\evil.txt", b"evil"), "member '..\\\\evil.txt' holds a backslash"),
-    "symbolic link": (_link("resources/link", b"/etc/passwd"), "member 'resources/link' is a symbolic link"),
+    "symbolic link": (
+        _link("resources/link", b"/etc/passwd"),
+        "member 'resources/link' is a symbolic link",
+    ),
     "duplicate": (("modelDescription.xml", b"<x/>"), "member 'modelDescription.xml' appears twice"),
     "file and folder": (
         ("modelDescription.xml/inside", b"x"),
@@ -428,3 +431,36 @@ def test_a_run_killed_while_its_fmus_are_unpacked_leaves_nothing_after_the_next(
     done = run(tmp_path, fmu_dir / "PistonActuator.fmu", fmu_dir, TMPDIR=str(temporary))
     assert done.returncode == 0, done.stderr
     assert list(temporary.iterdir()) == []
+
+
+PYTHONFMU = {
+    "no slavemodule.txt": (
+        lambda name, data: None if name == "resources/slavemodule.txt" else data,
+        "it is a PythonFMU FMU without resources/slavemodule.txt",
+    ),
+    "slavemodule.txt cut short": (
+        lambda name, data: data[:14] if name == "resources/slavemodule.txt" else data,
+        "its resources/slavemodule.txt names the module mechfmu_entry_, which is not in its "
+        "resources",
+    ),
+    "no entry module": (
+        lambda name, data: None if name == "resources/mechfmu_entry_PistonActuator.py" else data,
+        "its resources/slavemodule.txt names the module mechfmu_entry_PistonActuator, which "
+        "is not in its resources",
+    ),
+    "slavemodule.txt not a module name": (
+        lambda name, data: b"a b\n../x" if name == "resources/slavemodule.txt" else data,
+        "its resources/slavemodule.txt names no Python module: 'a b\\n../x'",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(PYTHONFMU))
+def test_a_pythonfmu_fmu_without_its_module_is_refused_before_loading(fmu_dir, tmp_path, case):
+    """Found by the fuzz harness: pythonfmu's library crashes its host (SIGSEGV in
+    fmi2Instantiate) when the module slavemodule.txt names cannot be found; a module that
+    fails to import is reported in the FMU's log instead (the broken Python file above)."""
+    change, cause = PYTHONFMU[case]
+    fmu = rewritten(fmu_dir, tmp_path / "Broken.fmu", change)
+    with pytest.raises(FmuError, match=re.escape(f"{fmu} is not a valid FMU: {cause}")):
+        checked_description(str(fmu))

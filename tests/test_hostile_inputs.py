@@ -109,6 +109,14 @@ SCENES = {
         SCENE.replace("stop_time = 0.1", "stop_time = 9223372036854775807e300"),
         "'stop_time' = inf must be a finite number",
     ),
+    "a span beyond a double": (
+        SCENE.replace("stop_time = 0.1", "start_time = -1.7e308\nstop_time = 1.7e308"),
+        "(stop_time - start_time) / step = inf communication steps, more than the limit of 1e+09",
+    ),
+    "a trillion steps": (
+        SCENE.replace("stop_time = 0.1", "stop_time = 1e6").replace("step = 0.01", "step = 1e-6"),
+        "communication steps, more than the limit of 1e+09",
+    ),
     "too large": (
         SCENE + "# " + "x" * limits.MAX_TOML_BYTES + "\n",
         f"more than the limit of {limits.MAX_TOML_BYTES // 1024 // 1024} MiB",

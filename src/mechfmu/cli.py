@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
+from .cosim.text import one_line
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .cosim.files import OutputError
@@ -52,7 +53,7 @@ def _scene_failure(
 
     if isinstance(error, (SceneError, OutputError)):
         kind = "scene" if isinstance(error, SceneError) else "output"
-        print(f"{kind} error: {error}", file=sys.stderr)
+        print(f"{kind} error: {one_line(str(error))}", file=sys.stderr)
         return exit_code(guard.take()) if guard is not None and guard.requested else 2
     interrupted = isinstance(error, SimulationInterrupted)
     print(f"{'' if interrupted else 'simulation failed: '}{error}", file=sys.stderr)
@@ -254,7 +255,7 @@ def _check(args: Any) -> int:
         ignore_extra=args.ignore_extra,
     )
     for check in run.files:
-        print(check.line())
+        print(one_line(check.line()))
     for key in run.unused_tolerances():
         print(f"check warning: --tol {key} matches no column", file=sys.stderr)
     print(run.summary(), file=sys.stderr if run.error else sys.stdout)

@@ -8,9 +8,10 @@ SIGBUS. ``checked_description`` looks first, without unpacking anything: every m
 name (relative, no '..', no drive, no backslash, no NUL, no link, no duplicate) and declared
 size and compression ratio against mechfmu.cosim.limits, the archive's checksums, then
 modelDescription.xml is there and parses, the FMU offers co-simulation, the binary for this
-platform is there, and on Linux each shared library under it is a complete ELF file for this
-machine (its headers read by streaming; every segment the loader maps lies inside the
-declared size). Every failure is an FmuError naming the file and the cause.
+platform is there, a PythonFMU FMU holds the Python module its binary imports, and on Linux
+each shared library under it is a complete ELF file for this machine (its headers read by
+streaming; every segment the loader maps lies inside the declared size). Every failure is an
+FmuError naming the file and the cause.
 
 ``unpack`` repeats the member checks on the archive it opens, checks the free space, and
 unpacks into a new folder of the temporary directory, ``mechfmu_unpack_<pid>_<host>_...``
@@ -180,6 +181,9 @@ def checked_description(path: str) -> ModelDescription:
                 f"it has no binary for this platform ({binary}); it has: "
                 f"{', '.join(offered) or 'no binaries'}"
             )
+        problem = _pythonfmu_problem(archive, description, sizes)
+        if problem:
+            refuse(problem)
         if sys.platform.startswith("linux"):
             for name, size in sizes.items():
                 if name.startswith(folder) and name.endswith(".so"):
@@ -191,6 +195,35 @@ def checked_description(path: str) -> ModelDescription:
                     if problem:
                         refuse(f"its binary {name} {problem}")
     return description
+
+
+_SLAVE_MODULE = "resources/slavemodule.txt"
+
+
+def _pythonfmu_problem(
+    archive: zipfile.ZipFile, description: ModelDescription, sizes: dict[str, int]
+) -> str | None:
+    """For an FMU made with pythonfmu (its generation tool, or its slavemodule.txt): why
+    its binary would not find the Python module it imports, or None. Without that module
+    pythonfmu's library crashes the host process (SIGSEGV in fmi2Instantiate), where a
+    module that fails to import is reported in the FMU's log."""
+    made_by_pythonfmu = str(description.generationTool or "").startswith("PythonFMU")
+    if not made_by_pythonfmu and _SLAVE_MODULE not in sizes:
+        return None
+    if _SLAVE_MODULE not in sizes:
+        return f"it is a PythonFMU FMU without {_SLAVE_MODULE} (the module its binary imports)"
+    if sizes[_SLAVE_MODULE] > 4096:
+        return f"its {_SLAVE_MODULE} is {sizes[_SLAVE_MODULE]} bytes (a module name is expected)"
+    try:
+        module = archive.read(_SLAVE_MODULE).decode("utf-8").strip()
+    except (UnicodeDecodeError, *_READ_ERRORS) as error:
+        return f"its {_SLAVE_MODULE} cannot be read ({error})"
+    if not module or not all(part.isidentifier() for part in module.split(".")):
+        return f"its {_SLAVE_MODULE} names no Python module: {limits.shortened(module)}"
+    path = "resources/" + module.replace(".", "/")
+    if f"{path}.py" not in sizes and f"{path}/__init__.py" not in sizes:
+        return f"its {_SLAVE_MODULE} names the module {module}, which is not in its resources"
+    return None
 
 
 # --- unpacking ------------------------------------------------------------------------------

@@ -33,6 +33,7 @@ MAX_JSON_DEPTH = 64  # nested objects and arrays in a JSON file (ours: 4)
 MAX_DIGITS = 100  # digits in a row in a number (a double needs 17; 4300 stops int())
 INTEGER_RANGE = (-(2**63), 2**63 - 1)  # TOML's integers: 64-bit signed (the TOML spec)
 MAX_STRING_CHARACTERS = 64 * KIB  # a string value given to a component (a path, a name)
+MAX_STEPS = 10**9  # communication steps of a scene (its rows are kept in memory: 8 bytes each)
 
 # --- CSV tables ---------------------------------------------------------------------------
 MAX_CSV_BYTES = 2 * GIB  # a result or reference CSV (read whole into memory)
@@ -100,6 +101,12 @@ LIMITS = (
         "string length",
         f"{MAX_STRING_CHARACTERS} characters, no NUL",
         "a path or a name; C strings end at NUL",
+    ),
+    Limit(
+        "scene",
+        "communication steps ((stop_time - start_time) / step)",
+        f"{MAX_STEPS:.0e}",
+        "each recorded row is kept in memory until the run ends",
     ),
     Limit("result JSON metadata", "size", _size(MAX_JSON_BYTES), "read whole; ours: a few KiB"),
     Limit(

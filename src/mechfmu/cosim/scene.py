@@ -185,7 +185,8 @@ def check_times(
     where: str, start_time: float, stop_time: float, step: float
 ) -> tuple[float, float, float]:
     """(start_time, stop_time, step) in s, checked: step > 0, stop after start, a whole
-    number of communication steps between them; SceneError naming ``where`` otherwise."""
+    number of communication steps between them, at most mechfmu.cosim.limits.MAX_STEPS;
+    SceneError naming ``where`` otherwise."""
     if step <= 0.0:
         raise SceneError(f"{where}: step = {step!r} s must be > 0")
     if stop_time <= start_time:
@@ -193,6 +194,11 @@ def check_times(
             f"{where}: stop_time = {stop_time!r} s must exceed start_time = {start_time!r} s"
         )
     ratio = (stop_time - start_time) / step
+    if not ratio <= limits.MAX_STEPS:  # also an infinite ratio (a span beyond a double)
+        raise SceneError(
+            f"{where}: (stop_time - start_time) / step = {ratio!r} communication steps, "
+            f"more than the limit of {limits.MAX_STEPS:.0e}"
+        )
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise SceneError(
             f"{where}: (stop_time - start_time) / step = {ratio!r} is not a "
