@@ -12,6 +12,7 @@ raises, and libFuzzer stops with the input that caused it (written under the
 branches of their parsers and checks are kept and mutated further.
 
     python tests/atheris_inputs.py [libFuzzer options] CORPUS_FOLDER
+    python tests/atheris_inputs.py out/fuzz-inputs/crash-...      # replay one input
 
 The corpus folder is seeded with the harness's generated inputs when it is empty.
 """
@@ -68,8 +69,8 @@ def seed_corpus(folder: Path, count: int = 60) -> None:
 
 
 if __name__ == "__main__":
-    corpus = [Path(argument) for argument in sys.argv[1:] if not argument.startswith("-")]
-    for folder in corpus:
-        seed_corpus(folder)
+    for argument in sys.argv[1:]:  # corpus folders (a file given is an input to replay)
+        if not argument.startswith("-") and not Path(argument).is_file():
+            seed_corpus(Path(argument))
     atheris.Setup(sys.argv, one_input)
     atheris.Fuzz()

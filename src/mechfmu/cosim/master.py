@@ -42,6 +42,7 @@ from fmpy.fmi2 import (
 from fmpy import calloc, free
 
 from .fmu_file import FmuError, checked_description, unpack
+from .text import joined_lines
 from .interrupt import signal_name
 from .scene import SceneError, split_name
 
@@ -206,9 +207,11 @@ class LogBook:
         )
 
     def last_problem(self, instance: str) -> str:
+        """The last error of ``instance`` in the log, as one line (an FMU's message may span
+        several, a Python traceback: its lines are joined with '; ')."""
         for entry in reversed(self.messages):
             if entry["instance"] == instance and entry["status"] in ("error", "fatal", "discard"):
-                return entry["message"]
+                return joined_lines(entry["message"])
         return "no log message from the FMU"
 
 

@@ -28,3 +28,10 @@ def one_line(text: str) -> str:
 def plot_text(text: str) -> str:
     """``text`` for a matplotlib label or title: one_line, and ``$`` escaped (no math text)."""
     return one_line(text).replace("$", r"\$")
+
+
+def joined_lines(text: str) -> str:
+    """The non-blank lines of ``text``, stripped and joined with '; ', as one_line: a
+    multi-line message (an FMU's log entry, a traceback) readable on one line."""
+    lines = [line.strip() for line in str(text).splitlines() if line.strip()]
+    return one_line("; ".join(lines))
