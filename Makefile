@@ -142,7 +142,7 @@ fuzz-inputs: $(FMUS)/.built
 	@if $(PY) -c 'import atheris' 2>/dev/null; then \
 		mkdir -p out/fuzz-inputs/corpus && \
 		$(PY) tests/atheris_inputs.py -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096 \
-			-artifact_prefix=out/fuzz-inputs/ out/fuzz-inputs/corpus; \
+			-artifact_prefix=$(CURDIR)/out/fuzz-inputs/ $(CURDIR)/out/fuzz-inputs/corpus; \
 	else echo "atheris is not installed for this Python (CPython 3.11-3.13 only): skipped"; fi
 
 # The shipped parameter sweeps, checked against their references (out/sweeps/summary.md).

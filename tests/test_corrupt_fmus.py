@@ -449,6 +449,15 @@ PYTHONFMU = {
         "its resources/slavemodule.txt names the module mechfmu_entry_PistonActuator, which "
         "is not in its resources",
     ),
+    "entry module that does not compile": (
+        lambda name, data: (
+            data.replace(b"ctypes.pythonapi", b"ctypes.pytho\xc4\x32napi")
+            if name == "resources/mechfmu_entry_PistonActuator.py"
+            else data
+        ),
+        "its entry module resources/mechfmu_entry_PistonActuator.py does not compile: "
+        "(unicode error) 'utf-8' codec can't decode byte 0xc4",
+    ),
     "slavemodule.txt not a module name": (
         lambda name, data: b"a b\n../x" if name == "resources/slavemodule.txt" else data,
         "its resources/slavemodule.txt names no Python module: 'a b\\n../x'",
@@ -465,3 +474,30 @@ def test_a_pythonfmu_fmu_without_its_module_is_refused_before_loading(fmu_dir, t
     fmu = rewritten(fmu_dir, tmp_path / "Broken.fmu", change)
     with pytest.raises(FmuError, match=re.escape(f"{fmu} is not a valid FMU: {cause}")):
         checked_description(str(fmu))
+
+
+def test_an_entry_module_that_does_not_compile_no_longer_aborts_the_host_later(fmu_dir, tmp_path):
+    """Found by atheris: pythonfmu's loader released a reference it never took when the entry
+    module did not compile, and the host aborted at its next run of a good FMU (SIGABRT,
+    "PyThreadState_Get: ... the GIL is released"). Now refused before loading."""
+    broken = rewritten(
+        fmu_dir, tmp_path / "Broken.fmu", PYTHONFMU["entry module that does not compile"][0]
+    )
+    for name, fmu in (("broken", broken), ("good", fmu_dir / "PistonActuator.fmu")):
+        (tmp_path / f"{name}.toml").write_text(SCENE.format(fmu=fmu.as_posix()))
+    script = (
+        "import mechfmu, sys\n"
+        "from mechfmu.cosim.master import SimulationError\n"
+        "for _ in range(2):\n"
+        "    try:\n"
+        f"        mechfmu.simulate({str(tmp_path / 'broken.toml')!r}, fmu_dir={str(fmu_dir)!r})\n"
+        "    except (mechfmu.cosim.scene.SceneError, SimulationError) as error:\n"
+        "        print(type(error).__name__)\n"
+        f"    mechfmu.simulate({str(tmp_path / 'good.toml')!r}, fmu_dir={str(fmu_dir)!r})\n"
+        "print('done')\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["FmuError", "FmuError", "done"]

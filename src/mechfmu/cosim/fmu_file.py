@@ -41,6 +41,7 @@ from fmpy import read_model_description, sharedLibraryExtension
 from . import limits
 from .files import HOST_TAG, process_alive
 from .scene import SceneError
+from .text import joined_lines
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from fmpy.model_description import ModelDescription
@@ -204,9 +205,10 @@ def _pythonfmu_problem(
     archive: zipfile.ZipFile, description: ModelDescription, sizes: dict[str, int]
 ) -> str | None:
     """For an FMU made with pythonfmu (its generation tool, or its slavemodule.txt): why
-    its binary would not find the Python module it imports, or None. Without that module
-    pythonfmu's library crashes the host process (SIGSEGV in fmi2Instantiate), where a
-    module that fails to import is reported in the FMU's log."""
+    its binary would not find the Python module it imports, or the module would not
+    compile, or None. Without that module pythonfmu's library crashes the host process
+    (SIGSEGV in fmi2Instantiate), and after an entry module that does not compile the host
+    aborts later, where a module that fails to import is reported in the FMU's log."""
     made_by_pythonfmu = str(description.generationTool or "").startswith("PythonFMU")
     if not made_by_pythonfmu and _SLAVE_MODULE not in sizes:
         return None
@@ -221,8 +223,20 @@ def _pythonfmu_problem(
     if not module or not all(part.isidentifier() for part in module.split(".")):
         return f"its {_SLAVE_MODULE} names no Python module: {limits.shortened(module)}"
     path = "resources/" + module.replace(".", "/")
-    if f"{path}.py" not in sizes and f"{path}/__init__.py" not in sizes:
+    source = next((p for p in (f"{path}.py", f"{path}/__init__.py") if p in sizes), None)
+    if source is None:
         return f"its {_SLAVE_MODULE} names the module {module}, which is not in its resources"
+    # pythonfmu's loader releases a reference it only borrowed, which mechfmu's entry
+    # modules take back first thing (packaging.build); an entry module that does not even
+    # compile leaves the interpreter's count short, and the host crashes later (SIGABRT)
+    if sizes[source] > limits.MAX_TOML_BYTES:
+        return f"its entry module {source} is {sizes[source]} bytes (more than 1 MiB)"
+    try:
+        compile(archive.read(source), source, "exec", dont_inherit=True)
+    except (SyntaxError, ValueError) as error:
+        return f"its entry module {source} does not compile: {joined_lines(str(error))}"
+    except _READ_ERRORS as error:
+        return f"its entry module {source} cannot be read ({error})"
     return None
 
 
