@@ -8,8 +8,9 @@
   ``<!-- mechfmu:interface MODEL -->`` becomes the model's interface table, generated from
   its declarations; ``<!-- mechfmu:limits inputs -->`` the table of the input files' limits
   (mechfmu.cosim.limits.LIMITS); ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
-  committed reference CSV. A registered model without an interface marker on some page
-  fails the build.
+  committed reference CSV; ``<!-- mechfmu:scenes --tolerances -->`` becomes the table of
+  each shipped scene's check tolerances (its [check] table). A registered model without an
+  interface marker on some page fails the build.
 - The accuracy study's committed plots (``data/study/*.png``) as ``study/*.png``.
 - The tube-versus-pointwise figure of checks.md (``plots/tube_vs_pointwise.png``).
 """
@@ -25,7 +26,9 @@ import mkdocs_gen_files
 
 import mechfmu
 
-MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot|limits) (\S+) -->$", re.MULTILINE)
+MARKER = re.compile(
+    r"^<!-- mechfmu:(interface|reference-plot|scenes|limits) (\S+) -->$", re.MULTILINE
+)
 MODEL_HEADING = re.compile(r"^### `(\w+)\.fmu`$", re.MULTILINE)
 STUDY_PLOTS = Path("data/study")
 
@@ -96,6 +99,8 @@ def fill_markers(docs_dir: Path) -> None:
             kind, name = match.groups()
             if kind == "limits":
                 return limits_table()
+            if kind == "scenes":  # <!-- mechfmu:scenes --tolerances -->
+                return mechfmu_command("scenes", name).strip()
             if kind == "interface":
                 if name not in tables:
                     raise RuntimeError(f"{page}: no model {name!r}; models: {', '.join(tables)}")

@@ -76,9 +76,13 @@ LAYERS = {
     "test_result_pairs.py": "unit",
     "test_input_fuzz.py": "fmu",
     "test_compare.py": "unit",
+    "test_import_graph.py": "unit",
+    "test_tolerances.py": "unit",
     "test_api.py": "fmu",
     "test_baseline.py": "fmu",
     "test_check_cli.py": "fmu",
+    "test_readme.py": "fmu",
+    "test_command_line.py": "fmu",
     "test_pytest_plugin.py": "fmu",
     "test_bench.py": "fmu",
     "test_binary_patch.py": "fmu",
@@ -108,6 +112,7 @@ LAYERS = {
 # seconds each or many seconds together (measured with `pytest --durations=0`).
 SLOW_FILES = {
     "test_docs.py",
+    "test_readme.py",
     "test_interrupts.py",
     "test_robustness.py",
     "test_scenes.py",

@@ -32,7 +32,13 @@ def write_forever(out: Path, stop: float, pause: float) -> None:
     files.os.replace = slow_replace  # only mechfmu's writer, in this process
     times = [float(t) for t in range(int(stop) + 1)]
     scene = SimpleNamespace(
-        name="k", path=out / "k.toml", description="", start_time=0.0, stop_time=stop, step=1.0
+        name="k",
+        path=out / "k.toml",
+        description="",
+        start_time=0.0,
+        stop_time=stop,
+        step=1.0,
+        check=None,
     )
     result = SimpleNamespace(
         scene=scene,
@@ -43,7 +49,8 @@ def write_forever(out: Path, stop: float, pause: float) -> None:
         log=[],
         partial=False,
     )
-    while True:
+    parent = os.getppid()
+    while os.getppid() == parent:  # a writer outlives neither its killer nor the test
         results.write_result(result, out, plot=False)
 
 
@@ -55,6 +62,8 @@ def main() -> None:
         if pid == 0:
             try:
                 write_forever(Path(out), float(stop), float(pause))
+            except BaseException as error:
+                print(f"writer failed: {error!r}", file=sys.stderr, flush=True)
             finally:
                 os._exit(1)
         print(pid, flush=True)

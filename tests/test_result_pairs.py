@@ -7,6 +7,7 @@ temporary files of the killed writers are removed by the next writer into the fo
 
 The suite kills 40 times; ``make fuzz-inputs`` 1000 times (MECHFMU_PAIR_KILLS)."""
 
+import contextlib
 import os
 import random
 import signal
@@ -54,7 +55,7 @@ def _judge(out):
 
 def test_killed_writers_never_leave_a_mixed_pair_that_reads(tmp_path):
     generator = random.Random(20261127)
-    outcomes = []
+    outcomes, writers = [], []
     forks = subprocess.Popen(
         [sys.executable, str(WRITER)], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
     )
@@ -75,6 +76,9 @@ def test_killed_writers_never_leave_a_mixed_pair_that_reads(tmp_path):
                 _dead(pid)
             outcomes.append(_judge(out))
     finally:
+        for pid in writers:  # after a failure: no writer left behind
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
         forks.stdin.close()
         forks.wait(timeout=30)
         forks.stdout.close()

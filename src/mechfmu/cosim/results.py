@@ -52,16 +52,6 @@ def write_csv(path: Any, times: Any, columns: Any) -> Any:
     return atomic_write(path, csv_writer(times, columns))
 
 
-def read_csv(path: Path | str) -> tuple[list[float], dict[str, list[float]]]:
-    """(times, {column: values}) of a result CSV as lists of floats, read by
-    mechfmu.io.read_result (pandas; ResultFileError, a ValueError naming the file, line and
-    column, for a malformed file)."""
-    from ..io import read_result
-
-    table = read_result(path)
-    return table.index.tolist(), {name: table[name].tolist() for name in table.columns}
-
-
 class ChecksumWriter:
     """A text handle for csv.writer: what is written goes to ``sink`` (a binary handle) as
     UTF-8, and its size in bytes and SHA-256 are kept as it goes (no second pass over a
@@ -218,6 +208,8 @@ def write_result(result: Result, out_dir: Path, plot: bool = True) -> dict[str, 
             "step": result.scene.step,
             "recorded": list(result.columns),
             "units": result.units,
+            # the scene's [check] table, so a baseline made of this result keeps it
+            "check": result.scene.check.as_dict() if result.scene.check else None,
             "versions": versions(),
             "command": sys.argv,
             "log": [entry for entry in result.log if entry["status"] != "ok"],

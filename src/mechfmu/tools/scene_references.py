@@ -15,9 +15,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cosim.results import write_csv
+from ..cosim.files import atomic_write_all
+from ..cosim.results import csv_writer, json_text
 from ..cosim.scene import find_file, load_scene
 from ..runtime.models import MODELS
+from .docs import declared_units
 from ..references import (
     cam_geometry,
     drives,
@@ -306,12 +308,35 @@ INTEGRATED = {
 }
 
 
+def reference_metadata(scene: Scene, columns: list[str]) -> dict[str, Any]:
+    """The JSON beside a reference CSV: the scene, the columns' declared units, and the
+    scene's check tolerances (its [check] table, which ``mechfmu check`` and
+    ``mechfmu.compare`` apply when comparing a result with this reference)."""
+    units = declared_units(scene)
+    return {
+        "scene": scene.name,
+        "kind": "reference",
+        "description": scene.description,
+        "recorded": columns,
+        "units": {name: units[name] for name in columns if name in units},
+        "check": scene.check.as_dict() if scene.check else None,
+        "generated_by": "mechfmu references",
+    }
+
+
 def generate(scene_dir: Any, out_dir: Any) -> Any:
-    """Write one reference CSV per entry of REFERENCES; return their paths."""
+    """Write one reference CSV per entry of REFERENCES, each with its JSON
+    (reference_metadata) beside it, both or neither; return the CSV paths."""
     paths = []
     for scene_name, build in REFERENCES.items():
         scene = load_scene(find_file(scene_name, (scene_dir,)))
-        paths.append(
-            write_csv(Path(out_dir) / f"{scene_name}.csv", sample_times(scene), build(scene))
+        columns = build(scene)
+        path = Path(out_dir) / f"{scene_name}.csv"
+        atomic_write_all(
+            {
+                path: csv_writer(list(sample_times(scene)), columns),
+                path.with_suffix(".json"): json_text(reference_metadata(scene, list(columns))),
+            }
         )
+        paths.append(path)
     return paths

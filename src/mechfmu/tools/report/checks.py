@@ -11,8 +11,8 @@ Names come from the files checked and may hold anything: in the XML every charac
 cannot hold (a control character, a lone surrogate) is replaced by its escape (``\\x01``,
 mechfmu.cosim.text.one_line); the HTML likewise; each plot's file name is a readable ASCII
 label of the file and column, at most 60 characters, and a hash of the exact pair, so two
-pairs never share a plot and no name is too long. A plot that cannot be written is named in
-the index, which is always written.
+pairs never share a plot and no name is too long (plot_name). A plot that cannot be written
+is named in the index, which is always written, last.
 """
 
 from __future__ import annotations
@@ -27,7 +27,6 @@ from os import PathLike
 from pathlib import Path
 
 from ...check import CheckRun, FileCheck
-from ...comparison import describe_failure
 from ...cosim.files import OutputError, atomic_write, output_folder
 from ...cosim.text import one_line
 
@@ -43,7 +42,7 @@ def _cases(check: FileCheck) -> list[tuple[str, str | None, str | None, str]]:
     cases: list[tuple[str, str | None, str | None, str]] = []
     grid = failures.pop("time", None)
     if grid is not None:
-        cases.append(("(time grid)", "time grid", describe_failure(grid), ""))
+        cases.append(("(time grid)", "time grid", comparison.describe(grid), ""))
     names = list(comparison.reference.columns)
     names += [
         c
@@ -53,7 +52,7 @@ def _cases(check: FileCheck) -> list[tuple[str, str | None, str | None, str]]:
     for name in names:
         row = failures.get(name)
         if row is not None:
-            cases.append((name, row["kind"], describe_failure(row), ""))
+            cases.append((name, row["kind"], comparison.describe(row), ""))
         elif name not in comparison.summary.index:
             cases.append((name, None, None, "not compared: the time grids differ"))
         else:
@@ -82,13 +81,9 @@ def junit_xml(run: CheckRun) -> str:
                 ET.SubElement(case, "skipped", message=one_line(skipped))
     for key, value in counts.items():
         suite.set(key, str(value))
-    root = ET.Element(
-        "testsuites",
-        name="mechfmu check",
-        tests=str(counts["tests"]),
-        failures=str(counts["failures"]),
-        errors="0",
-    )
+    root = ET.Element("testsuites", {"name": "mechfmu check"})
+    for key, value in counts.items():
+        root.set(key, str(value))
     root.append(suite)
     ET.indent(root)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, "unicode") + "\n"
@@ -125,30 +120,103 @@ def plot_name(file: str, column: str) -> str:
 
 
 def _plot(check: FileCheck, column: str, folder: Path) -> str:
-    """The HTML of ``column``'s plot: written to its PNG (or why it could not be)."""
+    """The HTML of ``column``'s plot, written to its PNG (or why it could not be)."""
     assert check.comparison is not None
     name = plot_name(check.name, column)
     try:
-        figure = check.comparison.plot(column)
         buffer = io.BytesIO()
-        figure.savefig(buffer, format="png", dpi=90)
+        check.comparison.plot(column).savefig(buffer, format="png", dpi=90)
         atomic_write(folder / name, buffer.getvalue())
     except OutputError as error:
         return f'<p class="fail">plot of {_text(column)} not written: {_text(error)}</p>'
     return f'<p><img src="{html.escape(name)}" alt="{_text(column)}"></p>'
 
 
+def _summary_table(run: CheckRun) -> str:
+    """The failures first: one row per failing file and column (file, column, kind, first
+    failing time, worst deviation as a share of its allowance), linked to its section."""
+    rows = []
+    for number, check in enumerate(run.files):
+        if check.passed:
+            continue
+        anchor = f"file-{number}"
+        if check.comparison is None:
+            rows.append((anchor, check.name, "(file)", check.kind or "", math.nan, math.nan))
+            continue
+        summary = check.comparison.summary
+        for row in check.comparison.failures.to_dict("records"):
+            ratio = (
+                summary.loc[row["column"], "ratio"] if row["column"] in summary.index else math.nan
+            )
+            rows.append((anchor, check.name, row["column"], row["kind"], row["time"], ratio))
+    if not rows:
+        return "<p>No failures.</p>"
+    cells = "".join(
+        f'<tr><td><a href="#{anchor}">{_text(name)}</a></td><td>{_text(column)}'
+        f"</td><td>{_text(kind)}</td><td>{_number(time)}</td><td>{_number(ratio)}</td></tr>"
+        for anchor, name, column, kind, time, ratio in rows
+    )
+    return (
+        "<table><tr><th>file</th><th>column</th><th>kind</th><th>first failure [s]</th>"
+        "<th>worst / allowed</th></tr>" + cells + "</table>"
+    )
+
+
+def _file_section(check: FileCheck, anchor: str, folder: Path) -> str:
+    """One file's heading, line, failures table and a plot of each failing column (each
+    PNG written as it is drawn)."""
+    verdict = "pass" if check.passed else "fail"
+    parts = [
+        f'<h3 id="{anchor}" class="{verdict}">{_text(check.name)}</h3>'
+        f'<p class="{verdict}">{_text(check.line())}</p>'
+    ]
+    comparison = check.comparison
+    if comparison is None or comparison.failures.empty:
+        return "".join(parts)
+    rows = "".join(
+        "<tr>"
+        + "".join(
+            f"<td>{_text(cell)}</td>"
+            for cell in (
+                str(row["column"]),
+                _number(row["time"]),
+                _number(row["value"]),
+                _number(row["reference"]),
+                _number(row["allowed"]),
+                str(row["kind"]),
+            )
+        )
+        + "</tr>"
+        for row in comparison.failures.to_dict("records")
+    )
+    parts.append(
+        "<table><tr><th>column</th><th>time [s]</th><th>value</th><th>reference"
+        "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>"
+    )
+    for column in comparison.failures["column"]:
+        if column in comparison.summary.index:
+            parts.append(_plot(check, column, folder))
+    return "".join(parts)
+
+
 def write_report(run: CheckRun, folder: str | PathLike) -> Path:
-    """Write ``folder``/index.html (every file's verdict line and failures table) and, for
-    every failing value column, a PNG of the result, the reference, the tolerance band or
-    tube and the first failure (plot_name); each file atomically, the index last and
-    always (a plot that cannot be written is named there). Returns the index's path."""
+    """Write ``folder``/index.html and, for every failing value column, a PNG of the result,
+    the reference, the tolerance band or tube and the first failure (plot_name); each file
+    atomically, the index last and always (a plot that cannot be written is named there).
+    The page opens with the summary and a table of the failures, then each failing file
+    (its line, failures and plots), then the files that match, folded. Returns the index's
+    path."""
     folder = Path(output_folder(Path(folder)))
     options = run.options
+    tolerance = (
+        "the references' declared tolerances"
+        if options.get("rtol") is None and options.get("atol") is None
+        else f"rtol {options.get('rtol')!r}, atol {options.get('atol')!r}"
+    )
     body = [
         f"<h1>mechfmu check</h1><p>{_text(run.summary())}</p>",
-        f"<p>method {_text(options.get('method'))}, rtol "
-        f"{options.get('rtol')!r}, atol {options.get('atol')!r}"
+        f"<p>method {_text(options.get('method') or 'as declared')}, "
+        f"{_text(tolerance)}"
         + (
             f", time tolerance {options.get('time_tolerance')!r} s"
             if options.get("method") == "tube"
@@ -156,39 +224,20 @@ def write_report(run: CheckRun, folder: str | PathLike) -> Path:
         )
         + (f", per column: {_text(options.get('tolerances'))}" if options.get("tolerances") else "")
         + "</p>",
+        "<h2>Failures</h2>",
+        _summary_table(run),
     ]
-    for check in run.files:
-        verdict = "pass" if check.passed else "fail"
+    failing = [(n, c) for n, c in enumerate(run.files) if not c.passed]
+    passing = [(n, c) for n, c in enumerate(run.files) if c.passed]
+    if failing:
+        body.append("<h2>Failing files</h2>")
+        body += [_file_section(c, f"file-{n}", folder) for n, c in failing]
+    if passing:
         body.append(
-            f'<h2 class="{verdict}">{_text(check.name)}</h2>'
-            f'<p class="{verdict}">{_text(check.line())}</p>'
+            f"<details><summary>{len(passing)} file(s) that match</summary>"
+            + "".join(_file_section(c, f"file-{n}", folder) for n, c in passing)
+            + "</details>"
         )
-        comparison = check.comparison
-        if comparison is None or comparison.failures.empty:
-            continue
-        rows = "".join(
-            "<tr>"
-            + "".join(
-                f"<td>{_text(cell)}</td>"
-                for cell in (
-                    str(row["column"]),
-                    _number(row["time"]),
-                    _number(row["value"]),
-                    _number(row["reference"]),
-                    _number(row["allowed"]),
-                    str(row["kind"]),
-                )
-            )
-            + "</tr>"
-            for row in comparison.failures.to_dict("records")
-        )
-        body.append(
-            "<table><tr><th>column</th><th>time [s]</th><th>value</th><th>reference"
-            "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>"
-        )
-        for column in comparison.failures["column"]:
-            if column in comparison.summary.index:
-                body.append(_plot(check, column, folder))
     return atomic_write(
         folder / "index.html",
         '<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>mechfmu '
@@ -203,8 +252,6 @@ def tube_example() -> bytes:
     reference and a result one step (10 ms) late, its snap-through at 3.11 s instead of
     3.10 s; the deflection compared pointwise (fails at the snap) and in a 10 ms tube
     (passes), both with atol 2 % of the deflection's range."""
-    import io
-
     import numpy as np
     from matplotlib.figure import Figure
 
