@@ -41,6 +41,7 @@ NUMBERS = (
     "0.1", "0.01", "1", "0", "-1", "1e-300", "1e300", "1e400", "inf", "-inf", "nan",
     "9223372036854775808", "0x7f", "1_000", "3.0e-2", "1" * 120, "0." + "1" * 120,
 )  # fmt: skip
+CHECK_KEYS = ("rtol", "atol", "method", "time_tolerance", "why", "columns", "colour")
 HOSTILE_SNIPPETS = (
     "[" * 40,
     "{a=" * 40,
@@ -120,7 +121,7 @@ def scene_text(rng: random.Random, fmu: str = MODEL) -> str:
     """A scene of one PistonActuator (or ``fmu``): a working one with none, one or two of
     its parts changed at random (a value of another kind or an extreme one, a name that
     does not exist, a key that is not allowed)."""
-    broken = set(rng.sample(range(12), rng.choice((0, 1, 1, 2))))
+    broken = set(rng.sample(range(14), rng.choice((0, 1, 1, 2))))
 
     def part(index: int, good: str, bad: str) -> str:
         return bad if index in broken else good
@@ -165,6 +166,12 @@ def scene_text(rng: random.Random, fmu: str = MODEL) -> str:
         ),
         part(10, "", f"inputs = {toml_value(random_value(rng))}"),
         part(11, "", f"effects = {toml_value(random_value(rng))}"),
+        part(12, "", "[check]\n" + f"{rng.choice(CHECK_KEYS)} = {toml_value(random_value(rng))}"),
+        part(
+            13,
+            "",
+            f"[check.columns]\n{json.dumps(rng.choice(NAMES))} = {toml_value(random_value(rng))}",
+        ),
     ]
     return "\n".join(line for line in lines if line) + "\n"
 
@@ -211,9 +218,9 @@ def json_value(rng: random.Random, depth: int = 0) -> object:
     if kind == 4:
         return [json_value(rng, depth + 1) for _ in range(rng.randrange(3))]
     return {
-        rng.choice(NAMES + ("units", "run_id", "csv_bytes", "csv_sha256")): json_value(
-            rng, depth + 1
-        )
+        rng.choice(
+            NAMES + ("units", "run_id", "csv_bytes", "csv_sha256", "check", "rtol")
+        ): json_value(rng, depth + 1)
         for _ in range(rng.randrange(3))
     }
 
@@ -230,7 +237,7 @@ def sidecar(rng: random.Random, columns: list[str], csv_bytes: bytes) -> bytes:
             csv_sha256=hashlib.sha256(csv_bytes).hexdigest(),
         )
     for _ in range(rng.randrange(3)):
-        meta[rng.choice(("units", "csv_bytes", "csv_sha256", "step", "x"))] = json_value(rng)
+        meta[rng.choice(("units", "csv_bytes", "csv_sha256", "check", "x"))] = json_value(rng)
     text = json.dumps(meta, allow_nan=True).encode()
     return mutated(rng, text) if rng.random() < 0.3 else text
 
