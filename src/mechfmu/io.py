@@ -15,6 +15,7 @@ they apply.
 
 from __future__ import annotations
 
+import csv
 import math
 import os
 import re
@@ -49,10 +50,25 @@ def companion_json(path: StrPath) -> Path:
     return Path(path).with_suffix(".json")
 
 
+def _check_csv(path: Path) -> None:
+    """ResultFileError unless ``path`` is a regular file within MAX_CSV_BYTES whose header
+    (its first record, read alone by the csv module: a header of 10001 columns costs no
+    parse of the rows) is within the columns' limits."""
+    check_file(path, limits.MAX_CSV_BYTES, "a CSV file")
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            header = next(csv.reader(handle), None)
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return  # pandas' reading names these
+    problem = _names_problem([name.strip() for name in header or []])
+    if problem:
+        raise ResultFileError(f"{path}: line 1: {problem}")
+
+
 def _raw_rows(path: Path) -> pandas.DataFrame:
     """Every line of the CSV at ``path`` as strings (row 0 is the header), trailing blank
     lines dropped; ResultFileError for a missing, empty or unreadable file."""
-    check_file(path, limits.MAX_CSV_BYTES, "a CSV file")
+    _check_csv(path)
     try:
         raw = pandas.read_csv(
             path, header=None, dtype=str, na_filter=False, skip_blank_lines=False, encoding="utf-8"
@@ -240,7 +256,7 @@ def read_result(path: StrPath) -> pandas.DataFrame:
     not increase; and for a malformed JSON beside it.
     """
     path = Path(path)
-    check_file(path, limits.MAX_CSV_BYTES, "a CSV file")
+    _check_csv(path)
     values, names = _fast_values(path)
     if values is None:  # something is wrong: read it again as text to say what and where
         raw = _raw_rows(path)
