@@ -1,7 +1,8 @@
 """Writers of result pairs for the SIGKILL test (test_result_pairs.py), forked on demand.
 
-Started once, it imports mechfmu's writer, then reads lines ``OUT STOP PAUSE`` on stdin and
-for each forks a writer (printing its process id) that writes the result <OUT>/k.csv and
+Started once, it imports mechfmu's writer, then reads lines ``OUT PAUSE STOP [STOP ...]`` on
+stdin and for each STOP forks a writer (printing their process ids once each has written
+its first whole pair, so a kill never comes before one) that writes the result <OUT>/k.csv and
 k.json through mechfmu.cosim.results.write_result again and again, each time as a new run
 whose rows end at STOP s (0 to STOP in 1 s steps), until it is killed. Forking skips the
 interpreter's start-up, so a test can kill hundreds of writers in seconds; killed writers
@@ -21,7 +22,7 @@ from types import SimpleNamespace
 from mechfmu.cosim import files, results
 
 
-def write_forever(out: Path, stop: float, pause: float) -> None:
+def write_forever(out: Path, stop: float, pause: float, ready: int) -> None:
     replace = os.replace
 
     def slow_replace(source, target):
@@ -50,23 +51,39 @@ def write_forever(out: Path, stop: float, pause: float) -> None:
         partial=False,
     )
     parent = os.getppid()
+    results.write_result(result, out, plot=False)
+    os.write(ready, b"1")  # one whole pair written: the kills may begin
+    os.close(ready)
     while os.getppid() == parent:  # a writer outlives neither its killer nor the test
         results.write_result(result, out, plot=False)
 
 
+def fork_writer(out: Path, stop: float, pause: float) -> tuple[int, int]:
+    """(process id, the read end of its pipe) of a new writer."""
+    ready, written = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(ready)
+        try:
+            write_forever(out, stop, pause, written)
+        except BaseException as error:
+            print(f"writer failed: {error!r}", file=sys.stderr, flush=True)
+        finally:
+            os._exit(1)
+    os.close(written)
+    return pid, ready
+
+
 def main() -> None:
     signal.signal(signal.SIGCHLD, signal.SIG_IGN)  # the kernel reaps the killed writers
+    results.versions()  # importlib.metadata's caches, warm in every writer forked
     for line in sys.stdin:
-        out, stop, pause = line.split()
-        pid = os.fork()
-        if pid == 0:
-            try:
-                write_forever(Path(out), float(stop), float(pause))
-            except BaseException as error:
-                print(f"writer failed: {error!r}", file=sys.stderr, flush=True)
-            finally:
-                os._exit(1)
-        print(pid, flush=True)
+        out, pause, *stops = line.split()
+        writers = [fork_writer(Path(out), float(stop), float(pause)) for stop in stops]
+        for _, ready in writers:
+            os.read(ready, 1)  # b"" if the writer failed before its first pair
+            os.close(ready)
+        print(" ".join(str(pid) for pid, _ in writers), flush=True)
 
 
 if __name__ == "__main__":

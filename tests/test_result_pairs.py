@@ -5,7 +5,7 @@ refuses the pair naming both files; never the CSV of one run with the JSON of th
 (before: 3 of 28 kills left k.csv ending at 299 s beside a k.json of stop_time 300). The
 temporary files of the killed writers are removed by the next writer into the folder.
 
-The suite kills 40 times; ``make fuzz-inputs`` 1000 times (MECHFMU_PAIR_KILLS)."""
+The suite kills 30 times; ``make fuzz-inputs`` 1000 times (MECHFMU_PAIR_KILLS)."""
 
 import contextlib
 import os
@@ -20,7 +20,7 @@ from mechfmu.cosim.files import output_folder
 from mechfmu.io import ResultFileError, read_result
 
 WRITER = Path(__file__).with_name("pair_writer.py")
-KILLS = int(os.environ.get("MECHFMU_PAIR_KILLS", "40"))
+KILLS = int(os.environ.get("MECHFMU_PAIR_KILLS", "30"))
 STOPS = (299.0, 300.0)  # the two runs: their rows end at 299 s and at 300 s
 
 
@@ -64,11 +64,9 @@ def test_killed_writers_never_leave_a_mixed_pair_that_reads(tmp_path):
             out = tmp_path / f"out{kill % 4}"
             out.mkdir(exist_ok=True)
             pause = generator.choice((0.0, 0.05))
-            writers = []
-            for stop in STOPS:
-                forks.stdin.write(f"{out} {stop!r} {pause!r}\n")
-                forks.stdin.flush()
-                writers.append(int(forks.stdout.readline()))
+            forks.stdin.write(f"{out} {pause!r} {' '.join(map(repr, STOPS))}\n")
+            forks.stdin.flush()
+            writers = [int(pid) for pid in forks.stdout.readline().split()]
             for pid in generator.sample(writers, 2):
                 time.sleep(generator.uniform(0.0, 0.04))
                 os.kill(pid, signal.SIGKILL)
@@ -83,7 +81,8 @@ def test_killed_writers_never_leave_a_mixed_pair_that_reads(tmp_path):
         forks.wait(timeout=30)
         forks.stdout.close()
     counts = {kind: outcomes.count(kind) for kind in set(outcomes)}
-    assert counts.get("refused", 0) >= KILLS // 20, counts  # the kills reach the renames' gap
+    assert counts.get("refused", 0) >= 1, counts  # the kills reach the renames' gap
+    assert "absent" not in counts, counts  # every writer wrote a whole pair before its kill
     assert counts.get("first run", 0) + counts.get("second run", 0) >= KILLS // 4, counts
     for out in tmp_path.iterdir():  # the next writer into each folder cleans up
         output_folder(out)
