@@ -90,7 +90,8 @@ test-latest:
 # The numeric layers (physics, references, FMU runs against references, scenes, small
 # studies and sweeps) with numpy's SIMD dispatch narrowed as on other CPUs: without AVX-512,
 # then without AVX2 and FMA as well (tests/portable.py lists what this CPU has of them).
-PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.py \
+PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_cam_geometry.py tests/test_camshaft.py \
+	tests/test_physics_landing_gear.py \
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_hard_cases.py \
 	tests/test_integrators.py tests/test_planar.py tests/test_four_bar_boundary.py \
@@ -109,7 +110,8 @@ test-portable: $(FMUS)/.built
 # under `pyenv root`/versions), each in its own .venv-X.Y and fmus-X.Y.
 OTHER_PYTHONS ?= 3.10 3.12 3.13
 PYENV_ROOT ?= $(shell pyenv root 2>/dev/null || echo $(HOME)/.pyenv)
-OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.py \
+OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_cam_geometry.py \
+	tests/test_physics_landing_gear.py \
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
 	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
@@ -186,8 +188,9 @@ sweeps: $(FMUS)/.built
 	$(PY) sims/run_sweeps.py
 
 # The docs site into site/ (open site/index.html); strict: a broken link or reference fails.
-# The variables hush a banner of the mkdocs 1.x plugins about a future mkdocs 2.
-docs: $(VENV)/.installed
+# The FMUs run the model pages' animations. The variables hush a banner of the mkdocs 1.x
+# plugins about a future mkdocs 2.
+docs: $(FMUS)/.built
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict
 
 clean:

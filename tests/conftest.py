@@ -58,8 +58,11 @@ LAYERS = {
     "test_planar_kernel.py": "unit",
     "test_physics_cam_valve.py": "unit",
     "test_cam_geometry.py": "unit",
+    "test_cam_design.py": "unit",
+    "test_camshaft.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
+    "test_joint_positions.py": "unit",  # the geometry effect's points, drawings, frames
     "test_physics_profiles.py": "unit",
     "test_physics_suspension.py": "unit",
     "test_references.py": "unit",
@@ -79,6 +82,7 @@ LAYERS = {
     "test_import_graph.py": "unit",
     "test_tolerances.py": "unit",
     "test_api.py": "fmu",
+    "test_animate.py": "fmu",  # animations of the shipped scenes, files, the commands
     "test_baseline.py": "fmu",
     "test_check_cli.py": "fmu",
     "test_readme.py": "fmu",

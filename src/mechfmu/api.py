@@ -136,6 +136,7 @@ def simulate(
     stop_time: float | None = None,
     step: float | None = None,
     fmu_dir: StrPath | None = None,
+    geometry: bool = False,
 ) -> pandas.DataFrame:
     """Run ``scene`` and return its recorded variables as a DataFrame.
 
@@ -146,7 +147,8 @@ def simulate(
     sets may be given the same way. ``start_time``, ``stop_time`` and ``step`` (s) replace
     the scene's. ``fmu_dir``: the folder of the built FMUs (default: the first of
     $MECHFMU_FMU_DIR, ./fmus, the source checkout's and the user cache that holds them:
-    mechfmu.cosim.locate).
+    mechfmu.cosim.locate). ``geometry``: switch the geometry effect on in every mechanism
+    component and record its outputs (the joints' positions that mechfmu.animate draws).
 
     Returns a DataFrame indexed by ``time`` (s), one float64 column per recorded variable
     named ``component.variable`` as in the CSV of ``mechfmu run``, and in ``attrs``:
@@ -165,6 +167,10 @@ def simulate(
     the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
     """
     chosen = _scene(scene, start_time, stop_time, step)
+    if geometry:
+        from .tools.animate import with_geometry
+
+        chosen = with_geometry(chosen)
     overrides = _plain_parameters(parameters)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
         try:
@@ -194,6 +200,30 @@ def simulate(
     )
 
 
+def configured_scene(
+    scene: SceneLike,
+    parameters: Mapping[str, Any] | None = None,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+) -> Scene:
+    """The Scene ``scene`` names (a shipped scene's name, a scene file or a Scene, copied)
+    with ``parameters`` ({"component.parameter": value}) and the times (s) applied, the
+    names checked against the models' declarations: no FMU is needed. SceneError for an
+    unknown component or a parameter the model does not declare."""
+    from .tools.docs import model_class
+
+    chosen = _scene(scene, start_time, stop_time, step)
+
+    def declared(spec: Any) -> tuple[str, list[str]]:
+        model: Any = model_class(Path(spec.fmu).stem)
+        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
+        return Path(spec.fmu).stem, names
+
+    apply_parameters(chosen, _plain_parameters(parameters), declared)
+    return chosen
+
+
 def reference(
     scene: SceneLike,
     *,
@@ -214,24 +244,17 @@ def reference(
     FMU is needed. SceneError for a scene without a reference, an unknown component or
     a parameter the model does not declare.
     """
-    from .tools.docs import declared_units, model_class
+    from .tools.docs import declared_units
     from .tools.scene_references import REFERENCES, sample_times
 
-    chosen = _scene(scene, start_time, stop_time, step)
+    overrides = _plain_parameters(parameters)
+    chosen = configured_scene(scene, overrides, start_time, stop_time, step)
     build = REFERENCES.get(chosen.name)
     if build is None:
         raise SceneError(
             f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
             f"scenes with one: {', '.join(REFERENCES)}"
         )
-
-    def declared(spec: Any) -> tuple[str, list[str]]:
-        model: Any = model_class(Path(spec.fmu).stem)
-        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
-        return Path(spec.fmu).stem, names
-
-    overrides = _plain_parameters(parameters)
-    apply_parameters(chosen, overrides, declared)
     columns = build(chosen)
     return frame(
         sample_times(chosen),

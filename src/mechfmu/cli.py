@@ -206,11 +206,16 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
     from .cosim.interrupt import exit_code, signal_name
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
-    from .cosim.scene import SceneError
+    from .cosim.scene import Scene, SceneError, load_scene
 
     try:
+        scene: Path | Scene = scene_path
+        if getattr(args, "animate", None):
+            from .tools.animate import with_geometry
+
+            scene = with_geometry(load_scene(scene_path))
         result, paths = run_scene(
-            scene_path,
+            scene,
             args.out,
             args.fmu_dir,
             plot=not args.no_plot,
@@ -235,7 +240,52 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
             print(f"  {kind}: {path}", file=sys.stderr)
         return 2
     print("\n".join(lines))
-    return 0 if comparison is None or comparison.ok else 1
+    status = 0 if comparison is None or comparison.ok else 1
+    if getattr(args, "animate", None):
+        animation = paths["csv"].with_suffix("." + args.animate)
+        return max(status, _animate_result(paths["csv"], animation))
+    return status
+
+
+def _animate_result(
+    result: Path | str,
+    out: Path | str,
+    speed: float = 1.0,
+    fps: float | None = None,
+    panels: list[str] | None = None,
+    width: int | None = None,
+) -> int:
+    """Write the animation of the result CSV ``result`` to ``out`` and say so; the exit
+    status (2 when it cannot be animated or written)."""
+    from .cosim.files import OutputError
+    from .tools.animate import DEFAULT_FPS, DEFAULT_WIDTH, animate, speed_hint
+
+    try:
+        animation = animate(
+            result,
+            speed=speed,
+            fps=DEFAULT_FPS if fps is None else fps,
+            panels=panels or (),
+            width=DEFAULT_WIDTH if width is None else width,
+        )
+        path = animation.save(out)
+    except (ValueError, OutputError) as error:  # AnimationError, ResultFileError
+        print(f"animate error: {error}", file=sys.stderr)
+        return 2
+    times = animation.frame_times
+    print(
+        f"  animation: {path} ({len(animation)} frames at {animation.fps:g} frames/s, "
+        f"speed {animation.schedule.speed:g}: t = {times[0]:g} .. {times[-1]:g} s)"
+    )
+    hint = speed_hint(animation)
+    if hint:
+        print(f"  note: {hint}")
+    return 0
+
+
+def _animate(args: argparse.Namespace) -> int:
+    out = args.out or Path(args.result).with_suffix(".gif")
+    return _animate_result(args.result, out, args.speed, args.fps, args.panel, args.width)
 
 
 # name: (default output folder, what it shows); each is a function of tools/examples.py
@@ -246,6 +296,7 @@ EXAMPLES = {
     "suspension": ("out", "suspension load ramp past the limit load: snap-through"),
     "suspension_dynamics": ("out", "road bump and sudden load against solve_ivp"),
     "valve_train": ("out", "valve train forward, inverse and valve float"),
+    "camshaft": ("out", "a whole camshaft's torque, firing order against wrong sequences"),
     "sweeps": ("out/sweeps", "the shipped sweeps against their references (make sweeps)"),
 }
 
@@ -453,6 +504,51 @@ def _docs(args: Any) -> int:
     return 0
 
 
+def _cam_setup_failure(error: Exception) -> int:
+    print(f"cam error: {error}", file=sys.stderr)
+    return 2
+
+
+def _cam_profile(args: argparse.Namespace) -> int:
+    from .cosim.files import OutputError
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_profile, summary_markdown, write_cam_files
+
+    try:
+        table = cam_profile(args.scene, parse_assignments(args.set), args.component, args.points)
+        paths = write_cam_files(table, args.out)
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    print(summary_markdown(table), end="")
+    for kind, path in paths.items():
+        print(f"{kind}: {path}")
+    return 1 if table.attrs["design"]["problems"] else 0
+
+
+def _cam_size(args: argparse.Namespace) -> int:
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_setup_of, smallest_base_circle
+
+    try:
+        setup = cam_setup_of(args.scene, parse_assignments(args.set), args.component)
+        sizing = smallest_base_circle(setup, args.min_radius_of_curvature)
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    where = "" if sizing.angle != sizing.angle else f" at camshaft angle {sizing.angle:.6g} rad"
+    print(
+        f"{setup.scene.name}.{setup.component} ({setup.follower.kind} follower, "
+        f"{setup.profile.law} {setup.parameters['mode']}): smallest cam_base_radius "
+        f"{sizing.base_circle_radius!r} m (set by {sizing.limit}{where}); "
+        f"now {setup.geometry.cam_base_radius!r} m"
+    )
+    return 0
+
+
 def _study(args: argparse.Namespace):
     from .runtime.models import MODELS
     from .tools.study import command
@@ -572,6 +668,64 @@ def _example_verbs(verbs: argparse._SubParsersAction) -> None:
                 "local processes)",
             )
     example.set_defaults(func=_example)
+
+
+def _set_option(verb: argparse.ArgumentParser) -> None:
+    """--set COMPONENT.PARAMETER=VALUE (repeatable), read by parse_assignments."""
+    verb.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="COMPONENT.PARAMETER=VALUE",
+        help="replace a parameter (or a constant input, or an effect: true/false) of the "
+        'scene, in SI units; the value is read as TOML (2.5, true, "text") or as plain '
+        "text; repeatable (default: the scene's values)",
+    )
+
+
+def _cam_verb(verbs: argparse._SubParsersAction, name: str, help: str) -> argparse.ArgumentParser:
+    """A verb about the cam of a scene's ValveTrain: SCENE, --set, --component."""
+    verb = verbs.add_parser(name, help=help)
+    verb.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    _set_option(verb)
+    verb.add_argument(
+        "--component", help="the ValveTrain component (default: the scene's only one)"
+    )
+    return verb
+
+
+def _cam_verbs(verbs: argparse._SubParsersAction) -> None:
+    """cam-profile and cam-size: the cam a scene's valve train needs."""
+    profile = _cam_verb(
+        verbs,
+        "cam-profile",
+        "the cam of a scene's ValveTrain: profile CSV, DXF (mm), drawing and summary "
+        "with the design checks; exit 1 if a check fails (pressure angle), 2 if no cam "
+        "can be made (cusp, undercut) or the input is bad",
+    )
+    profile.add_argument(
+        "--points",
+        type=int,
+        default=3600,
+        help="profile points per revolution (default: 3600, every 0.1 degree)",
+    )
+    profile.add_argument("--out", default="out", help="output folder (default: out)")
+    profile.set_defaults(func=_cam_profile)
+    size = _cam_verb(
+        verbs,
+        "cam-size",
+        "the smallest base circle (cam_base_radius) with which a scene's ValveTrain's "
+        "cam law and follower make a cam meeting the limits",
+    )
+    size.add_argument(
+        "--min-radius-of-curvature",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="least radius of curvature of the cam surface, m (default: 0, the cusp or "
+        "undercut limit itself: add a margin)",
+    )
+    size.set_defaults(func=_cam_size)
 
 
 def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
@@ -806,6 +960,40 @@ def _export_verb(
     return verb
 
 
+def _animate_verb(verbs: argparse._SubParsersAction) -> None:
+    animate = verbs.add_parser(
+        "animate",
+        help="animate the mechanisms of a result CSV recorded with the geometry effect "
+        "(mechfmu run SCENE --animate records it): GIF, MP4 or HTML",
+    )
+    animate.add_argument("result", help="result CSV (its JSON beside it names the models)")
+    animate.add_argument(
+        "--out",
+        help="the .gif, .mp4 (needs the video extra: imageio-ffmpeg) or .html file to "
+        "write (default: RESULT with .gif)",
+    )
+    animate.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        help="playback speed against real time (default 1: real time; 0.01 plays a "
+        "hundred times slower)",
+    )
+    animate.add_argument(
+        "--fps", type=float, default=None, help="frames per second (default 25; GIF at most 50)"
+    )
+    animate.add_argument(
+        "--panel",
+        action="append",
+        default=[],
+        metavar="COLUMN",
+        help="a result column to plot against time beside the mechanism, with a cursor "
+        "(repeatable; default: none)",
+    )
+    animate.add_argument("--width", type=int, default=None, help="width in pixels (default 720)")
+    animate.set_defaults(func=_animate)
+
+
 def _run_verb(verbs: argparse._SubParsersAction) -> None:
     run = verbs.add_parser(
         "run", help="run a scene (or every shipped scene) and write CSV, JSON and PNG"
@@ -822,15 +1010,7 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "check); a failing scene does not stop the others",
     )
     _scene_options(run)
-    run.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="COMPONENT.PARAMETER=VALUE",
-        help="replace a parameter (or a constant input, or an effect: true/false) of the "
-        'scene, in SI units; the value is read as TOML (2.5, true, "text") or as plain '
-        "text; repeatable (default: the scene's values)",
-    )
+    _set_option(run)
     run.add_argument(
         "--check",
         action="store_true",
@@ -840,6 +1020,15 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "--reference", metavar="CSV", help="compare with this CSV afterwards (one scene)"
     )
     _tolerance_options(run)
+    run.add_argument(
+        "--animate",
+        nargs="?",
+        const="gif",
+        choices=("gif", "mp4", "html"),
+        help="also record the mechanisms' geometry (the geometry effect) and write "
+        "<scene>.gif (or .mp4, .html) into --out, played in real time (default: no "
+        "animation; without a format: gif)",
+    )
     run.set_defaults(func=_run)
 
 
@@ -961,6 +1150,7 @@ def parser() -> argparse.ArgumentParser:
     build.set_defaults(func=_build)
 
     _run_verb(verbs)
+    _animate_verb(verbs)
     _example_verbs(verbs)
 
     export = _export_verb(
@@ -1031,6 +1221,7 @@ def parser() -> argparse.ArgumentParser:
     )
     docs.set_defaults(func=_docs)
 
+    _cam_verbs(verbs)
     _measurement_verbs(verbs)
     return main
 

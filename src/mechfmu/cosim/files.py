@@ -222,11 +222,16 @@ def atomic_write(path: str | Path, content: bytes | str | Callable[[Any], None])
     return atomic_write_all({path: content})[0]
 
 
-def save_figure(path: Path, figure: Figure, **options: Any) -> Path:
-    """Write a matplotlib figure (PNG unless ``format`` says otherwise) atomically."""
+def figure_bytes(figure: Figure, **options: Any) -> bytes:
+    """A matplotlib figure's file content (PNG unless ``format`` says otherwise)."""
     buffer = io.BytesIO()
     figure.savefig(buffer, format=options.pop("format", "png"), **options)
-    return atomic_write(path, buffer.getvalue())
+    return buffer.getvalue()
+
+
+def save_figure(path: Path, figure: Figure, **options: Any) -> Path:
+    """Write a matplotlib figure (PNG unless ``format`` says otherwise) atomically."""
+    return atomic_write(path, figure_bytes(figure, **options))
 
 
 def move_aside(paths: list[Path], marker: str = "previous") -> list[Any]:

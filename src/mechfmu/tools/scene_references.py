@@ -293,6 +293,7 @@ REFERENCES = {
     "valve_float": valve_train_scene,
     "valve_train_dynamic": valve_spring_scene,
     "valve_float_dynamic": valve_spring_scene,
+    "camshaft_inline_four": valve_train_scene,
 }
 
 

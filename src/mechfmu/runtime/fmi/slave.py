@@ -21,6 +21,7 @@ import math
 from operator import itemgetter
 
 from ..errors import MechanismError, require_finite
+from . import geometry
 from .binding import Binding
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX,
@@ -98,6 +99,12 @@ class MechSlave(Binding):
         )
         self._inputs_of = _tuple_getter(self.real_inputs)
         self._outputs_of = _tuple_getter(self.real_outputs)
+        # With the geometry effect off its outputs hold their start values: not checked.
+        self._outputs_without_geometry = _tuple_getter(
+            tuple(
+                name for name in self.real_outputs if not geometry.is_geometry(self.declared[name])
+            )
+        )
         for variable in self.VARIABLES:
             self.register_declared(variable)
         self.finish_registration()
@@ -129,6 +136,11 @@ class MechSlave(Binding):
         """Outputs at initialisation; models with internal state may override."""
         self.update(time, 0.0)
 
+    def geometry_points(self) -> dict[str, float]:
+        """The values of the geometry effect's outputs from the current values (a model
+        that declares the effect implements it: fmi/geometry.py)."""
+        raise NotImplementedError
+
     # --- FMI calls (never raise) ----------------------------------------------------
     def setup_experiment(
         self, start_time: float, stop_time: None = None, tolerance: None = None
@@ -149,6 +161,10 @@ class MechSlave(Binding):
         values_before = dict(self.values)
         try:
             self.check_parameters()
+            drawn = geometry.install(self)  # the geometry effect's outputs, only when on
+            self._outputs_of = (
+                _tuple_getter(self.real_outputs) if drawn else self._outputs_without_geometry
+            )
             self.outputs_at_start(self.start_time)
             self._check_outputs(values_before)
             return None

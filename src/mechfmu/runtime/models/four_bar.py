@@ -1,9 +1,11 @@
 """FourBar.fmu: the four-bar linkage driven by its crank (closed form or constraint solver)."""
 
 from typing import Any
+from ..fmi.geometry import geometry_effect
 from ..fmi.slave import non_negative, output, parameter
 from ..physics import constraint_models
 from ..physics import four_bar as fb
+from ..physics import joint_positions
 from ..errors import RangeError
 from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
 
@@ -69,6 +71,17 @@ class FourBar(LinkageSlave):
             0,
             "Grashof class: " + "; ".join(f"{c.code} {c.name}" for c in fb.GRASHOF_CLASSES),
         ),
+        *geometry_effect(
+            "origin at the crank pivot O2, +x along the ground link towards the rocker "
+            "pivot O4, +y counter-clockwise from it",
+            {
+                "crank_pivot": "O2, the crank's ground pivot (the origin)",
+                "rocker_pivot": "O4, the rocker's ground pivot (d, 0)",
+                "crank_pin": "A, the crank-coupler joint",
+                "rocker_pin": "B, the coupler-rocker joint",
+            },
+            depends=_CRANK[:1],
+        ),
     )
 
     def _lengths(self) -> tuple[float, float, float, float]:
@@ -111,3 +124,15 @@ class FourBar(LinkageSlave):
             "rocker_angular_acceleration": qddot[8],
             "transmission_angle": fb.transmission_angle(coupler, rocker),
         }
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        return joint_positions.flattened(
+            joint_positions.four_bar_points(
+                v["ground_length"],
+                v["crank_length"],
+                v["rocker_length"],
+                v["crank_angle"],
+                v["rocker_angle"],
+            )
+        )

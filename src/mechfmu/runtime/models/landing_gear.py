@@ -2,11 +2,13 @@
 
 import math
 
+from ..fmi.geometry import geometry_effect
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.slave import Status, effect, input_, integrator_variables
 from ..fmi.slave import non_negative, output, parameter
 from ..physics import gear_dynamics as gd
 from ..physics import hydraulics
+from ..physics import joint_positions
 from ..physics import landing_gear as gear
 from ..errors import MechanismError, require_finite
 from ..physics.landing_gear import (
@@ -270,6 +272,18 @@ class LandingGear(IntegratingSlave):
             unit="s",
         ),
         output("stop_contacts", 0, "End-stop contacts started so far"),
+        *geometry_effect(
+            "earth axes at the bar pivot B: +x forward (horizontal), +y up; the airframe "
+            "(and with it the piston's fixed pivot) pitched nose-up by airframe_pitch; the "
+            "bar hangs straight down at gear_angle = down_angle - airframe_pitch",
+            {
+                "bar_pivot": "B, the bar's pivot on the airframe (the origin)",
+                "piston_pivot": "the piston's fixed pivot on the airframe, h from B",
+                "piston_attachment": "the piston's joint on the bar, d from B",
+                "wheel_axle": "A, the wheel's axle at the bar's end, bar_length from B",
+            },
+            depends=_PISTON[:1],
+        ),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -388,6 +402,19 @@ class LandingGear(IntegratingSlave):
         v["wheel_speed"] = v["bar_length"] * motion.angular_velocity
         v["piston_length"], v["piston_rate"] = v["piston_extension"], v["piston_speed"]
         self.model.publish(v, motion)
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        return joint_positions.flattened(
+            joint_positions.gear_points(
+                v["attachment_distance"],
+                v["pivot_height"],
+                v["bar_length"],
+                v["gear_angle"],
+                v["down_angle"],
+                v["airframe_pitch"],
+            )
+        )
 
 
 # Start values and units of the inputs, for the other-driver warning.

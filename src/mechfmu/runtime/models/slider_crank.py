@@ -1,8 +1,10 @@
 """SliderCrank.fmu: the offset slider-crank driven by its crank (closed form or solver)."""
 
 from typing import Any
+from ..fmi.geometry import geometry_effect
 from ..fmi.slave import non_negative, motion_outputs, parameter
 from ..physics import constraint_models
+from ..physics import joint_positions
 from ..physics import slider_crank as sc
 from ..errors import RangeError
 from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
@@ -51,6 +53,16 @@ class SliderCrank(LinkageSlave):
             ("theta3: angle of the connecting rod A -> B", "omega3", "alpha3"),
             _CRANK,
         ),
+        *geometry_effect(
+            "origin at the crank pivot, +x along the slider's line (which runs at y = "
+            "offset), +y counter-clockwise from it",
+            {
+                "crank_pivot": "the crank's ground pivot (the origin)",
+                "crank_pin": "A, the crank-rod joint",
+                "slider_pin": "B, the rod-slider joint (slider_position, offset)",
+            },
+            depends=_CRANK[:1],
+        ),
     )
 
     def _geometry(self) -> tuple[float, float, float]:
@@ -88,3 +100,11 @@ class SliderCrank(LinkageSlave):
             "coupler_angular_velocity": qdot[5],
             "coupler_angular_acceleration": qddot[5],
         }
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        return joint_positions.flattened(
+            joint_positions.slider_crank_points(
+                v["crank_length"], v["offset"], v["crank_angle"], v["slider_position"]
+            )
+        )

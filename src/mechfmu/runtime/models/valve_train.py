@@ -3,6 +3,7 @@
 from typing import Any
 import math
 
+from ..fmi.geometry import geometry_effect, geometry_output
 from ..fmi.slave import (
     non_negative,
     Status,
@@ -12,10 +13,11 @@ from ..fmi.slave import (
     output,
     parameter,
 )
-from ..physics import cam_geometry, cam_laws, constraint_models
+from ..physics import cam_geometry, cam_laws, constraint_models, joint_positions
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
 from .linkage import LinkageSlave, solver_variables
+from ..fmi.declarations import Variable
 
 _CAM = CAMSHAFT_INPUTS = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
 CAMSHAFT_DESCRIPTIONS = (
@@ -45,6 +47,32 @@ _GEOMETRY_DESCRIPTIONS = {
     "valve_axis_x": "x of the valve axis (the valve foot Q slides on it)",
     "valve_link_length": "Valve link length from V down to the valve foot Q",
 }
+
+
+# The valve train's joints (physics/joint_positions.py), shared by ValveTrain and ValveSpring.
+VALVE_TRAIN_FRAME = (
+    "origin at the camshaft centre of a flat-faced tappet without offset, +x right, +y up "
+    "(valve_train.py's frame)"
+)
+VALVE_TRAIN_POINTS = {
+    "cam_centre": "the camshaft centre: the origin, or under a roller or an offset follower "
+    "(cam_geometry's follower parameters) where the cam holds it at the tappet foot",
+    "tappet_foot": "P, the tappet's flat face on the cam, on the tappet axis x = 0",
+    "rocker_fulcrum": "the rocker's pivot on the block (rocker_pivot_x, rocker_pivot_y)",
+    "pushrod_end": "T, the pushrod-rocker joint",
+    "valve_end": "V, the rocker-valve link joint",
+}
+
+
+def cam_angle_output(depends: tuple[str, ...]) -> Variable:
+    """The geometry output of the cam's angle (rad): the camshaft angle it turns by,
+    counter-clockwise, from the angle 0 of its cam law."""
+    return geometry_output(
+        "cam_angle",
+        "the cam's angle, counter-clockwise: the camshaft angle of its cam law",
+        unit="rad",
+        depends=depends,
+    )
 
 
 def geometry_variables() -> tuple:
@@ -175,6 +203,19 @@ def cam_setup(values: dict) -> tuple:
     return geometry, profile
 
 
+def valve_train_geometry_effect() -> tuple:
+    """ValveTrain's geometry effect: the joints and the valve foot Q (the valve)."""
+    return geometry_effect(
+        VALVE_TRAIN_FRAME,
+        {
+            **VALVE_TRAIN_POINTS,
+            "valve_foot": "Q, the valve (link foot) on the valve axis x = valve_axis_x",
+        },
+        depends=_CAM[:1],
+        extra=(cam_angle_output(_CAM[:1]),),
+    )
+
+
 class ValveTrain(LinkageSlave):
     """Tappet, rocker and valve motion from the camshaft motion and a cam law.
 
@@ -291,6 +332,7 @@ class ValveTrain(LinkageSlave):
             "max - min of ds/dtheta (0 for a roller, -1: effect off)",
             unit="m",
         ),
+        *valve_train_geometry_effect(),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -300,6 +342,7 @@ class ValveTrain(LinkageSlave):
         self.motion = cam_laws.motion_function(CAM)  # follower_motion of self.profile
         self.closed_height = 0.0  # m, valve foot height with the valve closed
         self.cam_follower: Any = None  # cam_geometry.Follower with the cam_geometry effect
+        self.drawn_cam_centre = (0.0, 0.0)  # m, the cam's centre (geometry effect)
         self.reported: set = set()  # design warnings logged (initialisation may run twice)
 
     # --- parameters -------------------------------------------------------------------
@@ -328,6 +371,15 @@ class ValveTrain(LinkageSlave):
             v[name] = -1.0
         if v["cam_geometry"]:
             self._design_cam()
+        if v["geometry"]:  # where the cam sits under its follower (a roller, an offset)
+            self.drawn_cam_centre = joint_positions.cam_centre(
+                cam_geometry.check_follower(
+                    v["follower"],
+                    self.geometry.cam_base_radius,
+                    v["roller_radius"],
+                    v["follower_offset"],
+                )
+            )
 
     def _design_cam(self) -> None:
         """The cam_geometry effect at initialisation: the follower checked, the cam designed
@@ -392,6 +444,20 @@ class ValveTrain(LinkageSlave):
             "valve_velocity": -qdot[_VALVE_Y],
             "valve_acceleration": -qddot[_VALVE_Y],
         }
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        points = joint_positions.flattened(
+            joint_positions.valve_train_points(
+                self.geometry,
+                v["tappet_lift"],
+                v["rocker_angle"],
+                self.closed_height - v["valve_lift"],
+                self.drawn_cam_centre,
+            )
+        )
+        points["cam_angle"] = v["camshaft_angle"]
+        return points
 
     # --- valve spring -----------------------------------------------------------------
     def tappet_diagram(self) -> tuple[float, float, float]:
