@@ -398,16 +398,31 @@ API_SCENE_ERRORS = (SceneError, SimulationError)  # FmuError is a SceneError
 API_FILE_ERRORS = (ResultFileError,)
 
 
-def fuzz_scene(data: bytes, fmu_dir: Path, fmu: Path | None = None) -> list[str]:
-    """Run the scene file ``data`` through ``mechfmu run`` and ``mechfmu.simulate``; the
-    problems found (none is a pass). ``fmu``: an FMU file the scene may name."""
+def assignments(rng: random.Random) -> list[str]:
+    """None to two ``--set`` texts, their values plausible or hostile."""
+    values = NUMBERS + HOSTILE_SNIPPETS + ("cycloidal", "[1, 2]", "{a = 1}", "")
+    return [
+        f"actuator.{rng.choice(PARAMETERS)}={rng.choice(values)}".replace("\x00", "")
+        for _ in range(rng.choice((0, 0, 1, 2)))
+    ]
+
+
+def fuzz_scene(
+    data: bytes, fmu_dir: Path, fmu: Path | None = None, sets: list[str] = ()
+) -> list[str]:
+    """Run the scene file ``data`` through ``mechfmu run`` (with ``--set`` each of ``sets``)
+    and ``mechfmu.simulate``; the problems found (none is a pass). ``fmu``: an FMU file the
+    scene may name."""
     problems = []
     with Sandbox() as box:
         scene = box.inputs / "fuzzed.toml"
         scene.write_bytes(data)
         if fmu is not None:
             shutil.copyfile(fmu, box.inputs / "Fuzzed.fmu")
-        outcome = box.cli("run", scene, "--out", box.out, "--fmu-dir", fmu_dir, "--no-plot")
+        options = [item for text in sets for item in ("--set", text)]
+        outcome = box.cli(
+            "run", scene, "--out", box.out, "--fmu-dir", fmu_dir, "--no-plot", *options
+        )
         problems += [f"mechfmu run: {p}" for p in outcome.problems]
         outcome = box.api(lambda: mechfmu.simulate(scene, fmu_dir=fmu_dir), API_SCENE_ERRORS)
         problems += [f"mechfmu.simulate: {p}" for p in outcome.problems]

@@ -442,3 +442,23 @@ def test_toml_digits_and_brackets_inside_strings_and_comments_do_not_count(digit
     text = f"a = {quoted}\n# {noise.replace(chr(10), ' ')}\nb = {'1' * digits}\n"
     problem = limits.scan_problem(text, limits.MAX_TOML_DEPTH, "toml")
     assert (problem is not None) == (digits > limits.MAX_DIGITS), (text, problem)
+
+
+@pytest.mark.parametrize(
+    "value, expected",
+    [
+        ("[" * 3000, "nested deeper than the limit of 32 levels"),
+        ("1" * 5000, "a number of 5000 digits in a row, more than the limit of 100"),
+        ("123456789012345678901234567890", "is outside the 64-bit integer range"),
+    ],
+)
+def test_a_hostile_set_value_is_one_line(fmu_dir, tmp_path, capsys, value, expected):
+    """--set values are read as TOML (issue 27): the same limits before tomllib (before, a
+    deep value raised RecursionError, a 5000-digit one ValueError's 4300-digit message)."""
+    path = tmp_path / "s.toml"
+    path.write_text(SCENE)
+    code, _, err = run_cli(
+        capsys, "run", path, "--out", tmp_path / "out", "--fmu-dir", fmu_dir, "--set",
+        f"actuator.stroke_time={value}",
+    )  # fmt: skip
+    assert code == 2 and err.count("\n") == 1 and expected in err, err

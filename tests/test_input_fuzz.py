@@ -16,6 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from input_fuzz import (
     NAMES,
+    assignments,
     csv_text,
     fmu_archive,
     fuzz_results,
@@ -51,7 +52,8 @@ def scene_bytes(rng):
 @_examples(40)
 @given(SEEDS)
 def test_generated_scene_files(fmu_dir, seed):
-    problems = fuzz_scene(scene_bytes(random.Random(seed)), fmu_dir)
+    rng = random.Random(seed)
+    problems = fuzz_scene(scene_bytes(rng), fmu_dir, sets=assignments(rng))
     assert problems == [], problems
 
 

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from . import __version__
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
+from .cosim import limits
 from .cosim.text import one_line
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
@@ -40,7 +41,8 @@ def parse_assignments(texts: list[str]) -> dict[str, Any]:
     """``--set`` values: each ``component.parameter=value`` as {name: value}, the value read
     as a TOML value when it parses as one (``2.5``, ``true``, ``"cycloidal"``, ``[1, 2]``),
     else taken as a bare string (``cycloidal``). ValueError naming the text for one without
-    ``=`` or without a name; the names and values are checked against the scene and its
+    ``=`` or without a name, or a value beyond mechfmu.cosim.limits (nesting, digits); the
+    names and values are checked against the scene and its
     FMUs where they are applied (cosim.scene.apply_parameters), as the API's are."""
     if sys.version_info >= (3, 11):
         import tomllib
@@ -56,6 +58,9 @@ def parse_assignments(texts: list[str]) -> dict[str, Any]:
                 f"--set {text!r}: expected component.parameter=value (e.g. "
                 f"actuator.stroke_time=2.5)"
             )
+        problem = limits.scan_problem(value, limits.MAX_TOML_DEPTH, "toml")
+        if problem:  # before tomllib, whose recursion a deep value would exhaust
+            raise ValueError(f"--set {limits.shortened(text)}: {problem.split(': ', 1)[-1]}")
         try:
             assignments[name] = tomllib.loads(f"value = {value}")["value"]
         except tomllib.TOMLDecodeError:
