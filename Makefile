@@ -26,7 +26,7 @@ logged = @{ $(2); } > $(1) 2>&1 || { cat $(1); echo "make: failed; the whole out
 endif
 
 .PHONY: run test test-fast lint fmus references report study work-precision bench sweeps \
-	docs clean lock test-latest test-portable test-other-python test-subset tolerances
+	docs clean lock test-latest test-portable test-other-python test-subset tolerances fuzz-inputs
 
 $(VENV)/.installed: pyproject.toml requirements.lock.txt
 	@echo "installing mechfmu and its locked dependencies into $(VENV)/ (log: $(VENV)/install.log)"
@@ -169,6 +169,20 @@ work-precision: $(VENV)/.installed
 
 bench: $(FMUS)/.built
 	$(VENV)/bin/mechfmu bench
+
+# The hostile-input fuzzing at length (the suite runs a short budget of each): the hypothesis
+# harness with 50 times the suite's examples, 1000 SIGKILLs of result writers, then atheris
+# (coverage-guided; CPython 3.11-3.13) for FUZZ_SECONDS on scenes, results and FMU archives,
+# its corpus and any failing input under out/fuzz-inputs/.
+FUZZ_SECONDS ?= 600
+fuzz-inputs: $(FMUS)/.built
+	MECHFMU_FUZZ_EXAMPLES=50 $(PY) -m pytest -q -p no:cacheprovider tests/test_input_fuzz.py
+	MECHFMU_PAIR_KILLS=1000 $(PY) -m pytest -q -p no:cacheprovider tests/test_result_pairs.py
+	@if $(PY) -c 'import atheris' 2>/dev/null; then \
+		mkdir -p out/fuzz-inputs/corpus && \
+		$(PY) tests/atheris_inputs.py -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096 \
+			-artifact_prefix=$(CURDIR)/out/fuzz-inputs/ $(CURDIR)/out/fuzz-inputs/corpus; \
+	else echo "atheris is not installed for this Python (CPython 3.11-3.13 only): skipped"; fi
 
 # The shipped parameter sweeps, checked against their references (out/sweeps/summary.md).
 sweeps: $(FMUS)/.built

@@ -6,7 +6,8 @@
 - Markers in the hand-written pages (each alone on its line), replaced by what the ``mechfmu docs`` command prints
   (the same command a user runs, called in-process through its console-script entry point):
   ``<!-- mechfmu:interface MODEL -->`` becomes the model's interface table, generated from
-  its declarations; ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
+  its declarations; ``<!-- mechfmu:limits inputs -->`` the table of the input files' limits
+  (mechfmu.cosim.limits.LIMITS); ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
   committed reference CSV; ``<!-- mechfmu:scenes --tolerances -->`` becomes the table of
   each shipped scene's check tolerances (its [check] table); ``<!-- mechfmu:cam-profile
   SCENE -->`` the drawing and summary ``mechfmu cam-profile SCENE`` writes;
@@ -35,7 +36,7 @@ import mkdocs_gen_files
 import mechfmu
 
 MARKER = re.compile(
-    r"^<!-- mechfmu:(interface|reference-plot|scenes|cam-profile|camshaft-torque) (\S+) -->$",
+    r"^<!-- mechfmu:(interface|reference-plot|scenes|cam-profile|camshaft-torque|limits) (\S+) -->$",
     re.MULTILINE,
 )
 ANIMATION = re.compile(r"^<!-- mechfmu:animation (\S+)((?: \w+=\S+)*) -->$", re.MULTILINE)
@@ -85,6 +86,17 @@ def reference_plot(scene: str, plots: dict) -> str:
             with mkdocs_gen_files.open(plots[scene], "wb") as handle:
                 handle.write(png.read_bytes())
     return plots[scene]
+
+
+def limits_table() -> str:
+    """The limits every input file is checked against (mechfmu.cosim.limits.LIMITS)."""
+    from mechfmu.cosim.limits import LIMITS
+
+    rows = [
+        f"| {limit.applies_to} | {limit.what} | {limit.value} | {limit.reason} |"
+        for limit in LIMITS
+    ]
+    return "\n".join(["| file | what | limit | why |", "|---|---|---|---|", *rows])
 
 
 def cam_profile_section(scene: str, page: PurePosixPath) -> str:
@@ -152,6 +164,8 @@ def fill_markers(docs_dir: Path) -> None:
 
         def replace(match):
             kind, name = match.groups()
+            if kind == "limits":
+                return limits_table()
             if kind == "scenes":  # <!-- mechfmu:scenes --tolerances -->
                 return mechfmu_command("scenes", name).strip()
             if kind == "cam-profile":

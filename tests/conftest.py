@@ -81,6 +81,9 @@ LAYERS = {
     "test_docs.py": "unit",
     "test_work_precision.py": "unit",
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)
+    "test_hostile_inputs.py": "unit",
+    "test_result_pairs.py": "unit",
+    "test_input_fuzz.py": "fmu",
     "test_compare.py": "unit",
     "test_import_graph.py": "unit",
     "test_tolerances.py": "unit",

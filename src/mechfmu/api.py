@@ -19,6 +19,7 @@ from typing import Any
 import numpy
 import pandas
 
+from .cosim import limits
 from .cosim.interrupt import InterruptGuard
 from .cosim.locate import scene_fmu_folder
 from .cosim.master import Simulation, SimulationInterrupted, parameter_values
@@ -38,7 +39,13 @@ def _plain(value: Any) -> Any:
 
 
 def _plain_parameters(parameters: Mapping[str, Any] | None) -> dict[str, Any]:
-    """``parameters`` with string keys and numpy scalars as Python numbers."""
+    """``parameters`` with string keys and numpy scalars as Python numbers (apply_parameters
+    checks names and values); SceneError when it is not a mapping."""
+    if parameters is not None and not isinstance(parameters, Mapping):
+        raise SceneError(
+            f"parameters must map 'component.parameter' names to values, got "
+            f"{type(parameters).__name__} {limits.shortened(parameters)}"
+        )
     return {str(name): _plain(value) for name, value in (parameters or {}).items()}
 
 

@@ -18,6 +18,8 @@ from pathlib import Path
 
 from . import __version__
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
+from .cosim import limits
+from .cosim.text import one_line
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .cosim.files import OutputError
@@ -40,7 +42,8 @@ def parse_assignments(texts: list[str]) -> dict[str, Any]:
     """``--set`` values: each ``component.parameter=value`` as {name: value}, the value read
     as a TOML value when it parses as one (``2.5``, ``true``, ``"cycloidal"``, ``[1, 2]``),
     else taken as a bare string (``cycloidal``). ValueError naming the text for one without
-    ``=`` or without a name; the names and values are checked against the scene and its
+    ``=`` or without a name, or a value beyond mechfmu.cosim.limits (nesting, digits); the
+    names and values are checked against the scene and its
     FMUs where they are applied (cosim.scene.apply_parameters), as the API's are."""
     if sys.version_info >= (3, 11):
         import tomllib
@@ -56,6 +59,9 @@ def parse_assignments(texts: list[str]) -> dict[str, Any]:
                 f"--set {text!r}: expected component.parameter=value (e.g. "
                 f"actuator.stroke_time=2.5)"
             )
+        problem = limits.scan_problem(value, limits.MAX_TOML_DEPTH, "toml")
+        if problem:  # before tomllib, whose recursion a deep value would exhaust
+            raise ValueError(f"--set {limits.shortened(text)}: {problem.split(': ', 1)[-1]}")
         try:
             assignments[name] = tomllib.loads(f"value = {value}")["value"]
         except tomllib.TOMLDecodeError:
@@ -110,7 +116,7 @@ def _scene_failure(
 
     if isinstance(error, (SceneError, OutputError)):
         kind = "scene" if isinstance(error, SceneError) else "output"
-        print(f"{kind} error: {error}", file=sys.stderr)
+        print(f"{kind} error: {one_line(str(error))}", file=sys.stderr)
         return exit_code(guard.take()) if guard is not None and guard.requested else 2
     interrupted = isinstance(error, SimulationInterrupted)
     print(f"{'' if interrupted else 'simulation failed: '}{error}", file=sys.stderr)
@@ -401,7 +407,7 @@ def _check(args: Any) -> int:
         ignore_extra=args.ignore_extra,
     )
     for check in run.files:
-        print(check.line())
+        print(one_line(check.line()))
     for key in run.unused_tolerances():
         print(f"check warning: --tol {key} matches no column", file=sys.stderr)
     print(run.summary(), file=sys.stderr if run.error else sys.stdout)

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 import copy
-import math
 import os
 from contextlib import nullcontext
 
+from . import limits
 from .files import OutputError, output_folder
 from .interrupt import InterruptGuard, signal_name
 from .locate import scene_fmu_folder
@@ -60,13 +60,10 @@ def choose_scene(
     if isinstance(scene, Scene):
         chosen = copy.deepcopy(scene)
         for key, value in overrides.items():
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, (int, float))
-                or not math.isfinite(value)
-            ):
-                raise SceneError(f"{key} = {value!r} must be a finite number")
-            setattr(chosen, key, float(value))
+            number = limits.finite_float(value)
+            if number is None:
+                raise SceneError(f"{key} = {limits.shortened(value)} must be a finite number")
+            setattr(chosen, key, number)
         check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
         return chosen
     if not isinstance(scene, (str, os.PathLike)):

@@ -22,9 +22,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
 
+from ...cosim.fmu_file import unpack
 from ...packaging.build import build_all
 from ...references import landing_gear
 from ...runtime.physics import landing_gear as gear
@@ -243,7 +244,7 @@ class ExtractedFmu:
     def __init__(self, path: Path) -> None:
         self.path = Path(path)
         self.description = read_model_description(str(path))
-        self.folder = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
+        self.folder = unpack(path)
 
     @contextlib.contextmanager
     def initialised(self, parameters: dict[str, str]) -> Iterator[FMU2Slave]:
