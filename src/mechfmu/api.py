@@ -39,14 +39,14 @@ def _plain(value: Any) -> Any:
 
 
 def _plain_parameters(parameters: Mapping[str, Any] | None) -> dict[str, Any]:
-    """``parameters`` with string keys and numpy scalars as Python numbers (apply_parameters
+    """``parameters`` with numpy scalars as Python numbers (apply_parameters
     checks names and values); SceneError when it is not a mapping."""
     if parameters is not None and not isinstance(parameters, Mapping):
         raise SceneError(
             f"parameters must map 'component.parameter' names to values, got "
             f"{type(parameters).__name__} {limits.shortened(parameters)}"
         )
-    return {str(name): _plain(value) for name, value in (parameters or {}).items()}
+    return {name: _plain(value) for name, value in (parameters or {}).items()}
 
 
 def _fmu_versions(simulation: Simulation) -> dict[str, dict[str, Any]]:
