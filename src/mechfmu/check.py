@@ -179,7 +179,7 @@ def check_paths(
     tolerances, the ``check`` of the JSON beside it, else the defaults). A reference file without a result is a
     "missing file" failure; a result without a reference is listed but not compared; a file
     that cannot be read is a "malformed file" failure naming the line and column."""
-    from .io import ResultFileError, read_result
+    from .io import ResultFileError
 
     options = {
         "rtol": rtol,
@@ -202,12 +202,10 @@ def check_paths(
         if reference_file is None:
             check.kind, check.problem = "no reference", f"no reference file for {result_file}"
             continue
-        try:
-            frames = read_result(result_file), read_result(reference_file)
+        try:  # both files read block by block: memory bounded whatever their size
+            check.comparison = compare_frames(result_file, reference_file, **options)  # type: ignore[arg-type]
         except ResultFileError as problem:
             check.kind, check.problem = "malformed file", str(problem)
-            continue
-        check.comparison = compare_frames(*frames, **options)  # type: ignore[arg-type]
     return CheckRun(files, options, error)
 
 
