@@ -51,8 +51,6 @@ __all__ = [
 StrPath = str | PathLike
 
 
-
-
 def read_result(path: StrPath, *, block_bytes: int = BLOCK_BYTES) -> pandas.DataFrame:
     """The result at ``path`` (a CSV as ``mechfmu run`` writes it, a reference CSV, or a
     ``.parquet`` result) as a DataFrame.

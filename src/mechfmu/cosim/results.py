@@ -126,9 +126,7 @@ def pair_problem(
         return f"{json_path}: 'csv_bytes' and 'csv_sha256' must be an integer and a string"
     try:
         size = found[0] if found else os.stat(csv_path).st_size
-        digest = (
-            None if size != expected_size else found[1] if found else _file_digest(csv_path)
-        )
+        digest = None if size != expected_size else found[1] if found else _file_digest(csv_path)
     except OSError as error:
         return f"{csv_path}: cannot be read: {error.strerror or error}"
     if size == expected_size and digest == expected_digest:
