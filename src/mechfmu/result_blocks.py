@@ -441,7 +441,8 @@ class ParquetSource(ResultSource):
                     [column.to_numpy(zero_copy_only=False) for column in batch.columns]
                 ).astype(numpy.float64)
                 if not numpy.isfinite(values).all():
-                    cells = numpy.where(numpy.isnan(values), None, values).astype(object)
+                    cells = values.astype(object)
+                    cells[numpy.isnan(values)] = None
                     for column in range(values.shape[1]):  # a null reads as NaN: name it
                         nulls = batch.column(column).is_null().to_numpy(zero_copy_only=False)
                         cells[nulls, column] = ""
