@@ -86,6 +86,7 @@ LAYERS = {
     "test_input_fuzz.py": "fmu",
     "test_compare.py": "unit",
     "test_streamed_check.py": "unit",
+    "test_sweep_scale.py": "fmu",
     "test_import_graph.py": "unit",
     "test_tolerances.py": "unit",
     "test_api.py": "fmu",

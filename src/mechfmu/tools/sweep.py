@@ -286,10 +286,16 @@ class Permutation:
 
 
 def _unit_chunks(
-    samples: int, dimensions: int, seed: int | None, method: str, chunk: int
+    samples: int,
+    dimensions: int,
+    seed: int | None,
+    method: str,
+    chunk: int,
+    whole: int = LHS_WHOLE,
 ) -> Iterator[tuple[int, ndarray]]:
-    """(first index, points in [0, 1)^d) of the sampled sweep, ``chunk`` at a time."""
-    if method == "lhs" and samples <= LHS_WHOLE:
+    """(first index, points in [0, 1)^d) of the sampled sweep, ``chunk`` at a time; a
+    Latin hypercube of up to ``whole`` points is scipy's."""
+    if method == "lhs" and samples <= whole:
         unit = lhs_unit(samples, dimensions, seed)
         for first in range(0, samples, chunk):
             yield first, unit[first : first + chunk]
@@ -1343,7 +1349,14 @@ def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -
     try:
         with pyarrow.parquet.ParquetWriter(temporary, schema) as writer:
             for part in pandas.read_csv(
-                csv_path, dtype=kinds, keep_default_na=False, na_values=[""], chunksize=rows
+                csv_path,
+                dtype=kinds,
+                keep_default_na=False,
+                na_values={  # an empty cell (no value); 'nan' only in number columns
+                    name: [""] if kind == "string" else ["", "nan", "NaN"]
+                    for name, kind in kinds.items()
+                },
+                chunksize=rows,
             ):
                 writer.write_table(pyarrow.Table.from_pandas(part, schema, preserve_index=False))
         os.replace(temporary, parquet_path)
