@@ -89,7 +89,7 @@ def same(left, right):
 
 
 @settings(
-    max_examples=80,
+    max_examples=50,
     deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )
@@ -103,6 +103,9 @@ def test_files_compared_block_by_block_give_what_the_whole_arrays_give(
     whole = compare(result, reference, **options)
     streamed = compare(result_path, reference_path, block_bytes=block, **options)
     same(streamed, whole)
+    # a Parquet result, read by record batches of about block / 160 rows, likewise
+    parquet_path = write_result(result, tmp_path / "result.parquet")
+    same(compare(parquet_path, reference_path, block_bytes=block * 160, **options), whole)
     # and the frames read back, whole and by blocks, are the frames written
     pd.testing.assert_frame_equal(read_result(result_path, block_bytes=block), result)
     joined = pd.concat(list(iter_result(reference_path, block_bytes=block)))
@@ -227,3 +230,69 @@ def test_check_memory_does_not_grow_with_the_file(tmp_path):
     code, big_peak = _peak_kib(big, twin, 1 << 20)
     assert code == 0
     assert (big_peak - small_peak) / 1024 < 30, (small_peak, big_peak)
+
+
+# --- Parquet results -------------------------------------------------------------------------
+
+
+def test_a_parquet_result_reads_as_its_csv_and_checks_against_a_csv_reference(tmp_path):
+    pytest.importorskip("pyarrow")
+    times = np.linspace(0.0, 2.0, 201)
+    result = frame(times, {"a.x": np.sin(times), "b.y": np.cos(times)})
+    result.attrs["units"] = {"a.x": "m", "b.y": "rad"}
+    csv_path = write_result(result, tmp_path / "reference" / "run.csv")
+    parquet_path = write_result(result, tmp_path / "result" / "run.parquet")
+    from_parquet = read_result(parquet_path)
+    pd.testing.assert_frame_equal(from_parquet, read_result(csv_path))
+    assert from_parquet.attrs["units"] == {"a.x": "m", "b.y": "rad"}
+    assert parquet_path.stat().st_size < csv_path.stat().st_size
+    run = check_paths(tmp_path / "result", tmp_path / "reference")  # matched by name
+    assert [check.name for check in run.files] == ["run.parquet"]
+    assert run.exit_code == 0
+    assert str(run.files[0].comparison).startswith("match: 2 column(s), 201 sample(s)")
+
+
+def _parquet(path, columns):
+    import pyarrow
+    import pyarrow.parquet
+
+    pyarrow.parquet.write_table(pyarrow.table(columns), path)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("columns", "message"),
+    [
+        (
+            {"time": [0.0, 1.0, 2.0], "a.x": [1.0, float("nan"), 2.0]},
+            "row 2, column 'a.x': nan is not a finite number",
+        ),
+        (
+            {"time": [0.0, 1.0, 1.0], "a.x": [1.0, 2.0, 3.0]},
+            "row 3: time 1.0 s repeats the previous row's 1.0 s (times must increase)",
+        ),
+        ({"t": [0.0], "a.x": [1.0]}, "line 1: the first column must be 'time', got 't'"),
+        ({"time": [0.0], "a.x": ["one"]}, "column 'a.x' holds string, not numbers"),
+        ({"time": [0.0, 1.0], "a.x": [1.0, None]}, "row 2, column 'a.x': no value (null)"),
+    ],
+)
+def test_a_malformed_parquet_result_is_named_by_row_and_column(tmp_path, columns, message):
+    pytest.importorskip("pyarrow")
+    path = _parquet(tmp_path / "bad.parquet", columns)
+    with pytest.raises(ResultFileError) as caught:
+        read_result(path, block_bytes=160)  # one row per batch
+    assert message in str(caught.value)
+    assert str(caught.value).startswith(str(path))
+
+
+def test_bytes_that_are_not_parquet_and_a_changed_parquet_file_are_refused(tmp_path):
+    pytest.importorskip("pyarrow")
+    fake = tmp_path / "fake.parquet"
+    fake.write_bytes(b"time,a.x\n0,1\n")
+    with pytest.raises(ResultFileError, match="malformed Parquet file"):
+        read_result(fake)
+    path = write_result(frame([0.0, 1.0], {"a.x": [1.0, 2.0]}), tmp_path / "r.parquet")
+    other = write_result(frame([0.0, 1.0], {"a.x": [1.0, 3.0]}), tmp_path / "o.parquet")
+    path.write_bytes(other.read_bytes())
+    with pytest.raises(ResultFileError, match="are not one pair"):
+        read_result(path)

@@ -15,6 +15,8 @@ they apply.
 
 from __future__ import annotations
 
+import hashlib
+import io
 import math
 from collections.abc import Iterable, Iterator
 from os import PathLike
@@ -25,7 +27,7 @@ import numpy
 import pandas
 
 from .cosim.files import atomic_write_all, remove_stale_temporaries
-from .cosim.results import csv_writer, sealed_pair
+from .cosim.results import PAIR_KEYS, csv_writer, json_text, new_run_id, sealed_pair
 from .cosim.tables import ResultFileError, read_profile_table
 from .result_blocks import (
     BLOCK_BYTES,
@@ -123,8 +125,9 @@ def _result_frame(frame: pandas.DataFrame) -> pandas.DataFrame:
 
 
 def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
-    """Write ``frame`` as a result CSV at ``path`` and its metadata as ``<stem>.json``
-    beside it, both or neither (atomically, with the permissions the umask gives).
+    """Write ``frame`` as a result CSV at ``path`` (a Parquet file when ``path`` ends in
+    ``.parquet``: parquet_pair) and its metadata as ``<stem>.json`` beside it, both or
+    neither (atomically, with the permissions the umask gives).
 
     The format is ``mechfmu run``'s: a ``time`` column (s) from the index (or from a
     ``time`` column), then one column per variable, every value as the shortest text that
@@ -143,6 +146,9 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
     meta["units"] = {name: units[name] for name in names if name in units}
     meta["recorded"] = names
     remove_stale_temporaries(path.parent)
+    if path.suffix == ".parquet":
+        atomic_write_all(parquet_pair(path, frame, meta))
+        return path
     atomic_write_all(
         sealed_pair(
             path,
@@ -152,6 +158,31 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
         )
     )
     return path
+
+
+def parquet_pair(path: Path, frame: pandas.DataFrame, meta: dict[str, Any]) -> dict[Path, Any]:
+    """The contents of a Parquet result and its JSON for atomic_write_all, JSON first: a
+    ``time`` column then one float64 column per variable (pyarrow, compressed by its
+    default codec), and ``meta`` with a ``run_id`` and the file's ``parquet_bytes`` and
+    ``parquet_sha256`` (what read_result checks, as ``csv_bytes``/``csv_sha256`` for a CSV).
+    ResultFileError without pyarrow."""
+    try:
+        import pyarrow
+        import pyarrow.parquet
+    except ImportError:
+        raise ResultFileError(
+            f"{path}: writing Parquet needs pyarrow: pip install 'mechfmu[parquet]'"
+        ) from None
+    arrays = {"time": frame.index.to_numpy(dtype=float)}
+    arrays.update({str(name): frame[name].to_numpy(dtype=float) for name in frame.columns})
+    sink = io.BytesIO()
+    pyarrow.parquet.write_table(pyarrow.table(arrays), sink)
+    data = sink.getvalue()
+    sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
+    sealed["run_id"] = meta.get("run_id") or new_run_id()
+    sealed["parquet_bytes"] = len(data)
+    sealed["parquet_sha256"] = hashlib.sha256(data).hexdigest()
+    return {companion_json(path): json_text(sealed), path: data}
 
 
 def read_table(

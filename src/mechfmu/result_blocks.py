@@ -166,7 +166,11 @@ def problem_cell(
         for column, text in zip(names, row):
             if text == "" and blank:
                 continue
-            if text == "" or text is None:
+            if text == "" and place != "line":
+                return ResultFileError(
+                    f"{path}: {place} {line}, column {column!r}: no value (null)"
+                )
+            if text == "":
                 return ResultFileError(
                     f"{path}: {place} {line}, column {column!r}: empty field (the line has "
                     f"fewer values than the header: cut short?)"
@@ -442,7 +446,6 @@ class ParquetSource(ResultSource):
                 ).astype(numpy.float64)
                 if not numpy.isfinite(values).all():
                     cells = values.astype(object)
-                    cells[numpy.isnan(values)] = None
                     for column in range(values.shape[1]):  # a null reads as NaN: name it
                         nulls = batch.column(column).is_null().to_numpy(zero_copy_only=False)
                         cells[nulls, column] = ""
