@@ -181,10 +181,11 @@ def test_a_pair_whose_csv_changed_is_refused_after_the_last_block(tmp_path):
 
 MEASURE = textwrap.dedent(
     """
-    import resource, sys
+    import sys
     from mechfmu.check import check_paths
+    from mechfmu.tools.bench.big_files import peak_mb
     run = check_paths(sys.argv[1], sys.argv[2], block_bytes=int(sys.argv[3]))
-    print(run.exit_code, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+    print(run.exit_code, int(peak_mb() * 1024))
     """
 )
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from . import BENCHMARKS, FULL, QUICK, Settings
 from . import animation, dynamic_scenes, effects, floor, growth, master_overhead, model_cost
-from . import sweep, timing
+from . import big_files, sweep, timing
 from .report import machine, machine_line, markdown_table, write_outputs
 from argparse import Namespace
 from typing import Any
@@ -34,6 +34,7 @@ def settings_for(args: Namespace) -> Settings:
         chosen.growth_base_s,
         chosen.animation_s,
         chosen.animation_fps,
+        chosen.big_file_sizes_mb,
     )
 
 
@@ -88,6 +89,7 @@ def run_benchmarks(
             settings.animation_s,
             settings.animation_fps,
         ),
+        "big_files": lambda: big_files.measure(settings.big_file_sizes_mb),
     }
     return [row for name in names for row in measures[name]()]
 
