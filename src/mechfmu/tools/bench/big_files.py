@@ -57,7 +57,7 @@ def write_big_result(path: Path, size_bytes: int, columns: int = 6, seed: int = 
 CHECK = textwrap.dedent(
     """
     import json, sys, time
-from mechfmu.tools.bench.big_files import peak_mb
+    from mechfmu.tools.bench.big_files import peak_mb
     from mechfmu.check import check_paths
     started = time.process_time()
     run = check_paths(sys.argv[1], sys.argv[2], method=sys.argv[3] or None)
@@ -73,7 +73,7 @@ from mechfmu.tools.bench.big_files import peak_mb
 READ = textwrap.dedent(
     """
     import json, sys, time
-from mechfmu.tools.bench.big_files import peak_mb
+    from mechfmu.tools.bench.big_files import peak_mb
     from mechfmu.io import read_result
     started = time.process_time()
     frame = read_result(sys.argv[1])
