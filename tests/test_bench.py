@@ -69,6 +69,25 @@ EXPECTED = {
     ],
     # --quick plays 1 s at 10 frames/s; the MP4 with the video extra (in the test extra)
     "animation": [f"four_bar_crank_rocker, 1 s at 10 frames/s: {kind}" for kind in ("GIF", "MP4")],
+    # --quick: result files of 1 and 5 MB, sweeps of 1e3 and 1e4 points
+    "big_files": [
+        *(
+            f"check {case}: {what}"
+            for case in (
+                "1 MB pair (pointwise)",
+                "5 MB pair (pointwise)",
+                "5 MB pair (tube)",
+                "5 MB pair, last line cut",
+            )
+            for what in ("peak resident", "throughput")
+        ),
+        *(
+            f"5 MB result: {what}"
+            for what in ("CSV size", "Parquet size", "read_result CSV", "read_result Parquet")
+        ),
+        "sweep of 1000 points: peak resident",
+        "sweep of 10000 points: peak resident",
+    ],
 }
 # Differences of two medians (wall - FMI time, intercept of the per-step line): on a busy
 # machine noise can push them to or below zero, so they are only required to be finite.
@@ -145,7 +164,7 @@ def test_times_finite_and_positive(bench):
     for record in records:
         value = float(record["value"])
         assert math.isfinite(value), record
-        if record["benchmark"] == "sweep":  # one sweep per worker count
+        if record["benchmark"] in ("sweep", "big_files"):  # measured once (big files: a child)
             assert int(record["repeats"]) == 1 and value > 0.0, record
             continue
         assert int(record["repeats"]) == 2

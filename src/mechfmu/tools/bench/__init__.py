@@ -34,6 +34,7 @@ class Settings:
     animation_s: float = 10.0  # simulated time the animation benchmark plays
     animation_fps: float = 30.0  # its frames per second
     big_file_sizes_mb: tuple = (20, 200, 2000)  # result files checked by big_files
+    big_sweep_points: tuple = (1_000, 100_000)  # sweeps whose machinery big_files measures
 
 
 FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
@@ -48,5 +49,6 @@ QUICK = Settings(
     growth_base_s=0.25,
     animation_s=1.0,
     animation_fps=10.0,
-    big_file_sizes_mb=(2, 20),
+    big_file_sizes_mb=(1, 5),
+    big_sweep_points=(1_000, 10_000),
 )

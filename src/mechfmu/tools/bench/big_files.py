@@ -8,8 +8,9 @@
   the reference a hard link to the result). The issue's targets: under 500 MB resident and
   at least 100 MB/s for the 2 GB pair. At the middle size also the tube method and a
   reference whose last line is cut.
-- Parquet against CSV: the middle size's result written as Parquet by write_result; the
-  files' sizes and read_result's CPU time for each.
+- Parquet against CSV: a result of the middle size with random values throughout (the
+  checked files repeat 997 rows, which would flatter compression), written as Parquet by
+  write_result; the files' sizes and read_result's CPU time for each.
 - A sweep's machinery at 1e3 and 1e5 points (points made in chunks, tasks fed to a runner
   whose points finish at once, every row appended to a CSV as run_sweep appends them): peak
   resident memory of a child process. It measures what grows with the number of points,
@@ -37,17 +38,30 @@ MEMORY_TARGET = Target(500.0, "<= 500 MB")  # the issue: a 2 GB pair under 500 M
 SPEED_TARGET = Target(100.0, ">= 100 MB/s", at_least=True)  # and at 100 MB/s or better
 
 
-def write_big_result(path: Path, size_bytes: int, columns: int = 6, seed: int = 33) -> Path:
+def write_big_result(
+    path: Path, size_bytes: int, columns: int = 6, seed: int = 33, fresh: bool = False
+) -> Path:
     """A result CSV of about ``size_bytes``: a strictly increasing time column and
-    ``columns`` columns of full-precision numbers (997 rows repeated: the text of a real
-    result, written fast)."""
+    ``columns`` columns of full-precision numbers: 997 rows repeated (the text of a real
+    result, written fast), or with ``fresh`` new random rows throughout (what compression
+    meets in a real result; slower to write)."""
     rng = np.random.default_rng(seed)
-    rows = [",".join(repr(float(x)) for x in rng.standard_normal(columns)) for _ in range(997)]
+
+    def rows() -> list[str]:
+        return [
+            ",".join(repr(float(x)) for x in row) for row in rng.standard_normal((997, columns))
+        ]
+
+    template = rows()
     with open(path, "w", encoding="utf-8") as handle:
         handle.write("time," + ",".join(f"part.signal_{k}" for k in range(columns)) + "\n")
         written = first = 0
         while written < size_bytes:
-            text = "".join(f"{j}e-3,{rows[j % 997]}\n" for j in range(first, first + 50_000))
+            chunk = [rows() if fresh else template for _ in range(50)]
+            text = "".join(
+                f"{j}e-3,{chunk[(j - first) // 997 % 50][j % 997]}\n"
+                for j in range(first, first + 50_000)
+            )
             handle.write(text)
             written += len(text)
             first += 50_000
@@ -190,11 +204,11 @@ def _check_rows(folder: Path, size_mb: int, label: str, method: str = "") -> lis
 def _parquet_rows(folder: Path, size_mb: int) -> list[Row]:
     from ...io import read_result, write_result
 
-    csv_path = folder / f"result_{size_mb}.csv"
+    csv_path = write_big_result(folder / f"fresh_{size_mb}.csv", size_mb * MB, fresh=True)
     parquet_path = write_result(read_result(csv_path), folder / f"copy_{size_mb}.parquet")
     csv_read = _child(READ, str(csv_path))
     parquet_read = _child(READ, str(parquet_path))
-    note = f"{csv_read['rows']} rows x 7 columns"
+    note = f"{csv_read['rows']} rows x 7 columns, random values (no row repeated)"
     return [
         Row(BENCHMARK, f"{size_mb} MB result: CSV size", csv_path.stat().st_size / MB, "MB", 1),
         Row(
@@ -224,10 +238,12 @@ def _parquet_rows(folder: Path, size_mb: int) -> list[Row]:
     ]
 
 
-def measure(sizes: tuple[int, ...] = FULL_SIZES_MB) -> list[Row]:
+def measure(
+    sizes: tuple[int, ...] = FULL_SIZES_MB, sweep_points: tuple[int, ...] = SWEEP_POINTS
+) -> list[Row]:
     """The rows (see the module docstring) for result files of ``sizes`` MB (the second
-    also for the tube, Parquet and a cut line); files in a temporary folder, removed
-    after."""
+    also for the tube, Parquet and a cut line) and sweeps of ``sweep_points``; files in a
+    temporary folder, removed after."""
     rows: list[Row] = []
     with tempfile.TemporaryDirectory(prefix="mechfmu_bench_big_") as name:
         folder = Path(name)
@@ -247,7 +263,7 @@ def measure(sizes: tuple[int, ...] = FULL_SIZES_MB) -> list[Row]:
                 rows += _check_rows(folder, size, f"{size} MB pair, last line cut")
             for path in folder.iterdir():
                 path.unlink()
-        for points in SWEEP_POINTS:
+        for points in sweep_points:
             found = _child(SWEEP, str(points), str(folder / "sweep.csv"))
             rows.append(
                 Row(

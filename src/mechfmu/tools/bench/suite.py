@@ -35,6 +35,7 @@ def settings_for(args: Namespace) -> Settings:
         chosen.animation_s,
         chosen.animation_fps,
         chosen.big_file_sizes_mb,
+        chosen.big_sweep_points,
     )
 
 
@@ -89,7 +90,9 @@ def run_benchmarks(
             settings.animation_s,
             settings.animation_fps,
         ),
-        "big_files": lambda: big_files.measure(settings.big_file_sizes_mb),
+        "big_files": lambda: big_files.measure(
+            settings.big_file_sizes_mb, settings.big_sweep_points
+        ),
     }
     return [row for name in names for row in measures[name]()]
 
