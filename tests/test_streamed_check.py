@@ -104,7 +104,7 @@ def test_files_compared_block_by_block_give_what_the_whole_arrays_give(
     streamed = compare(result_path, reference_path, block_bytes=block, **options)
     same(streamed, whole)
     # a Parquet result, read by record batches of about block / 160 rows, likewise
-    parquet_path = write_result(result, tmp_path / "result.parquet")
+    parquet_path = write_result(result, tmp_path / "columnar.parquet")  # its own JSON
     same(compare(parquet_path, reference_path, block_bytes=block * 160, **options), whole)
     # and the frames read back, whole and by blocks, are the frames written
     pd.testing.assert_frame_equal(read_result(result_path, block_bytes=block), result)

@@ -163,9 +163,10 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
 def parquet_pair(path: Path, frame: pandas.DataFrame, meta: dict[str, Any]) -> dict[Path, Any]:
     """The contents of a Parquet result and its JSON for atomic_write_all, JSON first: a
     ``time`` column then one float64 column per variable (pyarrow, compressed by its
-    default codec), and ``meta`` with a ``run_id`` and the file's ``parquet_bytes`` and
-    ``parquet_sha256`` (what read_result checks, as ``csv_bytes``/``csv_sha256`` for a CSV).
-    ResultFileError without pyarrow."""
+    default codec), and ``meta`` with a ``run_id``, ``"format": "parquet"`` and the file's
+    size and SHA-256 under the names a CSV's have (``csv_bytes``, ``csv_sha256``: what
+    read_result checks, as for a run's ``--format parquet``). ResultFileError without
+    pyarrow."""
     try:
         import pyarrow
         import pyarrow.parquet
@@ -180,8 +181,9 @@ def parquet_pair(path: Path, frame: pandas.DataFrame, meta: dict[str, Any]) -> d
     data = sink.getvalue()
     sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
     sealed["run_id"] = meta.get("run_id") or new_run_id()
-    sealed["parquet_bytes"] = len(data)
-    sealed["parquet_sha256"] = hashlib.sha256(data).hexdigest()
+    sealed["format"] = "parquet"
+    sealed["csv_bytes"] = len(data)
+    sealed["csv_sha256"] = hashlib.sha256(data).hexdigest()
     return {companion_json(path): json_text(sealed), path: data}
 
 

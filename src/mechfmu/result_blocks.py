@@ -252,17 +252,10 @@ def metadata(path: Path, found: tuple[int, str] | None = None, pair: bool = True
 
 
 def check_pair(path: Path, meta: dict, found: tuple[int, str] | None = None) -> None:
-    """ResultFileError unless the result file at ``path`` is the one ``meta`` (its JSON)
-    describes: ``csv_bytes``/``csv_sha256`` for a CSV, ``parquet_bytes``/``parquet_sha256``
-    for a Parquet file."""
-    kind = "parquet" if path.suffix == ".parquet" else "csv"
-    keys = {f"{kind}_bytes": "csv_bytes", f"{kind}_sha256": "csv_sha256"}
-    described = {keys[key]: meta[key] for key in keys if key in meta}
-    if kind == "parquet":
-        described["run_id"] = meta.get("run_id")
-    else:
-        described = meta
-    problem = pair_problem(path, described, companion_json(path), found)
+    """ResultFileError unless the result file at ``path`` (CSV or Parquet) is the one
+    ``meta`` (its JSON) describes by ``csv_bytes`` and ``csv_sha256`` (the names hold for
+    a Parquet file too: its JSON says ``"format": "parquet"``)."""
+    problem = pair_problem(path, meta, companion_json(path), found)
     if problem:
         raise ResultFileError(problem)
 

@@ -51,6 +51,9 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .interrupt import InterruptGuard
     from .scene import ComponentSpec, Connection, Scene
 
+MAX_LOG_MESSAGES = 10_000  # FMU log messages a run keeps (then only its problems)
+CHUNK_ROWS = 4096  # rows a run given a sink hands over at once (memory: CHUNK_ROWS rows)
+FLUSH_SECONDS = 1.0  # ... or after this long (s, wall clock): a slow run's file keeps up
 EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.runtime.fmi.slave)
 # how a model marks an input it reads only in one configuration ("Only with drive = camshaft:
 # ..."; mechfmu.runtime.fmi.declarations.only_with): unfed, it is no mistake in the others
@@ -94,13 +97,17 @@ class SimulationInterrupted(SimulationError):
         RuntimeError.__init__(
             self,
             f"interrupted by {signal_name(signum)} at t = {time!r} s "
-            f"after {max(len(result.times) - 1, 0)} step(s)",
+            f"after {max(result.rows - 1, 0)} step(s)",
         )
 
 
 @dataclass
 class Result:
-    """Recorded signals of one run: ``columns`` maps 'component.variable' to values."""
+    """Recorded signals of one run: ``columns`` maps 'component.variable' to values.
+
+    ``rows``: the communication points recorded (the first included). A run given a
+    ``sink`` that does not keep its rows (``Simulation.run(keep=False)``) has empty
+    ``times`` and ``columns``: its rows went to the sink (a result file) as they came."""
 
     scene: Any
     times: list = field(default_factory=list)
@@ -109,6 +116,8 @@ class Result:
     meta: dict = field(default_factory=dict)
     log: list = field(default_factory=list)
     partial: bool = False
+    rows: int = 0
+    kept: bool = True  # whether times and columns hold every row
 
 
 def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
@@ -171,6 +180,7 @@ class LogBook:
 
     def __init__(self) -> None:
         self.messages: list[Any] = []
+        self.dropped = 0  # messages not kept (record)
         self.key = LogBook._next_key
         LogBook._next_key += 1
         LogBook._books[self.key] = self
@@ -187,9 +197,16 @@ class LogBook:
             pass
 
     def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
+        """Keep one message; past MAX_LOG_MESSAGES only the problems (error, fatal,
+        discard) are kept and the others counted in ``dropped`` (a long run that warns at
+        every step stays in bounded memory)."""
+
         def text(raw: Any):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
 
+        if len(self.messages) >= MAX_LOG_MESSAGES and status < _DISCARD:
+            self.dropped += 1
+            return
         self.messages.append(
             {
                 "instance": text(instance),
@@ -558,7 +575,14 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls: bool = False, instances: Any = None, stop: Any = None) -> Result:
+    def run(
+        self,
+        time_fmi_calls: bool = False,
+        instances: Any = None,
+        stop: Any = None,
+        sink: Any = None,
+        keep: bool = True,
+    ) -> Result:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -570,6 +594,12 @@ class Simulation:
         ``stop``: an InterruptGuard (mechfmu.cosim.interrupt) asked before each component's
         instantiation and between steps; when it has received a signal the run stops there
         with SimulationInterrupted (the rows so far, every instance freed).
+        ``sink``: where the recorded rows go as the run makes them (a RowSink of
+        mechfmu.cosim.results: ``begin(names)``, then ``rows(times, columns)`` per chunk
+        of at most CHUNK_ROWS rows or FLUSH_SECONDS, also for the rows made before a
+        failure); ``keep``: whether the Result holds every row too (False: memory bounded
+        whatever the run's length; ``result.kept`` says which).
+        The time points are computed as the run goes (scene.time), never listed.
         """
         scene = self.scene
         result = Result(
@@ -583,10 +613,12 @@ class Simulation:
             instances = Instances()
         logbook = instances.logbook
         logbook.messages = result.log = []
+        logbook.dropped = 0
+        result.kept = keep or sink is None
         instantiated = []
         started = clock.perf_counter()
         current = (None, scene.start_time)
-        recorders = []
+        plan = None
         stop = stop or _NEVER
         try:
             for name in self.order:
@@ -611,17 +643,20 @@ class Simulation:
             for connection in self.lagged:  # their sources initialise after their targets
                 self._set_from_source(connection)
             timer = CallTimer() if time_fmi_calls else None
-            plan = _StepPlan(self, timer)
-            recorders = plan.recorders
+            plan = _StepPlan(self, timer, sink, result.kept)
+            if sink is not None:
+                sink.begin([name for name, _, _ in self.recorded])
             current = (None, scene.start_time)
             if stop.requested:
                 raise _Stopped(scene.start_time)
             plan.start(result, scene.start_time)
-            loop_started = clock.perf_counter()
+            loop_started, loop_cpu_started = clock.perf_counter(), clock.process_time()
             try:
                 plan.run(result, scene, stop)
             finally:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
+                # the process's CPU time: the loop's work whatever else runs on the machine
+                result.meta["loop_cpu_time_s"] = clock.process_time() - loop_cpu_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
         except _InstantiationFailed as failure:
@@ -653,9 +688,14 @@ class Simulation:
             message = logbook.last_problem(name) if name else str(error)
             raise SimulationError(name, at, f"{message} [{error}]", result) from None
         finally:
-            _StepPlan.collect(recorders, result)
+            if plan is not None:
+                plan.drain(result)  # the rows not yet handed over (also after a failure)
+                if result.kept:
+                    plan.collect(result)
             result.meta["wall_time_s"] = clock.perf_counter() - started
-            result.meta["steps"] = max(len(result.times) - 1, 0)
+            result.meta["steps"] = max(result.rows - 1, 0)
+            if logbook.dropped:
+                result.meta["log_dropped"] = logbook.dropped
             for component in instantiated:
                 instances.release(component)
                 component.slave = None
@@ -843,7 +883,18 @@ class _StepPlan:
     inputs are set from the buffers of the previous point before any component steps.
     """
 
-    def __init__(self, simulation: Simulation, timer: CallTimer | None) -> None:
+    def __init__(
+        self,
+        simulation: Simulation,
+        timer: CallTimer | None,
+        sink: Any = None,
+        keep: bool = True,
+    ) -> None:
+        self.sink, self.keep = sink, keep
+        self.times = array("d")  # the recorded rows' times not yet let go (keep: all)
+        self.handed = 0  # of them, rows already given to the sink
+        self.let_go = 0  # rows given to the sink and dropped (keep False)
+        self.last_drain = clock.perf_counter()
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
         members: dict[
@@ -869,6 +920,11 @@ class _StepPlan:
             for key in list(groups) + [k for k in recorded if k not in groups]
         }
         self.recorders = [self.outputs[key] for key in recorded]
+        # each recorded name's (recorder, position in its rows) in the recorded order
+        self.layout = [
+            (self.outputs[(component.name, variable.type)], full_name)
+            for full_name, component, variable in simulation.recorded
+        ]
         self.steps = []  # (name, doStep, instance, [input sets], [output reads])
         for name in simulation.order:
             sets = [
@@ -915,13 +971,48 @@ class _StepPlan:
     def _record(self, result: Result, time: float) -> None:
         for recorder in self.recorders:
             recorder.rows.frombytes(recorder.raw)
-        result.times.append(time)
+        self.times.append(time)
+        result.rows = self.let_go + len(self.times)
+
+    def drain(self, result: Result) -> None:
+        """Give the rows recorded since the last drain to the sink (each column as an
+        array, in the recorded order) and, unless the run keeps its rows, let them go."""
+        result.rows = self.let_go + len(self.times)
+        self.last_drain = clock.perf_counter()
+        if self.sink is None:
+            return
+        rows = min(
+            [len(self.times)] + [len(r.rows) // r.call.count for r in self.recorders]
+        )  # complete rows (a failed step records none)
+        first = self.handed
+        if rows > first:
+            self.sink.rows(
+                self.times[first:rows],
+                [
+                    recorder.rows[
+                        first * recorder.call.count + recorder.positions[name] : rows
+                        * recorder.call.count : recorder.call.count
+                    ]
+                    for recorder, name in self.layout
+                ],
+            )
+        if self.keep:
+            self.handed = rows
+            return
+        self.let_go += rows
+        del self.times[:rows]
+        for recorder in self.recorders:
+            del recorder.rows[: rows * recorder.call.count]
+        self.handed = 0
 
     def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop = _NEVER) -> None:
-        """Step from start_time to stop_time, recording after every communication step;
-        before each step, stop with _Stopped if ``stop`` has been requested."""
-        times = [scene.time(index) for index in range(scene.steps + 1)]
+        """Step from start_time to stop_time, recording after every communication step
+        (each time point computed as it comes: scene.time, no list of them); before each
+        step, stop with _Stopped if ``stop`` has been requested; with a sink, drain every
+        CHUNK_ROWS rows or FLUSH_SECONDS."""
         put_changed, jacobi = self._set, self.jacobi
+        time_of, last_index = scene.time, scene.steps
+        draining, now = self.sink is not None, clock.perf_counter
         # Everything a step calls, unpacked once: (name, doStep, instance, input sets,
         # output reads as (function, instance, references, count, buffer, call)).
         steps = [
@@ -935,12 +1026,13 @@ class _StepPlan:
             for name, do_step, instance, sets, reads in self.steps
         ]
         rows = [(recorder.rows.frombytes, recorder.raw) for recorder in self.recorders]
-        append_time = result.times.append
-        for index in range(1, len(times)):
-            start = times[index - 1]
+        append_time, times = self.times.append, self.times
+        end = time_of(0)
+        for index in range(1, last_index + 1):
+            start = end
             if stop.requested:
                 raise _Stopped(start)
-            end = times[index]
+            end = time_of(index)
             size = end - start
             if jacobi:  # every input from the previous point's outputs, then every step
                 for _, _, _, sets, _ in steps:
@@ -960,14 +1052,19 @@ class _StepPlan:
             for add, raw in rows:  # _record, inline
                 add(raw)
             append_time(end)
+            if draining and (
+                len(times) - self.handed >= CHUNK_ROWS or now() - self.last_drain >= FLUSH_SECONDS
+            ):
+                self.drain(result)
+        result.rows = self.let_go + len(times)
 
-    @staticmethod
-    def collect(recorders: list[_Outputs], result: Result) -> None:
-        """Copy the recorded rows into result.columns (also after a failed run)."""
-        if not recorders:
-            return
-        rows = min(len(recorder.rows) // recorder.call.count for recorder in recorders)
-        del result.times[rows:]
+    def collect(self, result: Result) -> None:
+        """Copy the recorded rows into result.times and result.columns (also after a
+        failed run)."""
+        recorders = self.recorders
+        rows = min([len(self.times)] + [len(r.rows) // r.call.count for r in recorders])
+        result.times = [float(time) for time in self.times[:rows]]
+        result.rows = rows
         for recorder in recorders:
             width = recorder.call.count
             for name, position in recorder.positions.items():
@@ -977,6 +1074,7 @@ class _StepPlan:
 
 
 _WARNING = 1  # fmi2Warning: the worst status a step may return and still count as done
+_DISCARD = 2  # fmi2Discard: from here on a status is a problem (LogBook keeps it)
 
 
 def parameter_values(

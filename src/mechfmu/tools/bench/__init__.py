@@ -16,6 +16,7 @@ BENCHMARKS = (
     "dynamic_scenes",
     "growth",
     "animation",
+    "long_runs",
     "big_files",
 )
 
@@ -33,6 +34,7 @@ class Settings:
     growth_base_s: float = 3.0  # the growth benchmark's 1x stop time (gear_retraction's)
     animation_s: float = 10.0  # simulated time the animation benchmark plays
     animation_fps: float = 30.0  # its frames per second
+    long_base_steps: int = 10_000  # the long-runs benchmark's 1x (then 10x, 100x)
     big_file_sizes_mb: tuple = (20, 200, 2000)  # result files checked by big_files
     big_sweep_points: tuple = (1_000, 100_000)  # sweeps whose machinery big_files measures
 
@@ -49,6 +51,7 @@ QUICK = Settings(
     growth_base_s=0.25,
     animation_s=1.0,
     animation_fps=10.0,
+    long_base_steps=500,
     big_file_sizes_mb=(1, 5),
     big_sweep_points=(1_000, 10_000),
 )
