@@ -85,6 +85,8 @@ LAYERS = {
     "test_result_pairs.py": "unit",
     "test_input_fuzz.py": "fmu",
     "test_compare.py": "unit",
+    "test_streamed_check.py": "unit",
+    "test_sweep_scale.py": "fmu",
     "test_import_graph.py": "unit",
     "test_tolerances.py": "unit",
     "test_api.py": "fmu",

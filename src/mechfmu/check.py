@@ -133,11 +133,22 @@ class CheckRun:
         ]
 
 
+def _results(folder: Path) -> dict[str, Path]:
+    """The result files under ``folder`` by relative path, a Parquet file under the name of
+    the CSV it stands for (``a/b.parquet`` as ``a/b.csv``; the CSV wins where both are)."""
+    found = {}
+    for pattern in ("*.parquet", "*.csv"):
+        for path in folder.rglob(pattern):
+            if path.is_file():
+                found[path.relative_to(folder).with_suffix(".csv").as_posix()] = path
+    return found
+
+
 def _pairs(
     result: Path, reference: Path
 ) -> tuple[list[tuple[str, Path | None, Path | None]], str | None]:
-    """(relative name, result file, reference file) for every CSV file, matched by relative
-    path; and an error when the arguments cannot be compared at all."""
+    """(relative name, result file, reference file) for every CSV (or Parquet) file,
+    matched by relative path; and an error when the arguments cannot be compared at all."""
     for path, what in ((result, "result"), (reference, "reference")):
         if not path.exists():
             return [], f"{what} {path} does not exist"
@@ -147,18 +158,23 @@ def _pairs(
                 f"result {result} is a folder but reference {reference} is a file "
                 f"(give two folders, two files, or a file and a folder)"
             )
-        reference = reference / result.name  # a file against its namesake in a folder
-        return [(result.name, result, reference if reference.is_file() else None)], None
+        # a file against its namesake in a folder (a Parquet result against the CSV)
+        namesake = _results(reference).get(Path(result.name).with_suffix(".csv").as_posix())
+        return [(result.name, result, namesake)], None
     if not result.is_dir():
         return [(result.name, result, reference)], None
-    found = {p.relative_to(result).as_posix(): p for p in result.rglob("*.csv") if p.is_file()}
-    wanted = {
-        p.relative_to(reference).as_posix(): p for p in reference.rglob("*.csv") if p.is_file()
-    }
+    found, wanted = _results(result), _results(reference)
     names = sorted(set(found) | set(wanted))
     if not names:
         return [], f"no CSV file in {result} nor in {reference}"
-    return [(name, found.get(name), wanted.get(name)) for name in names], None
+    return [
+        (
+            found[name].relative_to(result).as_posix() if name in found else name,
+            found.get(name),
+            wanted.get(name),
+        )
+        for name in names
+    ], None
 
 
 def check_paths(
@@ -172,14 +188,17 @@ def check_paths(
     tolerances: Mapping[str, Tolerance] | None = None,
     interpolate: bool = False,
     ignore_extra: bool = False,
+    block_bytes: int | None = None,
 ) -> CheckRun:
     """Compare ``result`` with ``reference``: two CSV files, two folders (their CSV files,
     matched by relative path, in sub-folders too) or a file and the folder holding its
     namesake. The options are ``mechfmu.compare``'s (None: each reference's declared
     tolerances, the ``check`` of the JSON beside it, else the defaults). A reference file without a result is a
     "missing file" failure; a result without a reference is listed but not compared; a file
-    that cannot be read is a "malformed file" failure naming the line and column."""
-    from .io import ResultFileError, read_result
+    that cannot be read is a "malformed file" failure naming the line and column. Each pair
+    is read block by block (``block_bytes`` of text at a time, default 1 MiB): the memory
+    it takes does not grow with the files' size."""
+    from .io import ResultFileError
 
     options = {
         "rtol": rtol,
@@ -202,12 +221,15 @@ def check_paths(
         if reference_file is None:
             check.kind, check.problem = "no reference", f"no reference file for {result_file}"
             continue
-        try:
-            frames = read_result(result_file), read_result(reference_file)
+        try:  # both files read block by block: memory bounded whatever their size
+            check.comparison = compare_frames(
+                result_file,
+                reference_file,
+                block_bytes=block_bytes,
+                **options,  # type: ignore[arg-type]
+            )
         except ResultFileError as problem:
             check.kind, check.problem = "malformed file", str(problem)
-            continue
-        check.comparison = compare_frames(*frames, **options)  # type: ignore[arg-type]
     return CheckRun(files, options, error)
 
 

@@ -968,6 +968,20 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         help="extra attempts of a point whose worker process died, the last one alone (default: 2)",
     )
     sweep.add_argument(
+        "--max-points",
+        type=int,
+        default=None,
+        metavar="N",
+        help="refuse a sweep of more than N points before anything runs (default: 1000000)",
+    )
+    sweep.add_argument(
+        "--format",
+        choices=("csv", "parquet"),
+        default="csv",
+        help="parquet: also write sweep.parquet (the same columns, pyarrow) when the sweep "
+        "ends; sweep.csv is written as the points finish either way (default: csv)",
+    )
+    sweep.add_argument(
         "--resume",
         action="store_true",
         help="continue the stopped sweep in --out: keep its rows without an "

@@ -22,7 +22,7 @@ grid"). ``Comparison.failures`` lists the first failing sample of each failing c
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
 from os import PathLike
@@ -42,15 +42,6 @@ __all__ = ["FAILURE_COLUMNS", "KINDS", "Comparison", "compare", "parse_tolerance
 FAILURE_COLUMNS = ["column", "time", "value", "reference", "allowed", "kind"]
 KINDS = ("value", "missing column", "extra column", "time grid")
 Tolerance = float | tuple[float, float] | Mapping[str, float]
-
-
-def _ulp_margin(times: np.ndarray) -> float:
-    """How far two times that mean the same communication point may differ (s): 1e-9 of the
-    smallest interval, at least 64 ulp of the largest |time|."""
-    scale = float(np.max(np.abs(times))) if times.size else 0.0
-    steps = np.diff(times)
-    smallest = float(np.min(steps)) if steps.size else 0.0
-    return max(1e-9 * smallest, 64.0 * float(np.spacing(max(scale, 1.0))))
 
 
 def parse_tolerance(text: str) -> tuple[str, tuple[float, float | None]]:
@@ -238,6 +229,12 @@ class Comparison:
     # the reference's declared tolerances when they (or some of them) applied, else None
     declared: Check | None = field(default=None, repr=False)
     not_compared: list[str] = field(default_factory=list)  # declared compare = false
+    # (rows, last time in s) of the result; None when it has no rows
+    result_end: tuple[int, float] | None = field(default=None, repr=False)
+    # for files compared block by block (no rows kept): the same comparison of the files
+    # read whole, made when a plot needs the arrays
+    _whole: Callable[[], Comparison] | None = field(default=None, repr=False)
+    _loaded: Comparison | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
         return f"<Comparison {self}>"
@@ -255,9 +252,16 @@ class Comparison:
     def describe(self, row: Mapping[Any, Any] | pd.Series) -> str:
         """A row of ``failures`` as one line (describe_failure, with where the result's
         file ends when it is shorter than the reference)."""
-        times = self.result.index
-        end = (len(times), float(times[-1])) if len(times) else None
-        return describe_failure(row, end)
+        return describe_failure(row, self.result_end)
+
+    def _plotted(self) -> Comparison:
+        """The comparison whose arrays the plots draw: itself, or (files compared block by
+        block) the files' comparison read whole, made once."""
+        if self._whole is None:
+            return self
+        if self._loaded is None:
+            self._loaded = self._whole()
+        return self._loaded
 
     def first_failure(self) -> str:
         """The first row of ``failures`` as one line ('' when everything passed)."""
@@ -306,6 +310,8 @@ class Comparison:
         """Draw ``column`` on a matplotlib Axes: the band (pointwise) or tube, the reference,
         the result and the first failure (a red cross). ``around``: only the samples within
         that many seconds of time ``at`` (default: the first failure, else the start)."""
+        if self._whole is not None:
+            return self._plotted().draw(axis, column, around=around, at=at, legend=legend)
         data = self._columns[column]
         reference = self.reference[column]
         ref_times, ref_values = reference.index.to_numpy(), reference.to_numpy()
@@ -369,7 +375,10 @@ class Comparison:
         """A matplotlib Figure, one row per column (default: the failing ones, else all; at
         most ``max_columns``): the reference, the result, the tolerance band (pointwise) or
         tube, the first failure marked; beside a failing column, the same ``zoom`` samples
-        either side of its first failure (0: no zoom)."""
+        either side of its first failure (0: no zoom). Files compared block by block are
+        read whole for it."""
+        if self._whole is not None:
+            return self._plotted().plot(columns, max_columns=max_columns, zoom=zoom)
         from matplotlib.figure import Figure
 
         if columns is None:
@@ -470,33 +479,6 @@ def _grid_failure(value: float, reference: float, allowed: float) -> dict[str, A
     }
 
 
-def _check_grid(
-    times: np.ndarray, ref_times: np.ndarray, margin: float, same_grid: bool
-) -> dict[str, Any] | None:
-    """The first time-grid failure (a failures row) or None. ``same_grid``: the times must
-    be the reference's (within ``margin``); otherwise the result must start and end where
-    the reference does, within ``margin``."""
-    if same_grid:
-        n = min(times.size, ref_times.size)
-        differ = np.abs(times[:n] - ref_times[:n]) > margin
-        if differ.any():
-            i = int(np.argmax(differ))
-            return _grid_failure(float(times[i]), float(ref_times[i]), margin)
-        if times.size != ref_times.size:
-            longer = times.size > ref_times.size
-            return _grid_failure(
-                float(times[n]) if longer else math.nan,
-                math.nan if longer else float(ref_times[n]),
-                margin,
-            )
-        return None
-    if abs(times[0] - ref_times[0]) > margin:
-        return _grid_failure(float(times[0]), float(ref_times[0]), margin)
-    if abs(times[-1] - ref_times[-1]) > margin:
-        return _grid_failure(float(times[-1]), float(ref_times[-1]), margin)
-    return None
-
-
 def compare(
     result: pd.DataFrame | str | PathLike,
     reference: pd.DataFrame | str | PathLike,
@@ -508,6 +490,7 @@ def compare(
     tolerances: Mapping[str, Tolerance] | None = None,
     interpolate: bool = False,
     ignore_extra: bool = False,
+    block_bytes: int | None = None,
 ) -> Comparison:
     """Compare ``result`` with ``reference``, column by column.
 
@@ -521,7 +504,10 @@ def compare(
 
     Args:
         result: a DataFrame indexed by time in s (``mechfmu.read_result``,
-            ``mechfmu.simulate``; a ``time`` column works too) or the path of a result CSV.
+            ``mechfmu.simulate``; a ``time`` column works too) or the path of a result CSV
+            (or ``.parquet``), read block by block: a file of any size is compared in the
+            memory of a few blocks (``block_bytes`` of text each), with the outcome the
+            whole file would give.
         reference: the same, for the reference.
         rtol: relative tolerance: the value band is ``atol + rtol * |reference|`` (None:
             the reference's declared one, else 1e-9).
@@ -537,6 +523,7 @@ def compare(
             times instead of requiring the same time grid (the first and last times must
             still agree).
         ignore_extra: columns of the result that the reference lacks are not failures.
+        block_bytes: the text read at a time from a file (default 1 MiB).
 
     Returns:
         A Comparison: ``passed``; ``failures`` with columns ``column, time, value,
@@ -557,170 +544,555 @@ def compare(
     for name, value in (("rtol", rtol), ("atol", atol), ("time_tolerance", time_tolerance)):
         if value is not None and not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-    result_frame = _frame(result, "result")
-    reference_frame = _frame(reference, "reference")
-    declared = declared_check(reference_frame)
-    check = declared or Check()
-    given = {"rtol": rtol, "atol": atol, "method": method, "time_tolerance": time_tolerance}
-    column_tolerances: dict[str, Tolerance] = {
-        pattern: {key: value for key, value in entry.items() if given[key] is None}
-        for pattern, entry in check.tolerances().items()
+    options: dict[str, Any] = {
+        "rtol": rtol,
+        "atol": atol,
+        "method": method,
+        "time_tolerance": time_tolerance,
+        "tolerances": tolerances,
+        "interpolate": interpolate,
+        "ignore_extra": ignore_extra,
     }
-    # whether any of the declaration applied (a tolerance the caller left to it)
-    applied = rtol is None or atol is None or method is None or any(column_tolerances.values())
-    column_tolerances.update(tolerances or {})
-    tolerances = column_tolerances
-    rtol = check.rtol if rtol is None else rtol
-    atol = check.atol if atol is None else atol
-    if method is None:
-        method = check.method  # type: ignore[assignment]
-        if time_tolerance is None:
-            time_tolerance = check.time_tolerance
-    not_compared = check.not_compared
-    times = result_frame.index.to_numpy(dtype=float)
-    ref_times = reference_frame.index.to_numpy(dtype=float)
-    rows: list[dict[str, Any]] = []
-    missing = [c for c in reference_frame.columns if c not in result_frame.columns]
-    rows += [{"column": c, "kind": "missing column"} for c in missing]
-    if not ignore_extra:
-        rows += [
-            {"column": c, "kind": "extra column"}
-            for c in result_frame.columns
-            if c not in reference_frame.columns
-            and not any(fnmatchcase(c, pattern) for pattern in not_compared)
-        ]
-    shared = [
-        c
-        for c in reference_frame.columns
-        if c in result_frame.columns and not any(fnmatchcase(c, p) for p in not_compared)
-    ]
-    margin = _ulp_margin(ref_times)
-    dt = None
-    if method == "tube":
-        steps = np.diff(ref_times)
-        dt = (
-            float(time_tolerance)
-            if time_tolerance is not None
-            else float(steps.max())
-            if steps.size
-            else 0.0
+    result_source = _source(result, "result", block_bytes)
+    reference_source = _source(reference, "reference", block_bytes)
+    settings = _Settings.resolve(reference_source, options)
+    comparison = _Engine(result_source, reference_source, settings).run()
+    if isinstance(result_source, _FrameSource) and isinstance(reference_source, _FrameSource):
+        return comparison
+    comparison._whole = lambda: compare(  # the plots of a streamed comparison read the files
+        _frame(result, "result"), _frame(reference, "reference"), **options
+    )
+    return comparison
+
+
+# --- the comparison, block by block ---------------------------------------------------------
+#
+# One route for DataFrames and files: a DataFrame is a source of one block, a file a source of
+# many (mechfmu.result_blocks). Everything a summary holds is a running quantity (a count, a
+# first failure, a maximum and where it is first reached), so a comparison made block by block
+# gives what the whole arrays give, to the bit; the reference is held only over the result
+# block's span (the tube's window and one sample either side).
+
+
+class _FrameSource:
+    """A DataFrame as a source of one block."""
+
+    def __init__(self, frame: pd.DataFrame) -> None:
+        self.frame = frame
+        self.columns = list(frame.columns)
+        self.attrs = frame.attrs
+
+    def blocks(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        yield self.frame.index.to_numpy(dtype=float), self.frame.to_numpy(dtype=float)
+
+
+class _FileSource:
+    """A result file (mechfmu.result_blocks) as a source of blocks."""
+
+    def __init__(self, path: str | PathLike, block_bytes: int | None) -> None:
+        from .result_blocks import BLOCK_BYTES, open_result
+
+        self.source = open_result(path, block_bytes or BLOCK_BYTES)
+        self.columns = self.source.columns
+        self.attrs = self.source.attrs
+        self.path = path
+
+    def blocks(self) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        for _, values in self.source.blocks():
+            yield values[:, 0], values[:, 1:]
+
+
+_Source = _FrameSource | _FileSource
+
+
+def _source(data: Any, what: str, block_bytes: int | None) -> _Source:
+    if isinstance(data, str | PathLike):
+        return _FileSource(data, block_bytes)
+    return _FrameSource(_frame(data, what))
+
+
+@dataclass
+class _Settings:
+    """compare's options resolved against the reference's declaration."""
+
+    rtol: float
+    atol: float
+    method: str
+    time_tolerance: float | None
+    tolerances: Mapping[str, Tolerance]
+    interpolate: bool
+    ignore_extra: bool
+    not_compared: list[str]
+    declared: Check | None
+
+    @classmethod
+    def resolve(cls, reference: _Source, options: dict[str, Any]) -> _Settings:
+        declared = declared_check(reference)  # type: ignore[arg-type]
+        check = declared or Check()
+        given = {key: options[key] for key in ("rtol", "atol", "method", "time_tolerance")}
+        column_tolerances: dict[str, Tolerance] = {
+            pattern: {key: value for key, value in entry.items() if given[key] is None}
+            for pattern, entry in check.tolerances().items()
+        }
+        # whether any of the declaration applied (a tolerance the caller left to it)
+        applied = (
+            given["rtol"] is None
+            or given["atol"] is None
+            or given["method"] is None
+            or any(column_tolerances.values())
         )
-        grid = _check_grid(times, ref_times, dt + margin, same_grid=False)
-    else:
-        grid = _check_grid(times, ref_times, margin, same_grid=not interpolate)
-    columns: dict[str, _Column] = {}
-    summary_rows = []
-    if grid is not None:
-        rows.append(grid)
-        shared = []
-    windows = _Windows(times, ref_times, dt) if dt is not None and shared else None
-    for name in shared:
-        column_rtol, column_atol = _tolerance(name, rtol, atol, tolerances)
-        values = result_frame[name].to_numpy(dtype=float)
-        ref_values = reference_frame[name].to_numpy(dtype=float)
-        if windows is not None:
-            low, high, nan = windows.bounds(ref_values)
-            lower = low - (column_atol + column_rtol * np.abs(low))
-            upper = high + (column_atol + column_rtol * np.abs(high))
-            above = values > high
-            nearest = np.where(above, high, low)
-            allowed = column_atol + column_rtol * np.abs(nearest)
-            deviation = np.where(above, values - high, np.where(values < low, low - values, 0.0))
-            passing = (
-                ((lower <= values) & (values <= upper) & ~nan)
-                | (np.isnan(values) & nan)
-                | (values == low)
-                | (values == high)
-            )
-        else:
-            expected = np.interp(times, ref_times, ref_values) if interpolate else ref_values
-            allowed = column_atol + column_rtol * np.abs(expected)
-            deviation = np.abs(values - expected)
-            nearest = expected
-            lower, upper = expected - allowed, expected + allowed
-            passing = (
-                ((deviation <= allowed) & np.isfinite(expected))
-                | (values == expected)
-                | (np.isnan(values) & np.isnan(expected))
-            )
+        column_tolerances.update(options["tolerances"] or {})
+        method, time_tolerance = given["method"], given["time_tolerance"]
+        if method is None:
+            method = check.method
+            if time_tolerance is None:
+                time_tolerance = check.time_tolerance
+        return cls(
+            rtol=check.rtol if given["rtol"] is None else given["rtol"],
+            atol=check.atol if given["atol"] is None else given["atol"],
+            method=str(method),
+            time_tolerance=time_tolerance,
+            tolerances=column_tolerances,
+            interpolate=bool(options["interpolate"]),
+            ignore_extra=bool(options["ignore_extra"]),
+            not_compared=list(check.not_compared),
+            declared=declared if declared is not None and applied else None,
+        )
+
+
+class _Reference:
+    """The reference's rows as the comparison walks the result: the shared columns of the
+    rows it needs now, and running figures of every row read (count, first and last time,
+    smallest step, each column's peak |value|)."""
+
+    def __init__(self, source: _Source, indices: list[int]) -> None:
+        self.blocks = source.blocks()
+        self.indices = indices
+        self.times = np.empty(0)
+        self.values = np.empty((0, len(indices)))
+        self.count = 0
+        self.first = math.nan
+        self.last = math.nan
+        self.smallest_step = math.inf
+        self.peak = np.full(len(indices), -np.inf)  # nanmax |value| per column so far
+        self.finite = np.zeros(len(indices), dtype=bool)  # a finite value in the column
+        self.exhausted = False
+
+    def _pull(self) -> bool:
+        """Read the next block into the buffer; False at the end."""
+        if self.exhausted:
+            return False
+        block = next(self.blocks, None)
+        if block is None:
+            self.exhausted = True
+            return False
+        times, values = block
+        values = values[:, self.indices]
+        if times.size:
+            steps = np.diff(np.concatenate(([self.last], times)) if self.count else times)
+            if steps.size:
+                self.smallest_step = min(self.smallest_step, float(np.min(steps)))
+            if not self.count:
+                self.first = float(times[0])
+            self.last = float(times[-1])
+            self.count += times.size
+            magnitudes = np.where(np.isnan(values), -np.inf, np.abs(values))
+            self.peak = np.maximum(self.peak, magnitudes.max(axis=0))
+            self.finite |= np.isfinite(values).any(axis=0)
+        self.times = np.concatenate((self.times, times))
+        self.values = np.concatenate((self.values, values))
+        return True
+
+    def take(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
+        """The next ``rows`` rows (fewer at the end), removed from the buffer."""
+        while self.times.size < rows and self._pull():
+            pass
+        times, values = self.times[:rows], self.values[:rows]
+        self.times, self.values = self.times[rows:], self.values[rows:]
+        return times, values
+
+    def cover(self, start: float, stop: float) -> tuple[np.ndarray, np.ndarray]:
+        """The rows from the last at or before ``start`` (else the first) to the first at
+        or after ``stop`` (else the last); the rows before them leave the buffer."""
+        while (not self.times.size or self.times[-1] < stop) and self._pull():
+            pass
+        first = max(int(np.searchsorted(self.times, start, side="right")) - 1, 0)
+        last = int(np.searchsorted(self.times, stop, side="left"))
+        self.times, self.values = self.times[first:], self.values[first:]
+        return self.times[: last - first + 1], self.values[: last - first + 1]
+
+    def drain(self) -> None:
+        """Read the rest (for the figures), keeping only the first row left."""
+        while self._pull():
+            self.times, self.values = self.times[:1], self.values[:1]
+
+    def margin(self) -> float:
+        """How far two times that mean the same communication point may differ (s): 1e-9
+        of the reference's smallest step, at least 64 ulp of its largest |time|."""
+        if not self.count:
+            return 64.0 * float(np.spacing(1.0))
+        scale = max(abs(self.first), abs(self.last))
+        smallest = self.smallest_step if self.count > 1 else 0.0
+        return max(1e-9 * smallest, 64.0 * float(np.spacing(max(scale, 1.0))))
+
+
+def _largest_step(source: _Source) -> float:
+    """The reference's largest time step (s), read in one pass (0 for one sample)."""
+    largest, last = 0.0, None
+    for times, _ in source.blocks():
+        if times.size:
+            steps = np.diff(np.concatenate(([last], times)) if last is not None else times)
+            if steps.size:
+                largest = max(largest, float(steps.max()))
+            last = float(times[-1])
+    return largest
+
+
+class _GridRecords:
+    """The same-grid check, block by block: the first row where |result time - reference
+    time| exceeds a margin known only at the end. That row is a record (its difference
+    exceeds every earlier one), so only the records are kept; those under the smallest
+    margin there can be are left out."""
+
+    FLOOR = 64.0 * float(np.spacing(1.0))  # the smallest margin _ulp_margin gives
+    LIMIT = 1_000_000  # records kept at most (a grid drifting ever further away)
+
+    def __init__(self) -> None:
+        self.largest = 0.0
+        self.records: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self.kept = 0
+
+    def add(self, times: np.ndarray, ref_times: np.ndarray) -> None:
+        difference = np.abs(times - ref_times)
+        if not difference.size or not float(difference.max()) > max(self.largest, self.FLOOR):
+            return
+        before = np.maximum.accumulate(np.concatenate(([self.largest], difference)))[:-1]
+        record = (difference > before) & (difference > self.FLOOR)
+        self.largest = float(max(self.largest, difference.max()))
+        if self.kept < self.LIMIT:
+            self.records.append((difference[record], times[record], ref_times[record]))
+            self.kept += int(record.sum())
+
+    def first_beyond(self, margin: float) -> tuple[float, float] | None:
+        """(result time, reference time) of the first row beyond ``margin``, or None."""
+        for difference, times, ref_times in self.records:
+            beyond = difference > margin
+            if beyond.any():
+                i = int(np.argmax(beyond))
+                return float(times[i]), float(ref_times[i])
+        return None
+
+
+class _Stats:
+    """One column's running summary: what compare's summary row and failure row hold."""
+
+    def __init__(self) -> None:
+        self.samples = 0
+        self.failing = 0
+        self.first: dict[str, Any] | None = None
+        self.ratio = -math.inf
+        self.worst_time = math.nan
+        self.max_abs = -math.inf
+        self.max_abs_time = math.nan
+        self.any_finite = False  # a finite deviation somewhere
+        self.nan_deviation = False
+
+    def add(
+        self,
+        times: np.ndarray,
+        values: np.ndarray,
+        nearest: np.ndarray,
+        allowed: np.ndarray,
+        deviation: np.ndarray,
+        passing: np.ndarray,
+    ) -> np.ndarray:
+        """Take one block's samples in; returns their failing mask."""
         failing = ~passing
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.where(passing & ~(deviation > 0), 0.0, deviation / allowed)
         ratio = np.where(failing & ~(ratio > 1.0), np.inf, ratio)
-        columns[name] = _Column(times, values, nearest, lower, upper, allowed, failing)
-        worst = int(np.argmax(ratio)) if ratio.size else 0
-        peak = float(np.nanmax(np.abs(ref_values))) if np.isfinite(ref_values).any() else 0.0
-        max_abs = float(np.nanmax(deviation)) if np.isfinite(deviation).any() else math.nan
-        if np.isnan(deviation).any() and failing.any():
-            max_abs = math.inf if math.isnan(max_abs) else max_abs
-        summary_rows.append(
-            {
-                "column": name,
-                "samples": int(values.size),
-                "failing": int(failing.sum()),
-                "max_abs": max_abs,
-                "max_rel": max_abs / peak if peak > 0 else (0.0 if max_abs == 0 else math.inf),
-                "ratio": float(ratio[worst]) if ratio.size else 0.0,
-                "worst_time": float(times[worst]) if ratio.size else math.nan,
-                "max_abs_time": float(times[np.nanargmax(deviation)])
-                if np.isfinite(deviation).any()
-                else math.nan,
-                "rtol": column_rtol,
-                "atol": column_atol,
-            }
-        )
-        if failing.any():
-            i = int(np.argmax(failing))
-            rows.append(
-                {
-                    "column": name,
+        if not times.size:
+            return failing
+        self.samples += times.size
+        worst = int(np.argmax(ratio))
+        if ratio[worst] > self.ratio:
+            self.ratio, self.worst_time = float(ratio[worst]), float(times[worst])
+        if np.isfinite(deviation).any():
+            self.any_finite = True
+        if not np.isnan(deviation).all():
+            i = int(np.nanargmax(deviation))
+            if deviation[i] > self.max_abs:
+                self.max_abs, self.max_abs_time = float(deviation[i]), float(times[i])
+        count = int(failing.sum())
+        self.nan_deviation |= bool(np.isnan(deviation).any())
+        if count:
+            if self.first is None:
+                i = int(np.argmax(failing))
+                self.first = {
                     "time": float(times[i]),
                     "value": float(values[i]),
                     "reference": float(nearest[i]),
                     "allowed": float(allowed[i]),
                     "kind": "value",
                 }
-            )
-    failures = pd.DataFrame(rows, columns=FAILURE_COLUMNS).astype(
-        {"time": float, "value": float, "reference": float, "allowed": float}
+            self.failing += count
+        return failing
+
+    def row(self, name: str, peak: float, rtol: float, atol: float) -> dict[str, Any]:
+        """The summary row (compare's columns)."""
+        max_abs = self.max_abs if self.any_finite else math.nan
+        max_abs_time = self.max_abs_time if self.any_finite else math.nan
+        if self.nan_deviation and self.failing:
+            max_abs = math.inf if math.isnan(max_abs) else max_abs
+        return {
+            "column": name,
+            "samples": self.samples,
+            "failing": self.failing,
+            "max_abs": max_abs,
+            "max_rel": max_abs / peak if peak > 0 else (0.0 if max_abs == 0 else math.inf),
+            "ratio": self.ratio if self.samples else 0.0,
+            "worst_time": self.worst_time if self.samples else math.nan,
+            "max_abs_time": max_abs_time,
+            "rtol": rtol,
+            "atol": atol,
+        }
+
+
+def _pointwise(
+    values: np.ndarray, expected: np.ndarray, rtol: float, atol: float
+) -> tuple[np.ndarray, ...]:
+    """(nearest, lower, upper, allowed, deviation, passing) of samples against the band
+    ``atol + rtol * |expected|`` around ``expected``."""
+    allowed = atol + rtol * np.abs(expected)
+    deviation = np.abs(values - expected)
+    passing = (
+        ((deviation <= allowed) & np.isfinite(expected))
+        | (values == expected)
+        | (np.isnan(values) & np.isnan(expected))
     )
-    if len(failures):
-        failures = failures.sort_values("time", na_position="first", kind="stable").reset_index(
-            drop=True
-        )
-    summary = pd.DataFrame(
-        summary_rows,
-        columns=[
-            "column",
-            "samples",
-            "failing",
-            "max_abs",
-            "max_rel",
-            "ratio",
-            "worst_time",
-            "max_abs_time",
-            "rtol",
-            "atol",
-        ],
-    ).set_index("column")
-    return Comparison(
-        passed=failures.empty,
-        failures=failures,
-        summary=summary,
-        method=str(method),
-        rtol=rtol,
-        atol=atol,
-        time_tolerance=dt,
-        declared=declared if declared is not None and applied else None,
-        not_compared=[
+    return expected, expected - allowed, expected + allowed, allowed, deviation, passing
+
+
+def _tube(
+    values: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    nan: np.ndarray,
+    rtol: float,
+    atol: float,
+) -> tuple[np.ndarray, ...]:
+    """(nearest, lower, upper, allowed, deviation, passing) of samples against the tube
+    between the window minima ``low`` and maxima ``high`` widened by the value band."""
+    lower = low - (atol + rtol * np.abs(low))
+    upper = high + (atol + rtol * np.abs(high))
+    above = values > high
+    nearest = np.where(above, high, low)
+    allowed = atol + rtol * np.abs(nearest)
+    deviation = np.where(above, values - high, np.where(values < low, low - values, 0.0))
+    passing = (
+        ((lower <= values) & (values <= upper) & ~nan)
+        | (np.isnan(values) & nan)
+        | (values == low)
+        | (values == high)
+    )
+    return nearest, lower, upper, allowed, deviation, passing
+
+
+class _Engine:
+    """One comparison of two sources (see the section's comment)."""
+
+    def __init__(self, result: _Source, reference: _Source, settings: _Settings) -> None:
+        self.result, self.reference, self.settings = result, reference, settings
+        patterns = settings.not_compared
+        self.shared = [
             c
-            for c in result_frame.columns
-            if c not in shared
-            and c not in reference_frame.columns
-            and any(fnmatchcase(c, p) for p in not_compared)
-        ],
-        samples=int(times.size),
-        result=result_frame,
-        reference=reference_frame,
-        _columns=columns,
-    )
+            for c in reference.columns
+            if c in result.columns and not any(fnmatchcase(c, p) for p in patterns)
+        ]
+        self.keep = isinstance(result, _FrameSource)  # arrays kept for the plots
+        self.stats = {name: _Stats() for name in self.shared}
+        self.kept: dict[str, list[tuple[np.ndarray, ...]]] = {name: [] for name in self.shared}
+        self.tolerance = {
+            name: _tolerance(name, settings.rtol, settings.atol, settings.tolerances)
+            for name in self.shared
+        }
+
+    def _structure_rows(self) -> list[dict[str, Any]]:
+        result, reference, settings = self.result, self.reference, self.settings
+        rows: list[dict[str, Any]] = [
+            {"column": c, "kind": "missing column"}
+            for c in reference.columns
+            if c not in result.columns
+        ]
+        if not settings.ignore_extra:
+            rows += [
+                {"column": c, "kind": "extra column"}
+                for c in result.columns
+                if c not in reference.columns
+                and not any(fnmatchcase(c, p) for p in settings.not_compared)
+            ]
+        return rows
+
+    def _column_blocks(
+        self, times: np.ndarray, values: np.ndarray, ref: _Reference, dt: float | None
+    ) -> None:
+        """Compare one block of result rows, every shared column."""
+        settings = self.settings
+        positions = [self.result.columns.index(name) for name in self.shared]
+        if dt is not None:
+            ref_times, ref_values = ref.cover(times[0] - dt, times[-1] + dt)
+            windows = _Windows(times, ref_times, dt)
+        elif settings.interpolate:
+            ref_times, ref_values = ref.cover(times[0], times[-1])
+        else:
+            ref_times, ref_values = ref.take(times.size)
+        for k, (name, position) in enumerate(zip(self.shared, positions)):
+            rtol, atol = self.tolerance[name]
+            column = values[:, position]
+            if dt is not None:
+                arrays = _tube(column, *windows.bounds(ref_values[:, k]), rtol, atol)
+            elif settings.interpolate:
+                expected = np.interp(times, ref_times, ref_values[:, k])
+                arrays = _pointwise(column, expected, rtol, atol)
+            else:
+                arrays = _pointwise(column, ref_values[:, k], rtol, atol)
+            nearest, lower, upper, allowed, deviation, passing = arrays
+            failing = self.stats[name].add(times, column, nearest, allowed, deviation, passing)
+            if self.keep:
+                self.kept[name].append((times, column, nearest, lower, upper, allowed, failing))
+
+    def run(self) -> Comparison:
+        """Walk the result's blocks once; the Comparison."""
+        settings = self.settings
+        indices = [self.reference.columns.index(name) for name in self.shared]
+        dt = None
+        if settings.method == "tube":
+            dt = (
+                float(settings.time_tolerance)
+                if settings.time_tolerance is not None
+                else _largest_step(self.reference)
+            )
+        ref = _Reference(self.reference, indices)
+        records = _GridRecords()
+        same_grid = settings.method != "tube" and not settings.interpolate
+        rows, first, last = 0, math.nan, math.nan
+        extra: float | None = None  # same grid: the result's first time past the reference's
+        for times, values in self.result.blocks():
+            if not times.size:
+                continue
+            if not rows:
+                first = float(times[0])
+            rows += times.size
+            last = float(times[-1])
+            if same_grid:
+                if extra is not None:
+                    continue  # the grids differ: the rest is only read (checked)
+                while ref.times.size < times.size and ref._pull():
+                    pass
+                n = min(times.size, ref.times.size)
+                records.add(times[:n], ref.times[:n])
+                if n < times.size:
+                    extra = float(times[n])
+                    continue
+            self._column_blocks(times, values, ref, dt)
+        ref.drain()
+        margin = ref.margin()
+        grid = None
+        if same_grid:
+            beyond = records.first_beyond(margin)
+            if beyond is not None:
+                grid = _grid_failure(*beyond, margin)
+            elif extra is not None:
+                grid = _grid_failure(extra, math.nan, margin)
+            elif ref.times.size:  # the reference goes on after the result's last row
+                grid = _grid_failure(math.nan, float(ref.times[0]), margin)
+        else:
+            allowed = margin + (dt or 0.0)
+            if rows and ref.count:
+                if abs(first - ref.first) > allowed:
+                    grid = _grid_failure(first, ref.first, allowed)
+                elif abs(last - ref.last) > allowed:
+                    grid = _grid_failure(last, ref.last, allowed)
+        return self._comparison(grid, ref, dt, (rows, last))
+
+    def _comparison(
+        self,
+        grid: dict[str, Any] | None,
+        ref: _Reference,
+        dt: float | None,
+        end: tuple[int, float],
+    ) -> Comparison:
+        settings = self.settings
+        rows = self._structure_rows()
+        columns: dict[str, _Column] = {}
+        summary_rows = []
+        shared = self.shared
+        if grid is not None:
+            rows.append(grid)
+            shared = []
+        for k, name in enumerate(shared):
+            stats = self.stats[name]
+            peak = float(ref.peak[k]) if ref.finite[k] else 0.0
+            summary_rows.append(stats.row(name, peak, *self.tolerance[name]))
+            if stats.first is not None:
+                rows.append({"column": name, **stats.first})
+            if self.keep:
+                parts = self.kept[name]
+                columns[name] = _Column(
+                    *(np.concatenate([part[i] for part in parts]) for i in range(7))
+                )
+        failures = pd.DataFrame(rows, columns=FAILURE_COLUMNS).astype(
+            {"time": float, "value": float, "reference": float, "allowed": float}
+        )
+        if len(failures):
+            failures = failures.sort_values("time", na_position="first", kind="stable").reset_index(
+                drop=True
+            )
+        summary = pd.DataFrame(summary_rows, columns=SUMMARY_COLUMNS).set_index("column")
+        result, reference = self.result, self.reference
+        return Comparison(
+            passed=failures.empty,
+            failures=failures,
+            summary=summary,
+            method=settings.method,
+            rtol=settings.rtol,
+            atol=settings.atol,
+            time_tolerance=dt,
+            declared=settings.declared,
+            not_compared=[
+                c
+                for c in result.columns
+                if c not in self.shared
+                and c not in reference.columns
+                and any(fnmatchcase(c, p) for p in settings.not_compared)
+            ],
+            samples=end[0],
+            result=_frame_of(result),
+            reference=_frame_of(reference),
+            _columns=columns,
+            result_end=end if end[0] else None,
+        )
+
+
+SUMMARY_COLUMNS = [
+    "column",
+    "samples",
+    "failing",
+    "max_abs",
+    "max_rel",
+    "ratio",
+    "worst_time",
+    "max_abs_time",
+    "rtol",
+    "atol",
+]
+
+
+def _frame_of(source: _Source) -> pd.DataFrame:
+    """The source's DataFrame; for a file, its columns and attrs without rows (a streamed
+    comparison keeps no rows)."""
+    if isinstance(source, _FrameSource):
+        return source.frame
+    frame = pd.DataFrame(columns=source.columns, index=pd.Index([], name="time", dtype=float))
+    frame.attrs.update(source.attrs)
+    return frame

@@ -15,11 +15,10 @@ they apply.
 
 from __future__ import annotations
 
-import csv
+import hashlib
+import io
 import math
-import os
-import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -27,15 +26,24 @@ from typing import Any
 import numpy
 import pandas
 
-from .cosim import limits
 from .cosim.files import atomic_write_all, remove_stale_temporaries
-from .cosim.results import csv_writer, pair_problem, sealed_pair
-from .cosim.tables import ResultFileError, check_file, read_profile_table
-from .cosim.tolerances import parse_check
+from .cosim.results import PAIR_KEYS, csv_writer, json_text, new_run_id, sealed_pair
+from .cosim.tables import ResultFileError, read_profile_table
+from .result_blocks import (
+    BLOCK_BYTES,
+    check_csv,
+    companion_json,
+    header_names,
+    open_result,
+    problem_cell,
+    raw_rows,
+    read_values,
+)
 
 __all__ = [
     "ResultFileError",
     "companion_json",
+    "iter_result",
     "read_profile_table",
     "read_result",
     "read_table",
@@ -45,209 +53,19 @@ __all__ = [
 StrPath = str | PathLike
 
 
-def companion_json(path: StrPath) -> Path:
-    """The metadata file of the result CSV at ``path``: ``<stem>.json`` beside it."""
-    return Path(path).with_suffix(".json")
-
-
-def _check_csv(path: Path) -> None:
-    """ResultFileError unless ``path`` is a regular file within MAX_CSV_BYTES whose header
-    (its first record, read alone by the csv module: a header of 10001 columns costs no
-    parse of the rows) is within the columns' limits."""
-    check_file(path, limits.MAX_CSV_BYTES, "a CSV file")
-    try:
-        with open(path, newline="", encoding="utf-8") as handle:
-            header = next(csv.reader(handle), None)
-    except (OSError, UnicodeDecodeError, csv.Error):
-        return  # pandas' reading names these
-    problem = _names_problem([name.strip() for name in header or []])
-    if problem:
-        raise ResultFileError(f"{path}: line 1: {problem}")
-
-
-def _raw_rows(path: Path) -> pandas.DataFrame:
-    """Every line of the CSV at ``path`` as strings (row 0 is the header), trailing blank
-    lines dropped; ResultFileError for a missing, empty or unreadable file."""
-    _check_csv(path)
-    try:
-        raw = pandas.read_csv(
-            path, header=None, dtype=str, na_filter=False, skip_blank_lines=False, encoding="utf-8"
-        )
-    except pandas.errors.EmptyDataError:
-        raise ResultFileError(f"{path}: empty file (no header, no data)") from None
-    except pandas.errors.ParserError as error:
-        # pandas: "Error tokenizing data. C error: Expected 3 fields in line 6, saw 4"
-        found = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(error))
-        if found:
-            expected, line, seen = found.groups()
-            raise ResultFileError(
-                f"{path}: line {line} has {seen} values, the header {expected} columns"
-            ) from None
-        detail = str(error).split("C error: ")[-1].strip()
-        raise ResultFileError(f"{path}: malformed CSV: {detail}") from None
-    except UnicodeDecodeError:
-        raise ResultFileError(f"{path}: not UTF-8 text") from None
-    except OSError as error:
-        raise ResultFileError(f"{path}: cannot be read: {error.strerror or error}") from None
-    blank = (raw == "").all(axis=1).to_numpy()
-    end = len(raw)
-    while end > 1 and blank[end - 1]:
-        end -= 1
-    if blank[:end].any():
-        raise ResultFileError(f"{path}: line {int(numpy.argmax(blank)) + 1} is blank")
-    return raw.iloc[:end]
-
-
-def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
-    names = [name.strip() for name in raw.iloc[0]]
-    problem = _names_problem(names)
-    if problem:
-        raise ResultFileError(f"{path}: line 1: {problem}")
-    if first is not None and names[0] != first:
-        raise ResultFileError(
-            f"{path}: line 1: the first column must be {first!r}, got {names[0]!r} (no header?)"
-        )
-    for index, name in enumerate(names):
-        if not name:
-            raise ResultFileError(f"{path}: line 1: column {index + 1} has no name")
-        if name in names[:index]:
-            raise ResultFileError(f"{path}: line 1: column {name!r} appears twice")
-    return names
-
-
-def _names_problem(names: list[str]) -> str | None:
-    """Why a CSV header of ``names`` is beyond the limits (columns, name length), or None."""
-    if len(names) > limits.MAX_COLUMNS:
-        return f"{len(names)} columns, more than the limit of {limits.MAX_COLUMNS}"
-    for index, name in enumerate(names):
-        if len(name) > limits.MAX_COLUMN_NAME:
-            return (
-                f"column {index + 1} has a name of {len(name)} characters, more than the "
-                f"limit of {limits.MAX_COLUMN_NAME}"
-            )
-    return None
-
-
-def _problem_cell(
-    path: Path, cells: numpy.ndarray, names: list[str], line0: int, blank: bool, finite: bool = True
-) -> ResultFileError | None:
-    """The error for the first cell of ``cells`` (strings, rows from file line ``line0``)
-    that is not a number (not empty either with ``blank``, not finite with ``finite``), or
-    None."""
-    for row_index, row in enumerate(cells):
-        line = line0 + row_index
-        for column, text in zip(names, row):
-            if text == "" and blank:
-                continue
-            if text == "":
-                return ResultFileError(
-                    f"{path}: line {line}, column {column!r}: empty field (the line has "
-                    f"fewer values than the header: cut short?)"
-                )
-            try:
-                value = float(text)
-            except ValueError:
-                return ResultFileError(
-                    f"{path}: line {line}, column {column!r}: {text!r} is not a number"
-                )
-            if finite and not math.isfinite(value):
-                return ResultFileError(
-                    f"{path}: line {line}, column {column!r}: {text!r} is not a finite number"
-                )
-    return None
-
-
-def _numbers(path: Path, cells: numpy.ndarray, names: list[str]) -> numpy.ndarray:
-    """``cells`` (strings) as float64, exactly as Python's float() reads each one;
-    ResultFileError naming the line and column of the first that is not a finite number."""
-    try:
-        values = cells.astype(float)
-    except ValueError:
-        values = None
-    if values is None or not numpy.isfinite(values).all():
-        raise _problem_cell(path, cells, names, 2, blank=False) or ResultFileError(
-            f"{path}: a value is not a finite number"
-        )
-    return values
-
-
-# pandas >= 3 parses floats exactly by default (and deprecates the option); pandas 2's
-# default ("high") may be one ulp off, its "round_trip" converter is exact
-_EXACT_FLOATS: dict[str, Any] = (
-    {} if int(pandas.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
-)
-
-
-def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
-    """(float64 array of the data rows, header names) of a well-formed result CSV, parsed by
-    pandas' C reader with an exact float conversion; (None, []) when anything
-    looks wrong (the caller then reads the file as text to name the problem)."""
-    try:
-        header = pandas.read_csv(
-            path, header=None, nrows=1, dtype=str, na_filter=False, encoding="utf-8"
-        )
-        names = [name.strip() for name in header.iloc[0]]
-        if (
-            names[0] != "time"
-            or "" in names
-            or len(set(names)) != len(names)
-            or _names_problem(names)
-        ):
-            return None, []
-        table = pandas.read_csv(
-            path,
-            header=None,
-            skiprows=1,
-            dtype=numpy.float64,
-            skip_blank_lines=False,
-            encoding="utf-8",
-            **_EXACT_FLOATS,
-        )
-    except (ValueError, OSError, pandas.errors.ParserError, pandas.errors.EmptyDataError):
-        return None, []
-    values = table.to_numpy(dtype=numpy.float64)
-    if values.shape[1] != len(names) or len(values) == 0:
-        return None, []
-    if not numpy.isfinite(values).all():  # also a blank line (NaN): the text path decides
-        return None, []
-    return values, names
-
-
-def _metadata(path: Path) -> dict[str, Any]:
-    """The JSON beside the result CSV at ``path`` as a dict ({} when there is none), read
-    within the limits of mechfmu.cosim.limits and checked to describe this very CSV
-    (mechfmu.cosim.results.pair_problem: a pair whose two files come from two runs is
-    refused)."""
-    meta_path = companion_json(path)
-    if not os.path.lexists(meta_path):
-        return {}
-    meta, problem = limits.load_json(meta_path)
-    if problem:
-        raise ResultFileError(f"{meta_path}: {problem}")
-    if not isinstance(meta, dict):
-        raise ResultFileError(f"{meta_path}: must hold a JSON object, got {type(meta).__name__}")
-    units = meta.get("units", {})
-    if not isinstance(units, dict) or not all(
-        isinstance(unit, str) or unit is None for unit in units.values()
-    ):
-        raise ResultFileError(f"{meta_path}: 'units' must map column names to unit strings")
-    problem = pair_problem(path, meta, meta_path)
-    if problem:
-        raise ResultFileError(problem)
-    if meta.get("check") is not None:  # a reference's tolerances (its scene's [check] table)
-        parse_check(meta["check"], str(meta_path), ResultFileError)
-    return meta
-
-
-def read_result(path: StrPath) -> pandas.DataFrame:
-    """The result CSV at ``path`` (as ``mechfmu run`` writes it, or a reference CSV) as a
-    DataFrame.
+def read_result(path: StrPath, *, block_bytes: int = BLOCK_BYTES) -> pandas.DataFrame:
+    """The result at ``path`` (a CSV as ``mechfmu run`` writes it, a reference CSV, or a
+    ``.parquet`` result) as a DataFrame.
 
     The index is ``time`` in s (float64, strictly increasing); one float64 column per
     recorded variable, named as in the file (``gear.gear_angle``), values exactly as written.
     ``df.attrs["units"]`` maps each column to its SI unit (from ``<stem>.json`` beside the
-    CSV; {} without one); the JSON's other keys (``scene``, ``step``, ``versions``, ...) are
+    file; {} without one); the JSON's other keys (``scene``, ``step``, ``versions``, ...) are
     in ``df.attrs`` too, and ``df.attrs["file"]`` is ``path``.
+
+    The file is read ``block_bytes`` of text at a time (mechfmu.result_blocks): the memory it
+    takes is the numbers' (8 bytes per value, twice while the blocks are joined) plus one
+    block, whatever the file's size.
 
     Raises ResultFileError (a ValueError) naming the file, and the line and column, for a
     missing or empty file, a first column that is not ``time``, an unnamed or repeated
@@ -255,33 +73,28 @@ def read_result(path: StrPath) -> pandas.DataFrame:
     line), text or NaN or infinity where a number belongs, a blank line, or a time that does
     not increase; and for a malformed JSON beside it.
     """
-    path = Path(path)
-    _check_csv(path)
-    values, names = _fast_values(path)
-    if values is None:  # something is wrong: read it again as text to say what and where
-        raw = _raw_rows(path)
-        names = _header(path, raw, "time")
-        if len(raw) < 2:
-            raise ResultFileError(f"{path}: no data rows (only the header)")
-        values = _numbers(path, raw.iloc[1:].to_numpy(), names)
-    times = [float(time) for time in values[:, 0]]
-    steps = numpy.diff(values[:, 0])
-    if (steps <= 0.0).any():
-        row = int(numpy.argmax(steps <= 0.0)) + 1
-        kind = "repeats" if steps[row - 1] == 0.0 else "is before"
-        raise ResultFileError(
-            f"{path}: line {row + 2}: time {times[row]!r} s {kind} the "
-            f"previous line's {times[row - 1]!r} s (times must increase)"
-        )
+    source = open_result(path, block_bytes)
+    values = read_values(source)
     frame = pandas.DataFrame(
-        values[:, 1:], columns=names[1:], index=pandas.Index(values[:, 0], name="time")
+        values[:, 1:], columns=source.columns, index=pandas.Index(values[:, 0], name="time")
     )
-    meta = _metadata(path)
-    frame.attrs.update(meta)
-    units = meta.get("units", {})
-    frame.attrs["units"] = {name: units[name] for name in frame.columns if name in units}
-    frame.attrs["file"] = str(path)
+    frame.attrs.update(source.attrs)
     return frame
+
+
+def iter_result(path: StrPath, *, block_bytes: int = BLOCK_BYTES) -> Iterator[pandas.DataFrame]:
+    """The result at ``path`` (CSV or ``.parquet``) as DataFrames of consecutive rows, about
+    ``block_bytes`` of the file each, indexed by time like read_result's (each with its
+    attrs): a file of any size in the memory of one block. Raises ResultFileError as
+    read_result does, when the block holding the problem is reached (the rows before it
+    have been given)."""
+    source = open_result(path, block_bytes)
+    for _, values in source.blocks():
+        frame = pandas.DataFrame(
+            values[:, 1:], columns=source.columns, index=pandas.Index(values[:, 0], name="time")
+        )
+        frame.attrs.update(source.attrs)
+        yield frame
 
 
 def _result_frame(frame: pandas.DataFrame) -> pandas.DataFrame:
@@ -312,8 +125,9 @@ def _result_frame(frame: pandas.DataFrame) -> pandas.DataFrame:
 
 
 def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
-    """Write ``frame`` as a result CSV at ``path`` and its metadata as ``<stem>.json``
-    beside it, both or neither (atomically, with the permissions the umask gives).
+    """Write ``frame`` as a result CSV at ``path`` (a Parquet file when ``path`` ends in
+    ``.parquet``: parquet_pair) and its metadata as ``<stem>.json`` beside it, both or
+    neither (atomically, with the permissions the umask gives).
 
     The format is ``mechfmu run``'s: a ``time`` column (s) from the index (or from a
     ``time`` column), then one column per variable, every value as the shortest text that
@@ -332,6 +146,9 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
     meta["units"] = {name: units[name] for name in names if name in units}
     meta["recorded"] = names
     remove_stale_temporaries(path.parent)
+    if path.suffix == ".parquet":
+        atomic_write_all(parquet_pair(path, frame, meta))
+        return path
     atomic_write_all(
         sealed_pair(
             path,
@@ -341,6 +158,33 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
         )
     )
     return path
+
+
+def parquet_pair(path: Path, frame: pandas.DataFrame, meta: dict[str, Any]) -> dict[Path, Any]:
+    """The contents of a Parquet result and its JSON for atomic_write_all, JSON first: a
+    ``time`` column then one float64 column per variable (pyarrow, compressed by its
+    default codec), and ``meta`` with a ``run_id``, ``"format": "parquet"`` and the file's
+    size and SHA-256 under the names a CSV's have (``csv_bytes``, ``csv_sha256``: what
+    read_result checks, as for a run's ``--format parquet``). ResultFileError without
+    pyarrow."""
+    try:
+        import pyarrow
+        import pyarrow.parquet
+    except ImportError:
+        raise ResultFileError(
+            f"{path}: writing Parquet needs pyarrow: pip install 'mechfmu[parquet]'"
+        ) from None
+    arrays = {"time": frame.index.to_numpy(dtype=float)}
+    arrays.update({str(name): frame[name].to_numpy(dtype=float) for name in frame.columns})
+    sink = io.BytesIO()
+    pyarrow.parquet.write_table(pyarrow.table(arrays), sink)
+    data = sink.getvalue()
+    sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
+    sealed["run_id"] = meta.get("run_id") or new_run_id()
+    sealed["format"] = "parquet"
+    sealed["csv_bytes"] = len(data)
+    sealed["csv_sha256"] = hashlib.sha256(data).hexdigest()
+    return {companion_json(path): json_text(sealed), path: data}
 
 
 def read_table(
@@ -363,8 +207,9 @@ def read_table(
     values than the header, or text where a number belongs.
     """
     path = Path(path)
-    raw = _raw_rows(path)
-    names = _header(path, raw, None)
+    check_csv(path)
+    raw = raw_rows(path)
+    names = header_names(path, raw.iloc[0], None)
     absent = [name for name in required if name not in names]
     if absent:
         raise ResultFileError(f"{path}: line 1: missing column(s) {', '.join(absent)}")
@@ -379,7 +224,7 @@ def read_table(
             )
             continue
         if name not in integers:
-            problem = _problem_cell(path, cells[:, None], [name], 2, blank=True, finite=False)
+            problem = problem_cell(path, cells[:, None], [name], 2, blank=True, finite=False)
             if problem is not None:
                 raise problem
         if name in integers:

@@ -38,7 +38,7 @@ MAX_STEPS = 10**9  # communication steps of a scene (whatever the output: days o
 MAX_RUN_OUTPUT_BYTES = 2 * GIB
 
 # --- CSV tables ---------------------------------------------------------------------------
-MAX_CSV_BYTES = 2 * GIB  # a result or reference CSV (read whole into memory)
+MAX_CSV_BYTES = 2 * GIB  # a result or reference CSV (or Parquet file)
 MAX_TABLE_BYTES = 256 * MIB  # a profile table a component reads (LoadProfile, RoadProfile)
 MAX_COLUMNS = 10_000  # columns of a CSV
 MAX_COLUMN_NAME = 1000  # characters of a column name
@@ -127,7 +127,7 @@ LIMITS = (
         "result, reference CSV",
         "size",
         _size(MAX_CSV_BYTES),
-        "read whole into memory (about 3 times the file)",
+        "check reads it by blocks of 1 MiB; read_result keeps its numbers (8 bytes each)",
     ),
     Limit(
         "profile table (table_file)",

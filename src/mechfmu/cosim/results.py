@@ -106,10 +106,16 @@ def _file_digest(path: Path) -> str:
     return digest.hexdigest()
 
 
-def pair_problem(csv_path: Path, meta: dict[str, Any], json_path: Path) -> str | None:
+def pair_problem(
+    csv_path: Path,
+    meta: dict[str, Any],
+    json_path: Path,
+    found: tuple[int, str] | None = None,
+) -> str | None:
     """Why the CSV at ``csv_path`` is not the one its JSON (``meta``, read from
     ``json_path``) describes, or None. A JSON without ``csv_sha256`` (written before pairs
-    were sealed, or by hand) describes any CSV."""
+    were sealed, or by hand) describes any CSV. ``found``: the CSV's size in bytes and
+    SHA-256 when the caller has them from reading it (no second pass over the file)."""
     if "csv_sha256" not in meta:
         return None
     expected_size, expected_digest = meta.get("csv_bytes"), meta.get("csv_sha256")
@@ -120,17 +126,17 @@ def pair_problem(csv_path: Path, meta: dict[str, Any], json_path: Path) -> str |
     ):
         return f"{json_path}: 'csv_bytes' and 'csv_sha256' must be an integer and a string"
     try:
-        size = os.stat(csv_path).st_size
-        digest = _file_digest(csv_path) if size == expected_size else None
+        size = found[0] if found else os.stat(csv_path).st_size
+        digest = None if size != expected_size else found[1] if found else _file_digest(csv_path)
     except OSError as error:
         return f"{csv_path}: cannot be read: {error.strerror or error}"
     if size == expected_size and digest == expected_digest:
         return None
-    found = f"{size} bytes" + (f", SHA-256 {digest[:16]}..." if digest else "")
+    seen = f"{size} bytes" + (f", SHA-256 {digest[:16]}..." if digest else "")
     return (
         f"{csv_path} and {json_path.name} are not one pair: the JSON (run "
         f"{str(meta.get('run_id'))[:32]}) describes a CSV of {expected_size} bytes, SHA-256 "
-        f"{expected_digest[:16]}..., the CSV has {found}: one of the two comes from another "
+        f"{expected_digest[:16]}..., the CSV has {seen}: one of the two comes from another "
         f"run (a writer stopped between them) or was changed; run again to write both"
     )
 

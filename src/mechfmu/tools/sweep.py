@@ -53,7 +53,7 @@ from contextlib import nullcontext
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 import pandas
@@ -171,16 +171,79 @@ def parse_link(text: str) -> Link:
 # --- points ------------------------------------------------------------------------------------
 
 
-def grid_points(varies: list[Vary]) -> ndarray:
-    """The full grid: every combination of each parameter's linspace, last varying fastest."""
+MAX_POINTS = 1_000_000  # points of a sweep unless --max-points says more
+POINT_CHUNK = 4096  # points made at a time (a sweep of any size holds one chunk)
+LHS_WHOLE = 1 << 20  # Latin hypercubes up to this size: scipy's, made whole (8 MB per dimension)
+
+
+def _grid_counts(varies: list[Vary]) -> list[int]:
     for vary in varies:
         if vary.count is None:
             raise SweepError(
                 f"--vary {vary.name}: a grid needs START:STOP:COUNT (or use --samples N)"
             )
-    axes = [np.linspace(v.start, v.stop, int(v.count or 0)) for v in varies]
-    mesh = np.meshgrid(*axes, indexing="ij")
-    return np.stack([m.ravel() for m in mesh], axis=1)
+    return [int(v.count or 0) for v in varies]
+
+
+def point_count(varies: list[Vary], samples: int | None) -> int:
+    """How many points the sweep has: ``samples``, or the grid's product of counts (an
+    exact integer however large)."""
+    if samples is not None:
+        return samples
+    return math.prod(_grid_counts(varies))
+
+
+def size_problem(varies: list[Vary], samples: int | None, max_points: int) -> str | None:
+    """The one line refusing a sweep of more than ``max_points`` points, or None."""
+    count = point_count(varies, samples)
+    if count <= max_points:
+        return None
+    shape = (
+        f"--samples {samples}"
+        if samples is not None
+        else "a grid of " + " x ".join(str(v.count) for v in varies)
+    )
+    return (
+        f"{count} points ({shape}), more than the limit of {max_points}; "
+        f"--max-points {count} lifts it"
+    )
+
+
+def linspace_at(start: float, stop: float, count: int, k: ndarray) -> ndarray:
+    """``numpy.linspace(start, stop, count)[k]`` for the indices ``k`` alone, bit for bit
+    (numpy's own formula: k * step + start, the last point exactly ``stop``), without
+    making the ``count`` values."""
+    k = np.asarray(k)
+    if count == 1:
+        return np.full(k.shape, float(start))
+    delta = float(stop) - float(start)
+    step = delta / (count - 1)
+    if step == 0.0:  # numpy's route when the step underflows
+        values = k.astype(float) / (count - 1) * delta + start
+    else:
+        values = k.astype(float) * step + start
+    return np.where(k == count - 1, float(stop), values)
+
+
+def grid_chunks(varies: list[Vary], chunk: int = POINT_CHUNK) -> Iterator[tuple[int, ndarray]]:
+    """The full grid (every combination of each parameter's linspace, last varying
+    fastest) as (index of the first point, points) of ``chunk`` rows at a time."""
+    counts = _grid_counts(varies)
+    total = math.prod(counts)
+    for first in range(0, total, chunk):
+        indices = np.unravel_index(np.arange(first, min(first + chunk, total)), counts)
+        yield (
+            first,
+            np.stack(
+                [linspace_at(v.start, v.stop, n, k) for v, n, k in zip(varies, counts, indices)],
+                axis=1,
+            ),
+        )
+
+
+def grid_points(varies: list[Vary]) -> ndarray:
+    """The full grid: every combination of each parameter's linspace, last varying fastest."""
+    return np.concatenate([points for _, points in grid_chunks(varies)])
 
 
 def lhs_unit(samples: int, dimensions: int, seed: int | None) -> ndarray:
@@ -189,21 +252,93 @@ def lhs_unit(samples: int, dimensions: int, seed: int | None) -> ndarray:
     return qmc.LatinHypercube(d=dimensions, seed=seed).random(samples)
 
 
+class Permutation:
+    """A pseudo-random permutation of range(n) evaluated at any indices in constant memory:
+    a four-round Feistel network over the smallest even-bit domain holding n, walking the
+    cycle back into range (at most a few steps: the domain is under 4 n)."""
+
+    def __init__(self, n: int, rng: np.random.Generator) -> None:
+        bits = max(2, (n - 1).bit_length())
+        self.half = (bits + 1) // 2
+        self.mask = np.uint64((1 << self.half) - 1)
+        self.n = n
+        self.keys = rng.integers(0, 2**63, size=4, dtype=np.uint64)
+
+    def _round(self, right: ndarray, key: np.uint64) -> ndarray:
+        mixed = (right + key) * np.uint64(0x9E3779B97F4A7C15)  # wraps: a mixing multiply
+        return (mixed ^ (mixed >> np.uint64(29))) & self.mask
+
+    def _encrypt(self, x: ndarray) -> ndarray:
+        shift = np.uint64(self.half)
+        left, right = x >> shift, x & self.mask
+        for key in self.keys:
+            left, right = right, left ^ self._round(right, key)
+        return (left << shift) | right
+
+    def __call__(self, k: ndarray) -> ndarray:
+        with np.errstate(over="ignore"):
+            out = self._encrypt(np.asarray(k, dtype=np.uint64))
+            outside = out >= np.uint64(self.n)
+            while outside.any():
+                out[outside] = self._encrypt(out[outside])
+                outside = out >= np.uint64(self.n)
+        return out.astype(np.int64)
+
+
+def _unit_chunks(
+    samples: int,
+    dimensions: int,
+    seed: int | None,
+    method: str,
+    chunk: int,
+    whole: int = LHS_WHOLE,
+) -> Iterator[tuple[int, ndarray]]:
+    """(first index, points in [0, 1)^d) of the sampled sweep, ``chunk`` at a time; a
+    Latin hypercube of up to ``whole`` points is scipy's."""
+    if method == "lhs" and samples <= whole:
+        unit = lhs_unit(samples, dimensions, seed)
+        for first in range(0, samples, chunk):
+            yield first, unit[first : first + chunk]
+        return
+    rng = np.random.default_rng(seed)
+    strata = [Permutation(samples, rng) for _ in range(dimensions)] if method == "lhs" else []
+    for first in range(0, samples, chunk):
+        rows = min(chunk, samples - first)
+        jitter = rng.random((rows, dimensions))  # the same stream as one draw of them all
+        if not strata:
+            yield first, jitter
+            continue
+        k = np.arange(first, first + rows)
+        cells = np.stack([permutation(k) for permutation in strata], axis=1)
+        yield first, (cells + jitter) / samples
+
+
+def sample_chunks(
+    varies: list[Vary],
+    samples: int,
+    seed: int | None,
+    method: str = "lhs",
+    chunk: int = POINT_CHUNK,
+) -> Iterator[tuple[int, ndarray]]:
+    """``samples`` points over the ranges, Latin hypercube ('lhs') or uniform ('random'), as
+    (index of the first point, points) ``chunk`` at a time. Up to LHS_WHOLE samples the
+    hypercube is scipy's; beyond, each dimension's strata come from a Permutation, so a
+    sweep of any size holds one chunk."""
+    if samples < 1:
+        raise SweepError("--samples must be at least 1")
+    if method not in ("lhs", "random"):
+        raise SweepError(f"--method {method!r}: expected lhs or random")
+    low = np.array([v.start for v in varies])
+    high = np.array([v.stop for v in varies])
+    for first, unit in _unit_chunks(samples, len(varies), seed, method, chunk):
+        yield first, low + unit * (high - low)
+
+
 def sample_points(
     varies: list[Vary], samples: int, seed: int | None, method: str = "lhs"
 ) -> ndarray:
     """``samples`` points over the ranges: Latin hypercube ('lhs') or uniform ('random')."""
-    if samples < 1:
-        raise SweepError("--samples must be at least 1")
-    if method == "lhs":
-        unit = lhs_unit(samples, len(varies), seed)
-    elif method == "random":
-        unit = np.random.default_rng(seed).random((samples, len(varies)))
-    else:
-        raise SweepError(f"--method {method!r}: expected lhs or random")
-    low = np.array([v.start for v in varies])
-    high = np.array([v.stop for v in varies])
-    return low + unit * (high - low)
+    return np.concatenate([points for _, points in sample_chunks(varies, samples, seed, method)])
 
 
 # --- metrics -----------------------------------------------------------------------------------
@@ -722,34 +857,55 @@ class _Task:
 
 def _run_points(
     runner: Any,
-    tasks: list[_Task],
+    tasks: Iterable[_Task],
     arguments: tuple,
     retries: int,
     guard: InterruptGuard,
     record: Callable,
     summary: dict[str, Any],
+    window: int | None = None,
 ) -> None:
     """Run every task on ``runner``, calling ``record(task, (values, error, wall, worker))``
     as each finishes.
 
-    A task lost with its worker process (runner.lost: the local pool broke) is sent again
-    to a new pool, up to ``retries`` more times; the last attempt runs alone in a pool of
-    one process, so a point that kills its worker every time fails by itself and the
-    points that only shared a pool with it are never blamed. Every 0.25 s at most the
-    guard is asked; a signal raises _Stopped.
+    The tasks are taken from their iterator as the workers need them: at most ``window``
+    (default four per worker) are sent and not yet finished, so a sweep of any size holds
+    a few of them. A task lost with its worker process (runner.lost: the local pool broke)
+    is sent again to a new pool, up to ``retries`` more times; the last attempt runs alone
+    in a pool of one process, so a point that kills its worker every time fails by itself
+    and the points that only shared a pool with it are never blamed. Every 0.25 s at most
+    the guard is asked; a signal raises _Stopped.
     """
-    waiting = list(tasks)
-    last_chance: list = []
-    while waiting or last_chance:
-        if waiting:
-            pool, batch, waiting = runner, waiting, []
-        else:  # the runner's part is over: only points on their last attempt remain
+    source = iter(tasks)
+    window = window or max(4 * runner.workers, 8)
+    waiting: list[_Task] = []  # lost tasks to send again
+    last_chance: list[_Task] = []
+    more = True  # the iterator may hold tasks still
+    while more or waiting or last_chance:
+        alone = not (more or waiting)
+        if alone:  # the runner's part is over: only points on their last attempt remain
             runner.idle()
-            pool, batch = runner.alone(), [last_chance.pop(0)]
-        lost = []
+            pool, queue = runner.alone(), [last_chance.pop(0)]
+        else:
+            pool, queue = runner, waiting
+        lost: list[_Task] = []
+        pending: dict[Any, _Task] = {}
         try:
-            pending = {pool.submit(task.index, task.scene, *arguments): task for task in batch}
-            while pending:
+            while True:
+                while not lost and len(pending) < window:  # no new point into a broken pool
+                    if queue:
+                        task = queue.pop(0)
+                    elif alone or not more:
+                        break
+                    else:
+                        next_task = next(source, None)
+                        if next_task is None:
+                            more = False
+                            break
+                        task = next_task
+                    pending[pool.submit(task.index, task.scene, *arguments)] = task
+                if not pending:
+                    break
                 if guard.requested:
                     raise _Stopped()
                 for future in pool.wait(list(pending), 0.25):
@@ -773,12 +929,13 @@ def _run_points(
             summary["pool_restarts"] += 1
         for task in sorted(lost, key=lambda task: task.index):
             if task.attempts > retries:
-                alone = ", the last one alone" if retries else " (--retries 0)"
+                alone_text = ", the last one alone" if retries else " (--retries 0)"
                 record(
                     task,
                     (
                         {},
-                        f"worker: its process died on each of {task.attempts} attempt(s){alone}",
+                        f"worker: its process died on each of {task.attempts} attempt(s)"
+                        f"{alone_text}",
                         None,
                         None,
                     ),
@@ -869,6 +1026,8 @@ def run_sweep(
     resume: bool = False,
     retries: int = DEFAULT_RETRIES,
     guard: InterruptGuard | None = None,
+    max_points: int = MAX_POINTS,
+    result_format: str = "csv",
 ) -> dict[str, Any]:
     """Run the sweep; returns the summary dict written to sweep.json.
 
@@ -884,6 +1043,12 @@ def run_sweep(
     InterruptGuard the caller installed, or None for one installed here): the pending
     points are cancelled, the JSON is marked ``interrupted`` with the signal and
     SweepInterrupted (a KeyboardInterrupt) is raised, as it is for a KeyboardInterrupt.
+
+    The points are made as the workers need them (grid_chunks, sample_chunks): memory does
+    not grow with their number. A sweep of more than ``max_points`` points is refused
+    before anything runs (SweepError: the size, the limit and the option that lifts it).
+    ``result_format`` "parquet" also writes sweep.parquet (the same columns) when the
+    sweep ends, stopped or not; sweep.csv stays the record written as points finish.
     """
     from ..cosim.files import output_folder
     from ..cosim.interrupt import InterruptGuard, signal_name
@@ -906,15 +1071,29 @@ def run_sweep(
     retries = at_least("--retries", retries, 0)
     if samples is None and seed is not None:
         raise SweepError("--seed needs --samples")
+    at_least("--max-points", max_points, 1)
+    if result_format not in ("csv", "parquet"):
+        raise SweepError(f"--format {result_format!r}: expected csv or parquet")
     if samples is not None:
         at_least("--samples", samples, 1)
         if seed is not None:
             at_least("--seed", seed, 0)
-        points = sample_points(varies, samples, seed, method)
+        if method not in ("lhs", "random"):
+            raise SweepError(f"--method {method!r}: expected lhs or random")
         method_name = method
     else:
-        points = grid_points(varies)
+        _grid_counts(varies)
         method_name = "grid"
+    too_many = size_problem(varies, samples, max_points)
+    if too_many:
+        raise SweepError(too_many)
+    count = point_count(varies, samples)
+
+    def chunks() -> Iterator[tuple[int, ndarray]]:
+        if samples is not None:
+            return sample_chunks(varies, samples, seed, method)
+        return grid_chunks(varies)
+
     fmu_dir = scene_fmu_folder(scene, fmu_dir)  # the one rule (cosim/locate.py)
     kinds, references = check_sweep(scene, varies, metrics, fmu_dir, links)
     scene = resolve_fmus(scene, fmu_dir)
@@ -958,7 +1137,7 @@ def run_sweep(
         "scheduler": scheduler,
         "where": None,
         "fmu_dir": str(fmu_dir),
-        "points": len(points),
+        "points": count,
         "started": _now(),
         "finished": None,
         "done": 0,
@@ -979,17 +1158,25 @@ def run_sweep(
     runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs, run_point, _worker_init)
     summary.update(jobs=runner.workers, where=runner.where, resumed=len(kept), done=len(kept))
     finished = {int(line[0]) for line in kept}
-    tasks = []
-    for index, values in enumerate(points):
-        if index not in finished:
-            assigned = point_values(varies, links, kinds, values)
-            tasks.append(
-                _Task(index, [assigned[n] for n in names], point_scene(scene, kinds, assigned))
-            )
+
+    def tasks() -> Iterator[_Task]:  # made as the workers take them
+        for first, chunk in chunks():
+            for offset, values in enumerate(chunk):
+                if first + offset in finished:
+                    continue
+                assigned = point_values(varies, links, kinds, values)
+                yield _Task(
+                    first + offset,
+                    [assigned[n] for n in names],
+                    point_scene(scene, kinds, assigned),
+                )
+
     atomic_write(csv_path, _csv_text(header, kept))  # the header and the rows kept
     write_json(json_path, summary)
     started = time.perf_counter()
-    meter = Progress(len(points), already=len(kept)) if progress else None
+    meter = Progress(count, already=len(kept)) if progress else None
+    if meter:
+        meter.update(len(kept))  # the line from the start, before the first point ends
     handle = open(csv_path, "a", newline="", encoding="utf-8")
     writer = csv.writer(handle, lineterminator="\n")
 
@@ -1020,7 +1207,7 @@ def run_sweep(
         try:
             shipped = runner.ship(sorted({spec.fmu for spec in scene.components.values()}))
             _run_points(
-                runner, tasks, (metrics, references, shipped), retries, guard, record, summary
+                runner, tasks(), (metrics, references, shipped), retries, guard, record, summary
             )
         except (KeyboardInterrupt, _Stopped) as stop:
             stopped_by = guard.take() if guard.requested else getattr(stop, "signum", signal.SIGINT)
@@ -1033,6 +1220,10 @@ def run_sweep(
             summary["scenes_per_s"] = (summary["done"] - len(kept)) / summary["wall_time_s"]
             if meter and summary["interrupted"]:
                 meter.stream.write("\n")
+            if result_format == "parquet":
+                summary["parquet"] = str(
+                    write_sweep_parquet(csv_path, inside(out_dir, "sweep.parquet"))
+                )
             if plot and summary["done"]:
                 summary["plots"] = [
                     str(p)
@@ -1044,6 +1235,37 @@ def run_sweep(
     if stopped_by is not None:
         raise SweepInterrupted(stopped_by)
     return summary
+
+
+def _read_sweep_parquet(path: Path, missing: float | None) -> pandas.DataFrame:
+    """A sweep.parquet as read_sweep_table gives a sweep.csv."""
+    from ..io import ResultFileError
+    from ..result_blocks import _parquet_file
+
+    table = _parquet_file(path).read().to_pandas()
+    absent = [name for name in ("index", *TEXT_COLUMNS) if name not in table.columns]
+    if absent:
+        raise ResultFileError(f"{path}: missing column(s) {', '.join(absent)}")
+    frame = pandas.DataFrame(index=pandas.RangeIndex(len(table)))
+    for name in table.columns:
+        column = table[name]
+        if name in TEXT_COLUMNS:
+            frame[name] = pandas.Series(
+                [None if pandas.isna(cell) else str(cell) for cell in column],
+                dtype=object,
+                index=frame.index,
+            )
+        elif name == "index":
+            frame[name] = column.to_numpy(dtype=np.int64)
+        elif missing is None and column.isna().any():
+            frame[name] = pandas.Series(
+                [None if pandas.isna(cell) else float(cell) for cell in column],
+                dtype=object,
+                index=frame.index,
+            )
+        else:
+            frame[name] = column.to_numpy(dtype=float, na_value=missing)
+    return frame
 
 
 def write_plots(
@@ -1082,9 +1304,12 @@ def read_sweep_table(path: Path | str, missing: float | None = math.nan) -> pand
     """A sweep.csv as a pandas DataFrame (mechfmu.io.read_table): ``index`` int64, ``error``
     and ``worker`` strings (None when empty), every other column float64 with ``missing``
     for an empty cell (a failed point's metrics). ResultFileError (a ValueError) naming the
-    file, line and column for a malformed file."""
+    file, line and column for a malformed file. A ``sweep.parquet`` (``--format parquet``)
+    is read with pyarrow into the same columns."""
     from ..io import read_table
 
+    if Path(path).suffix == ".parquet":
+        return _read_sweep_parquet(Path(path), missing)
     return read_table(
         path,
         text=TEXT_COLUMNS,
@@ -1092,6 +1317,59 @@ def read_sweep_table(path: Path | str, missing: float | None = math.nan) -> pand
         required=("index", *TEXT_COLUMNS),
         missing=missing,
     )
+
+
+def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -> Path:
+    """sweep.csv as a Parquet file (pyarrow), ``rows`` rows at a time, written atomically:
+    ``index`` int64, ``error`` and ``worker`` strings (null when empty), every other column
+    float64 (NaN for a failed point's metrics). Returns its path; SweepError without
+    pyarrow."""
+    try:
+        import pyarrow
+        import pyarrow.parquet
+    except ImportError:
+        raise SweepError("--format parquet needs pyarrow: pip install 'mechfmu[parquet]'") from None
+    from ..cosim.files import temporary_name
+
+    header = read_sweep_table_header(csv_path)
+    kinds = {
+        name: "int64" if name == "index" else "string" if name in TEXT_COLUMNS else "float64"
+        for name in header
+    }
+    schema = pyarrow.schema(
+        [
+            (
+                name,
+                {"int64": pyarrow.int64(), "string": pyarrow.string()}.get(kind, pyarrow.float64()),
+            )
+            for name, kind in kinds.items()
+        ]
+    )
+    temporary = parquet_path.with_name(temporary_name(parquet_path.name))
+    try:
+        with pyarrow.parquet.ParquetWriter(temporary, schema) as writer:
+            for part in pandas.read_csv(
+                csv_path,
+                dtype=kinds,
+                keep_default_na=False,
+                na_values={  # an empty cell (no value); 'nan' only in number columns
+                    name: [""] if kind == "string" else ["", "nan", "NaN"]
+                    for name, kind in kinds.items()
+                },
+                chunksize=rows,
+            ):
+                writer.write_table(pyarrow.Table.from_pandas(part, schema, preserve_index=False))
+        os.replace(temporary, parquet_path)
+    finally:
+        if temporary.exists():
+            temporary.unlink()
+    return parquet_path
+
+
+def read_sweep_table_header(path: Path | str) -> list[str]:
+    """The column names of a sweep.csv (its first line)."""
+    with open(path, newline="", encoding="utf-8") as handle:
+        return next(csv.reader(handle))
 
 
 def read_sweep_csv(path: Path | str) -> list[dict[str, Any]]:
@@ -1242,6 +1520,8 @@ def command(args: Namespace) -> int:
                 resume=args.resume,
                 guard=guard,
                 retries=DEFAULT_RETRIES if args.retries is None else args.retries,
+                max_points=MAX_POINTS if args.max_points is None else args.max_points,
+                result_format=args.format,
             )
         except (SweepError, SceneError, OutputError) as error:
             print(f"sweep error: {error}", file=sys.stderr)
@@ -1267,6 +1547,8 @@ def command(args: Namespace) -> int:
         f"{summary['where']}"
     )
     print(f"csv: {summary['csv']}")
+    if summary.get("parquet"):
+        print(f"parquet: {summary['parquet']}")
     for plot in summary.get("plots", []):
         print(f"png: {plot}")
     if summary["failed"]:

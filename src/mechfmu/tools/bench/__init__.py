@@ -17,6 +17,7 @@ BENCHMARKS = (
     "growth",
     "animation",
     "long_runs",
+    "big_files",
 )
 
 
@@ -34,6 +35,8 @@ class Settings:
     animation_s: float = 10.0  # simulated time the animation benchmark plays
     animation_fps: float = 30.0  # its frames per second
     long_base_steps: int = 10_000  # the long-runs benchmark's 1x (then 10x, 100x)
+    big_file_sizes_mb: tuple = (20, 200, 2000)  # result files checked by big_files
+    big_sweep_points: tuple = (1_000, 100_000)  # sweeps whose machinery big_files measures
 
 
 FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
@@ -49,4 +52,6 @@ QUICK = Settings(
     animation_s=1.0,
     animation_fps=10.0,
     long_base_steps=500,
+    big_file_sizes_mb=(1, 5),
+    big_sweep_points=(1_000, 10_000),
 )

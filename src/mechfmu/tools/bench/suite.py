@@ -11,7 +11,7 @@ from pathlib import Path
 
 from . import BENCHMARKS, FULL, QUICK, Settings
 from . import animation, dynamic_scenes, effects, floor, growth, master_overhead, model_cost
-from . import long_runs, sweep, timing
+from . import big_files, long_runs, sweep, timing
 from .report import machine, machine_line, markdown_table, write_outputs
 from argparse import Namespace
 from typing import Any
@@ -35,6 +35,8 @@ def settings_for(args: Namespace) -> Settings:
         chosen.animation_s,
         chosen.animation_fps,
         chosen.long_base_steps,
+        chosen.big_file_sizes_mb,
+        chosen.big_sweep_points,
     )
 
 
@@ -91,6 +93,9 @@ def run_benchmarks(
         ),
         "long_runs": lambda: long_runs.measure(
             args.scenes, args.fmu_dir, settings.repeats, settings.long_base_steps
+        ),
+        "big_files": lambda: big_files.measure(
+            settings.big_file_sizes_mb, settings.big_sweep_points
         ),
     }
     return [row for name in names for row in measures[name]()]

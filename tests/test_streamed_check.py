@@ -1,0 +1,299 @@
+"""Result files compared and read block by block (issue 33): the same outcome as the whole
+arrays give, on random results with block boundaries anywhere; a malformed line named by its
+number wherever it falls; memory that does not grow with the file (peak resident size of a
+child process, measured)."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mechfmu.check import check_paths
+from mechfmu.comparison import compare
+from mechfmu.io import ResultFileError, iter_result, read_result, write_result
+
+
+def frame(times, columns):
+    return pd.DataFrame(columns, index=pd.Index(np.asarray(times, dtype=float), name="time"))
+
+
+@st.composite
+def pairs(draw):
+    """A reference and a result near it: the same grid, or a grid shifted, cut or longer;
+    values within, at and beyond the tolerance; columns missing or extra now and then."""
+    rows = draw(st.integers(1, 40))
+    steps = draw(st.lists(st.floats(1e-3, 1.0), min_size=rows, max_size=rows))
+    times = np.cumsum(steps) - steps[0] + draw(st.floats(-5.0, 5.0))
+    names = ["a.x", "b.y", "c.z"][: draw(st.integers(1, 3))]
+    seed = draw(st.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(seed)
+    reference = {name: rng.normal(size=rows) * 10.0 ** rng.integers(-3, 3) for name in names}
+    result = {}
+    for name, values in reference.items():
+        noise = rng.choice([0.0, 1e-13, 1e-9, 1e-6, 1e-3], size=rows) * rng.normal(size=rows)
+        result[name] = values + noise
+    result_times = times.copy()
+    grid = draw(st.sampled_from(["same", "same", "shifted", "cut", "longer", "jitter"]))
+    if grid == "shifted" and rows > 1:
+        result_times = times + draw(st.floats(-0.5, 0.5)) * float(np.min(np.diff(times)))
+    elif grid == "cut" and rows > 2:
+        keep = draw(st.integers(1, rows - 1))
+        result_times = times[:keep]
+        result = {name: values[:keep] for name, values in result.items()}
+    elif grid == "longer":
+        result_times = np.append(times, times[-1] + 0.5)
+        result = {name: np.append(values, 0.0) for name, values in result.items()}
+    elif grid == "jitter" and rows > 1:
+        at = draw(st.integers(0, rows - 1))
+        result_times = times.copy()
+        result_times[at] += draw(st.sampled_from([1e-15, 1e-12, 1e-6])) * float(
+            np.min(np.diff(times))
+        )
+        if not (np.diff(result_times) > 0).all():
+            result_times = times
+    if draw(st.booleans()) and len(names) > 1:
+        result.pop(names[-1])
+    if draw(st.booleans()):
+        result["extra.w"] = np.zeros(len(result_times))
+    return frame(times, reference), frame(result_times, result)
+
+
+OPTIONS = st.sampled_from(
+    [
+        {},
+        {"rtol": 1e-6, "atol": 1e-9},
+        {"interpolate": True, "ignore_extra": True},
+        {"method": "tube"},
+        {"method": "tube", "time_tolerance": 0.3, "rtol": 1e-3},
+        {"tolerances": {"a.*": (1e-4, 1e-6)}},
+    ]
+)
+
+
+def same(left, right):
+    """Two Comparisons agree: verdict, every failure and summary figure (NaN as NaN), and
+    the line mechfmu check prints."""
+    assert left.passed == right.passed
+    pd.testing.assert_frame_equal(left.failures, right.failures, check_exact=True)
+    pd.testing.assert_frame_equal(left.summary, right.summary, check_exact=True)
+    assert str(left) == str(right)
+    assert left.samples == right.samples
+    assert left.tolerance_text() == right.tolerance_text()
+
+
+@settings(
+    max_examples=50,
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+@given(pair=pairs(), options=OPTIONS, block=st.integers(1, 400))
+def test_files_compared_block_by_block_give_what_the_whole_arrays_give(
+    tmp_path, pair, options, block
+):
+    reference, result = pair
+    result_path = write_result(result, tmp_path / "result.csv")
+    reference_path = write_result(reference, tmp_path / "reference.csv")
+    whole = compare(result, reference, **options)
+    streamed = compare(result_path, reference_path, block_bytes=block, **options)
+    same(streamed, whole)
+    # a Parquet result, read by record batches of about block / 160 rows, likewise
+    parquet_path = write_result(result, tmp_path / "columnar.parquet")  # its own JSON
+    same(compare(parquet_path, reference_path, block_bytes=block * 160, **options), whole)
+    # and the frames read back, whole and by blocks, are the frames written
+    pd.testing.assert_frame_equal(read_result(result_path, block_bytes=block), result)
+    joined = pd.concat(list(iter_result(reference_path, block_bytes=block)))
+    pd.testing.assert_frame_equal(joined, reference, check_freq=False)
+
+
+def test_a_drifting_grid_is_found_where_the_whole_grid_finds_it(tmp_path):
+    """The same-grid check keeps only the records of |t - t_ref|: a grid drifting away a
+    little more every row fails at the row where the drift passes the margin (here 1e-9 of
+    the 1 ms step, near row 1000), read in blocks of about 100 rows."""
+    times = np.arange(3000) * 1e-3
+    drift = times + np.arange(3000) * 1e-15
+    reference = frame(times, {"a.x": np.sin(times)})
+    result = frame(drift, {"a.x": np.sin(times)})
+    write_result(reference, tmp_path / "r.csv")
+    write_result(result, tmp_path / "x.csv")
+    streamed = compare(tmp_path / "x.csv", tmp_path / "r.csv", block_bytes=4000)
+    whole = compare(result, reference)
+    same(streamed, whole)
+    row = streamed.failures.iloc[0]
+    assert row["kind"] == "time grid"
+    assert row["reference"] == pytest.approx(1.0, abs=2e-3)  # 1e-12 of drift there
+
+
+def _write(path, lines):
+    path.write_text("".join(line + "\n" for line in lines))
+    return path
+
+
+@pytest.mark.parametrize("block", [7, 64, 1 << 20])
+@pytest.mark.parametrize(
+    ("bad", "message"),
+    [
+        ("5.0,x", "line 7, column 'a.x': 'x' is not a number"),
+        ("5.0", "line 7, column 'a.x': empty field (the line has fewer values than the header"),
+        ("5.0,1,2", "line 7 has 3 values, the header 2 columns"),
+        ("3.5,1", "line 7: time 3.5 s is before the previous line's 4.0 s"),
+        ("5.0,inf", "line 7, column 'a.x': 'inf' is not a finite number"),
+        ("", "line 7 is blank"),
+    ],
+)
+def test_a_malformed_line_is_named_by_its_number_whatever_the_blocks(tmp_path, bad, message, block):
+    lines = ["time,a.x", *(f"{t}.0,{t}" for t in range(5)), bad, "6.0,1", "7.0,2"]
+    path = _write(tmp_path / "bad.csv", lines)
+    with pytest.raises(ResultFileError) as caught:
+        read_result(path, block_bytes=block)
+    assert str(caught.value) == f"{path}: {message}" or message in str(caught.value)
+    good = _write(tmp_path / "good.csv", ["time,a.x", *(f"{t}.0,{t}" for t in range(8))])
+    run = check_paths(good, path, block_bytes=block)
+    assert run.exit_code == 1
+    assert run.files[0].kind == "malformed file"
+    assert message in run.files[0].problem
+
+
+@pytest.mark.parametrize("block", [5, 1 << 20])
+def test_trailing_blank_lines_are_allowed_and_a_cut_last_line_is_named(tmp_path, block):
+    path = _write(tmp_path / "r.csv", ["time,a.x", "0.0,1", "1.0,2", "", ""])
+    assert read_result(path, block_bytes=block)["a.x"].tolist() == [1.0, 2.0]
+    cut = tmp_path / "cut.csv"
+    cut.write_text("time,a.x,b.y\n0.0,1,2\n1.0,3,4\n2.0,5")
+    with pytest.raises(ResultFileError, match=r"line 4, column 'b.y': empty field"):
+        read_result(cut, block_bytes=block)
+
+
+def test_a_pair_whose_csv_changed_is_refused_after_the_last_block(tmp_path):
+    path = write_result(frame([0.0, 1.0, 2.0], {"a.x": [1.0, 2.0, 3.0]}), tmp_path / "r.csv")
+    meta = json.loads(path.with_suffix(".json").read_text())
+    path.write_text(path.read_text().replace("3.0", "4.0"))
+    with pytest.raises(ResultFileError, match="are not one pair"):
+        read_result(path, block_bytes=8)
+    assert meta["csv_bytes"] == path.stat().st_size  # same size: the digest tells
+
+
+MEASURE = textwrap.dedent(
+    """
+    import sys
+    from mechfmu.check import check_paths
+    from mechfmu.tools.bench.big_files import peak_mb
+    run = check_paths(sys.argv[1], sys.argv[2], block_bytes=int(sys.argv[3]))
+    print(run.exit_code, int(peak_mb() * 1024))
+    """
+)
+
+
+def _peak_kib(result, reference, block):
+    out = subprocess.run(
+        [sys.executable, "-c", MEASURE, str(result), str(reference), str(block)],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "OMP_NUM_THREADS": "1"},
+    ).stdout.split()
+    return int(out[0]), int(out[1])
+
+
+def _big_result(path, megabytes):
+    """A result CSV of about ``megabytes`` MB: 6 columns of full-precision numbers."""
+    rng = np.random.default_rng(7)
+    rest = [",".join(repr(float(x)) for x in rng.standard_normal(6)) for _ in range(997)]
+    with open(path, "w") as handle:
+        handle.write("time," + ",".join(f"part.s{k}" for k in range(6)) + "\n")
+        rows = 0
+        while handle.tell() < megabytes * 1e6:
+            handle.write("".join(f"{j}e-3,{rest[j % 997]}\n" for j in range(rows, rows + 50_000)))
+            rows += 50_000
+    return path
+
+
+def test_check_memory_does_not_grow_with_the_file(tmp_path):
+    """A 60 MB pair (2 x 60 MB, 0.5 M rows of 7 numbers each: 28 MB as floats per file)
+    checked in 1 MiB blocks takes less than 30 MB above a 0.1 MB pair checked the same way:
+    the whole files in memory would take more than their 56 MB of floats."""
+    big = _big_result(tmp_path / "big.csv", 60)
+    twin = tmp_path / "twin.csv"
+    os.link(big, twin)
+    small = tmp_path / "small.csv"
+    with open(big) as handle:
+        small.write_text("".join(next(handle) for _ in range(1000)))
+    small_twin = tmp_path / "small_twin.csv"
+    os.link(small, small_twin)
+    code, small_peak = _peak_kib(small, small_twin, 1 << 20)
+    assert code == 0
+    code, big_peak = _peak_kib(big, twin, 1 << 20)
+    assert code == 0
+    assert (big_peak - small_peak) / 1024 < 30, (small_peak, big_peak)
+
+
+# --- Parquet results -------------------------------------------------------------------------
+
+
+def test_a_parquet_result_reads_as_its_csv_and_checks_against_a_csv_reference(tmp_path):
+    pytest.importorskip("pyarrow")
+    times = np.linspace(0.0, 2.0, 201)
+    result = frame(times, {"a.x": np.sin(times), "b.y": np.cos(times)})
+    result.attrs["units"] = {"a.x": "m", "b.y": "rad"}
+    csv_path = write_result(result, tmp_path / "reference" / "run.csv")
+    parquet_path = write_result(result, tmp_path / "result" / "run.parquet")
+    from_parquet = read_result(parquet_path)
+    pd.testing.assert_frame_equal(from_parquet, read_result(csv_path))
+    assert from_parquet.attrs["units"] == {"a.x": "m", "b.y": "rad"}
+    assert parquet_path.stat().st_size < csv_path.stat().st_size
+    run = check_paths(tmp_path / "result", tmp_path / "reference")  # matched by name
+    assert [check.name for check in run.files] == ["run.parquet"]
+    assert run.exit_code == 0
+    assert str(run.files[0].comparison).startswith("match: 2 column(s), 201 sample(s)")
+
+
+def _parquet(path, columns):
+    import pyarrow
+    import pyarrow.parquet
+
+    pyarrow.parquet.write_table(pyarrow.table(columns), path)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("columns", "message"),
+    [
+        (
+            {"time": [0.0, 1.0, 2.0], "a.x": [1.0, float("nan"), 2.0]},
+            "row 2, column 'a.x': nan is not a finite number",
+        ),
+        (
+            {"time": [0.0, 1.0, 1.0], "a.x": [1.0, 2.0, 3.0]},
+            "row 3: time 1.0 s repeats the previous row's 1.0 s (times must increase)",
+        ),
+        ({"t": [0.0], "a.x": [1.0]}, "line 1: the first column must be 'time', got 't'"),
+        ({"time": [0.0], "a.x": ["one"]}, "column 'a.x' holds string, not numbers"),
+        ({"time": [0.0, 1.0], "a.x": [1.0, None]}, "row 2, column 'a.x': no value (null)"),
+    ],
+)
+def test_a_malformed_parquet_result_is_named_by_row_and_column(tmp_path, columns, message):
+    pytest.importorskip("pyarrow")
+    path = _parquet(tmp_path / "bad.parquet", columns)
+    with pytest.raises(ResultFileError) as caught:
+        read_result(path, block_bytes=160)  # one row per batch
+    assert message in str(caught.value)
+    assert str(caught.value).startswith(str(path))
+
+
+def test_bytes_that_are_not_parquet_and_a_changed_parquet_file_are_refused(tmp_path):
+    pytest.importorskip("pyarrow")
+    fake = tmp_path / "fake.parquet"
+    fake.write_bytes(b"time,a.x\n0,1\n")
+    with pytest.raises(ResultFileError, match="malformed Parquet file"):
+        read_result(fake)
+    path = write_result(frame([0.0, 1.0], {"a.x": [1.0, 2.0]}), tmp_path / "r.parquet")
+    other = write_result(frame([0.0, 1.0], {"a.x": [1.0, 3.0]}), tmp_path / "o.parquet")
+    path.write_bytes(other.read_bytes())
+    with pytest.raises(ResultFileError, match="are not one pair"):
+        read_result(path)
