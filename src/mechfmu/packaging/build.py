@@ -29,6 +29,7 @@ import sys
 import sysconfig
 import tempfile
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 # Imported here, before any FMU runs in this process: an FMU run by fmpy puts its resources/
@@ -38,6 +39,7 @@ from pythonfmu import FmuBuilder as Fmi2Builder
 from pythonfmu3 import FmuBuilder as Fmi3Builder
 
 from .binary_patch import patch_exit_finaliser
+from .boundary import table_source
 from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
 
@@ -45,7 +47,8 @@ RUNTIME_ROOT = Path(__file__).resolve().parents[1] / "runtime"  # the FMU runtim
 LOADER_DIR = Path(__file__).resolve().parent / "c_loader"
 LOADER_RUNTIME_SOURCE = LOADER_DIR / "python_runtime.c"  # finds and starts libpython
 PYTHONFMU_SUFFIX = ".pythonfmu.so"  # pythonfmu's library, next to the loader <Name>.so
-LOADER_FLAGS = ("-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-fvisibility=hidden")
+LOADER_FLAGS = ("-fPIC", "-O2", "-Wall", "-Wextra", "-fvisibility=hidden", "-pthread")
+LOADER_LIBRARIES = ("-shared", "-ldl", "-pthread")
 FMI_VERSIONS = (2, 3)
 # binaries/<folder> of the Linux x86-64 binary, per FMI version
 PLATFORM_FOLDER = {2: "linux64", 3: "x86_64-linux"}
@@ -83,11 +86,46 @@ def _c_string(text: str):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> Any:
-    """Compile the C loader for FMI ``fmi_version`` into ``folder``/loader<version>.so; return
-    (path or None, message).
+@dataclass(frozen=True)
+class Loader:
+    """The C loader of one FMI version, compiled to objects once per build; ``link`` makes
+    each FMU's binary from them and the table of that FMU's variables (boundary.py)."""
 
-    The compiler is $CC (may carry arguments) or ``cc``. On any failure the path is None and
+    objects: tuple[Path, ...]
+    compiler: tuple[str, ...]
+    headers: Path
+    message: str
+
+    def link(self, description: bytes, folder: Path) -> Path:
+        """The loader for the FMU whose modelDescription.xml is ``description``, linked in
+        ``folder``; RuntimeError with the compiler's output when it fails."""
+        folder.mkdir(parents=True, exist_ok=True)
+        table = folder / "model_table.c"
+        table.write_text(table_source(description))
+        target = folder / "loader.so"
+        command = [
+            *self.compiler,
+            *LOADER_FLAGS,
+            f"-I{self.headers}",
+            f"-I{LOADER_DIR}",
+            str(table),
+            *map(str, self.objects),
+            "-o",
+            str(target),
+            *LOADER_LIBRARIES,
+        ]
+        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+        if done.returncode != 0 or not target.is_file():
+            detail = " ".join((done.stderr or done.stdout).split())[:400]
+            raise RuntimeError(f"linking the C loader failed (exit {done.returncode}): {detail}")
+        return target
+
+
+def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> Any:
+    """Compile the C loader for FMI ``fmi_version`` into objects in ``folder``; return
+    (Loader or None, message).
+
+    The compiler is $CC (may carry arguments) or ``cc``. On any failure the Loader is None and
     the message says why; the caller then ships pythonfmu's plain binary. ``runtime`` is
     (soname, libdir, major.minor) of the libpython to look for first; default python_runtime().
     """
@@ -103,34 +141,32 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
     soname, libdir, version = runtime or python_runtime()
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    target = folder / f"loader{fmi_version}.so"
-    command = [
-        *argv,
-        *LOADER_FLAGS,
-        f"-I{headers}",
+    definitions = [
         f"-DPYTHON_SONAME={_c_string(soname)}",
         f"-DPYTHON_LIBDIR={_c_string(libdir)}",
         f"-DPYTHON_VERSION={_c_string(version)}",
-        str(LOADER_RUNTIME_SOURCE),
-        str(LOADER_DIR / f"fmi{fmi_version}.c"),
-        "-o",
-        str(target),
-        "-ldl",
     ]
-    try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
-    except (OSError, subprocess.SubprocessError) as error:
-        return None, f"C compiler {compiler!r} could not run: {error}"
-    if done.returncode != 0 or not target.is_file():
-        detail = " ".join((done.stderr or done.stdout).split())[:400]
-        return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
+    objects, warnings = [], []
+    for source in (LOADER_RUNTIME_SOURCE, LOADER_DIR / "boundary.c", LOADER_DIR / f"fmi{fmi_version}.c"):
+        target = folder / f"{source.stem}.o"
+        command = [*argv, "-c", *LOADER_FLAGS, f"-I{headers}", *definitions, str(source), "-o", str(target)]
+        try:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+        except (OSError, subprocess.SubprocessError) as error:
+            return None, f"C compiler {compiler!r} could not run: {error}"
+        if done.returncode != 0 or not target.is_file():
+            detail = " ".join((done.stderr or done.stdout).split())[:400]
+            return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
+        objects.append(target)
+        warnings.append(" ".join(done.stderr.split()))
     where = f" (first looked for in {libdir})" if libdir else ""
-    warnings = " ".join(done.stderr.split())[:400]
-    return target, (
+    warned = " ".join(w for w in warnings if w)[:400]
+    message = (
         f"compiled with {compiler} for FMI {fmi_version}.0, Python {version} first: "
         f"{soname}{where}, then any 3.x >= 3.10"
-        + (f"; compiler warnings: {warnings}" if warnings else "")
+        + (f"; compiler warnings: {warned}" if warned else "")
     )
+    return Loader(tuple(objects), tuple(argv), headers, message), message
 
 
 def runtime_package(name: str, fmi_version: Any = 2) -> Any:
@@ -216,14 +252,14 @@ def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any 
 
 
 def _builder(fmi_version: Any):
-    """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags."""
+    """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags.
+    FMU states serialise through runtime/fmi/state.py (bit-exact JSON), framed and checked by
+    the C loader."""
     if fmi_version == 2:
-        return Fmi2Builder, {"canGetAndSetFMUstate": True}
-    # FMU states are not serialised (as in FMI 2.0): an integrator's state holds Python
-    # objects that pythonfmu3's JSON serialisation cannot write.
+        return Fmi2Builder, {"canGetAndSetFMUstate": True, "canSerializeFMUstate": True}
     return Fmi3Builder, {
         "canGetAndSetFMUState": True,
-        "canSerializeFMUState": False,
+        "canSerializeFMUState": True,
         "canHandleVariableCommunicationStepSize": True,
     }
 
@@ -268,56 +304,70 @@ def build_model(
     if loader is None:
         loader = compile_loader(staging / f"loader_{fmu_name}", fmi_version=fmi_version)
     extra = embed.files_for(built, staging / f"embed_{fmu_name}_fmi{fmi_version}") if embed else {}
+    linking = staging / f"link_{fmu_name}_fmi{fmi_version}"
     # atomic: a reader never sees a half-written FMU
     return atomic_write(
-        Path(out_dir) / f"{fmu_name}.fmu", _rewrite_fmu(built, fmu_name, loader, fmi_version, extra)
+        Path(out_dir) / f"{fmu_name}.fmu",
+        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking),
     )
 
 
-def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any):
-    """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
-    binary_patch; pythonfmu3's library has other code there and is left as built) and, when
-    the loader was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so.
-    ``extra`` maps further member names to their bytes (the embedded Python). pythonfmu3's
-    C++ sources are left out: they cannot rebuild this FMU's binary (the loader)."""
-    member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
-    loader_path, loader_message = loader
+def _members(fmu: Any, fmi_version: int) -> dict[str, tuple[zipfile.ZipInfo, bytes]]:
+    """The members the FMU keeps, by name: pythonfmu3's C++ sources are left out (they cannot
+    rebuild this FMU's binary, the loader), and so are the binaries of every platform but
+    this one (pythonfmu's builders add Windows DLLs that nothing here has ever run)."""
+    own = f"binaries/{PLATFORM_FOLDER[fmi_version]}/"
     with zipfile.ZipFile(fmu) as archive:
-        entries = [
-            (info, archive.read(info))
+        return {
+            info.filename: (info, archive.read(info))
             for info in archive.infolist()
             if not info.filename.startswith("sources/")
-        ]
-    if member not in {info.filename for info, _ in entries}:
+            and (not info.filename.startswith("binaries/") or info.filename.startswith(own))
+        }
+
+
+def _rewrite_fmu(
+    fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any, linking: Path
+) -> bytes:
+    """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
+    binary_patch; pythonfmu3's library has other code there and is left as built) and, when
+    the loader was compiled, moved to <name>.pythonfmu.so with the loader, linked with the
+    table of this FMU's variables, as <name>.so. ``extra`` maps further member names to their
+    bytes (the embedded Python)."""
+    member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
+    compiled, loader_message = loader
+    members = _members(fmu, fmi_version)
+    if member not in members:
         raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu FMU?")
+    info, data = members[member]
+    if fmi_version == 2:
+        data, message = patch_exit_finaliser(data)
+        print(f"{name}: {message}")
+    members[member] = (info, data)
+    if compiled is not None:
+        inner = zipfile.ZipInfo(member[: -len(".so")] + PYTHONFMU_SUFFIX, info.date_time)
+        inner.external_attr = info.external_attr
+        members[inner.filename] = (inner, data)
+        description = members["modelDescription.xml"][1]
+        members[member] = (info, compiled.link(description, linking).read_bytes())
+    for filename, content in extra.items():
+        entry = zipfile.ZipInfo(filename, (2020, 1, 1, 0, 0, 0))
+        entry.external_attr = (
+            0o755 << 16 if filename.endswith(".so") or ".so." in filename else 0o644 << 16
+        )
+        # the stdlib zip stays uncompressed inside (zipimport reads it without zlib, which
+        # is itself an extension module); the FMU's own deflate compresses it
+        members[filename] = (entry, content)
     patched_fmu = io.BytesIO()
     with zipfile.ZipFile(patched_fmu, "w", zipfile.ZIP_DEFLATED) as archive:
-        for info, data in entries:
-            info.compress_type = zipfile.ZIP_DEFLATED
-            if info.filename == member:
-                if fmi_version == 2:
-                    data, message = patch_exit_finaliser(data)
-                    print(f"{name}: {message}")
-                if loader_path is not None:
-                    inner = zipfile.ZipInfo(
-                        member[: -len(".so")] + PYTHONFMU_SUFFIX, info.date_time
-                    )
-                    inner.external_attr = info.external_attr
-                    archive.writestr(inner, data, zipfile.ZIP_DEFLATED)
-                    data = Path(loader_path).read_bytes()
-            archive.writestr(info, data)
-        for filename, data in extra.items():
-            entry = zipfile.ZipInfo(filename, (2020, 1, 1, 0, 0, 0))
-            entry.external_attr = (
-                0o755 << 16 if filename.endswith(".so") or ".so." in filename else 0o644 << 16
-            )
-            # the stdlib zip stays uncompressed inside (zipimport reads it without zlib, which
-            # is itself an extension module); the FMU's own deflate compresses it
-            archive.writestr(entry, data, zipfile.ZIP_DEFLATED)
-    if loader_path is not None:
+        for entry, content in members.values():
+            entry.compress_type = zipfile.ZIP_DEFLATED
+            archive.writestr(entry, content)
+    if compiled is not None:
         print(
-            f"{name}: C loader as {member} (loads libpython itself in hosts without Python), "
-            f"pythonfmu's library as {pythonfmu_library_name(name)}"
+            f"{name}: C loader as {member} (loads libpython itself in hosts without Python, "
+            f"checks every call at the FMI boundary), pythonfmu's library as "
+            f"{pythonfmu_library_name(name)}"
         )
     else:
         print(
@@ -327,7 +377,7 @@ def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any)
     if extra:
         print(
             f"{name}: embedded Python runtime, {len(extra)} files, "
-            f"{sum(len(data) for data in extra.values()) / 1e6:.1f} MB before compression"
+            f"{sum(len(content) for content in extra.values()) / 1e6:.1f} MB before compression"
         )
     return patched_fmu.getvalue()
 
