@@ -97,6 +97,7 @@ LAYERS = {
     "test_container.py": "hosts",
     "test_embedded.py": "hosts",
     "test_fmi3.py": "hosts",
+    "test_fmi_boundary.py": "hosts",
     "test_libcosim.py": "hosts",
 }
 # Whole files, then single tests (by name without parameters), that take more than a few

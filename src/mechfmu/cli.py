@@ -163,7 +163,22 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
             print(f"  {kind}: {path}", file=sys.stderr)
         return 2
     print("\n".join(lines))
+    note = ended_note(result.meta)
+    if note:
+        print(note)
     return 0 if comparison is None or comparison.ok else 1
+
+
+def ended_note(meta: dict[str, Any]) -> str | None:
+    """The note of a run an FMU ended before its stop time (None for the others)."""
+    ended = meta.get("ended_by")
+    if not ended:
+        return None
+    said = f": {ended['message']}" if ended.get("message") else ""
+    return (
+        f"note: component {ended['component']!r} asked to end the simulation at "
+        f"t = {ended['time']!r} s{said}; the run ended there, every row kept"
+    )
 
 
 # name: (default output folder, what it shows); each is a function of tools/examples.py

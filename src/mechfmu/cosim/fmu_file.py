@@ -20,6 +20,7 @@ import zipfile
 import zlib
 
 from fmpy import platform as fmi2_platform
+from fmpy import platform_tuple as fmi3_platform
 from fmpy import read_model_description, sharedLibraryExtension
 
 from .scene import SceneError
@@ -65,7 +66,7 @@ def checked_description(path: str) -> ModelDescription:
             refuse(f"its modelDescription.xml cannot be read: {error}")
         if description.coSimulation is None:
             refuse("it does not support co-simulation (no <CoSimulation> element)")
-        folder = f"binaries/{fmi2_platform}/"
+        folder = f"binaries/{binary_folder(description.fmiVersion)}/"
         binary = f"{folder}{description.coSimulation.modelIdentifier}{sharedLibraryExtension}"
         if binary not in names:
             offered = [
@@ -82,6 +83,12 @@ def checked_description(path: str) -> ModelDescription:
                     if problem:
                         refuse(f"its binary {name} {problem}")
     return description
+
+
+def binary_folder(fmi_version: str) -> str:
+    """The folder under binaries/ of this platform's binary for FMI ``fmi_version`` (FMI
+    2.0: linux64, win64 ...; FMI 3.0: x86_64-linux, x86_64-windows ...)."""
+    return fmi3_platform if fmi_version.startswith("3") else fmi2_platform
 
 
 # e_machine of the ELF header for the machines Python reports (platform.machine())

@@ -42,10 +42,15 @@ from fmpy.fmi2 import (
     fmi2ValueReference,
 )
 from fmpy import calloc, free
+from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
+from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
+from .experiment import resolved_times
 from .fmu_file import FmuError, checked_description
 from .interrupt import signal_name
 from .scene import SceneError, split_name
+from .variables import called_type, element, movable, recordable, scene_value, start_value
+from .variables import unit_of
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from fmpy.model_description import ModelDescription, ModelVariable
@@ -57,7 +62,6 @@ EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.r
 # ..."; mechfmu.runtime.fmi.declarations.only_with): unfed, it is no mistake in the others
 ONLY_WITH = re.compile(r"^Only with (\w+) = (\w+): ")
 STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
-_PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 
 
 def _read(component: Any, variable: Any) -> bool:
@@ -194,6 +198,16 @@ class LogBook:
         except Exception:
             pass
 
+    def fmi3_logger(self, instance: str) -> Callable:
+        """An FMI 3.0 logMessage callback for ``instance`` (FMI 3.0 passes no instance name:
+        each instance gets its own, and no variadic message needs fmpy's proxy)."""
+        name = instance.encode()
+
+        def log(environment: Any, status: int, category: bytes, message: bytes) -> None:
+            self.record(name, status, category, message)
+
+        return log
+
     def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
         def text(raw: Any):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
@@ -206,6 +220,13 @@ class LogBook:
                 "message": text(message),
             }
         )
+
+    def last_message(self, instance: str) -> str:
+        """The last message ``instance`` logged, of any status ('' when none)."""
+        for entry in reversed(self.messages):
+            if entry["instance"] == instance:
+                return str(entry["message"])
+        return ""
 
     def last_problem(self, instance: str) -> str:
         for entry in reversed(self.messages):
@@ -233,8 +254,8 @@ class Instances:
         self._idle: dict[tuple, list] = {}  # (folder, instance name) -> [FMU2Slave ready to set up]
         self.created = self.reused = 0
 
-    def acquire(self, component: "_Component") -> FMU2Slave:
-        """An instantiated FMU2Slave for ``component``, named after it."""
+    def acquire(self, component: "_Component") -> Any:
+        """An instantiated FMU2Slave or FMU3Slave for ``component``, named after it."""
         version = file_version(component.path)
         folder = self._folders.get(version)
         if folder is None:
@@ -244,14 +265,18 @@ class Instances:
         if idle:
             self.reused += 1
             return idle.pop()
-        slave = FMU2Slave(
+        options = dict(
             guid=component.description.guid,
             unzipDirectory=folder,
             modelIdentifier=component.description.coSimulation.modelIdentifier,
             instanceName=component.name,
         )
+        slave: Any = (FMU3Slave if component.version == 3 else FMU2Slave)(**options)
         try:
-            slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+            if component.version == 3:
+                slave.instantiate(loggingOn=True, logMessage=self.logbook.fmi3_logger(component.name))
+            else:
+                slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         except Exception:  # fmpy says only "Failed to instantiate model"; the FMU's log says why
             slave.freeLibrary()
             raise _InstantiationFailed(component.name) from None
@@ -293,7 +318,9 @@ class _Component:
     def __init__(self, spec: ComponentSpec, path: Path, description: ModelDescription) -> None:
         self.spec, self.name, self.path, self.description = spec, spec.name, path, description
         self.variables = {v.name: v for v in description.modelVariables}
-        self.slave: Any = None  # fmpy's FMU2Slave, from InstancePool.acquire
+        self.version = 3 if description.fmiVersion.startswith("3") else 2
+        self.slave: Any = None  # fmpy's FMU2Slave or FMU3Slave, from Instances.acquire
+        self.settings: list[tuple[Any, Any]] = []  # (variable, value): set at initialisation
 
     def variable(self, name: str, where: str, causality: tuple[str] | None = None) -> ModelVariable:
         variable = self.variables.get(name)
@@ -318,24 +345,28 @@ class _Component:
     def setter(self, variable: ModelVariable) -> Callable:
         """A function setting the variable (bound once, called per step)."""
         put, reference = accessor(self.slave, variable.type, "set"), [variable.valueReference]
+        if variable.type == "String":
+            return lambda value: put(reference, [value.decode() if isinstance(value, bytes) else value])
         return lambda value: put(reference, [value])
 
-    def set(self, variable: ModelVariable, value: float) -> None:
+    def set(self, variable: ModelVariable, value: Any) -> None:
         self.setter(variable)(value)
 
+    def initialise(self, start_time: float, stop_time: float) -> None:
+        """Into initialisation mode for a run from ``start_time`` to ``stop_time`` (s), as the
+        FMU's version has it."""
+        if self.version == 3:
+            self.slave.enterInitializationMode(startTime=start_time, stopTime=stop_time)
+        else:
+            self.slave.setupExperiment(startTime=start_time, stopTime=stop_time)
+            self.slave.enterInitializationMode()
 
-def accessor(slave: FMU2Slave, fmi_type: str, verb: str) -> Callable:
-    """fmpy's get/set method of an FMU2Slave for an FMI type ('Real', 'Integer', ...)."""
-    return getattr(slave, f"{verb}{fmi_type}")
 
-
-def _check_value(component: str, variable: ModelVariable, value: float, where: str) -> None:
-    expected = _PYTHON_TYPES[variable.type]
-    if not isinstance(value, expected) or (variable.type != "Boolean" and isinstance(value, bool)):
-        raise SceneError(
-            f"{where}: {component}.{variable.name} is {variable.type}, got "
-            f"{type(value).__name__} {value!r}"
-        )
+def accessor(slave: Any, fmi_type: str, verb: str) -> Callable:
+    """fmpy's get/set method of an FMU2Slave or FMU3Slave for an FMI type ('Real',
+    'Float64', 'Enumeration', ...)."""
+    version = 3 if isinstance(slave, FMU3Slave) else 2
+    return getattr(slave, f"{verb}{called_type(version, fmi_type)}")
 
 
 def order_components(
@@ -429,6 +460,9 @@ class Simulation:
             except FmuError as error:
                 raise FmuError(f"component {name!r}: FMU file {error}") from None
             self.components[name] = _Component(spec, path, description)
+        self.scene = resolved_times(
+            scene, {name: c.description for name, c in self.components.items()}
+        )
         self._check()
         self.order, self.lagged = order_components(
             list(self.components), self.connections, self._feedthrough
@@ -463,10 +497,18 @@ class Simulation:
                     f"{where}: connection {connection} joins a {source.type} "
                     f"output to a {target.type} input"
                 )
-            if source.type not in _CTYPES:
+            versions = {self.components[n].version for n in (connection.source, connection.target)}
+            if not all(movable(version, source.type) for version in versions):
                 raise SceneError(
-                    f"{where}: connection {connection} joins {source.type} "
-                    f"variables; only Real, Integer and Boolean are connected"
+                    f"{where}: connection {connection} joins {source.type} variables; the "
+                    "master connects Real (Float32, Float64), integer, Boolean, String and "
+                    "Enumeration variables"
+                )
+            if len(versions) > 1 and element(2, source.type) != element(3, source.type):
+                raise SceneError(
+                    f"{where}: connection {connection} joins {source.type} variables of an "
+                    "FMI 2.0 and an FMI 3.0 FMU, whose values differ in size; connect them "
+                    "through FMUs of one version"
                 )
             key = (connection.target, connection.input)
             if key in fed:
@@ -478,7 +520,8 @@ class Simulation:
         for component in self.components.values():
             for name, value in component.spec.parameters.items():
                 variable = component.variable(name, f"{where}: parameters", ("parameter",))
-                _check_value(component.name, variable, value, f"{where}: parameters")
+                converted = scene_value(component.name, variable, value, f"{where}: parameters")
+                component.settings.append((variable, converted))
             available = sorted(
                 v.name
                 for v in component.variables.values()
@@ -498,9 +541,12 @@ class Simulation:
                         f"{where}: effect {component.name}.{name} is also given "
                         f"under parameters; list it in one place only"
                     )
+            for name in component.spec.effects:
+                component.settings.append((component.variables[name], True))
             for name, value in component.spec.inputs.items():
                 variable = component.variable(name, f"{where}: inputs", ("input",))
-                _check_value(component.name, variable, value, f"{where}: inputs")
+                converted = scene_value(component.name, variable, value, f"{where}: inputs")
+                component.settings.append((variable, converted))
                 if (component.name, name) in fed:
                     raise SceneError(
                         f"{where}: input {component.name}.{name} is both "
@@ -525,17 +571,18 @@ class Simulation:
             f"{c.name}.{v.name}"
             for c in self.components.values()
             for v in c.variables.values()
-            if v.causality == "output"
+            if v.causality == "output" and recordable(c.version, v.type)
         ]
         for full_name in names:
             component_name, variable_name = split_name(full_name, f"{where}: record")
             if component_name not in self.components:
                 raise SceneError(f"{where}: record names unknown component {component_name!r}")
-            variable = self.components[component_name].variable(variable_name, f"{where}: record")
-            if variable.type not in _CTYPES:
+            component = self.components[component_name]
+            variable = component.variable(variable_name, f"{where}: record")
+            if not recordable(component.version, variable.type):
                 raise SceneError(
-                    f"{where}: record: {full_name} is a {variable.type}; only "
-                    f"Real, Integer and Boolean variables are recorded"
+                    f"{where}: record: {full_name} is a {variable.type}; result columns are "
+                    "numbers: Real, integer, Boolean and Enumeration variables are recorded"
                 )
             self.recorded.append((full_name, self.components[component_name], variable))
         self.pruned = self._prune()
@@ -578,7 +625,7 @@ class Simulation:
         result = Result(
             scene=scene,
             columns={name: [] for name, _, _ in self.recorded},
-            units={name: variable.unit for name, _, variable in self.recorded},
+            units={name: unit_of(variable) for name, _, variable in self.recorded},
         )
         result.meta["coupling"] = scene.coupling
         own = instances is None
@@ -599,16 +646,9 @@ class Simulation:
                 component = self.components[name]
                 component.slave = instances.acquire(component)
                 instantiated.append(component)
-                component.slave.setupExperiment(
-                    startTime=scene.start_time, stopTime=scene.stop_time
-                )
-                component.slave.enterInitializationMode()
-                for pname, value in component.spec.parameters.items():
-                    component.set(component.variables[pname], value)
-                for ename in component.spec.effects:
-                    component.set(component.variables[ename], True)
-                for iname, value in component.spec.inputs.items():
-                    component.set(component.variables[iname], value)
+                component.initialise(scene.start_time, scene.stop_time)
+                for variable, value in component.settings:
+                    component.set(variable, value)
                 self._feed(name, skip=self.lagged)
                 component.slave.exitInitializationMode()
             for connection in self.lagged:  # their sources initialise after their targets
@@ -627,6 +667,13 @@ class Simulation:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
+        except _Ended as ended:
+            message = logbook.last_message(ended.component)
+            result.meta["ended_by"] = {
+                "component": ended.component,
+                "time": ended.time,
+                "message": message,
+            }
         except _InstantiationFailed as failure:
             result.partial = True
             raise SimulationError(
@@ -695,8 +742,55 @@ class Simulation:
 
 # --- the stepping loop: FMI calls bound once, buffers allocated once -----------------------
 
-# ctypes element type and array('...') code of each FMI type the loop moves.
-_CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (fmi2Boolean, "i")}
+_TERMINATE = 100  # what an FMI 3.0 step adapter returns when the FMU asks to end the run
+
+
+def _counted(function: Any) -> Callable:
+    """An FMI 3.0 get or set as the loop calls FMI 2.0's: nValues = nValueReferences (the
+    master moves scalars only)."""
+
+    def call(instance: Any, references: Any, count: int, buffer: Any, _function=function) -> Any:
+        return _function(instance, references, count, buffer, count)
+
+    return call
+
+
+class _Fmi3Step:
+    """fmi3DoStep as the loop calls fmi2DoStep, ``(instance, t, h, flag) -> status``; a
+    step that asks to end the simulation (terminateSimulation) returns _TERMINATE, and
+    ``last`` holds the FMU's last successful time."""
+
+    def __init__(self, function: Any) -> None:
+        self.function = function
+        self.event, self.terminate, self.early = fmi3Boolean(), fmi3Boolean(), fmi3Boolean()
+        self.last = fmi3Float64()
+        self.outputs = (byref(self.event), byref(self.terminate), byref(self.early))
+        self.time = byref(self.last)
+
+    def __call__(self, instance: Any, start: float, size: float, flag: int) -> int:
+        status = self.function(instance, start, size, flag, *self.outputs, self.time)
+        return _TERMINATE if status <= _WARNING and self.terminate.value else status
+
+
+def _termination(component: _Component, do_step: Any) -> Callable:
+    """``ended(status) -> time or None``: after a step that did not succeed, the time at
+    which the FMU asked to end the simulation, or None when it did not ask (FMI 2.0:
+    fmi2Discard and fmi2GetBooleanStatus(fmi2Terminated); FMI 3.0: terminateSimulation)."""
+    if component.version == 3:
+        return lambda status: do_step.last.value if status == _TERMINATE else None
+    slave = component.slave
+
+    def ended(status: int) -> float | None:
+        if status != 2:  # fmi2Discard
+            return None
+        try:
+            if slave.getBooleanStatus(fmi2Terminated):
+                return float(slave.getRealStatus(fmi2LastSuccessfulTime))
+        except FMICallException:
+            pass  # an FMU that cannot tell: no request to end
+        return None
+
+    return ended
 
 
 class _InstantiationFailed(Exception):
@@ -723,6 +817,14 @@ class _NoStop:
 
 
 _NEVER = _NoStop()
+
+
+class _Ended(Exception):
+    """Component ``component`` asked to end the simulation at ``time`` (s)."""
+
+    def __init__(self, component: str, time: float) -> None:
+        super().__init__(component, time)
+        self.component, self.time = component, time
 
 
 class _CallFailed(Exception):
@@ -777,8 +879,11 @@ class _Call:
     def __init__(
         self, component: Any, verb: str, fmi_type: Any, references: Any, buffer: Any, timer: Any
     ) -> None:
-        name = f"fmi2{verb}{fmi_type}"
+        version = component.version
+        name = f"fmi{version}{verb}{called_type(version, fmi_type)}"
         function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
+        if version == 3:
+            function = _counted(function)
         self.function = timer.wrap(function) if timer else function
         self.instance = component.slave.component
         self.references = (fmi2ValueReference * len(references))(*references)
@@ -816,7 +921,7 @@ class _Outputs:
             if variable not in variables:
                 variables.append(variable)
             self.positions[full_name] = variables.index(variable)
-        ctype, code = _CTYPES[fmi_type]
+        ctype, code = element(component.version, fmi_type)
         self.call = _Call(
             component,
             "Get",
@@ -872,7 +977,8 @@ class _StepPlan:
             for key in list(groups) + [k for k in recorded if k not in groups]
         }
         self.recorders = [self.outputs[key] for key in recorded]
-        self.steps = []  # (name, doStep, instance, [input sets], [output reads])
+        self.versions = {name: component.version for name, component in components.items()}
+        self.steps = []  # (name, doStep, instance, [input sets], [output reads], ended)
         for name in simulation.order:
             sets = [
                 _Call(
@@ -887,10 +993,20 @@ class _StepPlan:
                 if key[0] == name
             ]
             reads = [outputs.call for (owner, _), outputs in self.outputs.items() if owner == name]
-            slave = components[name].slave
-            do_step = slave.dll.fmi2DoStep
+            component = components[name]
+            slave = component.slave
+            do_step = (
+                _Fmi3Step(slave.dll.fmi3DoStep) if component.version == 3 else slave.dll.fmi2DoStep
+            )
             self.steps.append(
-                (name, timer.wrap(do_step) if timer else do_step, slave.component, sets, reads)
+                (
+                    name,
+                    timer.wrap(do_step) if timer else do_step,
+                    slave.component,
+                    sets,
+                    reads,
+                    _termination(component, do_step),
+                )
             )
 
     @staticmethod
@@ -910,7 +1026,7 @@ class _StepPlan:
 
     def start(self, result: Result, time: float) -> None:
         """Read every needed output after initialisation and record the first row."""
-        for _, _, _, _, reads in self.steps:
+        for _, _, _, _, reads, _ in self.steps:
             for read in reads:
                 self._call(read, time)
         self._record(result, time)
@@ -922,7 +1038,9 @@ class _StepPlan:
 
     def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop = _NEVER) -> None:
         """Step from start_time to stop_time, recording after every communication step;
-        before each step, stop with _Stopped if ``stop`` has been requested."""
+        before each step, stop with _Stopped if ``stop`` has been requested. A component
+        that asks to end the simulation ends the run after its outputs are read: the last
+        row is at the time it reached (_Ended)."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
         put_changed, jacobi = self._set, self.jacobi
         # Everything a step calls, unpacked once: (name, doStep, instance, input sets,
@@ -934,8 +1052,9 @@ class _StepPlan:
                 instance,
                 sets,
                 [(r.function, r.instance, r.references, r.count, r.buffer, r) for r in reads],
+                ended,
             )
-            for name, do_step, instance, sets, reads in self.steps
+            for name, do_step, instance, sets, reads, ended in self.steps
         ]
         rows = [(recorder.rows.frombytes, recorder.raw) for recorder in self.recorders]
         append_time = result.times.append
@@ -946,16 +1065,16 @@ class _StepPlan:
             end = times[index]
             size = end - start
             if jacobi:  # every input from the previous point's outputs, then every step
-                for _, _, _, sets, _ in steps:
+                for _, _, _, sets, _, _ in steps:
                     for put in sets:
                         put_changed(put, start)
-            for name, do_step, instance, sets, reads in steps:
+            for name, do_step, instance, sets, reads, ended in steps:
                 if sets and not jacobi:
                     for put in sets:
                         put_changed(put, start)
                 status = do_step(instance, start, size, fmi2True)
                 if status > _WARNING:
-                    raise _CallFailed(name, start, "fmi2DoStep", status)
+                    self._end(name, start, status, ended(status), reads, result)
                 for function, owner, references, count, buffer, read in reads:
                     status = function(owner, references, count, buffer)
                     if status > _WARNING:
@@ -963,6 +1082,19 @@ class _StepPlan:
             for add, raw in rows:  # _record, inline
                 add(raw)
             append_time(end)
+
+    def _end(
+        self, name: str, start: float, status: int, time: float | None, reads: Any, result: Result
+    ) -> None:
+        """After component ``name``'s step from ``start`` returned ``status``: _CallFailed,
+        or, when it asked to end the simulation at ``time``, its outputs read, the last row
+        recorded at ``time`` and _Ended."""
+        if time is None:
+            raise _CallFailed(name, start, f"fmi{self.versions[name]}DoStep", status)
+        for *_, read in reads:
+            self._call(read, time)
+        self._record(result, time)
+        raise _Ended(name, time)
 
     @staticmethod
     def collect(recorders: list[_Outputs], result: Result) -> None:
@@ -991,13 +1123,7 @@ def parameter_values(
         applied = {}
         for variable in component.variables.values():
             if variable.causality == "parameter":
-                start = variable.start
-                if variable.type == "Real":
-                    start = float(start)
-                elif variable.type == "Integer":
-                    start = int(start)
-                elif variable.type == "Boolean":
-                    start = start in (True, "true", "1")
+                start = start_value(variable)
                 applied[variable.name] = component.spec.parameters.get(
                     variable.name, True if variable.name in component.spec.effects else start
                 )

@@ -40,6 +40,8 @@ from pythonfmu3 import FmuBuilder as Fmi3Builder
 
 from .binary_patch import patch_exit_finaliser
 from .boundary import table_source
+from .closure import runtime_closure
+from .describe import described, self_description
 from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
 
@@ -191,10 +193,13 @@ def _entry_module(fmu_name: Any, fmi_version: Any):
     )
 
 
-def _stage_runtime(target: Any, fmi_version: Any) -> None:
-    """Copy the FMU runtime (mechfmu.runtime) into the package folder ``target``, bound to
-    pythonfmu (FMI 2.0) or pythonfmu3 (FMI 3.0)."""
-    shutil.copytree(RUNTIME_ROOT, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+def _stage_runtime(target: Any, fmi_version: Any, module: str) -> None:
+    """Copy the part of the FMU runtime (mechfmu.runtime) that ``module`` imports (its import
+    closure, closure.py) into the package folder ``target``, bound to pythonfmu (FMI 2.0) or
+    pythonfmu3 (FMI 3.0)."""
+    for relative in runtime_closure(RUNTIME_ROOT, module, f"fmi{fmi_version}"):
+        (target / relative).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(RUNTIME_ROOT / relative, target / relative)
     if fmi_version == 3:
         (target / "fmi" / "binding.py").write_text(FMI3_BINDING)
 
@@ -290,7 +295,7 @@ def build_model(
     folder = staging / f"{fmu_name}_fmi{fmi_version}"
     folder.mkdir()
     package = folder / runtime_package(fmu_name, fmi_version)
-    _stage_runtime(package, fmi_version)
+    _stage_runtime(package, fmi_version, module)
     inner_module = module.replace("mechfmu.runtime.", f"{package.name}.", 1)
     script = folder / f"{_entry_module(fmu_name, fmi_version)}.py"
     script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version))
@@ -308,7 +313,7 @@ def build_model(
     # atomic: a reader never sees a half-written FMU
     return atomic_write(
         Path(out_dir) / f"{fmu_name}.fmu",
-        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking),
+        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking, name),
     )
 
 
@@ -327,18 +332,31 @@ def _members(fmu: Any, fmi_version: int) -> dict[str, tuple[zipfile.ZipInfo, byt
 
 
 def _rewrite_fmu(
-    fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any, linking: Path
+    fmu: Any,
+    name: str,
+    loader: Any,
+    fmi_version: Any,
+    extra: Any,
+    linking: Path,
+    model: str | None = None,
 ) -> bytes:
     """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
     binary_patch; pythonfmu3's library has other code there and is left as built) and, when
     the loader was compiled, moved to <name>.pythonfmu.so with the loader, linked with the
     table of this FMU's variables, as <name>.so. ``extra`` maps further member names to their
-    bytes (the embedded Python)."""
+    bytes (the embedded Python). ``model``: the registry's model the FMU is made of, whose
+    documentation, picture, version and default experiment it then carries (describe.py)."""
     member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
     compiled, loader_message = loader
     members = _members(fmu, fmi_version)
     if member not in members:
         raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu FMU?")
+    if model is not None:
+        info, description = members["modelDescription.xml"]
+        members["modelDescription.xml"] = (info, described(description, model))
+        described_members = self_description(model, fmi_version, linking / "docs")
+    else:
+        described_members = {}
     info, data = members[member]
     if fmi_version == 2:
         data, message = patch_exit_finaliser(data)
@@ -350,7 +368,7 @@ def _rewrite_fmu(
         members[inner.filename] = (inner, data)
         description = members["modelDescription.xml"][1]
         members[member] = (info, compiled.link(description, linking).read_bytes())
-    for filename, content in extra.items():
+    for filename, content in {**extra, **described_members}.items():
         entry = zipfile.ZipInfo(filename, (2020, 1, 1, 0, 0, 0))
         entry.external_attr = (
             0o755 << 16 if filename.endswith(".so") or ".so." in filename else 0o644 << 16
