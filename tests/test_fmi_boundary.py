@@ -35,7 +35,9 @@ OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 TYPES = {2: ("Real", "Integer", "Boolean", "String"), 3: ("Float64", "Int32", "Boolean", "String")}
 ERROR_STATE = {2: "error", 3: "terminated"}  # where an error status leaves an instance
 STEPPING = {2: "stepComplete", 3: "stepMode"}
-ANY = frozenset({"instantiated", "initialization", "stepComplete", "stepMode", "terminated", "error"})
+ANY = frozenset(
+    {"instantiated", "initialization", "stepComplete", "stepMode", "terminated", "error"}
+)
 # The allowed states of each call (FMI 2.0 table of section 4.2.4; FMI 3.0 sections 2.3, 4.2).
 ALLOWED = {
     2: {

@@ -61,6 +61,4 @@ def resolved_times(scene: Scene, descriptions: dict[str, ModelDescription]) -> S
             )
     start, stop, step = check_times(where, times["start_time"], times["stop_time"], times["step"])
     assert math.isfinite(start + stop + step)
-    return dataclasses.replace(
-        scene, start_time=start, stop_time=stop, step=step, missing_times=()
-    )
+    return dataclasses.replace(scene, start_time=start, stop_time=stop, step=step, missing_times=())

@@ -31,13 +31,10 @@ from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
-    fmi2Boolean,
     fmi2CallbackAllocateMemoryTYPE,
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
-    fmi2Integer,
-    fmi2Real,
     fmi2True,
     fmi2ValueReference,
 )
@@ -274,7 +271,9 @@ class Instances:
         slave: Any = (FMU3Slave if component.version == 3 else FMU2Slave)(**options)
         try:
             if component.version == 3:
-                slave.instantiate(loggingOn=True, logMessage=self.logbook.fmi3_logger(component.name))
+                slave.instantiate(
+                    loggingOn=True, logMessage=self.logbook.fmi3_logger(component.name)
+                )
             else:
                 slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         except Exception:  # fmpy says only "Failed to instantiate model"; the FMU's log says why
@@ -346,7 +345,9 @@ class _Component:
         """A function setting the variable (bound once, called per step)."""
         put, reference = accessor(self.slave, variable.type, "set"), [variable.valueReference]
         if variable.type == "String":
-            return lambda value: put(reference, [value.decode() if isinstance(value, bytes) else value])
+            return lambda value: put(
+                reference, [value.decode() if isinstance(value, bytes) else value]
+            )
         return lambda value: put(reference, [value])
 
     def set(self, variable: ModelVariable, value: Any) -> None:
@@ -930,7 +931,7 @@ class _Outputs:
             (ctype * len(variables))(),
             timer,
         )
-        self.rows = array(code)  # row-major: one row per communication point
+        self.rows = array(code or "B")  # row-major, one row per point (String: never recorded)
         self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
 
     def view(self, key: Any, size: Any) -> Any:

@@ -149,9 +149,22 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
         f"-DPYTHON_VERSION={_c_string(version)}",
     ]
     objects, warnings = [], []
-    for source in (LOADER_RUNTIME_SOURCE, LOADER_DIR / "boundary.c", LOADER_DIR / f"fmi{fmi_version}.c"):
+    for source in (
+        LOADER_RUNTIME_SOURCE,
+        LOADER_DIR / "boundary.c",
+        LOADER_DIR / f"fmi{fmi_version}.c",
+    ):
         target = folder / f"{source.stem}.o"
-        command = [*argv, "-c", *LOADER_FLAGS, f"-I{headers}", *definitions, str(source), "-o", str(target)]
+        command = [
+            *argv,
+            "-c",
+            *LOADER_FLAGS,
+            f"-I{headers}",
+            *definitions,
+            str(source),
+            "-o",
+            str(target),
+        ]
         try:
             done = subprocess.run(command, capture_output=True, text=True, timeout=120)
         except (OSError, subprocess.SubprocessError) as error:

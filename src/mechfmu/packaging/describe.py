@@ -148,9 +148,7 @@ def _reference_columns(name: str) -> tuple[list[float], dict[str, list[float]], 
     ] or list(range(1, len(header)))
     units = {v.name: v.unit for v in model_class(name).VARIABLES if v.unit}
     columns = {header[i]: [row[i] for row in values] for i in wanted[:4]}
-    column_units = {
-        column: units.get(column.split(".", 1)[-1], "") for column in columns
-    }
+    column_units = {column: units.get(column.split(".", 1)[-1], "") for column in columns}
     return [row[0] for row in values], columns, column_units
 
 
@@ -177,7 +175,7 @@ def _markdown_to_html(text: str) -> str:
     """HTML of a markdown page: python-markdown where installed (the docs extra), else the
     text as it is."""
     try:
-        import markdown
+        import markdown  # type: ignore[import-untyped]
     except ImportError:
         return f"<pre>{html.escape(text)}</pre>"
     return str(markdown.markdown(text, extensions=["tables", "fenced_code"]))
@@ -207,7 +205,7 @@ def documentation(name: str, folder: Path) -> dict[str, bytes]:
     text = re.sub(r"\[([^\]]+)\]\((?!https?:)[^)]*\)", r"\1", text)
     body = _markdown_to_html(text)
     index = (
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
         f"<title>{html.escape(name)}</title>\n"
         "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
         "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:2px 6px;"
@@ -246,4 +244,3 @@ def self_description(name: str, fmi_version: int, folder: Path) -> dict[str, byt
     members = documentation(name, folder)
     members[PICTURE[fmi_version]] = picture(name, folder)
     return members
-

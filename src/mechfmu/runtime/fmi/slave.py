@@ -308,7 +308,8 @@ class MechSlave(Binding):
             return
         values = state["values"]
         rebuild = state["internal"] is not None and (
-            not self.initialized or any(
+            not self.initialized
+            or any(
                 values[v.name] != self.values[v.name]
                 for v in self.VARIABLES
                 if v.causality == "parameter"

@@ -116,7 +116,7 @@ def _untagged(value: Any) -> Any:
         cls = _runtime_class(value["__object__"])
         if "items" in value:
             return cls(*(_untagged(item) for item in value["items"]))
-        built = cls.__new__(cls)
+        built: Any = object.__new__(cls)
         for name, item in value["fields"].items():
             object.__setattr__(built, name, _untagged(item))
         return built
@@ -142,9 +142,7 @@ def decode(model: str, data: bytes) -> Any:
             found = document.get("format") if isinstance(document, dict) else None
             raise StateFormatError(f"state format {found!r}; this FMU reads format {FORMAT}")
         if document.get("model") != model:
-            raise StateFormatError(
-                f"a state of model {document.get('model')!r}, not of {model!r}"
-            )
+            raise StateFormatError(f"a state of model {document.get('model')!r}, not of {model!r}")
         return _untagged(document["state"])
     except (StateFormatError, UnicodeDecodeError, ValueError, KeyError, TypeError) as error:
         return {INVALID: f"the serialized FMU state cannot be read: {error}"}
