@@ -1,5 +1,5 @@
-"""The ``mechfmu`` command: build, run, example, export-ssp, export-fmu, check, references,
-report, docs, study, bench, fuzz, sweep.
+"""The ``mechfmu`` command: build, run, example, export-ssp, export-fmu, export-cross-check,
+check, references, report, docs, study, bench, fuzz, sweep.
 
 One argparse tree: every verb and its options are declared here, and each verb calls one
 function of the package (imported when the verb runs, so ``mechfmu run`` never loads the
@@ -82,6 +82,13 @@ def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
             file=sys.stderr,
         )
         return 2
+    if args.all and (args.checkpoint or args.resume):
+        print(
+            "mechfmu run: error: --checkpoint and --resume name one scene's checkpoint; "
+            "not with --all",
+            file=sys.stderr,
+        )
+        return 2
     if args.all and args.reference:
         print(
             "mechfmu run: error: --reference names one scene's reference; with --all use "
@@ -143,7 +150,13 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
 
     try:
         result, paths = run_scene(
-            scene_path, args.out, args.fmu_dir, plot=not args.no_plot, guard=guard
+            scene_path,
+            args.out,
+            args.fmu_dir,
+            plot=not args.no_plot,
+            guard=guard,
+            checkpoints=_checkpoints(args),
+            resume=Path(args.resume) if args.resume else None,
         )
     except (SceneError, OutputError, SimulationError) as error:
         return _scene_failure(error, guard)
@@ -167,6 +180,15 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
     if note:
         print(note)
     return 0 if comparison is None or comparison.ok else 1
+
+
+def _checkpoints(args: argparse.Namespace) -> Any:
+    """The run's Checkpoints from --checkpoint and --checkpoint-every (None without)."""
+    if not args.checkpoint:
+        return None
+    from .cosim.checkpoint import Checkpoints
+
+    return Checkpoints(Path(args.checkpoint), seconds=args.checkpoint_every)
 
 
 def ended_note(meta: dict[str, Any]) -> str | None:
@@ -603,6 +625,22 @@ def _scene_folder_option(verb: argparse.ArgumentParser) -> None:
     )
 
 
+def _export_cross_check(args: argparse.Namespace) -> int:
+    from .cosim.scene import SceneError
+    from .tools.cross_check import export_cross_check
+
+    try:
+        written, skipped = export_cross_check(Path(args.out), args.models or None, args.fmu_dir)
+    except (SceneError, ValueError) as error:
+        print(f"mechfmu export-cross-check: error: {error}", file=sys.stderr)
+        return 2
+    for folder in written:
+        print(f"wrote {folder}")
+    for reason in skipped:
+        print(f"left out {reason}")
+    return 0
+
+
 def _export_verb(
     verbs: argparse._SubParsersAction, name: str, help: str, suffix: str
 ) -> argparse.ArgumentParser:
@@ -651,6 +689,25 @@ def parser() -> argparse.ArgumentParser:
         "--check", action="store_true", help="compare with the scene's reference CSV afterwards"
     )
     run.add_argument("--reference", help="compare with this CSV afterwards (one scene)")
+    run.add_argument(
+        "--checkpoint",
+        metavar="FILE",
+        help="write a checkpoint of the run to FILE (every --checkpoint-every seconds and "
+        "when Ctrl-C or SIGTERM stops it) for --resume; default: none",
+    )
+    run.add_argument(
+        "--checkpoint-every",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="seconds of wall time between checkpoints (default: 60; 0: only when stopped)",
+    )
+    run.add_argument(
+        "--resume",
+        metavar="FILE",
+        help="continue the run from this checkpoint (of the same scene and FMUs); the "
+        "result equals the uninterrupted run's; default: start from the beginning",
+    )
     run.add_argument("--rtol", type=float, default=1e-9)
     run.add_argument("--atol", type=float, default=1e-12)
     run.set_defaults(func=_run)
@@ -682,6 +739,16 @@ def parser() -> argparse.ArgumentParser:
         "stepped before it; parallel: every link lags one step",
     )
     container.set_defaults(func=_export_fmu)
+
+    cross = verbs.add_parser(
+        "export-cross-check",
+        help="write the FMUs with their reference results as the fmi-cross-check "
+        "repository lays out test FMUs (fmus/2.0/cs/linux64/mechfmu/<version>/<Model>/)",
+    )
+    cross.add_argument("out", help="the folder to write into (created if missing)")
+    cross.add_argument("models", nargs="*", help="model names (default: all)")
+    cross.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    cross.set_defaults(func=_export_cross_check)
 
     check = verbs.add_parser(
         "check",

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 import ctypes
+import math
 import re
 import functools
 import os
@@ -42,11 +43,15 @@ from fmpy import calloc, free
 from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
 from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
+from .checkpoint import Checkpoint, CheckpointError, Checkpoints, check_matches
+from .checkpoint import save as save_checkpoint
+from .checkpoint import scene_digest
 from .experiment import resolved_times
 from .fmu_file import FmuError, checked_description
 from .interrupt import signal_name
 from .scene import SceneError, split_name
-from .variables import called_type, element, movable, recordable, scene_value, start_value
+from .variables import called_type, connectable, element, movable, recordable, scene_value
+from .variables import start_value
 from .variables import unit_of
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
@@ -493,23 +498,25 @@ class Simulation:
             target = self.components[connection.target].variable(
                 connection.input, f"{where}: connection {connection}", ("input",)
             )
-            if source.type != target.type:
-                raise SceneError(
-                    f"{where}: connection {connection} joins a {source.type} "
-                    f"output to a {target.type} input"
-                )
-            versions = {self.components[n].version for n in (connection.source, connection.target)}
-            if not all(movable(version, source.type) for version in versions):
+            ends = [
+                (self.components[name].version, variable.type)
+                for name, variable in ((connection.source, source), (connection.target, target))
+            ]
+            if not all(movable(*end) for end in ends):
                 raise SceneError(
                     f"{where}: connection {connection} joins {source.type} variables; the "
                     "master connects Real (Float32, Float64), integer, Boolean, String and "
                     "Enumeration variables"
                 )
-            if len(versions) > 1 and element(2, source.type) != element(3, source.type):
+            if not connectable(*ends):
                 raise SceneError(
-                    f"{where}: connection {connection} joins {source.type} variables of an "
-                    "FMI 2.0 and an FMI 3.0 FMU, whose values differ in size; connect them "
-                    "through FMUs of one version"
+                    f"{where}: connection {connection} joins a {source.type} output to a "
+                    f"{target.type} input"
+                    + (
+                        " (of FMUs of FMI 2.0 and 3.0, whose values differ in size)"
+                        if source.type == target.type
+                        else ""
+                    )
                 )
             key = (connection.target, connection.input)
             if key in fed:
@@ -609,7 +616,14 @@ class Simulation:
         return pruned
 
     # --- running ----------------------------------------------------------------------
-    def run(self, time_fmi_calls: bool = False, instances: Any = None, stop: Any = None) -> Result:
+    def run(
+        self,
+        time_fmi_calls: bool = False,
+        instances: Any = None,
+        stop: Any = None,
+        checkpoints: Checkpoints | None = None,
+        resume: Checkpoint | None = None,
+    ) -> Result:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
@@ -621,6 +635,8 @@ class Simulation:
         ``stop``: an InterruptGuard (mechfmu.cosim.interrupt) asked before each component's
         instantiation and between steps; when it has received a signal the run stops there
         with SimulationInterrupted (the rows so far, every instance freed).
+        ``checkpoints``: where and how often to write a checkpoint (cosim/checkpoint.py;
+        always when a signal stops the run); ``resume``: a checkpoint of this scene to continue from.
         """
         scene = self.scene
         result = Result(
@@ -660,10 +676,14 @@ class Simulation:
             current = (None, scene.start_time)
             if stop.requested:
                 raise _Stopped(scene.start_time)
-            plan.start(result, scene.start_time)
+            first = 1
+            if resume is not None:
+                first = self._resume(resume, plan, result) + 1
+            plan.start(result, result.times[-1] if resume else scene.start_time, resume is None)
+            saving = self._checkpointer(checkpoints, plan, result)
             loop_started = clock.perf_counter()
             try:
-                plan.run(result, scene, stop)
+                plan.run(result, scene, stop, first, saving)
             finally:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
                 if timer is not None:
@@ -687,6 +707,8 @@ class Simulation:
             ) from None
         except _Stopped as stopped:
             result.partial = True
+            if checkpoints is not None and recorders:  # every component at the last row
+                self._save_checkpoint(checkpoints, plan, len(result.times) - 1, result)
             raise SimulationInterrupted(stop.take(), stopped.time, result) from None
         except _CallFailed as failure:
             result.partial = True
@@ -713,6 +735,83 @@ class Simulation:
             if own:
                 instances.close()
         return result
+
+    # --- checkpoints ------------------------------------------------------------------
+    def _states(self) -> dict[str, bytes]:
+        """Every component's FMU state, serialised by the FMU."""
+        states = {}
+        for name, component in self.components.items():
+            slave = component.slave
+            if component.version == 3:
+                state = slave.getFMUState()
+                states[name] = bytes(slave.serializeFMUState(state))
+                slave.freeFMUState(state)
+            else:
+                state = slave.getFMUstate()
+                states[name] = bytes(slave.serializeFMUstate(state))
+                slave.freeFMUstate(state)
+        return states
+
+    def _guids(self) -> dict[str, str]:
+        return {name: c.description.guid for name, c in self.components.items()}
+
+    def _save_checkpoint(
+        self, checkpoints: Checkpoints, plan: _StepPlan, index: int, result: Result
+    ) -> None:
+        checkpoint = Checkpoint(
+            scene=self.scene.name,
+            digest=scene_digest(self.scene),
+            index=index,
+            time=result.times[index],
+            guids=self._guids(),
+            states=self._states(),
+            rows=plan.recorded_rows(),
+            times=list(result.times[: index + 1]),
+        )
+        save_checkpoint(checkpoints.path, checkpoint)
+        result.meta["checkpoint"] = {"file": str(checkpoints.path), "index": index}
+
+    def _checkpointer(
+        self, checkpoints: Checkpoints | None, plan: _StepPlan, result: Result
+    ) -> Callable[[int], None] | None:
+        """``on_point`` for the loop: a checkpoint every ``checkpoints.steps`` points and
+        whenever ``checkpoints.seconds`` of wall time have passed since the last."""
+        if checkpoints is None or (checkpoints.steps <= 0 and checkpoints.seconds <= 0):
+            return None
+        steps, seconds = checkpoints.steps, checkpoints.seconds
+        due = [clock.monotonic() + seconds if seconds > 0 else math.inf]
+
+        def on_point(index: int) -> None:
+            if (steps > 0 and index % steps == 0) or clock.monotonic() >= due[0]:
+                self._save_checkpoint(checkpoints, plan, index, result)
+                if seconds > 0:
+                    due[0] = clock.monotonic() + seconds
+
+        return on_point
+
+    def check_checkpoints(self) -> None:
+        """SceneError unless every component can serialise its FMU state."""
+        for name, component in self.components.items():
+            capabilities = component.description.coSimulation
+            if not (capabilities.canGetAndSetFMUstate and capabilities.canSerializeFMUstate):
+                raise CheckpointError(
+                    f"component {name!r} ({component.description.modelName}) cannot "
+                    "serialise its FMU state (canSerializeFMUstate is false): no checkpoints"
+                )
+
+    def _resume(self, checkpoint: Checkpoint, plan: _StepPlan, result: Result) -> int:
+        """Restore ``checkpoint`` (every FMU state, the rows); the index of its point."""
+        check_matches(checkpoint, self.scene, self._guids())
+        for name, component in self.components.items():
+            slave, data = component.slave, checkpoint.states[name]
+            if component.version == 3:
+                slave.setFMUState(slave.deserializeFMUState(data))
+            else:
+                slave.setFMUstate(slave.deSerializeFMUstate(data))
+        plan.restore_rows(checkpoint.rows, checkpoint.index + 1)
+        result.times[:] = checkpoint.times
+        result.meta["resumed_from"] = {"index": checkpoint.index, "time": checkpoint.time}
+        return checkpoint.index
 
     def _feeds(self, name: str, skip: Any = ()) -> list[Any]:
         """(get from source, set on ``name``) pairs for the connected inputs of ``name``."""
@@ -978,6 +1077,7 @@ class _StepPlan:
             for key in list(groups) + [k for k in recorded if k not in groups]
         }
         self.recorders = [self.outputs[key] for key in recorded]
+        self.recorder_keys = [f"{name}|{fmi_type}" for name, fmi_type in recorded]
         self.versions = {name: component.version for name, component in components.items()}
         self.steps = []  # (name, doStep, instance, [input sets], [output reads], ended)
         for name in simulation.order:
@@ -985,7 +1085,7 @@ class _StepPlan:
                 _Call(
                     components[name],
                     "Set",
-                    key[2],
+                    inputs[0].type,  # the target's own type name (Real: Float64 in FMI 3.0)
                     [v.valueReference for v in inputs],
                     self.outputs[key[1:]].view(key, len(inputs)),
                     timer,
@@ -1025,23 +1125,53 @@ class _StepPlan:
             cls._call(call, time)
             call.sent = raw.tobytes()
 
-    def start(self, result: Result, time: float) -> None:
-        """Read every needed output after initialisation and record the first row."""
+    def start(self, result: Result, time: float, record: bool = True) -> None:
+        """Read every needed output after initialisation (or a restored checkpoint) and
+        record the first row (unless ``record`` is False: the checkpoint brought it)."""
         for _, _, _, _, reads, _ in self.steps:
             for read in reads:
                 self._call(read, time)
-        self._record(result, time)
+        if record:
+            self._record(result, time)
+
+    def recorded_rows(self) -> dict[str, tuple[str, bytes]]:
+        """Every recorder's rows so far: key -> (array typecode, bytes) (a checkpoint)."""
+        return {
+            key: (recorder.rows.typecode, recorder.rows.tobytes())
+            for key, recorder in zip(self.recorder_keys, self.recorders)
+        }
+
+    def restore_rows(self, rows: dict[str, tuple[str, bytes]], count: int) -> None:
+        """Put back the ``count`` rows of a checkpoint (CheckpointError when they are not
+        this run's)."""
+        if set(rows) != set(self.recorder_keys):
+            raise CheckpointError("the checkpoint recorded other variables than this run does")
+        for key, recorder in zip(self.recorder_keys, self.recorders):
+            typecode, data = rows[key]
+            size = count * recorder.call.count * recorder.rows.itemsize
+            if typecode != recorder.rows.typecode or len(data) != size:
+                raise CheckpointError(f"the checkpoint's rows of {key} are not {count} rows")
+            recorder.rows.frombytes(data)
 
     def _record(self, result: Result, time: float) -> None:
         for recorder in self.recorders:
             recorder.rows.frombytes(recorder.raw)
         result.times.append(time)
 
-    def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop = _NEVER) -> None:
+    def run(
+        self,
+        result: Result,
+        scene: Scene,
+        stop: InterruptGuard | _NoStop = _NEVER,
+        first: int = 1,
+        on_point: Callable[[int], None] | None = None,
+    ) -> None:
         """Step from start_time to stop_time, recording after every communication step;
         before each step, stop with _Stopped if ``stop`` has been requested. A component
         that asks to end the simulation ends the run after its outputs are read: the last
-        row is at the time it reached (_Ended)."""
+        row is at the time it reached (_Ended). ``first``: the index of the first communication
+        point to step to (a resumed run: the one after its checkpoint); ``on_point(index)``:
+        called after each row is recorded (checkpoints)."""
         times = [scene.time(index) for index in range(scene.steps + 1)]
         put_changed, jacobi = self._set, self.jacobi
         # Everything a step calls, unpacked once: (name, doStep, instance, input sets,
@@ -1059,7 +1189,7 @@ class _StepPlan:
         ]
         rows = [(recorder.rows.frombytes, recorder.raw) for recorder in self.recorders]
         append_time = result.times.append
-        for index in range(1, len(times)):
+        for index in range(first, len(times)):
             start = times[index - 1]
             if stop.requested:
                 raise _Stopped(start)
@@ -1083,6 +1213,8 @@ class _StepPlan:
             for add, raw in rows:  # _record, inline
                 add(raw)
             append_time(end)
+            if on_point is not None:
+                on_point(index)
 
     def _end(
         self, name: str, start: float, status: int, time: float | None, reads: Any, result: Result

@@ -5,6 +5,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 from contextlib import nullcontext
 
+from .checkpoint import Checkpoints
+from .checkpoint import load as load_checkpoint
 from .files import OutputError, output_folder
 from .interrupt import InterruptGuard, signal_name
 from .master import Simulation, SimulationError, SimulationInterrupted, parameter_values
@@ -22,6 +24,8 @@ def run_scene(
     fmu_dir: Path | str | None = None,
     plot: bool = True,
     guard: InterruptGuard | None = None,
+    checkpoints: Checkpoints | None = None,
+    resume: Path | None = None,
 ) -> tuple[Result, dict[str, Path]]:
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
@@ -35,12 +39,19 @@ def run_scene(
     as '<scene>.partial.csv' (and .json, .png; the JSON says ``interrupted`` and the
     signal) and the SimulationError (SimulationInterrupted) is re-raised with ``paths`` and
     ``moved_aside`` set (and ``output_error`` if the partial files could not be written).
+
+    ``checkpoints``: write checkpoints of the run (cosim/checkpoint.py); ``resume``: the path
+    of a checkpoint of this scene to continue from (checked before anything runs: a
+    CheckpointError, a SceneError, names what does not match).
     """
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         check_tables(scene)
         simulation = Simulation(scene, fmu_dir)
+        if checkpoints is not None:
+            simulation.check_checkpoints()
+        checkpoint = load_checkpoint(resume) if resume is not None else None
         out_dir = output_folder(out_dir)
         setup = {
             "components": parameter_values(simulation),
@@ -50,7 +61,7 @@ def run_scene(
             "lagged_connections": [str(c) for c in simulation.lagged],
         }
         try:
-            result = simulation.run(stop=guard)
+            result = simulation.run(stop=guard, checkpoints=checkpoints, resume=checkpoint)
         except SimulationError as error:
             interrupted = isinstance(error, SimulationInterrupted)
             error.moved_aside = move_aside_complete(scene.name, out_dir)

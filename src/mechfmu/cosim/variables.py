@@ -57,6 +57,18 @@ def element(version: int, fmi_type: str) -> tuple[Any, str | None]:
     return _ELEMENTS[called]
 
 
+_SAME = {"Real": "Float64", "Integer": "Int32"}  # FMI 2.0 names of FMI 3.0 types
+
+
+def connectable(source: tuple[int, str], target: tuple[int, str]) -> bool:
+    """Whether an output of (FMI version, type) ``source`` can feed an input of ``target``:
+    the same type (Real and Float64, Integer and Int32 are one) in buffers of one layout."""
+    (source_version, source_type), (target_version, target_type) = source, target
+    return _SAME.get(source_type, source_type) == _SAME.get(target_type, target_type) and (
+        element(source_version, source_type) == element(target_version, target_type)
+    )
+
+
 def movable(version: int, fmi_type: str) -> bool:
     """Whether the master can connect and set variables of ``fmi_type``."""
     try:

@@ -17,6 +17,8 @@ binary, and the build says so. ``embed_python`` adds the build interpreter's own
 """
 
 from typing import Any
+from collections.abc import Iterator
+import contextlib
 import importlib
 import importlib.util
 import io
@@ -222,8 +224,15 @@ def null_name(name: str) -> str:
     return f"{name}Null"
 
 
-def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any = 2):
-    """Source of the FMU's entry module: the model's class, or its null subclass."""
+def _entry_script(
+    name: str,
+    fmu_name: Any,
+    inner_module: Any,
+    fmi_version: Any = 2,
+    starts: dict[str, Any] | None = None,
+) -> str:
+    """Source of the FMU's entry module: the model's class, or a subclass: the null variant,
+    or the model with other start values (``starts``: variable name -> value)."""
     # pythonfmu's loader (findClass) re-runs this file at every instantiation, with locals of
     # its own, then releases one reference to the module namespace that it only borrowed. The
     # run it makes therefore takes one reference that nothing ever releases: held in a Python
@@ -243,30 +252,58 @@ def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any 
         "        sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n"
     )
     null_step = "    def do_step(self, current_time, step_size):\n        return True\n"
+    body = ""
+    if starts:
+        package = inner_module.split(".", 1)[0]
+        header += f"from {package}.fmi.declarations import with_starts  # noqa: E402\n"
+        body += f"    VARIABLES = with_starts(model_module.{name}.VARIABLES, {starts!r})\n"
+    if fmu_name != name:
+        body += null_step
+    what = (
+        "with a do_step that does nothing (benchmark baseline)"
+        if fmu_name != name
+        else "with the start values of a scene"
+        if starts
+        else "as an FMI 3.0 slave"
+    )
     if fmi_version == 3:
         # pythonfmu3 finds the class by a regular expression on its line, which must name
         # Fmi3Slave among the bases (it is already one of the model's, through the binding).
-        docstring = (
-            f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
-            if fmu_name != name
-            else f'    """{name} as an FMI 3.0 slave."""\n'
-        )
         return header + (
             "from pythonfmu3 import Fmi3Slave  # noqa: E402\n"
             f"import {inner_module} as model_module  # noqa: E402\n\n\n"
             f"class {fmu_name}(model_module.{name}, Fmi3Slave):\n"
-            + docstring
-            + (null_step if fmu_name != name else "")
+            f'    """{name} {what}."""\n\n' + body
         )
-    if fmu_name == name:
+    if not body:
         return header + f"from {inner_module} import {name}  # noqa: E402,F401\n"
-    # The null variant: the model's module, not its class, enters the namespace, so the
-    # loader finds exactly one slave class here (the subclass).
+    # A variant: the model's module, not its class, enters the namespace, so the loader
+    # finds exactly one slave class here (the subclass).
     return header + (
         f"import {inner_module} as model_module  # noqa: E402\n\n\n"
         f"class {fmu_name}(model_module.{name}):\n"
-        f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n' + null_step
+        f'    """{name} {what}."""\n\n' + body
     )
+
+
+@contextlib.contextmanager
+def _own_modules(package: str) -> Iterator[None]:
+    """While the builders import the staged runtime ``package``: without the modules of that
+    name that an FMU loaded into this process left in sys.modules (another build of the same
+    model, whose code would be taken instead); they are put back afterwards."""
+    loaded = {
+        name: module
+        for name, module in sys.modules.items()
+        if name == package or name.startswith(package + ".")
+    }
+    for name in loaded:
+        del sys.modules[name]
+    try:
+        yield
+    finally:
+        for name in [n for n in sys.modules if n == package or n.startswith(package + ".")]:
+            del sys.modules[name]
+        sys.modules.update(loaded)
 
 
 def _builder(fmi_version: Any):
@@ -290,6 +327,7 @@ def build_model(
     loader: Any = None,
     fmi_version: Any = 2,
     embed: Any = None,
+    starts: dict[str, Any] | None = None,
 ) -> Any:
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
@@ -299,6 +337,8 @@ def build_model(
 
     ``loader`` is compile_loader's (path or None, message) for ``fmi_version``; None compiles
     it here. ``embed`` is an embed.EmbeddedPython: the FMU then carries that Python runtime.
+    ``starts``: start values (variable name -> value) that replace the declared ones, e.g.
+    the parameters and fixed inputs of a scene (the FMUs of ``mechfmu export-cross-check``).
     """
     if fmi_version not in FMI_VERSIONS:
         raise ValueError(f"FMI version {fmi_version!r} is not one of {FMI_VERSIONS}")
@@ -311,14 +351,15 @@ def build_model(
     _stage_runtime(package, fmi_version, module)
     inner_module = module.replace("mechfmu.runtime.", f"{package.name}.", 1)
     script = folder / f"{_entry_module(fmu_name, fmi_version)}.py"
-    script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version))
+    script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version, starts))
     builder, options = _builder(fmi_version)
-    built = builder.build_FMU(
-        script,
-        dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
-        project_files=[package],
-        **options,
-    )
+    with _own_modules(package.name):
+        built = builder.build_FMU(
+            script,
+            dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
+            project_files=[package],
+            **options,
+        )
     if loader is None:
         loader = compile_loader(staging / f"loader_{fmu_name}", fmi_version=fmi_version)
     extra = embed.files_for(built, staging / f"embed_{fmu_name}_fmi{fmi_version}") if embed else {}

@@ -202,7 +202,7 @@ def documentation(name: str, folder: Path) -> dict[str, bytes]:
 
     text = MARKER.sub(replaced, page)
     # links into the docs site do not resolve inside an FMU: keep their text
-    text = re.sub(r"\[([^\]]+)\]\((?!https?:)[^)]*\)", r"\1", text)
+    text = re.sub(r"(?<!!)\[([^\]]+)\]\((?!https?:)[^)]*\)", r"\1", text)
     body = _markdown_to_html(text)
     index = (
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
