@@ -83,9 +83,7 @@ def test_results_in_the_repositorys_layout_pass_its_validation(exported):
                 **({"input_filename": str(inputs)} if inputs.exists() else {}),
             }
         )
-        assert (
-            validate_result(result, reference, options["StartTime"], options["StopTime"]) is None
-        )
+        assert validate_result(result, reference, options["StartTime"], options["StopTime"]) is None
         results = exported / "results" / "2.0" / "cs" / "linux64" / "FMPy" / fmpy.__version__
         target = results / "mechfmu" / folder.parent.name / model
         target.mkdir(parents=True)

@@ -63,9 +63,7 @@ def test_every_type_gives_fmpys_numbers_and_declared_units(foreign, tmp_path, ve
     assert (simulation.scene.start_time, simulation.scene.stop_time) == (0.0, 2.0)
     assert simulation.scene.step == 0.1
     result = simulation.run()
-    expected = simulate_fmu(
-        str(fmu), start_values={**START_VALUES, **extra}, output_interval=0.1
-    )
+    expected = simulate_fmu(str(fmu), start_values={**START_VALUES, **extra}, output_interval=0.1)
     assert result.times == list(expected["time"])
     for column, values in result.columns.items():
         name = column.split(".", 1)[1]
@@ -150,7 +148,11 @@ def test_default_experiments_fill_only_the_times_a_scene_leaves_out(foreign, fmu
         },
         record=["a.counter", "b.y"],
     )
-    assert math.isnan(agree.stop_time) and agree.missing_times == ("start_time", "stop_time", "step")
+    assert math.isnan(agree.stop_time) and agree.missing_times == (
+        "start_time",
+        "stop_time",
+        "step",
+    )
     assert Simulation(agree).scene.stop_time == 2.0  # both say 0 to 2 s by 0.1 s
     own = _scene(tmp_path, "own", {"a": {"fmu": str(foreign[2, "TestStair"])}}, stop_time=0.5)
     assert (Simulation(own).scene.stop_time, Simulation(own).scene.step) == (0.5, 0.1)
