@@ -18,7 +18,7 @@ export MECHFMU_FMU_DIR := $(CURDIR)/$(FMUS)
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
 .PHONY: run test test-fast lint fmus references report study work-precision bench sweeps \
-	docs clean lock test-latest test-portable test-other-python test-subset
+	docs clean lock test-latest test-portable test-other-python test-subset boundary cross-check
 
 $(VENV)/.installed: pyproject.toml requirements.lock.txt
 	$(PYTHON) -m venv $(VENV)
@@ -130,6 +130,21 @@ work-precision: $(VENV)/.installed
 
 bench: $(FMUS)/.built
 	$(VENV)/bin/mechfmu bench
+
+# The FMI boundary's property test at length (make test runs 6 fixed sequences per model and
+# FMI version): 300 freshly random call sequences per model and version.
+BOUNDARY_EXAMPLES ?= 300
+boundary: $(FMUS)/.built
+	MECHFMU_BOUNDARY_EXAMPLES=$(BOUNDARY_EXAMPLES) $(PY) -m pytest -q -p no:cacheprovider \
+		tests/test_fmi_boundary.py
+
+# Every model with a reference of its own exported in the fmi-cross-check layout and run
+# through fmpy's cross-check tooling (make test exports two of them).
+CROSS_CHECK_MODELS := LandingGear PistonActuator Suspension LoadProfile RoadProfile CrankDrive \
+	FourBar SliderCrank CamshaftDrive ValveTrain ValveSpring
+cross-check: $(FMUS)/.built
+	MECHFMU_CROSS_CHECK_MODELS="$(CROSS_CHECK_MODELS)" $(PY) -m pytest -q -p no:cacheprovider \
+		tests/test_cross_check.py
 
 # The shipped parameter sweeps, checked against their references (out/sweeps/summary.md).
 sweeps: $(FMUS)/.built

@@ -217,6 +217,19 @@ def documentation(name: str, folder: Path) -> dict[str, bytes]:
     return members
 
 
+def declared_units(scene: Any) -> dict:
+    """``component.variable`` -> its declared unit, for every component of a parsed scene
+    whose FMU is a registered model (named, or a path to ``<Model>.fmu``)."""
+    units = {}
+    for component in scene.components.values():
+        model = Path(component.fmu).stem
+        if model in MODELS:
+            for variable in model_class(model).VARIABLES:
+                if variable.unit:
+                    units[f"{component.name}.{variable.name}"] = variable.unit
+    return units
+
+
 def _scene_plot(scene_name: str, folder: Path) -> bytes:
     """A PNG of a shipped scene's reference CSV, every column against time."""
     scene = load_scene(SCENE_DIR / f"{scene_name}.toml")
@@ -225,15 +238,14 @@ def _scene_plot(scene_name: str, folder: Path) -> bytes:
         rows = list(csv.reader(handle))
     header, values = rows[0], [[float(x) for x in row] for row in rows[1:] if row]
     columns = {column: [row[i] for row in values] for i, column in enumerate(header) if i}
-    units: dict[str, str] = {}
-    for component in scene.components.values():
-        model = Path(component.fmu).stem
-        if model in MODELS:
-            for variable in model_class(model).VARIABLES:
-                if variable.unit:
-                    units[f"{component.name}.{variable.name}"] = variable.unit
     target = folder / f"{scene_name}.png"
-    write_plot(target, [row[0] for row in values], columns, units, f"{scene_name}: reference")
+    write_plot(
+        target,
+        [row[0] for row in values],
+        columns,
+        declared_units(scene),
+        f"{scene_name}: reference",
+    )
     return target.read_bytes()
 
 
