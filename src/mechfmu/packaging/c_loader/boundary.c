@@ -197,6 +197,58 @@ void mf_state_remove(struct mf_state **list, struct mf_state *state)
     }
 }
 
+static const char *getter_names(void)
+{
+    return MF_MODEL.fmi_version == 2 ? "fmi2GetFMUstate or fmi2DeSerializeFMUstate"
+                                     : "fmi3GetFMUState or fmi3DeserializeFMUState";
+}
+
+struct mf_state *mf_state_known(struct mf_state *list, const void *state, const char *function,
+                                char why[MF_WHY_SIZE])
+{
+    struct mf_state *record = mf_state_find(list, state);
+    if (!record) {
+        snprintf(why, MF_WHY_SIZE,
+                 "%s: %p is no FMU state of this instance (never returned by %s, or freed)",
+                 function, state, getter_names());
+    }
+    return record;
+}
+
+int mf_state_slot(struct mf_state *list, void *const *slot, const char *function,
+                  struct mf_state **reuse, char why[MF_WHY_SIZE])
+{
+    *reuse = NULL;
+    if (!slot) {
+        snprintf(why, MF_WHY_SIZE, "%s: the pointer to the FMU state is NULL", function);
+        return 0;
+    }
+    if (!*slot) return 1;
+    *reuse = mf_state_known(list, *slot, function, why);
+    return *reuse != NULL;
+}
+
+int mf_state_keep(struct mf_state **list, struct mf_state *reuse, void **slot, void *real,
+                  int machine, double time, void (*release)(void *context, void **real),
+                  void *context)
+{
+    struct mf_state *record = reuse;
+    if (record) {
+        release(context, &record->real);
+        record->real = real;
+        record->machine = machine;
+        record->time = time;
+        return 1;
+    }
+    record = mf_state_new(list, real, machine, time);
+    if (!record) {
+        release(context, &real);
+        return 0;
+    }
+    *slot = record;
+    return 1;
+}
+
 /* ---- Frames ---- */
 
 static const unsigned char MAGIC[8] = {'M', 'E', 'C', 'H', 'F', 'M', 'U', 'S'};

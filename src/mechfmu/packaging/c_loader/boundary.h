@@ -103,6 +103,24 @@ struct mf_state *mf_state_new(struct mf_state **list, void *real, int machine, d
 struct mf_state *mf_state_find(struct mf_state *list, const void *state);
 void mf_state_remove(struct mf_state **list, struct mf_state *state);
 
+/* The record of the FMU state ``state`` a host passes to ``function``, or NULL with ``why``
+ * (none of this instance's: never handed out, or freed). */
+struct mf_state *mf_state_known(struct mf_state *list, const void *state, const char *function,
+                                char why[MF_WHY_SIZE]);
+
+/* Where a state that ``function`` makes goes: 1 when *slot is NULL (a new record, *reuse
+ * NULL) or one of this instance's states (*reuse: that record, reused as both standards
+ * allow); 0 with ``why`` otherwise (also for a NULL ``slot``). */
+int mf_state_slot(struct mf_state *list, void *const *slot, const char *function,
+                  struct mf_state **reuse, char why[MF_WHY_SIZE]);
+
+/* Keeps pythonfmu's state ``real`` where mf_state_slot said: in ``reuse`` after ``release``
+ * of the state it held, or in a new record stored at *slot. 0 when out of memory (``real``
+ * released). */
+int mf_state_keep(struct mf_state **list, struct mf_state *reuse, void **slot, void *real,
+                  int machine, double time, void (*release)(void *context, void **real),
+                  void *context);
+
 /* ---- Serialised FMU states: a versioned, checked frame around pythonfmu's bytes ----
  *
  *  offset  size  content (little endian)

@@ -501,54 +501,33 @@ GET_SET(String, MF_STRING)
 static struct mf_state *known_state(struct instance *instance, const char *function,
                                     fmi2FMUstate state)
 {
-    struct mf_state *record = mf_state_find(instance->states, state);
     char why[MF_WHY_SIZE];
-    if (!record) {
-        snprintf(why, sizeof why,
-                 "%s: %p is no FMU state of this instance (never returned by fmi2GetFMUstate or "
-                 "fmi2DeSerializeFMUstate, or freed)",
-                 function, (void *)state);
-        refuse(instance, why);
-    }
+    struct mf_state *record = mf_state_known(instance->states, state, function, why);
+    if (!record) refuse(instance, why);
     return record;
 }
 
-/* Where a new state goes: 1 when *FMUstate is NULL (a new record, *reuse NULL) or one of this
- * instance's states (*reuse: that record, reused as the standard allows); 0 after refusing
- * anything else. */
-static int state_slot(struct instance *instance, const char *function, fmi2FMUstate *FMUstate,
+static int state_slot(struct instance *instance, const char *function, fmi2FMUstate *slot,
                       struct mf_state **reuse)
 {
-    *reuse = NULL;
-    if (!FMUstate) {
-        char why[MF_WHY_SIZE];
-        snprintf(why, sizeof why, "%s: FMUstate is NULL", function);
-        refuse(instance, why);
-        return 0;
-    }
-    if (!*FMUstate) return 1;
-    *reuse = known_state(instance, function, *FMUstate);
-    return *reuse != NULL;
+    char why[MF_WHY_SIZE];
+    if (mf_state_slot(instance->states, slot, function, reuse, why)) return 1;
+    refuse(instance, why);
+    return 0;
 }
 
-/* Stores pythonfmu's state ``real_state`` where state_slot said. */
-static fmi2Status keep_state(struct instance *instance, fmi2FMUstate *FMUstate,
-                             struct mf_state *reuse, void *real_state, int machine, double time)
+static void release_state(void *real_instance, void **state)
 {
-    struct mf_state *record = reuse;
-    if (record) {
-        real.FreeFMUstate(instance->real, &record->real);
-        record->real = real_state;
-        record->machine = machine;
-        record->time = time;
-        return fmi2OK;
-    }
-    record = mf_state_new(&instance->states, real_state, machine, time);
-    if (!record) {
-        real.FreeFMUstate(instance->real, &real_state);
+    real.FreeFMUstate((fmi2Component)real_instance, (fmi2FMUstate *)state);
+}
+
+static fmi2Status keep_state(struct instance *instance, fmi2FMUstate *slot, struct mf_state *reuse,
+                             void *real_state, int machine, double time)
+{
+    if (!mf_state_keep(&instance->states, reuse, slot, real_state, machine, time,
+                       release_state, instance->real)) {
         return refuse(instance, "out of memory for an FMU state");
     }
-    *FMUstate = record;
     return fmi2OK;
 }
 

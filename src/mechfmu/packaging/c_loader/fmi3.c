@@ -593,51 +593,33 @@ FMI3_Export fmi3Status fmi3SetClock(fmi3Instance instance,
 static struct mf_state *known_state(struct instance *instance, const char *function,
                                     fmi3FMUState state)
 {
-    struct mf_state *record = mf_state_find(instance->states, state);
     char why[MF_WHY_SIZE];
-    if (!record) {
-        snprintf(why, sizeof why,
-                 "%s: %p is no FMU state of this instance (never returned by fmi3GetFMUState or "
-                 "fmi3DeserializeFMUState, or freed)",
-                 function, (void *)state);
-        refuse(instance, why);
-    }
+    struct mf_state *record = mf_state_known(instance->states, state, function, why);
+    if (!record) refuse(instance, why);
     return record;
 }
 
-/* As in fmi2.c: 1 when *FMUState is NULL (new) or one of this instance's states (*reuse). */
-static int state_slot(struct instance *instance, const char *function, fmi3FMUState *FMUState,
+static int state_slot(struct instance *instance, const char *function, fmi3FMUState *slot,
                       struct mf_state **reuse)
 {
-    *reuse = NULL;
-    if (!FMUState) {
-        char why[MF_WHY_SIZE];
-        snprintf(why, sizeof why, "%s: FMUState is NULL", function);
-        refuse(instance, why);
-        return 0;
-    }
-    if (!*FMUState) return 1;
-    *reuse = known_state(instance, function, *FMUState);
-    return *reuse != NULL;
+    char why[MF_WHY_SIZE];
+    if (mf_state_slot(instance->states, slot, function, reuse, why)) return 1;
+    refuse(instance, why);
+    return 0;
 }
 
-static fmi3Status keep_state(struct instance *instance, fmi3FMUState *FMUState,
-                             struct mf_state *reuse, void *real_state, int machine, double time)
+static void release_state(void *real_instance, void **state)
 {
-    struct mf_state *record = reuse;
-    if (record) {
-        real.FreeFMUState(instance->real, &record->real);
-        record->real = real_state;
-        record->machine = machine;
-        record->time = time;
-        return fmi3OK;
-    }
-    record = mf_state_new(&instance->states, real_state, machine, time);
-    if (!record) {
-        real.FreeFMUState(instance->real, &real_state);
+    real.FreeFMUState((fmi3Instance)real_instance, (fmi3FMUState *)state);
+}
+
+static fmi3Status keep_state(struct instance *instance, fmi3FMUState *slot, struct mf_state *reuse,
+                             void *real_state, int machine, double time)
+{
+    if (!mf_state_keep(&instance->states, reuse, slot, real_state, machine, time,
+                       release_state, instance->real)) {
         return refuse(instance, "out of memory for an FMU state");
     }
-    *FMUState = record;
     return fmi3OK;
 }
 
