@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 from fmpy.fmi1 import FMICallException
+
+from mechfmu.packaging.closure import runtime_closure
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
@@ -78,10 +80,12 @@ def test_code_inside_the_fmu_imports_only_the_standard_library(fmu_dir, model):
 
 
 @pytest.mark.parametrize("model", list(MODELS))
-def test_the_fmu_carries_exactly_the_runtime_package(fmu_dir, model):
-    """What an FMU packs of mechfmu is mechfmu.runtime, every module of it and nothing else."""
+def test_the_fmu_carries_exactly_the_runtime_its_model_imports(fmu_dir, model):
+    """What an FMU packs of mechfmu is part of mechfmu.runtime, nothing else: the modules its
+    model imports (packaging/closure.py; tests/test_self_description.py checks the closure)."""
     runtime = Path(mechfmu.runtime.__file__).parent
-    expected = {path.relative_to(runtime).as_posix() for path in runtime.rglob("*.py")}
+    expected = {path.as_posix() for path in runtime_closure(runtime, MODELS[model], "fmi2")}
+    assert expected <= {path.relative_to(runtime).as_posix() for path in runtime.rglob("*.py")}
     prefix = f"resources/mechfmu_fmu_{model}/"
     with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
         packed = {
