@@ -4,8 +4,8 @@
 # Another interpreter: `make test PYTHON=/path/to/python3.12` uses its own .venv-3.12 and
 # fmus-3.12 (the FMUs are built for the interpreter that builds them), leaving .venv alone.
 PYTHON ?= python3
-ifeq ($(origin PYTHON),command line)
 PYVER := $(shell $(PYTHON) -c 'import sys; print("%d.%d" % sys.version_info[:2])')
+ifeq ($(origin PYTHON),command line)
 VENV := .venv-$(PYVER)
 FMUS := fmus-$(PYVER)
 else
@@ -17,26 +17,41 @@ PY := $(VENV)/bin/python
 export MECHFMU_FMU_DIR := $(CURDIR)/$(FMUS)
 FMU_SOURCES := $(shell find src/mechfmu/runtime src/mechfmu/packaging -name '*.py' -o -name '*.[ch]')
 
+# The setup steps print one line each; their detail goes to a log shown when a step fails.
+# `make V=1 ...` shows everything as it happens.
+ifeq ($(V),1)
+logged = $(2)
+else
+logged = @{ $(2); } > $(1) 2>&1 || { cat $(1); echo "make: failed; the whole output is in $(1)"; exit 1; }
+endif
+
 .PHONY: run test test-fast lint fmus references report study work-precision bench sweeps \
-	docs clean lock test-latest test-portable test-other-python test-subset boundary cross-check
+	docs clean lock test-latest test-portable test-other-python test-subset tolerances \
+	boundary cross-check
 
 $(VENV)/.installed: pyproject.toml requirements.lock.txt
-	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --disable-pip-version-check --require-hashes \
-		-r requirements.lock.txt
-	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps -e .
-	touch $@
+	@echo "installing mechfmu and its locked dependencies into $(VENV)/ (log: $(VENV)/install.log)"
+	@mkdir -p $(VENV)
+	$(call logged,$(VENV)/install.log,$(PYTHON) -m venv $(VENV) && $(PY) -m pip install \
+		--quiet --disable-pip-version-check --require-hashes -r requirements.lock.txt && \
+		$(PY) -m pip install --quiet --disable-pip-version-check --no-deps -e .)
+	@touch $@
 
 $(FMUS)/.built: $(VENV)/.installed $(FMU_SOURCES)
-	$(VENV)/bin/mechfmu build --out $(FMUS)
-	touch $@
+	@echo "building the FMUs into $(FMUS)/ (log: $(FMUS)/build.log)"
+	@mkdir -p $(FMUS)
+	$(call logged,$(FMUS)/build.log,$(VENV)/bin/mechfmu build --out $(FMUS))
+	@touch $@
 
 fmus: $(VENV)/.installed
-	$(VENV)/bin/mechfmu build --out $(FMUS)
-	touch $(FMUS)/.built
+	@mkdir -p $(FMUS)
+	$(call logged,$(FMUS)/build.log,$(VENV)/bin/mechfmu build --out $(FMUS))
+	@touch $(FMUS)/.built
+	@echo "built the FMUs into $(FMUS)/ (log: $(FMUS)/build.log)"
 
 run: $(FMUS)/.built
-	$(PY) sims/run_gear.py
+	@$(PY) sims/run_gear.py
+	@echo "mechfmu and python of $(VENV) in this shell: source $(VENV)/bin/activate"
 
 # Everything: the lint gate, then every test layer (unit, fmu, hosts, slow).
 test: lint $(FMUS)/.built
@@ -84,7 +99,7 @@ PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gea
 	tests/test_exact_valve.py \
 	tests/test_scenes.py tests/test_outputs.py tests/test_fmus.py tests/test_linkage_fmus.py \
 	tests/test_coupling.py tests/test_study.py tests/test_sweep.py \
-	tests/test_sweep_references.py tests/test_portable.py
+	tests/test_sweep_references.py tests/test_portable.py tests/test_tolerances.py
 test-portable: $(FMUS)/.built
 	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx512)" $(PY) -m pytest -q \
 		-p no:cacheprovider $(PORTABLE_TESTS)
@@ -99,7 +114,8 @@ OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.p
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
 	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
-	tests/test_portable.py tests/test_sweep_faults.py tests/test_exact_valve.py
+	tests/test_portable.py tests/test_sweep_faults.py tests/test_exact_valve.py \
+	tests/test_tolerances.py
 test-other-python:
 	@set -e; for version in $(OTHER_PYTHONS); do \
 		python=$$(ls -d $(PYENV_ROOT)/versions/$$version.*/bin/python3 2>/dev/null \
@@ -116,7 +132,28 @@ test-subset: $(FMUS)/.built
 	$(PY) -m pytest -q -p no:cacheprovider $(TESTS)
 
 references: $(VENV)/.installed
-	$(VENV)/bin/mechfmu references
+	$(VENV)/bin/mechfmu references --out src/mechfmu/scenes/reference
+
+# What each shipped scene's check tolerance rests on (docs/checks.md): every scene run on each
+# CPython that has a venv here (and with the C library's FMA and AVX2 variants off), every
+# reference regenerated under each narrowing of numpy's dispatch, then the measurements.
+TOLERANCE_DIR := out/tolerances
+tolerances: $(FMUS)/.built
+	rm -rf $(TOLERANCE_DIR)
+	$(VENV)/bin/mechfmu run --all --no-plot --out $(TOLERANCE_DIR)/run-$(PYVER) --fmu-dir $(FMUS) > /dev/null
+	GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA $(VENV)/bin/mechfmu run --all --no-plot \
+		--out $(TOLERANCE_DIR)/run-nofma --fmu-dir $(FMUS) > /dev/null
+	@for venv in .venv-3.*; do [ -x $$venv/bin/mechfmu ] || continue; \
+		version=$${venv#.venv-}; echo "run --all on $$venv"; \
+		$$venv/bin/mechfmu run --all --no-plot --out $(TOLERANCE_DIR)/run-$$version \
+			--fmu-dir fmus-$$version > /dev/null || exit 1; done
+	$(VENV)/bin/mechfmu references --out $(TOLERANCE_DIR)/ref > /dev/null
+	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx512)" $(VENV)/bin/mechfmu \
+		references --out $(TOLERANCE_DIR)/ref-avx512 > /dev/null
+	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx2)" $(VENV)/bin/mechfmu \
+		references --out $(TOLERANCE_DIR)/ref-avx2 > /dev/null
+	$(PY) -m mechfmu.tools.tolerances --results $(TOLERANCE_DIR)/run-* \
+		--references $(TOLERANCE_DIR)/ref* | tee $(TOLERANCE_DIR)/tolerances.md
 
 report: $(VENV)/.installed
 	$(PY) sims/seed_report.py

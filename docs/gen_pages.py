@@ -7,8 +7,9 @@
   (the same command a user runs, called in-process through its console-script entry point):
   ``<!-- mechfmu:interface MODEL -->`` becomes the model's interface table, generated from
   its declarations; ``<!-- mechfmu:reference-plot SCENE -->`` becomes a plot of the scene's
-  committed reference CSV. A registered model without an interface marker on some page
-  fails the build.
+  committed reference CSV; ``<!-- mechfmu:scenes --tolerances -->`` becomes the table of
+  each shipped scene's check tolerances (its [check] table). A registered model without an
+  interface marker on some page fails the build.
 - The accuracy study's committed plots (``data/study/*.png``) as ``study/*.png``.
 - The tube-versus-pointwise figure of checks.md (``plots/tube_vs_pointwise.png``).
 """
@@ -24,7 +25,7 @@ import mkdocs_gen_files
 
 import mechfmu
 
-MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot) (\S+) -->$", re.MULTILINE)
+MARKER = re.compile(r"^<!-- mechfmu:(interface|reference-plot|scenes) (\S+) -->$", re.MULTILINE)
 MODEL_HEADING = re.compile(r"^### `(\w+)\.fmu`$", re.MULTILINE)
 STUDY_PLOTS = Path("data/study")
 
@@ -82,6 +83,8 @@ def fill_markers(docs_dir: Path) -> None:
 
         def replace(match):
             kind, name = match.groups()
+            if kind == "scenes":  # <!-- mechfmu:scenes --tolerances -->
+                return mechfmu_command("scenes", name).strip()
             if kind == "interface":
                 if name not in tables:
                     raise RuntimeError(f"{page}: no model {name!r}; models: {', '.join(tables)}")

@@ -8,4 +8,4 @@ medians of --repeats after one warm-up).
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "bench", "--only", "effects", fmu_dir="fmus")
+    script_main(__file__, "bench", "--only", "effects")

@@ -10,15 +10,13 @@ the check's allowance; > 1 fails). See docs/dynamics.md, "Dynamic scenes against
 """
 
 import argparse
-import os
-from pathlib import Path
 
 import pandas as pd
 
+from mechfmu.cosim.locate import fmu_folder
 from mechfmu.cosim.scene import SCENE_DIR
 from mechfmu.tools.bench.dynamic_scenes import step_accuracy
 
-ROOT = Path(__file__).resolve().parent.parent
 STEPS = {
     "valve_train_dynamic": (1e-5, 1e-4, 5e-4, 1e-3, 2e-3),
     "valve_float_dynamic": (1e-5, 1e-4, 5e-4, 1e-3, 2e-3),
@@ -26,11 +24,14 @@ STEPS = {
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument(
-        "--fmu-dir", default=os.environ.get("MECHFMU_FMU_DIR") or str(ROOT / "fmus")
+        "--repeats", type=int, default=3, help="timed runs per point, median (default: 3)"
+    )
+    parser.add_argument(
+        "--fmu-dir", help="folder of the built FMUs (default: found as by every command)"
     )
     args = parser.parse_args()
+    args.fmu_dir = fmu_folder(["ValveSpring", "ValveTrain", "CamshaftDrive"], args.fmu_dir)
     frame = pd.concat(
         [
             step_accuracy(SCENE_DIR, args.fmu_dir, name, steps, args.repeats)

@@ -9,4 +9,4 @@ column's worst deviation from the numpy reference: ``mechfmu example four_bar``.
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "example", "four_bar", out="out", fmu_dir="fmus")
+    script_main(__file__, "example", "four_bar")

@@ -7,4 +7,4 @@ reference, the stroke and the peak slider acceleration: ``mechfmu example slider
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "example", "slider_crank", out="out", fmu_dir="fmus")
+    script_main(__file__, "example", "slider_crank")

@@ -7,4 +7,4 @@ snap-through and the deviation from the closed-form reference: ``mechfmu example
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "example", "suspension", out="out", fmu_dir="fmus")
+    script_main(__file__, "example", "suspension")

@@ -8,4 +8,4 @@ snap-through times: ``mechfmu example suspension_dynamics``.
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "example", "suspension_dynamics", out="out", fmu_dir="fmus")
+    script_main(__file__, "example", "suspension_dynamics")

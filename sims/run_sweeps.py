@@ -10,4 +10,4 @@ Exit status 1 if a sweep disagrees with its reference.
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "example", "sweeps", out="out/sweeps", fmu_dir="fmus")
+    script_main(__file__, "example", "sweeps")

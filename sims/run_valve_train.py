@@ -8,4 +8,4 @@ the predicted float speed: ``mechfmu example valve_train``.
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "example", "valve_train", out="out", fmu_dir="fmus")
+    script_main(__file__, "example", "valve_train")

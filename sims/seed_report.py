@@ -4,4 +4,4 @@
 from mechfmu.cli import script_main
 
 if __name__ == "__main__":
-    script_main(__file__, "report", out="data/seed_report.md")
+    script_main(__file__, "report")

@@ -57,6 +57,7 @@ LAYERS = {
     "test_planar.py": "unit",
     "test_planar_kernel.py": "unit",
     "test_physics_cam_valve.py": "unit",
+    "test_cam_geometry.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
     "test_physics_profiles.py": "unit",
@@ -72,9 +73,13 @@ LAYERS = {
     "test_work_precision.py": "unit",
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)
     "test_compare.py": "unit",
+    "test_import_graph.py": "unit",
+    "test_tolerances.py": "unit",
     "test_api.py": "fmu",
     "test_baseline.py": "fmu",
     "test_check_cli.py": "fmu",
+    "test_readme.py": "fmu",
+    "test_command_line.py": "fmu",
     "test_pytest_plugin.py": "fmu",
     "test_bench.py": "fmu",
     "test_binary_patch.py": "fmu",
@@ -84,6 +89,7 @@ LAYERS = {
     "test_fmus.py": "fmu",
     "test_interrupts.py": "fmu",
     "test_linkage_fmus.py": "fmu",
+    "test_cam_fmu.py": "fmu",
     "test_outputs.py": "fmu",
     "test_robustness.py": "fmu",
     "test_scenes.py": "fmu",
@@ -109,6 +115,7 @@ LAYERS = {
 # seconds each or many seconds together (measured with `pytest --durations=0`).
 SLOW_FILES = {
     "test_docs.py",
+    "test_readme.py",
     "test_interrupts.py",
     "test_robustness.py",
     "test_scenes.py",

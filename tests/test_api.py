@@ -236,7 +236,7 @@ def test_run_all_writes_every_shipped_scene(fmu_dir, tmp_path, capsys):
     assert_matches(gear, mechfmu.reference("gear_retraction"), rtol=1e-9, atol=1e-12)
     assert gear.attrs["units"]["gear.gear_angle"] == "rad"
     assert cli(["run", "gear_retraction", "--all", "--out", str(out)]) == 2
-    assert "give a scene or --all" in capsys.readouterr().err
+    assert "give a scene (gear_retraction) or --all, not both" in capsys.readouterr().err
 
 
 def test_a_malformed_reference_given_to_run_is_one_line(fmu_dir, tmp_path):

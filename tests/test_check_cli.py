@@ -1,6 +1,7 @@
 """``mechfmu check`` on files and folders: every failure kind named with its file, and its
 line, column or time; exit codes; --tol; --method tube; the JUnit XML and the HTML report."""
 
+import re
 import shutil
 import xml.etree.ElementTree as ET
 
@@ -129,7 +130,10 @@ def test_missing_and_extra_columns_and_time_grid(trees, capsys):
     line = line_of(out, "gear_retraction.csv")
     assert "missing column gear.gear_angle" in line and "1 more failing column(s)" in line
     line = line_of(out, "suspension_load_ramp.csv")
-    assert "time grid: the result has time none where the reference has 2.5 s" in line
+    assert (
+        "time grid: the result ends early, at t = 2.49 s (its file ends at line 251: cut "
+        "short?); the reference goes on to t = 2.5 s" in line
+    )
     cases = {
         (case.get("classname"), case.get("name")): case
         for case in ET.parse(junit).getroot().iter("testcase")
@@ -210,6 +214,7 @@ def test_junit_has_one_testcase_per_file_and_column(trees, capsys, tmp_path):
     assert len(cases) == 6 + ramp_columns + 1
     assert suite.get("tests") == str(len(cases)) == root.get("tests")
     assert suite.get("failures") == "2" == root.get("failures")
+    assert suite.get("skipped") == root.get("skipped") and root.get("errors") == "0"
     failed = {
         (case.get("classname"), case.get("name")): case.find("failure")
         for case in cases
@@ -245,6 +250,16 @@ def test_report_has_a_plot_of_every_failing_column(trees, capsys, tmp_path):
         assert (report / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "gear_retraction.csv: match" in page
     assert "valve/valve_train.csv: MISMATCH" in page
+    # the failures come first, in a summary table; the files that match last, folded
+    summary = page.index("<h2>Failures</h2>")
+    rows = re.findall(r'<tr><td><a href="#(file-\d+)">([^<]+)</a></td><td>([^<]+)</td>', page)
+    assert sorted((name, column) for _, name, column in rows) == [
+        ("valve/valve_train.csv", "valve.contact_force"),
+        ("valve/valve_train.csv", "valve.valve_lift"),
+    ]
+    anchor = rows[0][0]
+    assert summary < page.index(f'id="{anchor}"') < page.index("file(s) that match</summary>")
+    assert page.index("<details>") < page.index("gear_retraction.csv: match")
 
 
 def test_a_malformed_reference_is_named_too(trees, capsys):

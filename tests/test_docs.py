@@ -1,6 +1,7 @@
 """The docs site: its generated parts come from the declarations and data, and it builds
 strictly (a broken link, reference or include fails the suite)."""
 
+import html
 import math
 import os
 import re
@@ -11,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from conftest import ROOT, SCENES
-from mechfmu.cosim.results import read_csv
+from mechfmu.io import read_csv
 from mechfmu.cosim.scene import load_scene
 from mechfmu.tools.docs import TYPES, declared_units, interface_table, model_class
 from mechfmu.runtime.models import MODELS
@@ -98,3 +99,28 @@ def test_docs_site_builds_strictly(tmp_path):
                 assert image.is_file() and image.stat().st_size > 1000, (path, source)
                 images += 1
     assert images >= 20  # the models' reference plots and the study's
+    assert links_from_disk(site, pages) > 1000
+
+
+def links_from_disk(site, pages):
+    """Follow every internal link (href, src) of every page as a browser does from disk
+    (file://): each must name a file, not a folder, and an anchor must be an id of the page
+    it names. Returns the number of links followed. 404.html is left out: only a web server
+    shows it, for a missing page, with links from the site's root."""
+    ids = {path: set(re.findall(r'\bid="([^"]+)"', text)) for path, text in pages.items()}
+    followed = 0
+    for path, text in pages.items():
+        if path == site / "404.html":
+            continue
+        for link in re.findall(r'\b(?:href|src)="([^"]+)"', text):
+            if re.match(r"^[a-z][a-z0-9+.-]*:", link) or link.startswith("//"):
+                continue  # http:, https:, mailto:, data:: not the site's own
+            target, _, anchor = link.partition("#")
+            target = target.split("?")[0]
+            resolved = (path.parent / target).resolve() if target else path
+            where = f"{path.relative_to(site)}: {link}"
+            assert resolved.is_file(), f"{where} -> {resolved} is not a file"
+            if anchor and resolved.suffix == ".html":
+                assert html.unescape(anchor) in ids[resolved], f"{where}: no id {anchor!r}"
+            followed += 1
+    return followed

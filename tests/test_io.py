@@ -13,6 +13,7 @@ import pytest
 from conftest import REFERENCES, SCENES
 
 from mechfmu.cosim.run import run_scene
+from mechfmu.cosim.scene import load_scene
 from cli_process import run_mechfmu
 from mechfmu.io import (
     ResultFileError,
@@ -47,7 +48,10 @@ def test_a_reference_csv_reads_as_a_frame_indexed_by_time():
     # 1.25 ft to 2.0 ft in 3 s: the piston's extension and constant speed, in SI units
     assert frame["actuator.piston_extension"].iloc[0] == pytest.approx(1.25 * 0.3048, rel=1e-12)
     assert frame["actuator.piston_speed"].iloc[150] == pytest.approx(0.25 * 0.3048, rel=1e-12)
-    assert frame.attrs["units"] == {}  # a reference has no JSON beside it
+    # the JSON beside it: the declared units and its scene's check tolerances
+    assert frame.attrs["units"]["gear.gear_angle"] == "rad"
+    assert frame.attrs["units"]["actuator.piston_speed"] == "m/s"
+    assert frame.attrs["check"]["rtol"] == load_scene(SCENES / "gear_retraction.toml").check.rtol
     assert frame.attrs["file"] == str(REFERENCES / "gear_retraction.csv")
 
 

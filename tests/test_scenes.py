@@ -11,10 +11,12 @@ from conftest import REFERENCES, ROOT, SCENES
 from mechfmu.check import compare
 from mechfmu.cli import main as cli
 from mechfmu.cosim.master import Simulation, SimulationError, order_components
-from mechfmu.cosim.results import read_csv
+from mechfmu.io import read_csv
 from mechfmu.cosim.run import run_scene
 from mechfmu.cosim.scene import Connection, SceneError, load_scene, parse_scene, read_toml
+from mechfmu.cosim.tolerances import parse_check
 from mechfmu.tools.scene_references import INTEGRATED, REFERENCES as GENERATED, generate
+from mechfmu.tools.tolerances import MARGIN
 from cli_process import run_mechfmu
 
 
@@ -40,35 +42,54 @@ def gear_scene(**changes):
     return data
 
 
-@pytest.mark.parametrize(
-    "scene_name, rtol, atol",
-    [
-        ("gear_retraction", 1e-9, 1e-12),
-        ("gear_retraction_cycloidal", 1e-9, 1e-12),
-        ("suspension_load_ramp", 1e-9, 1e-9),
-        ("four_bar_crank_rocker", 1e-10, 1e-10),
-        ("four_bar_solver_crossed", 1e-10, 1e-10),
-        ("slider_crank_offset", 1e-10, 1e-9),
-        ("valve_train", 1e-9, 1e-9),
-        ("valve_train_inverse", 1e-9, 1e-9),
-        ("valve_float", 1e-9, 1e-9),
-        # the valve's dynamics, integrated: SI units, one atol for all columns (measured in the
-        # scene files: at worst 6.5 % and 34 % of these allowances)
-        ("valve_train_dynamic", 1e-6, 1e-3),
-        ("valve_float_dynamic", 1e-5, 1e-3),
-    ],
-)
-def test_shipped_scene_matches_its_reference(fmu_dir, tmp_path, scene_name, rtol, atol):
-    result, paths = run_scene(SCENES / f"{scene_name}.toml", tmp_path, fmu_dir)
-    comparison = compare(paths["csv"], result.scene.reference, rtol, atol)
-    assert comparison.ok, str(comparison)
-    assert comparison.samples == result.scene.steps + 1
-    assert set(paths) == {"csv", "json", "png"}
-    assert paths["png"].stat().st_size > 10_000
-    meta = json.loads(paths["json"].read_text())
-    assert meta["steps"] == result.scene.steps and meta["partial"] is False
+@pytest.fixture(scope="module")
+def shipped_run(fmu_dir, tmp_path_factory):
+    """Exactly the two commands a new user runs from an empty folder: every shipped scene
+    checked against its reference, then the results against the shipped references. The
+    FMUs are found by the one rule (MECHFMU_FMU_DIR when make runs the tests, else the
+    checkout's fmus/)."""
+    folder = tmp_path_factory.mktemp("empty")
+    run = run_mechfmu("run", "--all", "--out", "D", "--check", cwd=folder, timeout=600)
+    check = run_mechfmu("check", "D", REFERENCES, cwd=folder, timeout=300)
+    return folder / "D", run, check
+
+
+def test_every_shipped_scene_passes_its_own_check_and_mechfmu_check(shipped_run):
+    out, run, check = shipped_run
+    scenes = sorted(path.stem for path in SCENES.glob("*.toml"))
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert f"ran {len(scenes)} shipped scene(s) into D: {len(scenes)} ok" in run.stdout
+    assert check.returncode == 0, check.stdout + check.stderr
+    references = len(list(REFERENCES.glob("*.csv")))
+    unreferenced = len(scenes) - references
+    assert (
+        f"{len(scenes)} file(s): {references} match, 0 mismatch, {unreferenced} without "
+        f"reference (not compared)"
+    ) in check.stdout
+    assert sorted(path.stem for path in out.glob("*.csv")) == scenes
+
+
+@pytest.mark.parametrize("scene_name", sorted(GENERATED))
+def test_a_shipped_scene_declares_its_tolerance_and_keeps_the_margin(shipped_run, scene_name):
+    """Each reference's tolerance comes from its scene's [check] table (written in the JSON
+    beside the reference), and the run uses at most 1/MARGIN of it in every column: the
+    margin the table's measurement claims (tools/tolerances.py)."""
+    out, _, _ = shipped_run
+    scene = load_scene(SCENES / f"{scene_name}.toml")
+    assert scene.check is not None and scene.check.why
+    declared = json.loads((REFERENCES / f"{scene_name}.json").read_text())["check"]
+    assert parse_check(declared, "reference") == scene.check
+    comparison = compare(out / f"{scene_name}.csv", scene.reference)
+    assert comparison.passed, str(comparison)
+    assert comparison.declared == scene.check
+    assert comparison.samples == scene.steps + 1
+    assert comparison.summary["ratio"].max() <= 1 / MARGIN, comparison.summary
+    meta = json.loads((out / f"{scene_name}.json").read_text())
+    assert meta["steps"] == scene.steps and meta["partial"] is False
     assert meta["versions"]["fmpy"] and meta["wall_time_s"] > 0
     assert meta["units"]  # every recorded variable with its unit
+    assert meta["check"] == declared
+    assert (out / f"{scene_name}.png").stat().st_size > 10_000
 
 
 def test_gear_columns_and_snap_through_in_the_suspension_run(fmu_dir, tmp_path):
@@ -182,6 +203,9 @@ def test_committed_references_equal_freshly_generated_ones(tmp_path):
     generated = generate(SCENES, tmp_path)
     assert sorted(p.name for p in generated) == sorted(f"{n}.csv" for n in GENERATED)
     for path in generated:
+        # the JSON (units, the scene's check tolerances) is text made of the scene: exact
+        json_name = path.with_suffix(".json").name
+        assert (tmp_path / json_name).read_text() == (REFERENCES / json_name).read_text()
         times, columns = read_csv(path)
         committed_times, committed = read_csv(REFERENCES / path.name)
         assert times == committed_times and list(columns) == list(committed)
@@ -255,22 +279,23 @@ def test_a_shipped_scene_runs_and_checks_by_name_from_any_directory(fmu_dir, tmp
     assert (tmp_path / "out" / "gear_retraction.csv").is_file()
 
 
-def test_a_script_in_sims_defaults_to_its_repository_and_yields_to_its_arguments(
-    fmu_dir, tmp_path, monkeypatch, capsys
-):
-    """script_main puts --out and --fmu-dir in the script's repository before the script's
-    own arguments, which win; the exit status is the verb's."""
-    from mechfmu.cli import script_main
-
-    monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(sys, "argv", ["run_gear.py", "--out", str(tmp_path / "mine"), "--no-plot"])
-    with pytest.raises(SystemExit) as exit_:
-        script_main(
-            ROOT / "sims" / "run_gear.py", "example", "gear", out="out", fmu_dir=str(fmu_dir)
-        )
-    assert exit_.value.code == 0
-    assert "every sample within 1e-9 relative (+1e-12 absolute): yes" in capsys.readouterr().out
-    assert (tmp_path / "mine" / "gear_retraction.csv").is_file()
+def test_a_script_in_sims_writes_to_the_current_folder_and_is_named_in_its_usage(fmu_dir, tmp_path):
+    """python sims/run_gear.py from any folder writes out/ there (not in the repository)
+    and finds the FMUs by the one rule; its usage names the script."""
+    script = ROOT / "sims" / "run_gear.py"
+    done = subprocess.run(
+        [sys.executable, str(script), "--no-plot"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=tmp_path,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (tmp_path / "out" / "gear_retraction.csv").is_file()
+    usage = subprocess.run(
+        [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=60
+    )
+    assert usage.returncode == 0 and usage.stdout.startswith("usage: run_gear.py ")
 
 
 def test_package_data_ships_every_scene_sweep_and_reference():
@@ -287,15 +312,16 @@ def test_package_data_ships_every_scene_sweep_and_reference():
     covered = {path for pattern in patterns for path in package.glob(pattern)}
     assert shipped and shipped <= covered, sorted(map(str, shipped - covered))
     assert {path.stem for path in REFERENCES.glob("*.csv")} == set(GENERATED)
+    assert {path.stem for path in REFERENCES.glob("*.json")} == set(GENERATED)
 
 
 @pytest.mark.parametrize(
     "script, expected",
     [
-        ("run_gear.py", "every sample within 1e-9 relative (+1e-12 absolute): yes"),
+        ("run_gear.py", "against the reference CSV (declared by the reference: rtol 1e-13"),
         ("run_suspension.py", "snap-through at t = 3.10 s"),
         ("run_four_bar.py", "open     theta3 =    88.8372 deg, theta4 =   117.2861 deg"),
-        ("run_slider_crank.py", "against the numpy closed form (rtol 1e-10, atol 1e-09): match"),
+        ("run_slider_crank.py", "against the numpy closed form (declared by the reference: "),
         ("run_valve_train.py", "camshaft at 1.01 x the float speed: 8 loss(es) of contact"),
     ],
 )

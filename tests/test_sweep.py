@@ -309,7 +309,7 @@ def test_grid_sweep_end_to_end(tmp_path, capsys):
     near_max = deflection >= deflection.max() - sweep.TIME_OF_MAX_RTOL * np.abs(deflection).max()
     assert row["time_of_max:suspension.deflection"] == times[np.argmax(near_max)]
     assert row["first_time_above:suspension.deflection:0.1"] == times[np.argmax(deflection > 0.1)]
-    from mechfmu.cosim.results import read_csv
+    from mechfmu.io import read_csv
 
     ref_times, ref_columns = read_csv(scene.reference)
     expected = np.max(

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from conftest import SCENES
 from fmu_driver import Driven
-from mechfmu.cosim.results import read_csv
+from mechfmu.io import read_csv
 from mechfmu.cosim.run import run_scene
 from mechfmu.runtime.models.valve_spring import ValveSpring
 from mechfmu.runtime.physics import cam_laws

@@ -13,9 +13,8 @@ from __future__ import annotations
 import copy
 import math
 import tempfile
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from os import PathLike
-import os
 from pathlib import Path
 from typing import Any
 
@@ -23,20 +22,15 @@ import numpy
 import pandas
 
 from .cosim.interrupt import InterruptGuard
-from .cosim.master import (
-    Simulation,
-    SimulationInterrupted,
-    model_description,
-    parameter_values,
-    resolve_fmu,
-)
+from .cosim.locate import scene_fmu_folder
+from .cosim.master import Simulation, SimulationInterrupted, parameter_values
 from .cosim.results import versions
+from .cosim.run import simulate as run_simulation
 from .cosim.scene import (
-    PACKAGE_ROOT,
     SCENE_DIR,
     Scene,
     SceneError,
-    check_tables,
+    apply_parameters,
     check_times,
     find_file,
     load_scene,
@@ -46,9 +40,6 @@ __all__ = ["reference", "simulate", "sweep"]
 
 SceneLike = str | PathLike | Scene
 StrPath = str | PathLike
-
-# fmus/ of the source checkout the package runs from (an editable install), if it is one
-CHECKOUT_FMU_DIR = PACKAGE_ROOT.parents[1] / "fmus" if PACKAGE_ROOT.parent.name == "src" else None
 
 
 def _scene(
@@ -91,68 +82,14 @@ def _scene(
     return load_scene(path, overrides)
 
 
-def _fmu_folder(scene: Scene, fmu_dir: StrPath | None) -> Path:
-    """``fmu_dir``, or else the first of $MECHFMU_FMU_DIR (when set), ./fmus and the source
-    checkout's fmus/ that holds every FMU the scene names by model; SceneError saying how to
-    build them otherwise."""
-    if fmu_dir is not None:
-        return Path(fmu_dir)
-    models = sorted(
-        {spec.fmu for spec in scene.components.values() if not spec.fmu.endswith(".fmu")}
-    )
-    folders = [Path.cwd() / "fmus"]
-    if os.environ.get("MECHFMU_FMU_DIR"):  # the Makefile's folder for this interpreter
-        folders.insert(0, Path(os.environ["MECHFMU_FMU_DIR"]))
-    if CHECKOUT_FMU_DIR is not None and CHECKOUT_FMU_DIR.resolve() != folders[0].resolve():
-        folders.append(CHECKOUT_FMU_DIR)
-    for folder in folders:
-        if all((folder / f"{model}.fmu").is_file() for model in models):
-            return folder
-    raise SceneError(
-        f"scene {scene.name}: FMU(s) {', '.join(f'{m}.fmu' for m in models)} "
-        f"not found in {' or '.join(str(f) for f in folders)}; build them with "
-        f"'mechfmu build --out DIR' and pass fmu_dir=DIR"
-    )
-
-
 def _plain(value: Any) -> Any:
     """A numpy scalar as the Python number it holds; anything else unchanged."""
     return value.item() if isinstance(value, numpy.generic) else value
 
 
-def apply_parameters(
-    scene: Scene,
-    parameters: Mapping[str, Any] | None,
-    declared: Callable[[Any], tuple[str, list[str]]],
-) -> None:
-    """Set ``parameters`` ({"component.parameter": value}) on ``scene``'s components, in
-    place. A name may also be a constant input the scene gives a value, or an effect (True
-    or False). ``declared(spec)``: the model name and parameter names of a component.
-    SceneError naming the item for an unknown component or a name the component's model
-    has no parameter of; the value's type is checked with the scene."""
-    for name, value in (parameters or {}).items():
-        component, dot, variable = str(name).partition(".")
-        if not dot or not component or not variable:
-            raise SceneError(f"parameters: {name!r} is not of the form component.parameter")
-        spec = scene.components.get(component)
-        if spec is None:
-            raise SceneError(
-                f"parameters: {name!r}: scene {scene.name} has no component "
-                f"{component!r}; its components: {', '.join(scene.components)}"
-            )
-        value = _plain(value)
-        if variable in spec.inputs:
-            spec.inputs[variable] = value
-            continue
-        model, names = declared(spec)
-        if variable not in names:
-            raise SceneError(
-                f"parameters: {name!r}: {component!r} ({model}) has no parameter "
-                f"{variable!r}; its parameters: {', '.join(sorted(names))}"
-            )
-        if variable in spec.effects:
-            spec.effects.remove(variable)
-        spec.parameters[variable] = value
+def _plain_parameters(parameters: Mapping[str, Any] | None) -> dict[str, Any]:
+    """``parameters`` with string keys and numpy scalars as Python numbers."""
+    return {str(name): _plain(value) for name, value in (parameters or {}).items()}
 
 
 def _fmu_versions(simulation: Simulation) -> dict[str, dict[str, Any]]:
@@ -204,8 +141,9 @@ def simulate(
     ``parameters``: {"component.parameter": value} replacing the scene's and the FMUs'
     values (``{"actuator.stroke_time": 2.0}``, in SI units); a constant input the scene
     sets may be given the same way. ``start_time``, ``stop_time`` and ``step`` (s) replace
-    the scene's. ``fmu_dir``: the folder of the built FMUs (default: ./fmus, else the
-    fmus/ of the source checkout mechfmu runs from).
+    the scene's. ``fmu_dir``: the folder of the built FMUs (default: the first of
+    $MECHFMU_FMU_DIR, ./fmus, the source checkout's and the user cache that holds them:
+    mechfmu.cosim.locate).
 
     Returns a DataFrame indexed by ``time`` (s), one float64 column per recorded variable
     named ``component.variable`` as in the CSV of ``mechfmu run``, and in ``attrs``:
@@ -213,7 +151,8 @@ def simulate(
     ``step``, ``coupling``, ``parameters`` (the overrides given), ``components`` (every
     parameter as applied), ``fmus`` (per component: file, model, FMI version, GUID,
     generation tool and date), ``versions`` (Python and packages), ``wall_time_s``,
-    ``steps`` and ``log`` (the FMUs' messages above ok).
+    ``steps``, ``log`` (the FMUs' messages above ok) and ``check`` (the scene's [check]
+    table: ``mechfmu.compare`` applies it when this frame is the reference).
 
     Raises mechfmu.cosim.scene.SceneError (a ValueError) naming the file and the problem for
     a scene that cannot run: a missing or malformed scene file or table file, an unknown
@@ -223,19 +162,10 @@ def simulate(
     the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
     """
     chosen = _scene(scene, start_time, stop_time, step)
-    folder = _fmu_folder(chosen, fmu_dir)
-
-    def declared(spec: Any) -> tuple[str, list[str]]:
-        description = model_description(resolve_fmu(spec, chosen, folder))
-        variables = description.modelVariables
-        return description.modelName, [v.name for v in variables if v.causality == "parameter"]
-
-    apply_parameters(chosen, parameters, declared)
-    check_tables(chosen)
-    simulation = Simulation(chosen, folder)
+    overrides = _plain_parameters(parameters)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
         try:
-            result = simulation.run(stop=guard)
+            simulation, result = run_simulation(chosen, fmu_dir, overrides, guard)
         except SimulationInterrupted as stopped:
             raise KeyboardInterrupt(str(stopped)) from None
     return frame(
@@ -249,7 +179,7 @@ def simulate(
         stop_time=chosen.stop_time,
         step=chosen.step,
         coupling=chosen.coupling,
-        parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
+        parameters=overrides,
         components=parameter_values(simulation),
         fmus=_fmu_versions(simulation),
         versions=versions(),
@@ -257,6 +187,7 @@ def simulate(
         loop_time_s=result.meta.get("loop_time_s"),
         steps=result.meta["steps"],
         log=[entry for entry in result.log if entry["status"] != "ok"],
+        check=chosen.check.as_dict() if chosen.check else None,
     )
 
 
@@ -296,7 +227,8 @@ def reference(
         names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
         return Path(spec.fmu).stem, names
 
-    apply_parameters(chosen, parameters, declared)
+    overrides = _plain_parameters(parameters)
+    apply_parameters(chosen, overrides, declared)
     columns = build(chosen)
     return frame(
         sample_times(chosen),
@@ -307,8 +239,9 @@ def reference(
         start_time=chosen.start_time,
         stop_time=chosen.stop_time,
         step=chosen.step,
-        parameters={str(k): _plain(v) for k, v in (parameters or {}).items()},
+        parameters=overrides,
         kind="reference",
+        check=chosen.check.as_dict() if chosen.check else None,
     )
 
 
@@ -408,11 +341,7 @@ def sweep(
             if value is not None and key in SCENE_OVERRIDES
         },
     }
-    folder = (
-        fmu_dir
-        if fmu_dir is not None
-        else _fmu_folder(load_scene(chosen["scene_path"], chosen["overrides"]), None)
-    )
+    folder = scene_fmu_folder(load_scene(chosen["scene_path"], chosen["overrides"]), fmu_dir)
     with tempfile.TemporaryDirectory(prefix="mechfmu-sweep-") as scratch:
         summary = run_sweep(
             **chosen,

@@ -27,16 +27,18 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
 def compare(
     result_path: str | PathLike,
     reference_path: str | PathLike,
-    rtol: float = 1e-9,
-    atol: float = 1e-12,
+    rtol: float | None = None,
+    atol: float | None = None,
 ) -> Comparison:
     """The check of ``mechfmu run --check``: the result CSV against a reference CSV.
 
     The reference is interpolated linearly onto the result's times (which must start and end
     where the reference's do); every column of the reference must be in the result, and the
     result's other recorded columns are not compared. A sample passes when
-    ``|value - reference| <= atol + rtol * |reference|``. Raises mechfmu.io.ResultFileError
-    (a ValueError) naming the file for a malformed one.
+    ``|value - reference| <= atol + rtol * |reference|``, at the tolerances the reference
+    declares (the ``check`` of its JSON: its scene's [check] table) unless ``rtol`` or
+    ``atol`` are given. Raises mechfmu.io.ResultFileError (a ValueError) naming the file for
+    a malformed one.
     """
     return compare_frames(
         result_path, reference_path, rtol=rtol, atol=atol, interpolate=True, ignore_extra=True
@@ -160,9 +162,9 @@ def check_paths(
     result: str | PathLike,
     reference: str | PathLike,
     *,
-    rtol: float = 1e-9,
-    atol: float = 1e-12,
-    method: str = "pointwise",
+    rtol: float | None = None,
+    atol: float | None = None,
+    method: str | None = None,
     time_tolerance: float | None = None,
     tolerances: Mapping[str, Tolerance] | None = None,
     interpolate: bool = False,
@@ -170,7 +172,8 @@ def check_paths(
 ) -> CheckRun:
     """Compare ``result`` with ``reference``: two CSV files, two folders (their CSV files,
     matched by relative path, in sub-folders too) or a file and the folder holding its
-    namesake. The options are ``mechfmu.compare``'s. A reference file without a result is a
+    namesake. The options are ``mechfmu.compare``'s (None: each reference's declared
+    tolerances, the ``check`` of the JSON beside it, else the defaults). A reference file without a result is a
     "missing file" failure; a result without a reference is listed but not compared; a file
     that cannot be read is a "malformed file" failure naming the line and column."""
     from .io import ResultFileError, read_result
@@ -239,14 +242,14 @@ def run_report(
     result: Result,
     paths: dict[str, Path],
     reference: Path | None = None,
-    rtol: float = 1e-9,
-    atol: float = 1e-12,
+    rtol: float | None = None,
+    atol: float | None = None,
     label: str = "reference",
 ) -> tuple[list[str], Comparison | None]:
     """What ``mechfmu run`` (and every example) prints about a run: steps and wall time, the
     FMUs' non-ok log messages, with a ``reference`` CSV each column's worst deviation and the
-    verdict of ``mechfmu check`` at (rtol, atol), then the files written. Returns (lines,
-    Comparison or None)."""
+    verdict of ``mechfmu check`` at (rtol, atol) (None: the reference's declared ones), then
+    the files written. Returns (lines, Comparison or None)."""
     lines = [
         (
             f"{result.scene.name}: {result.meta['steps']} steps of {result.scene.step} s "
@@ -270,6 +273,6 @@ def run_report(
                 f"({fraction:.1e} of peak)"
             )
         comparison = compare(paths["csv"], reference, rtol, atol)
-        lines.append(f"  against the {label} (rtol {rtol:g}, atol {atol:g}): {comparison}")
+        lines.append(f"  against the {label} ({comparison.tolerance_text()}): {comparison}")
     lines += [f"  {kind}: {path}" for kind, path in paths.items()]
     return lines, comparison

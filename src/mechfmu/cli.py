@@ -1,9 +1,8 @@
-"""The ``mechfmu`` command: build, run, example, export-ssp, export-fmu, export-cross-check,
-check, references, report, docs, study, bench, fuzz, sweep.
+"""The ``mechfmu`` command line: one argparse tree, every verb and option declared here.
 
-One argparse tree: every verb and its options are declared here, and each verb calls one
-function of the package (imported when the verb runs, so ``mechfmu run`` never loads the
-study's or the benchmarks' code). The scripts in sims/ call ``script_main`` with their verb.
+Each verb calls one function of the package (imported when the verb runs, so ``mechfmu
+run`` never loads the study's or the benchmarks' code). The scripts in sims/ call
+``script_main`` with their verb.
 """
 
 from __future__ import annotations
@@ -13,8 +12,10 @@ from typing import TYPE_CHECKING
 import argparse
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
+from . import __version__
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
@@ -23,17 +24,73 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .cosim.master import SimulationError
     from .cosim.scene import SceneError
 
-# Where the verbs find (and build writes) the FMUs unless told: the Makefile exports
-# MECHFMU_FMU_DIR (fmus-X.Y for another interpreter's venv).
-FMU_DIR = os.environ.get("MECHFMU_FMU_DIR") or "fmus"
-FMU_DIR_HELP = "folder of built FMUs (default: $MECHFMU_FMU_DIR, else fmus)"
+DESCRIPTION = (
+    "Mechanism models as FMI co-simulation FMUs: build them, run scenes, check results "
+    "against their references. 'mechfmu VERB --help' describes a verb."
+)
+# The FMUs are found by one rule (cosim/locate.py) unless --fmu-dir names the folder.
+FMU_DIR_HELP = (
+    "folder of the built FMUs (default: the first of $MECHFMU_FMU_DIR, ./fmus, this "
+    "checkout's fmus/ and the user cache of 'mechfmu build' that holds them)"
+)
+
+
+def parse_assignments(texts: list[str]) -> dict[str, Any]:
+    """``--set`` values: each ``component.parameter=value`` as {name: value}, the value read
+    as a TOML value when it parses as one (``2.5``, ``true``, ``"cycloidal"``, ``[1, 2]``),
+    else taken as a bare string (``cycloidal``). ValueError naming the text for one without
+    ``=`` or without a name; the names and values are checked against the scene and its
+    FMUs where they are applied (cosim.scene.apply_parameters), as the API's are."""
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # Python 3.10
+        import tomli as tomllib
+
+    assignments: dict[str, Any] = {}
+    for text in texts:
+        name, sep, value = text.partition("=")
+        name, value = name.strip(), value.strip()
+        if not sep or not name or not value:
+            raise ValueError(
+                f"--set {text!r}: expected component.parameter=value (e.g. "
+                f"actuator.stroke_time=2.5)"
+            )
+        try:
+            assignments[name] = tomllib.loads(f"value = {value}")["value"]
+        except tomllib.TOMLDecodeError:
+            assignments[name] = value
+    return assignments
+
+
+def _fmu_folder(args: argparse.Namespace, models: Iterable[str], what: str) -> bool:
+    """Set ``args.fmu_dir`` to the folder of ``models`` by the one rule (cosim/locate.py);
+    False, having printed the error (every folder tried), when none holds them."""
+    from .cosim.locate import fmu_folder
+    from .cosim.scene import SceneError
+
+    try:
+        args.fmu_dir = str(fmu_folder(models, args.fmu_dir, what))
+    except SceneError as error:
+        print(f"{what} error: {error}", file=sys.stderr)
+        return False
+    return True
 
 
 def _build(args: Any) -> int:
+    from .cosim.locate import user_cache
     from .packaging.build import build_all
+    from .runtime.models import MODELS
 
+    unknown = [name for name in args.models if name not in MODELS]
+    if unknown:
+        print(
+            f"build error: unknown model(s) {', '.join(unknown)}; models: {', '.join(MODELS)}",
+            file=sys.stderr,
+        )
+        return 2
+    out = args.out or user_cache()
     for path in build_all(
-        args.out, args.models or None, fmi_version=args.fmi_version, embed_python=args.embed_python
+        out, args.models or None, fmi_version=args.fmi_version, embed_python=args.embed_python
     ):
         print(f"built {path}")
     return 0
@@ -76,25 +133,29 @@ def _run(args: argparse.Namespace) -> int:
 def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
     from .cosim.scene import find_file
 
-    if args.all == (args.scene is not None):
-        print(
-            "mechfmu run: error: give a scene or --all (every shipped scene), not both",
-            file=sys.stderr,
+    problem = None
+    if not args.all and args.scene is None:
+        problem = (
+            "name a scene (a shipped scene's name, which 'mechfmu scenes' lists, or a scene "
+            "file) or give --all to run every shipped scene"
         )
-        return 2
-    if args.all and (args.checkpoint or args.resume):
-        print(
-            "mechfmu run: error: --checkpoint and --resume name one scene's checkpoint; "
-            "not with --all",
-            file=sys.stderr,
+    elif args.all and args.scene is not None:
+        problem = f"give a scene ({args.scene}) or --all, not both"
+    elif args.all and args.reference:
+        problem = (
+            "--reference names one scene's reference; with --all use --check (each scene "
+            "against its own)"
         )
-        return 2
-    if args.all and args.reference:
-        print(
-            "mechfmu run: error: --reference names one scene's reference; with --all use "
-            "--check (each scene against its own)",
-            file=sys.stderr,
-        )
+    elif args.all and args.set:
+        problem = "--set changes one scene's parameters; name the scene instead of --all"
+    elif args.all and (args.checkpoint or args.resume):
+        problem = "--checkpoint and --resume name one scene's checkpoint; not with --all"
+    try:
+        args.parameters = parse_assignments(args.set)
+    except ValueError as error:
+        problem = str(error)
+    if problem:
+        print(f"mechfmu run: error: {problem}", file=sys.stderr)
         return 2
     if args.all:
         return _run_all(args, guard)
@@ -155,6 +216,7 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
             args.fmu_dir,
             plot=not args.no_plot,
             guard=guard,
+            parameters=getattr(args, "parameters", None),
             checkpoints=_checkpoints(args),
             resume=Path(args.resume) if args.resume else None,
         )
@@ -281,7 +343,7 @@ def _check(args: Any) -> int:
         return 2
     run = check_paths(
         args.result,
-        args.reference,
+        args.reference or REFERENCE_DIR,
         rtol=args.rtol,
         atol=args.atol,
         method=args.method,
@@ -328,11 +390,67 @@ def _baseline_update(args: argparse.Namespace) -> int:
 
 
 def _references(args: Any) -> int:
+    from .cosim.files import OutputError, output_folder
     from .tools.scene_references import generate
 
-    for path in generate(args.scenes, args.out):
-        print(f"wrote {path}")
+    try:
+        for path in generate(args.scenes, output_folder(args.out)):
+            print(f"wrote {path} (and its JSON)")
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
     return 0
+
+
+def _scenes(args: argparse.Namespace) -> int:
+    """``mechfmu scenes``: one line per shipped scene (name, stop time, components, the
+    first line of its description), then where the files and references are."""
+    from .cosim.scene import SceneError, load_scene
+
+    rows = []
+    scenes = []
+    for path in sorted(SCENE_DIR.glob("*.toml")):
+        try:
+            scenes.append(scene := load_scene(path))
+        except SceneError as error:  # a shipped scene is never malformed; say so if it is
+            print(f"scene error: {error}", file=sys.stderr)
+            return 2
+        components = ", ".join(f"{name} ({spec.fmu})" for name, spec in scene.components.items())
+        summary = " ".join(scene.description.split()).split(". ")[0].rstrip(".")
+        rows.append((scene.name, f"{scene.stop_time:g} s", components, summary))
+    if args.tolerances:
+        print(tolerance_table(scenes))
+        return 0
+    widths = [max(len(row[i]) for row in rows) for i in range(2)]
+    for name, stop, components, summary in rows:
+        print(f"{name:{widths[0]}}  {stop:>{widths[1]}}  {components}")
+        print(f"{'':{widths[0]}}  {'':>{widths[1]}}  {summary}")
+    print(
+        f"\n{len(rows)} shipped scenes in {SCENE_DIR}, their references in {REFERENCE_DIR}; "
+        f"'mechfmu run NAME' runs one, 'mechfmu run --all --check' all of them"
+    )
+    return 0
+
+
+def tolerance_table(scenes: list[Any]) -> str:
+    """Markdown: each scene's check tolerances (its [check] table) and what they rest on."""
+    lines = [
+        "| scene | rtol | atol | method | why |",
+        "|---|---|---|---|---|",
+    ]
+    for scene in scenes:
+        check = scene.check
+        if check is None:
+            lines.append(f"| `{scene.name}` | | | | no reference: not checked |")
+            continue
+        per_column = [name for name, entry in check.columns.items() if entry.atol is not None]
+        atol = f"{check.atol:g}" + (f"; per column ({len(per_column)})" if per_column else "")
+        method = check.method + (
+            f", {check.time_tolerance:g} s" if check.time_tolerance is not None else ""
+        )
+        why = " ".join(check.why.split()).replace("|", "\\|")
+        lines.append(f"| `{scene.name}` | {check.rtol:g} | {atol} | {method} | {why} |")
+    return "\n".join(lines)
 
 
 def _report(args: Any) -> int:
@@ -354,6 +472,8 @@ def _docs(args: Any) -> int:
             print(f"wrote {reference_plot(find_file(args.reference_plot), args.out)}")
         else:
             print(interface_tables(args.models))
+    except BrokenPipeError:  # the reader stopped: main() ends quietly
+        raise
     except (OSError, ValueError) as error:
         print(f"docs error: {error}", file=sys.stderr)
         return 2
@@ -361,14 +481,19 @@ def _docs(args: Any) -> int:
 
 
 def _study(args: argparse.Namespace):
+    from .runtime.models import MODELS
     from .tools.study import command
 
+    if not args.work_precision and not _fmu_folder(args, MODELS, "study"):
+        return 2
     return command(args)
 
 
 def _bench(args: Any):
-    from .tools.bench.suite import command
+    from .tools.bench.suite import MODELS_NEEDED, command
 
+    if not _fmu_folder(args, MODELS_NEEDED, "bench"):
+        return 2
     return command(args)
 
 
@@ -393,6 +518,8 @@ def _fuzz(args: Any):
     if problems:
         print(f"mechfmu fuzz: error: {problems[0]}", file=sys.stderr)
         raise SystemExit(2)
+    if not _fmu_folder(args, args.models or MODELS, "fuzz"):
+        return 2
     return command(args)
 
 
@@ -409,12 +536,37 @@ def _at_least_one(text: str) -> int:
     return value
 
 
+def _fmu_dir_option(verb: argparse.ArgumentParser) -> None:
+    verb.add_argument("--fmu-dir", metavar="DIR", help=FMU_DIR_HELP)
+
+
 def _scene_options(verb: argparse.ArgumentParser, out: str = "out", plot: bool = True) -> None:
     """--out, --fmu-dir and --no-plot: the options of every verb that runs scenes."""
-    verb.add_argument("--out", default=out, help=f"output folder (default: {out})")
-    verb.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    verb.add_argument(
+        "--out",
+        default=out,
+        metavar="DIR",
+        help=f"output folder (default: {out}, in the current folder)",
+    )
+    _fmu_dir_option(verb)
     if plot:
-        verb.add_argument("--no-plot", action="store_true", help="skip the PNG")
+        verb.add_argument("--no-plot", action="store_true", help="skip the PNG (default: write it)")
+
+
+def _tolerance_options(verb: argparse.ArgumentParser) -> None:
+    """--rtol and --atol: replace the reference's declared tolerances."""
+    verb.add_argument(
+        "--rtol",
+        type=float,
+        help="relative tolerance (default: the reference's own, declared by its scene's "
+        "[check] table and written in the JSON beside it; else 1e-9)",
+    )
+    verb.add_argument(
+        "--atol",
+        type=float,
+        help="absolute tolerance, in each column's SI unit (default: the reference's own; "
+        "else 1e-12)",
+    )
 
 
 def _example_verbs(verbs: argparse._SubParsersAction) -> None:
@@ -432,15 +584,19 @@ def _example_verbs(verbs: argparse._SubParsersAction) -> None:
             verb.add_argument(
                 "--quick",
                 action="store_true",
-                help="a few points of each sweep around its threshold",
+                help="a few points of each sweep around its threshold (default: every point)",
             )
             verb.add_argument(
-                "--jobs", type=_at_least_one, default=None, help="local worker processes"
+                "--jobs",
+                type=_at_least_one,
+                default=None,
+                help="local worker processes (default: the number of cores)",
             )
             verb.add_argument(
                 "--scheduler",
                 metavar="tcp://HOST:PORT",
-                help="run on this Dask cluster (pip install mechfmu[cluster])",
+                help="run on this Dask cluster (pip install mechfmu[cluster]; default: "
+                "local processes)",
             )
     example.set_defaults(func=_example)
 
@@ -450,7 +606,9 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     from .tools.bench import BENCHMARKS, FULL, QUICK
 
     study = verbs.add_parser("study", help="accuracy study: error against wall time (make study)")
-    study.add_argument("--scenes", nargs="*", help="study these scenes only (default: all)")
+    study.add_argument(
+        "--scenes", nargs="*", metavar="NAME", help="study these scenes only (default: all)"
+    )
     study.add_argument(
         "--quick",
         action="store_true",
@@ -467,7 +625,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         "--repeats",
         type=_at_least_one,
         default=3,
-        help="timed runs per point, median taken (default 3)",
+        help="timed runs per point, median taken (default: 3)",
     )
     study.add_argument(
         "--workers",
@@ -475,13 +633,16 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         default=min(2, os.cpu_count() or 1),
         help="parallel processes (default: 2 or the cores there are)",
     )
-    study.add_argument("--out", default="data/study", help="output folder")
+    study.add_argument(
+        "--out", default="data/study", metavar="DIR", help="output folder (default: data/study)"
+    )
     study.add_argument(
         "--scene-dir",
         default=str(SCENE_DIR),
+        metavar="DIR",
         help="folder of the scene files (default: the shipped scenes)",
     )
-    study.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    _fmu_dir_option(study)
     study.set_defaults(func=_study)
 
     bench = verbs.add_parser(
@@ -495,7 +656,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         "--repeats",
         type=_at_least_one,
         default=None,
-        help=f"measured repeats per case after one warm-up (default "
+        help=f"measured repeats per case after one warm-up (default: "
         f"{FULL.repeats}, --quick {QUICK.repeats})",
     )
     bench.add_argument(
@@ -506,21 +667,24 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     bench.add_argument(
         "--only",
         choices=BENCHMARKS,
-        help="run this benchmark alone and print its rows (writes nothing)",
+        help="run this benchmark alone and print its rows (writes nothing; default: all)",
     )
-    bench.add_argument("--out", default="data/bench", help="output folder (default data/bench)")
-    bench.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    bench.add_argument(
+        "--out", default="data/bench", metavar="DIR", help="output folder (default: data/bench)"
+    )
+    _fmu_dir_option(bench)
     _scene_folder_option(bench)
     bench.add_argument(
         "--sweeps",
         default=str(SWEEP_DIR),
+        metavar="DIR",
         help="folder of the sweep files (default: the shipped sweeps)",
     )
     bench.add_argument(
         "--sweep-scenes",
         type=_at_least_one,
         default=None,
-        help=f"scenes of the sweep benchmark (default {FULL.sweep_scenes}, "
+        help=f"scenes of the sweep benchmark (default: {FULL.sweep_scenes}, "
         f"--quick {QUICK.sweep_scenes})",
     )
     bench.add_argument(
@@ -528,7 +692,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         action="store_true",
         help="time runs and loops by the process's CPU time, not the wall clock "
         "(a machine shared with other work; FMI-call timers stay on the "
-        "wall clock)",
+        "wall clock; default: the wall clock)",
     )
     bench.add_argument(
         "--profile",
@@ -541,12 +705,36 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         "fuzz", help="random input sequences through every FMU, each in a child process"
     )
     fuzz.add_argument("models", nargs="*", help="FMU names (default: all)")
-    fuzz.add_argument("--sequences", type=int, default=1000)
-    fuzz.add_argument("--seed", type=int, default=0)
-    fuzz.add_argument("--fmus", default=FMU_DIR, help=FMU_DIR_HELP)
-    fuzz.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
-    fuzz.add_argument("--only", type=int, help="run only this sequence index (reproduce)")
-    fuzz.add_argument("--out", default="out/fuzz", help="folder for the progress logs")
+    fuzz.add_argument(
+        "--sequences",
+        type=int,
+        default=1000,
+        help="random input sequences per FMU (default: 1000)",
+    )
+    fuzz.add_argument(
+        "--seed", type=int, default=0, help="seed of the random sequences (default: 0)"
+    )
+    _fmu_dir_option(fuzz)
+    # the old spelling, kept working: --fmu-dir everywhere now
+    fuzz.add_argument("--fmus", dest="fmu_dir", help=argparse.SUPPRESS)
+    fuzz.add_argument(
+        "--jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="FMUs fuzzed at once, each in its own child process (default: the cores)",
+    )
+    fuzz.add_argument(
+        "--only",
+        type=int,
+        metavar="INDEX",
+        help="run only this sequence index, to reproduce a finding (default: all)",
+    )
+    fuzz.add_argument(
+        "--out",
+        default="out/fuzz",
+        metavar="DIR",
+        help="folder for the progress logs (default: out/fuzz)",
+    )
     fuzz.set_defaults(func=_fuzz)
 
     sweep = verbs.add_parser(
@@ -563,17 +751,22 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="COMP.PARAM=START:STOP:COUNT",
-        help="a parameter (or constant input) and its range; repeat for a grid",
+        help="a parameter (or constant input) and its range; repeat for a grid "
+        "(default: the sweep file's)",
     )
     sweep.add_argument(
         "--link",
         action="append",
         default=[],
         metavar="COMP.PARAM=FACTOR*COMP.VARIED",
-        help="a parameter that follows a varied one (target = factor * value)",
+        help="a parameter that follows a varied one (target = factor * value; default: none)",
     )
-    sweep.add_argument("--samples", type=int, help="draw N points instead of the grid")
-    sweep.add_argument("--seed", type=int, help="seed of the sampling (with --samples)")
+    sweep.add_argument(
+        "--samples", type=int, help="draw N points instead of the grid (default: the grid)"
+    )
+    sweep.add_argument(
+        "--seed", type=int, help="seed of the sampling, with --samples (default: random)"
+    )
     sweep.add_argument(
         "--method",
         choices=("lhs", "random"),
@@ -586,9 +779,9 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         metavar="NAME",
         help="final:c.v, max:c.v, min:c.v, time_of_max:c.v, "
         "first_time_above:c.v:THRESHOLD, first_time_true:c.v, "
-        "max_abs_error:c.v",
+        "max_abs_error:c.v (default: the sweep file's)",
     )
-    sweep.add_argument("--out", help="output folder (default: out/sweep_<scene>)")
+    sweep.add_argument("--out", metavar="DIR", help="output folder (default: out/sweep_<scene>)")
     sweep.add_argument(
         "--jobs",
         type=int,
@@ -598,10 +791,13 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     sweep.add_argument(
         "--scheduler",
         metavar="tcp://HOST:PORT",
-        help="run on this Dask cluster instead of local processes (pip install mechfmu[cluster])",
+        help="run on this Dask cluster instead of local processes (pip install "
+        "mechfmu[cluster]; default: local processes)",
     )
-    sweep.add_argument("--plot", action="store_true", help="one PNG per metric and parameter")
-    sweep.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    sweep.add_argument(
+        "--plot", action="store_true", help="one PNG per metric and parameter (default: none)"
+    )
+    _fmu_dir_option(sweep)
     sweep.add_argument(
         "--retries",
         type=int,
@@ -612,7 +808,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         "--resume",
         action="store_true",
         help="continue the stopped sweep in --out: keep its rows without an "
-        "error, run the other points",
+        "error, run the other points (default: start afresh)",
     )
     sweep.set_defaults(func=_sweep)
 
@@ -621,6 +817,7 @@ def _scene_folder_option(verb: argparse.ArgumentParser) -> None:
     verb.add_argument(
         "--scenes",
         default=str(SCENE_DIR),
+        metavar="DIR",
         help="folder of the scene files (default: the shipped scenes)",
     )
 
@@ -648,36 +845,19 @@ def _export_verb(
     verb = verbs.add_parser(name, help=help)
     verb.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
     verb.add_argument("out", help=f"the {suffix} file to write")
-    verb.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    _fmu_dir_option(verb)
     return verb
 
 
-def parser() -> argparse.ArgumentParser:
-    main = argparse.ArgumentParser(prog="mechfmu", description=__doc__.split("\n\n")[0])
-    verbs = main.add_subparsers(dest="verb", required=True)
-
-    build = verbs.add_parser("build", help="build the FMUs")
-    build.add_argument("models", nargs="*", help="model names (default: all)")
-    build.add_argument("--out", default="fmus", help="output folder (default: fmus)")
-    build.add_argument(
-        "--fmi-version",
-        type=int,
-        choices=(2, 3),
-        default=2,
-        help="FMI 2.0 (pythonfmu, default) or FMI 3.0 (pythonfmu3) co-simulation",
-    )
-    build.add_argument(
-        "--embed-python",
-        action="store_true",
-        help="carry this interpreter's libpython and the standard library the "
-        "models import, so the FMUs run where no Python is installed",
-    )
-    build.set_defaults(func=_build)
-
+def _run_verb(verbs: argparse._SubParsersAction) -> None:
     run = verbs.add_parser(
         "run", help="run a scene (or every shipped scene) and write CSV, JSON and PNG"
     )
-    run.add_argument("scene", nargs="?", help="scene TOML file, or the name of a shipped scene")
+    run.add_argument(
+        "scene",
+        nargs="?",
+        help="scene TOML file, or the name of a shipped scene ('mechfmu scenes' lists them)",
+    )
     run.add_argument(
         "--all",
         action="store_true",
@@ -686,32 +866,163 @@ def parser() -> argparse.ArgumentParser:
     )
     _scene_options(run)
     run.add_argument(
-        "--check", action="store_true", help="compare with the scene's reference CSV afterwards"
+        "--set",
+        action="append",
+        default=[],
+        metavar="COMPONENT.PARAMETER=VALUE",
+        help="replace a parameter (or a constant input, or an effect: true/false) of the "
+        'scene, in SI units; the value is read as TOML (2.5, true, "text") or as plain '
+        "text; repeatable (default: the scene's values)",
     )
-    run.add_argument("--reference", help="compare with this CSV afterwards (one scene)")
+    run.add_argument(
+        "--check",
+        action="store_true",
+        help="compare with the scene's reference CSV afterwards, at its declared tolerances",
+    )
+    run.add_argument(
+        "--reference", metavar="CSV", help="compare with this CSV afterwards (one scene)"
+    )
+    _tolerance_options(run)
     run.add_argument(
         "--checkpoint",
         metavar="FILE",
         help="write a checkpoint of the run to FILE (every --checkpoint-every seconds and "
-        "when Ctrl-C or SIGTERM stops it) for --resume; default: none",
+        "when Ctrl-C or SIGTERM stops it) for --resume (default: none)",
     )
     run.add_argument(
         "--checkpoint-every",
         type=float,
         default=60.0,
         metavar="S",
-        help="seconds of wall time between checkpoints (default: 60; 0: only when stopped)",
+        help="seconds of wall time between checkpoints; 0: only when stopped (default: 60)",
     )
     run.add_argument(
         "--resume",
         metavar="FILE",
         help="continue the run from this checkpoint (of the same scene and FMUs); the "
-        "result equals the uninterrupted run's; default: start from the beginning",
+        "result equals the uninterrupted run's (default: start from the beginning)",
     )
-    run.add_argument("--rtol", type=float, default=1e-9)
-    run.add_argument("--atol", type=float, default=1e-12)
     run.set_defaults(func=_run)
 
+
+def _check_verbs(verbs: argparse._SubParsersAction) -> None:
+    check = verbs.add_parser(
+        "check",
+        help="compare a result CSV (or a folder of them) with a reference CSV (or "
+        "folder, matched by relative path); exit 0 all match, 1 any mismatch, 2 nothing "
+        "comparable",
+    )
+    check.add_argument("result", help="result CSV file or folder")
+    check.add_argument(
+        "reference",
+        nargs="?",
+        help=f"reference CSV file or folder (default: the shipped scenes' references, "
+        f"{REFERENCE_DIR})",
+    )
+    _tolerance_options(check)
+    check.add_argument(
+        "--tol",
+        action="append",
+        default=[],
+        metavar="COLUMN=RTOL[,ATOL]",
+        help="tolerance of one column (or an fnmatch pattern such as 'gear.*'); "
+        "repeatable, the last match wins (default: the reference's own)",
+    )
+    check.add_argument(
+        "--method",
+        choices=("pointwise", "tube"),
+        help="pointwise (the same time grid) or tube (the reference widened by "
+        "--time-tolerance in time) (default: the reference's own, else pointwise)",
+    )
+    check.add_argument(
+        "--time-tolerance",
+        type=float,
+        metavar="S",
+        help="the tube's half width in time, s (default: the reference's own, else its "
+        "largest step)",
+    )
+    check.add_argument(
+        "--interpolate",
+        action="store_true",
+        help="pointwise: interpolate the reference onto the result's times (default: the "
+        "same grid)",
+    )
+    check.add_argument(
+        "--ignore-extra",
+        action="store_true",
+        help="result columns the reference lacks are not failures (default: they are, "
+        "unless the reference declares them not compared)",
+    )
+    check.add_argument("--junit", metavar="FILE", help="write a JUnit XML file (default: none)")
+    check.add_argument(
+        "--report",
+        metavar="DIR",
+        help="write DIR/index.html with a plot of every failing column (default: none)",
+    )
+    check.set_defaults(func=_check)
+
+    baseline = verbs.add_parser("baseline", help="accepted results (baselines) for mechfmu check")
+    baseline_verbs = baseline.add_subparsers(dest="baseline_verb", required=True, metavar="VERB")
+    update = baseline_verbs.add_parser(
+        "update",
+        help="accept results as baselines: copy the new and changed CSV files (and "
+        "their JSON) and say what changed by how much",
+    )
+    update.add_argument("results", help="result CSV file or folder (e.g. of mechfmu run --all)")
+    update.add_argument("baselines", help="baseline folder (created if missing)")
+    update.add_argument(
+        "--prune",
+        action="store_true",
+        help="remove baselines that have no result (default: keep them)",
+    )
+    update.add_argument(
+        "--dry-run", action="store_true", help="only say what would change (default: change it)"
+    )
+    update.set_defaults(func=_baseline_update)
+
+
+def parser() -> argparse.ArgumentParser:
+    main = argparse.ArgumentParser(prog="mechfmu", description=DESCRIPTION)
+    main.add_argument("--version", action="version", version=f"mechfmu {__version__}")
+    verbs = main.add_subparsers(dest="verb", required=True, metavar="VERB")
+
+    scenes = verbs.add_parser(
+        "scenes",
+        help="list the shipped scenes: name, stop time, components, what each shows",
+    )
+    scenes.add_argument(
+        "--tolerances",
+        action="store_true",
+        help="instead: each scene's check tolerances and what they rest on, as a Markdown "
+        "table (default: one entry per scene)",
+    )
+    scenes.set_defaults(func=_scenes)
+
+    build = verbs.add_parser("build", help="build the FMUs")
+    build.add_argument("models", nargs="*", help="model names (default: all)")
+    build.add_argument(
+        "--out",
+        metavar="DIR",
+        help="output folder (default: the user cache every command searches, "
+        "$XDG_CACHE_HOME/mechfmu/VERSION-pyX.Y)",
+    )
+    build.add_argument(
+        "--fmi-version",
+        type=int,
+        choices=(2, 3),
+        default=2,
+        help="FMI 2.0 (pythonfmu) or FMI 3.0 (pythonfmu3) co-simulation (default: 2)",
+    )
+    build.add_argument(
+        "--embed-python",
+        action="store_true",
+        help="carry this interpreter's libpython and the standard library the "
+        "models import, so the FMUs run where no Python is installed (default: use "
+        "the host's Python)",
+    )
+    build.set_defaults(func=_build)
+
+    _run_verb(verbs)
     _example_verbs(verbs)
 
     export = _export_verb(
@@ -734,9 +1045,9 @@ def parser() -> argparse.ArgumentParser:
         "--schedule",
         choices=("scene", "sequential", "parallel"),
         default="scene",
-        help="scene (default): sequential for gauss_seidel scenes, parallel "
-        "for jacobi ones; sequential: each FMU sees the outputs of those "
-        "stepped before it; parallel: every link lags one step",
+        help="scene: sequential for gauss_seidel scenes, parallel for jacobi ones; "
+        "sequential: each FMU sees the outputs of those stepped before it; parallel: "
+        "every link lags one step (default: scene)",
     )
     container.set_defaults(func=_export_fmu)
 
@@ -747,80 +1058,33 @@ def parser() -> argparse.ArgumentParser:
     )
     cross.add_argument("out", help="the folder to write into (created if missing)")
     cross.add_argument("models", nargs="*", help="model names (default: all)")
-    cross.add_argument("--fmu-dir", default=FMU_DIR, help=FMU_DIR_HELP)
+    _fmu_dir_option(cross)
     cross.set_defaults(func=_export_cross_check)
 
-    check = verbs.add_parser(
-        "check",
-        help="compare a result CSV (or a folder of them) with a reference CSV (or "
-        "folder, matched by relative path); exit 0 all match, 1 any mismatch, 2 nothing "
-        "comparable",
-    )
-    check.add_argument("result", help="result CSV file or folder")
-    check.add_argument("reference", help="reference CSV file or folder")
-    check.add_argument("--rtol", type=float, default=1e-9, help="relative tolerance")
-    check.add_argument("--atol", type=float, default=1e-12, help="absolute tolerance")
-    check.add_argument(
-        "--tol",
-        action="append",
-        default=[],
-        metavar="COLUMN=RTOL[,ATOL]",
-        help="tolerance of one column (or an fnmatch pattern such as 'gear.*'); "
-        "repeatable, the last match wins",
-    )
-    check.add_argument(
-        "--method",
-        choices=("pointwise", "tube"),
-        default="pointwise",
-        help="pointwise (default; the same time grid) or tube (the reference "
-        "widened by --time-tolerance in time)",
-    )
-    check.add_argument(
-        "--time-tolerance",
-        type=float,
-        metavar="S",
-        help="the tube's half width in time, s (default: the reference's largest step)",
-    )
-    check.add_argument(
-        "--interpolate",
-        action="store_true",
-        help="pointwise: interpolate the reference onto the result's times",
-    )
-    check.add_argument(
-        "--ignore-extra",
-        action="store_true",
-        help="result columns the reference lacks are not failures",
-    )
-    check.add_argument("--junit", metavar="FILE", help="write a JUnit XML file")
-    check.add_argument(
-        "--report", metavar="DIR", help="write DIR/index.html with a plot of every failing column"
-    )
-    check.set_defaults(func=_check)
+    _check_verbs(verbs)
 
-    baseline = verbs.add_parser("baseline", help="accepted results (baselines) for mechfmu check")
-    baseline_verbs = baseline.add_subparsers(dest="baseline_verb", required=True)
-    update = baseline_verbs.add_parser(
-        "update",
-        help="accept results as baselines: copy the new and changed CSV files (and "
-        "their JSON) and say what changed by how much",
+    references = verbs.add_parser(
+        "references",
+        help="regenerate the shipped scenes' reference CSVs (and their JSON: units and "
+        "check tolerances)",
     )
-    update.add_argument("results", help="result CSV file or folder (e.g. of mechfmu run --all)")
-    update.add_argument("baselines", help="baseline folder (created if missing)")
-    update.add_argument("--prune", action="store_true", help="remove baselines that have no result")
-    update.add_argument("--dry-run", action="store_true", help="only say what would change")
-    update.set_defaults(func=_baseline_update)
-
-    references = verbs.add_parser("references", help="regenerate the reference CSVs")
     _scene_folder_option(references)
     references.add_argument(
         "--out",
-        default=str(REFERENCE_DIR),
-        help="output folder (default: the shipped scenes' reference/)",
+        default="reference",
+        metavar="DIR",
+        help="output folder (default: reference, in the current folder; make references "
+        "writes the shipped ones)",
     )
     references.set_defaults(func=_references)
 
     report = verbs.add_parser("report", help="write the seed-reproduction report")
-    report.add_argument("--out", default="data/seed_report.md")
+    report.add_argument(
+        "--out",
+        default="data/seed_report.md",
+        metavar="FILE",
+        help="the Markdown file to write (default: data/seed_report.md)",
+    )
     report.set_defaults(func=_report)
     docs = verbs.add_parser(
         "docs",
@@ -831,35 +1095,52 @@ def parser() -> argparse.ArgumentParser:
     docs.add_argument(
         "--reference-plot",
         metavar="SCENE",
-        help="scene TOML file, or the name of a shipped scene, whose reference to plot",
+        help="scene TOML file, or the name of a shipped scene, whose reference to plot "
+        "(default: print the tables)",
     )
-    docs.add_argument("--out", help="PNG file for --reference-plot")
+    docs.add_argument(
+        "--out", metavar="FILE", help="PNG file for --reference-plot (required with it)"
+    )
     docs.set_defaults(func=_docs)
 
     _measurement_verbs(verbs)
     return main
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = parser().parse_args(argv)
-    return args.func(args)
+def _leaf(tree: argparse.ArgumentParser, verb: tuple[str, ...]) -> argparse.ArgumentParser:
+    """The parser of the (nested) verb ``verb`` in ``tree``."""
+    for word in verb:
+        actions = [a for a in tree._actions if isinstance(a, argparse._SubParsersAction)]
+        if not actions or word not in actions[0].choices:
+            break
+        tree = actions[0].choices[word]
+    return tree
 
 
-def script_main(script: Any, *verb: Any, **paths: Any) -> None:
-    """Entry point of a script in sims/: ``mechfmu VERB`` with each option in ``paths``
-    (``out="out"`` -> ``--out <repository>/out``) inside the repository that holds the
-    script, so the script writes to the same place from any directory, followed by the
-    script's own arguments (which win); ``fmu_dir`` is $MECHFMU_FMU_DIR when that is set
-    (the Makefile's FMU folder of the interpreter). Exits with the verb's status."""
-    root = Path(script).resolve().parent.parent
-    if "fmu_dir" in paths and os.environ.get("MECHFMU_FMU_DIR"):
-        paths = dict(paths, fmu_dir=os.environ["MECHFMU_FMU_DIR"])  # another interpreter's
-    defaults = [
-        item
-        for option, path in paths.items()
-        for item in (f"--{option.replace('_', '-')}", str(root / path))
-    ]
-    sys.exit(main([*verb, *defaults, *sys.argv[1:]]))
+def main(argv: list[str] | None = None, script: str | None = None) -> int:
+    """Run the command line ``argv`` (default: sys.argv[1:]); the exit status. ``script``:
+    the sims/ script that runs it (its name is the usage's program name)."""
+    tree = parser()
+    if script is not None:
+        words = tuple(word for word in (argv or []) if not word.startswith("-"))
+        _leaf(tree, words[:2]).prog = Path(script).name
+    args = tree.parse_args(argv)
+    try:
+        status = args.func(args)
+        sys.stdout.flush()
+    except BrokenPipeError:  # the reader went away (mechfmu docs | head): stop quietly
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    return status
+
+
+def script_main(script: Any, *verb: Any) -> None:
+    """Entry point of a script in sims/: ``mechfmu VERB`` followed by the script's own
+    arguments, its usage and errors named after the script. The script writes where the
+    verb does (default: the current folder) and finds the FMUs as every command does
+    (cosim/locate.py). Exits with the verb's status."""
+    sys.exit(main([*verb, *sys.argv[1:]], script=str(script)))
 
 
 if __name__ == "__main__":

@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 import pandas as pd
 
+from .cosim.tolerances import Check, parse_check
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -90,6 +92,16 @@ def _tolerance(
         else:
             rtol = float(value)
     return float(rtol), float(atol)
+
+
+def declared_check(reference: pd.DataFrame) -> Check | None:
+    """The tolerances ``reference`` declares (``attrs["check"]``, from the JSON beside its
+    CSV or from mechfmu.simulate/reference), or None; ValueError naming the file for a
+    malformed declaration."""
+    table = reference.attrs.get("check")
+    if table is None:
+        return None
+    return parse_check(table, str(reference.attrs.get("file", "the reference")))
 
 
 def _frame(data: Any, what: str) -> pd.DataFrame:
@@ -223,6 +235,9 @@ class Comparison:
     result: pd.DataFrame = field(repr=False)
     reference: pd.DataFrame = field(repr=False)
     _columns: dict[str, _Column] = field(default_factory=dict, repr=False)
+    # the reference's declared tolerances when they (or some of them) applied, else None
+    declared: Check | None = field(default=None, repr=False)
+    not_compared: list[str] = field(default_factory=list)  # declared compare = false
 
     def __repr__(self) -> str:
         return f"<Comparison {self}>"
@@ -237,18 +252,37 @@ class Comparison:
         """The columns compared sample by sample."""
         return list(self.summary.index)
 
+    def describe(self, row: Mapping[Any, Any] | pd.Series) -> str:
+        """A row of ``failures`` as one line (describe_failure, with where the result's
+        file ends when it is shorter than the reference)."""
+        times = self.result.index
+        end = (len(times), float(times[-1])) if len(times) else None
+        return describe_failure(row, end)
+
     def first_failure(self) -> str:
         """The first row of ``failures`` as one line ('' when everything passed)."""
         if self.failures.empty:
             return ""
-        return describe_failure(self.failures.iloc[0])
+        return self.describe(self.failures.iloc[0])
+
+    def tolerance_text(self) -> str:
+        """The tolerances that applied, in one phrase: 'rtol 1e-09, atol 1e-12', 'atol per
+        column' where the columns' differ, the tube's half width, and 'declared by the
+        reference' when the reference's own declaration applied."""
+        per_column = len(self.summary) and (self.summary["atol"] != self.atol).any()
+        text = f"rtol {self.rtol:g}, " + (
+            "atol per column" if per_column else f"atol {self.atol:g}"
+        )
+        if self.method == "tube":
+            text += f", tube of {self.time_tolerance:g} s"
+        return f"declared by the reference: {text}" if self.declared is not None else text
 
     def __str__(self) -> str:
         compared = f"{len(self.summary)} column(s), {self.samples} sample(s)"
         if self.passed:
             worst = ""
             if len(self.summary) and not (self.summary["max_abs"] > 0).any():
-                worst = "; identical"
+                worst = "; every sample within the tube" if self.method == "tube" else "; identical"
             elif len(self.summary):
                 row = self.summary.sort_values("ratio", ascending=False).iloc[0]
                 worst = (
@@ -381,9 +415,13 @@ class Comparison:
         return figure
 
 
-def describe_failure(row: Mapping[Any, Any] | pd.Series) -> str:
+def describe_failure(
+    row: Mapping[Any, Any] | pd.Series, result_end: tuple[int, float] | None = None
+) -> str:
     """One failure row as a line: 'gear.gear_angle at t = 1.5 s: 0.1 vs reference 0.2
-    (|difference| 1e-1, allowed 1e-9)' or 'missing column gear.gear_angle'."""
+    (|difference| 1e-1, allowed 1e-9)' or 'missing column gear.gear_angle'.
+    ``result_end``: (rows, last time in s) of the result, to say where a result that ends
+    before the reference ends (its file's last line)."""
     kind, column = row["kind"], row["column"]
     time, value, reference, allowed = (
         float(row[key]) for key in ("time", "value", "reference", "allowed")
@@ -393,6 +431,22 @@ def describe_failure(row: Mapping[Any, Any] | pd.Series) -> str:
         return (
             f"{column} at t = {time!r} s: {value!r} vs reference {reference!r} "
             f"(|difference| {size:.3e}, allowed {allowed:.3e})"
+        )
+    if kind == "time grid" and math.isnan(value) and result_end is not None:
+        rows, last = result_end
+        return (
+            f"time grid: the result ends early, at t = {last!r} s (its file ends at line "
+            f"{rows + 1}: cut short?); the reference goes on to t = {reference!r} s and beyond"
+        )
+    if kind == "time grid" and math.isnan(reference):
+        return (
+            f"time grid: the result goes on to t = {value!r} s after the reference's last "
+            f"time (a longer run than the reference's?)"
+        )
+    if kind == "extra column":
+        return (
+            f"extra column {column} (not in the reference; --ignore-extra, or "
+            f"ignore_extra=True, leaves such columns out)"
         )
     if kind == "time grid":
         found = "none" if math.isnan(value) else f"{value!r} s"
@@ -447,9 +501,9 @@ def compare(
     result: pd.DataFrame | str | PathLike,
     reference: pd.DataFrame | str | PathLike,
     *,
-    rtol: float = 1e-9,
-    atol: float = 1e-12,
-    method: Literal["pointwise", "tube"] = "pointwise",
+    rtol: float | None = None,
+    atol: float | None = None,
+    method: Literal["pointwise", "tube"] | None = None,
     time_tolerance: float | None = None,
     tolerances: Mapping[str, Tolerance] | None = None,
     interpolate: bool = False,
@@ -457,13 +511,23 @@ def compare(
 ) -> Comparison:
     """Compare ``result`` with ``reference``, column by column.
 
+    The tolerances are the reference's own, declared in its ``attrs["check"]`` (the
+    ``check`` of the JSON beside a reference CSV or a result: its scene's ``[check]``
+    table, mechfmu.cosim.tolerances), where the caller gives none: ``rtol`` given replaces
+    the table's rtol and every column's, ``atol`` likewise, ``method`` and
+    ``time_tolerance`` theirs; ``tolerances`` apply on top. Without a declaration the
+    defaults are rtol 1e-9, atol 1e-12, pointwise. Columns the declaration marks
+    ``compare = false`` (solver statistics) are not compared and not extra.
+
     Args:
         result: a DataFrame indexed by time in s (``mechfmu.read_result``,
             ``mechfmu.simulate``; a ``time`` column works too) or the path of a result CSV.
         reference: the same, for the reference.
-        rtol: relative tolerance: the value band is ``atol + rtol * |reference|``.
-        atol: absolute tolerance, in the column's SI unit.
-        method: ``"pointwise"`` (sample by sample) or ``"tube"`` (see the module docstring).
+        rtol: relative tolerance: the value band is ``atol + rtol * |reference|`` (None:
+            the reference's declared one, else 1e-9).
+        atol: absolute tolerance, in the column's SI unit (None: declared, else 1e-12).
+        method: ``"pointwise"`` (sample by sample) or ``"tube"`` (see the module
+            docstring); None: declared, else pointwise.
         time_tolerance: the tube's half width in time (s); default: the reference's largest
             time step. Also how far the tube allows the result's first and last times to be
             from the reference's. Not used by ``"pointwise"``.
@@ -488,13 +552,31 @@ def compare(
         ValueError: an unknown method, a negative tolerance, a DataFrame that is not a
             result; mechfmu.io.ResultFileError for a malformed file.
     """
-    if method not in ("pointwise", "tube"):
+    if method is not None and method not in ("pointwise", "tube"):
         raise ValueError(f"method must be 'pointwise' or 'tube', got {method!r}")
     for name, value in (("rtol", rtol), ("atol", atol), ("time_tolerance", time_tolerance)):
         if value is not None and not (math.isfinite(value) and value >= 0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
     result_frame = _frame(result, "result")
     reference_frame = _frame(reference, "reference")
+    declared = declared_check(reference_frame)
+    check = declared or Check()
+    given = {"rtol": rtol, "atol": atol, "method": method, "time_tolerance": time_tolerance}
+    column_tolerances: dict[str, Tolerance] = {
+        pattern: {key: value for key, value in entry.items() if given[key] is None}
+        for pattern, entry in check.tolerances().items()
+    }
+    # whether any of the declaration applied (a tolerance the caller left to it)
+    applied = rtol is None or atol is None or method is None or any(column_tolerances.values())
+    column_tolerances.update(tolerances or {})
+    tolerances = column_tolerances
+    rtol = check.rtol if rtol is None else rtol
+    atol = check.atol if atol is None else atol
+    if method is None:
+        method = check.method  # type: ignore[assignment]
+        if time_tolerance is None:
+            time_tolerance = check.time_tolerance
+    not_compared = check.not_compared
     times = result_frame.index.to_numpy(dtype=float)
     ref_times = reference_frame.index.to_numpy(dtype=float)
     rows: list[dict[str, Any]] = []
@@ -505,8 +587,13 @@ def compare(
             {"column": c, "kind": "extra column"}
             for c in result_frame.columns
             if c not in reference_frame.columns
+            and not any(fnmatchcase(c, pattern) for pattern in not_compared)
         ]
-    shared = [c for c in reference_frame.columns if c in result_frame.columns]
+    shared = [
+        c
+        for c in reference_frame.columns
+        if c in result_frame.columns and not any(fnmatchcase(c, p) for p in not_compared)
+    ]
     margin = _ulp_margin(ref_times)
     dt = None
     if method == "tube":
@@ -620,10 +707,18 @@ def compare(
         passed=failures.empty,
         failures=failures,
         summary=summary,
-        method=method,
+        method=str(method),
         rtol=rtol,
         atol=atol,
         time_tolerance=dt,
+        declared=declared if declared is not None and applied else None,
+        not_compared=[
+            c
+            for c in result_frame.columns
+            if c not in shared
+            and c not in reference_frame.columns
+            and any(fnmatchcase(c, p) for p in not_compared)
+        ],
         samples=int(times.size),
         result=result_frame,
         reference=reference_frame,

@@ -16,7 +16,6 @@ import ctypes
 import math
 import re
 import functools
-import os
 import shutil
 from array import array
 import tempfile
@@ -49,6 +48,7 @@ from .checkpoint import scene_digest
 from .experiment import resolved_times
 from .fmu_file import FmuError, checked_description
 from .interrupt import signal_name
+from .locate import scene_fmu_folder
 from .scene import SceneError, split_name
 from .variables import called_type, connectable, element, movable, recordable, scene_value
 from .variables import start_value
@@ -116,13 +116,6 @@ class Result:
     meta: dict = field(default_factory=dict)
     log: list = field(default_factory=list)
     partial: bool = False
-
-
-def default_fmu_dir() -> Path:
-    """The folder of built FMUs: $MECHFMU_FMU_DIR if set (the Makefile sets it, e.g. to
-    fmus-3.12 for another interpreter), else ``./fmus`` of the current folder (the
-    repository root in the README's commands)."""
-    return Path(os.environ.get("MECHFMU_FMU_DIR") or Path.cwd() / "fmus")
 
 
 def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
@@ -457,7 +450,7 @@ class Simulation:
 
     def __init__(self, scene: Scene, fmu_dir: str | Path | None = None) -> None:
         self.scene = scene
-        fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
+        fmu_dir = scene_fmu_folder(scene, fmu_dir)  # the one rule (cosim/locate.py)
         self.components = {}
         for name, spec in scene.components.items():
             path = resolve_fmu(spec, scene, fmu_dir)

@@ -37,16 +37,6 @@ def write_csv(path: Any, times: Any, columns: Any) -> Any:
     return atomic_write(path, csv_writer(times, columns))
 
 
-def read_csv(path: Path | str) -> tuple[list[float], dict[str, list[float]]]:
-    """(times, {column: values}) of a result CSV as lists of floats, read by
-    mechfmu.io.read_result (pandas; ResultFileError, a ValueError naming the file, line and
-    column, for a malformed file)."""
-    from ..io import read_result
-
-    table = read_result(path)
-    return table.index.tolist(), {name: table[name].tolist() for name in table.columns}
-
-
 def versions() -> dict[str, str | None]:
     """Versions of the packages a result depends on."""
     found: dict[str, str | None] = {"python": platform.python_version()}
@@ -122,6 +112,8 @@ def write_result(result: Result, out_dir: Path, plot: bool = True) -> dict[str, 
             "step": result.scene.step,
             "recorded": list(result.columns),
             "units": result.units,
+            # the scene's [check] table, so a baseline made of this result keeps it
+            "check": result.scene.check.as_dict() if result.scene.check else None,
             "versions": versions(),
             "command": sys.argv,
             "log": [entry for entry in result.log if entry["status"] != "ok"],

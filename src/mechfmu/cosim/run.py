@@ -1,36 +1,88 @@
-"""Run a scene end to end: check it, simulate it, write its result files."""
+"""Run a scene end to end: the one entry the command line and the Python API call.
+
+``prepare`` binds a scene to its FMUs (found by the one rule of cosim/locate.py), applies
+parameter overrides (checked against the FMUs' declarations), reads its table files and
+checks it; ``simulate`` runs it; ``run_scene`` runs it and writes its result files.
+"""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+import os
 from contextlib import nullcontext
 
 from .checkpoint import Checkpoints
 from .checkpoint import load as load_checkpoint
 from .files import OutputError, output_folder
 from .interrupt import InterruptGuard, signal_name
-from .master import Simulation, SimulationError, SimulationInterrupted, parameter_values
+from .locate import scene_fmu_folder
+from .master import (
+    Simulation,
+    SimulationError,
+    SimulationInterrupted,
+    model_description,
+    parameter_values,
+    resolve_fmu,
+)
 from .results import move_aside_complete, write_result
-from .scene import Scene, check_tables, load_scene
+from .scene import ComponentSpec, Scene, apply_parameters, check_tables, load_scene
 from pathlib import Path
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .master import Result
 
 
+def prepare(
+    scene: Scene, fmu_dir: str | os.PathLike | None = None, parameters: dict[str, Any] | None = None
+) -> Simulation:
+    """``scene`` bound to its FMUs, checked and ready to run.
+
+    The FMUs are those of ``fmu_dir`` or of the first folder the search finds
+    (locate.scene_fmu_folder); ``parameters`` ({"component.parameter": value}, SI units;
+    a constant input or an effect too) are set on ``scene`` in place after checking each
+    name against its FMU's declared parameters (scene.apply_parameters); the table files
+    are read (check_tables). SceneError naming the problem otherwise."""
+    folder = scene_fmu_folder(scene, fmu_dir)
+
+    def declared(spec: ComponentSpec) -> tuple[str, list[str]]:
+        description = model_description(resolve_fmu(spec, scene, folder))
+        names = [v.name for v in description.modelVariables if v.causality == "parameter"]
+        return description.modelName, names
+
+    apply_parameters(scene, parameters, declared)
+    check_tables(scene)
+    return Simulation(scene, folder)
+
+
+def simulate(
+    scene: Scene,
+    fmu_dir: str | os.PathLike | None = None,
+    parameters: dict[str, Any] | None = None,
+    guard: InterruptGuard | None = None,
+) -> tuple[Simulation, Result]:
+    """prepare ``scene``, then run it: (the Simulation, its Result). ``guard``: the caller's
+    InterruptGuard (SIGINT, SIGTERM taken between steps), or None for one installed here.
+    SimulationError (SimulationInterrupted) when a component fails (a signal stops it)."""
+    simulation = prepare(scene, fmu_dir, parameters)
+    with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
+        return simulation, simulation.run(stop=guard)
+
+
 def run_scene(
     scene: Path | Scene,
     out_dir: Path | str,
-    fmu_dir: Path | str | None = None,
+    fmu_dir: str | os.PathLike | None = None,
     plot: bool = True,
     guard: InterruptGuard | None = None,
+    parameters: dict[str, Any] | None = None,
     checkpoints: Checkpoints | None = None,
     resume: Path | None = None,
 ) -> tuple[Result, dict[str, Path]]:
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
-    The scene, its table files (check_tables) and the output folder (created if missing,
-    OutputError if it cannot be written) are checked before anything runs. Returns (Result, {kind: path}).
+    The scene (prepare: its FMUs, ``parameters``, its table files) and the output folder
+    (created if missing, OutputError if it cannot be written) are checked before anything
+    runs. Returns (Result, {kind: path}).
 
     SIGINT and SIGTERM are taken between steps: ``guard`` is an InterruptGuard the caller
     has installed (the command line, for its whole duration), or None for one installed
@@ -47,13 +99,13 @@ def run_scene(
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
-        check_tables(scene)
-        simulation = Simulation(scene, fmu_dir)
+        simulation = prepare(scene, fmu_dir, parameters)
         if checkpoints is not None:
             simulation.check_checkpoints()
         checkpoint = load_checkpoint(resume) if resume is not None else None
         out_dir = output_folder(out_dir)
         setup = {
+            "parameters": dict(parameters or {}),
             "components": parameter_values(simulation),
             "order": simulation.order,
             "connections": [str(c) for c in simulation.connections],

@@ -12,6 +12,11 @@ A scene file looks like::
     reference = "reference/gear_retraction.csv"   # optional, relative to the scene file
     coupling = "gauss_seidel"           # optional: gauss_seidel (default) or jacobi
 
+    [check]                             # optional: tolerances against the reference
+    rtol = 1e-9                         # (cosim/tolerances.py; default 1e-9, 1e-12)
+    atol = 1e-12
+    why = "what the tolerance rests on: the measured errors"
+
     [components.actuator]
     fmu = "PistonActuator"              # a model name (looked up in the FMU folder) or a path
     parameters = { stroke_time = 3.0 }
@@ -28,10 +33,12 @@ into one of them, from any working directory.
 
 import math
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from .files import plain_file_name
+from .tolerances import Check, parse_check, refuse_unknown
 from typing import Any
 
 if sys.version_info >= (3, 11):
@@ -48,12 +55,7 @@ def refuse_unknown_keys(
 ) -> None:
     """Raise ``error`` (default SceneError) naming the keys of the TOML ``table`` that are
     not ``allowed``, at ``where`` (the file, and the table in it)."""
-    unknown = set(table) - set(allowed)
-    if unknown:
-        raise (error or SceneError)(
-            f"{where}: unknown key(s) {', '.join(sorted(unknown))}; "
-            f"allowed: {', '.join(sorted(allowed))}"
-        )
+    refuse_unknown(table, allowed, str(where), error or SceneError)
 
 
 class SceneError(ValueError):
@@ -93,6 +95,7 @@ class Scene:
     description: str = ""
     reference: Path | None = None
     coupling: str = "gauss_seidel"
+    check: Check | None = None  # the [check] table: tolerances against its reference
     # the times the file does not give (NaN here until the master takes them from the FMUs'
     # DefaultExperiment: cosim/experiment.py)
     missing_times: tuple[str, ...] = ()
@@ -118,6 +121,7 @@ _SCENE_KEYS = {
     "reference",
     "components",
     "coupling",
+    "check",
 }
 # How the master feeds inputs at each communication step: gauss_seidel gives each component
 # the outputs of the components stepped before it in the same step (already at the step's
@@ -249,6 +253,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
         description=data.get("description", ""),
         coupling=coupling,
         reference=(path.parent / reference).resolve() if reference else None,
+        check=parse_check(data["check"], where, SceneError) if "check" in data else None,
         missing_times=missing,
     )
 
@@ -298,10 +303,10 @@ def load_scene(path: Path | str, overrides: dict[str, Any] | None = None) -> Sce
 def check_tables(scene: Scene) -> dict:
     """Read every table file of ``scene`` on the host before it runs: each ``*_file``
     parameter of a component whose ``shape`` is "table" (LoadProfile, RoadProfile), by
-    mechfmu.io.read_profile_table (pandas, the rules of the FMU's own reader). A missing or
+    cosim.tables.read_profile_table (pandas, the rules of the FMU's own reader). A missing or
     malformed table raises SceneError naming the scene, the component, the file, the line
     and the column, before any FMU is loaded. Returns {component.parameter: its DataFrame}."""
-    from ..io import ResultFileError, read_profile_table
+    from .tables import ResultFileError, read_profile_table
 
     tables = {}
     for name, spec in scene.components.items():
@@ -314,3 +319,37 @@ def check_tables(scene: Scene) -> dict:
                 except ResultFileError as error:
                     raise SceneError(f"{scene.path}: component {name!r}: {key}: {error}") from None
     return tables
+
+
+def apply_parameters(
+    scene: Scene,
+    parameters: dict[str, Any] | None,
+    declared: Callable[[ComponentSpec], tuple[str, list[str]]],
+) -> None:
+    """Set ``parameters`` ({"component.parameter": value}) on ``scene``'s components, in
+    place. A name may also be a constant input the scene gives a value, or an effect (True
+    or False). ``declared(spec)``: the model name and parameter names of a component.
+    SceneError naming the item for an unknown component or a name the component's model
+    has no parameter of; the value's type is checked with the scene (by the master)."""
+    for name, value in (parameters or {}).items():
+        component, dot, variable = str(name).partition(".")
+        if not dot or not component or not variable:
+            raise SceneError(f"parameters: {name!r} is not of the form component.parameter")
+        spec = scene.components.get(component)
+        if spec is None:
+            raise SceneError(
+                f"parameters: {name!r}: scene {scene.name} has no component "
+                f"{component!r}; its components: {', '.join(scene.components)}"
+            )
+        if variable in spec.inputs:
+            spec.inputs[variable] = value
+            continue
+        model, names = declared(spec)
+        if variable not in names:
+            raise SceneError(
+                f"parameters: {name!r}: {component!r} ({model}) has no parameter "
+                f"{variable!r}; its parameters: {', '.join(sorted(names))}"
+            )
+        if variable in spec.effects:
+            spec.effects.remove(variable)
+        spec.parameters[variable] = value

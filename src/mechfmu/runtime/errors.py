@@ -28,6 +28,26 @@ class RangeError(MechanismError):
         super().__init__(text)
 
 
+class CamDesignError(RangeError):
+    """No cam can produce the follower motion with this geometry: ``kind`` (a cusp or an
+    undercut of the cam surface) at camshaft angle ``angle`` (rad); the message names the
+    parameter to change and its limit."""
+
+    def __init__(
+        self,
+        kind: str,
+        angle: float,
+        name: str,
+        value: float,
+        valid: str,
+        unit: str = "",
+        why: str = "",
+    ) -> None:
+        self.kind = kind
+        self.angle = angle
+        super().__init__(name, value, valid, unit, why)
+
+
 class SingularConfiguration(MechanismError):
     """The mechanism is at a configuration where the requested quantity is undefined."""
 

@@ -526,7 +526,7 @@ def command(args: Any) -> Any:
 
     results = fuzz(
         args.models or list(MODELS),
-        args.fmus,
+        args.fmu_dir,
         args.sequences,
         args.seed,
         args.out,

@@ -15,10 +15,13 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cosim.results import write_csv
+from ..cosim.files import atomic_write_all
+from ..cosim.results import csv_writer, json_text
 from ..cosim.scene import find_file, load_scene
 from ..runtime.models import MODELS
+from .docs import declared_units
 from ..references import (
+    cam_geometry,
     drives,
     gear_dynamics,
     landing_gear,
@@ -45,12 +48,21 @@ def model_defaults(model: str) -> dict[str, float]:
     return start_values(model, "parameter")
 
 
+def _components(scene: Scene, model: str) -> list[tuple[str, dict[str, Any]]]:
+    """(name, parameters over defaults) of every component of the scene using ``model``."""
+    return [
+        (name, {**model_defaults(model), **spec.parameters})
+        for name, spec in scene.components.items()
+        if Path(spec.fmu).stem == model
+    ]
+
+
 def _component(scene: Scene, model: str):
-    """(name, parameters over defaults) of the scene's component using ``model``."""
-    for name, spec in scene.components.items():
-        if Path(spec.fmu).stem == model:
-            return name, {**model_defaults(model), **spec.parameters}
-    raise ValueError(f"scene {scene.name} has no {model} component")
+    """(name, parameters over defaults) of the scene's (first) component using ``model``."""
+    found = _components(scene, model)
+    if not found:
+        raise ValueError(f"scene {scene.name} has no {model} component")
+    return found[0]
 
 
 def sample_times(scene: Scene) -> ndarray:
@@ -183,26 +195,67 @@ def slider_crank_scene(scene: Any) -> Any:
     )
 
 
+def tappet_diagram(parameters: Any, angle: Any) -> tuple[Any, Any, Any]:
+    """(s m, ds/dtheta m/rad, d2s/dtheta2 m/rad^2) of the tappet of a ValveTrain with
+    ``parameters`` at camshaft ``angle`` (rad): the cam law (forward), or the numpy inverse
+    of the valve law at unit camshaft speed (inverse)."""
+    law = valve_train.cam_lift(
+        parameters["cam_law"],
+        parameters["lift"],
+        parameters["rise_start"],
+        parameters["rise_angle"],
+        parameters["high_dwell_angle"],
+        parameters["return_angle"],
+        angle,
+    )
+    if parameters["mode"] != "inverse":
+        return law
+    geometry = {key: parameters[key] for key in valve_train.GEOMETRY_FIELDS}
+    motion = valve_train.inverse(geometry, *law)
+    return motion["tappet_lift"], motion["tappet_velocity"], motion["tappet_acceleration"]
+
+
+def camshaft_torque(parameters: Any, angle: Any, valve_force: Any) -> Any:
+    """Torque (N.m) the camshaft supplies to the tappet of a ValveTrain with ``parameters``
+    at camshaft ``angle`` (rad) against ``valve_force`` (N) on the valve: the rocker's
+    statics and the moment of the tappet's push (references/cam_geometry.py)."""
+    s, s1, _ = tappet_diagram(parameters, angle)
+    geometry = {key: parameters[key] for key in valve_train.GEOMETRY_FIELDS}
+    return cam_geometry.camshaft_torque_by_statics(geometry, s, s1, valve_force)
+
+
 def valve_train_scene(scene: Any) -> Any:
-    """CamshaftDrive -> ValveTrain: the cam law composed with the closed-form rocker geometry
-    (forward or inverse), and the valve spring's contact force where the effect is on."""
+    """CamshaftDrive -> ValveTrain(s): the cam law composed with the closed-form rocker
+    geometry (forward or inverse), the valve spring's contact force and the camshaft torque
+    where that effect is on, the cam's geometry where cam_geometry is; every ValveTrain of
+    the scene (a whole camshaft has one per lobe)."""
     cam_name, cam = _shaft_columns(scene, "CamshaftDrive", "camshaft", ratio=0.5)
-    name, p = _component(scene, "ValveTrain")
     angle, speed, acceleration = (
         cam[f"camshaft_{key}"] for key in ("angle", "speed", "acceleration")
     )
-    law = valve_train.tappet_motion(p, angle, speed, acceleration)
-    solve = valve_train.inverse if p["mode"] == "inverse" else valve_train.forward
-    geometry = {key: p[key] for key in valve_train.GEOMETRY_FIELDS}
-    motion = solve(geometry, *law)
-    if "valve_spring" in scene.components[name].effects:
-        motion["contact_force"] = (
-            p["valve_mass"] * motion["valve_acceleration"]
-            + p["spring_stiffness"] * motion["valve_lift"]
-            + p["spring_preload"]
-        )
     columns = {f"{cam_name}.{key}": value for key, value in cam.items()}
-    columns.update({f"{name}.{key}": value for key, value in motion.items()})
+    for name, p in _components(scene, "ValveTrain"):
+        effects = scene.components[name].effects
+        law = valve_train.tappet_motion(p, angle, speed, acceleration)
+        solve = valve_train.inverse if p["mode"] == "inverse" else valve_train.forward
+        geometry = {key: p[key] for key in valve_train.GEOMETRY_FIELDS}
+        motion = solve(geometry, *law)
+        if "valve_spring" in effects:
+            motion["contact_force"] = (
+                p["valve_mass"] * motion["valve_acceleration"]
+                + p["spring_stiffness"] * motion["valve_lift"]
+                + p["spring_preload"]
+            )
+            motion["camshaft_torque"] = camshaft_torque(p, angle, motion["contact_force"])
+        if "cam_geometry" in effects:
+            follower = {
+                "kind": p["follower"],
+                "base_circle_radius": p["cam_base_radius"],
+                "roller_radius": p["roller_radius"] if p["follower"] == "roller" else 0.0,
+                "offset": p["follower_offset"],
+            }
+            motion.update(cam_geometry.cam_columns(follower, *tappet_diagram(p, angle), angle))
+        columns.update({f"{name}.{key}": value for key, value in motion.items()})
     return _recorded(scene, columns)
 
 
@@ -217,6 +270,9 @@ def valve_spring_scene(scene: Any) -> Any:
         train = {**parameters, "mode": "forward"}
     columns = valve_train_scene(scene)
     dynamics, _ = valve_spring.scene_columns(sample_times(scene), shaft, train, parameters)
+    if parameters["drive"] == "camshaft":
+        angle = drives.shaft_rotation(sample_times(scene), shaft, 0.5)["angle"]
+        dynamics["camshaft_torque"] = camshaft_torque(train, angle, dynamics["contact_force"])
     columns.update({f"{name}.{key}": value for key, value in dynamics.items()})
     return _recorded(scene, columns)
 
@@ -252,12 +308,35 @@ INTEGRATED = {
 }
 
 
+def reference_metadata(scene: Scene, columns: list[str]) -> dict[str, Any]:
+    """The JSON beside a reference CSV: the scene, the columns' declared units, and the
+    scene's check tolerances (its [check] table, which ``mechfmu check`` and
+    ``mechfmu.compare`` apply when comparing a result with this reference)."""
+    units = declared_units(scene)
+    return {
+        "scene": scene.name,
+        "kind": "reference",
+        "description": scene.description,
+        "recorded": columns,
+        "units": {name: units[name] for name in columns if name in units},
+        "check": scene.check.as_dict() if scene.check else None,
+        "generated_by": "mechfmu references",
+    }
+
+
 def generate(scene_dir: Any, out_dir: Any) -> Any:
-    """Write one reference CSV per entry of REFERENCES; return their paths."""
+    """Write one reference CSV per entry of REFERENCES, each with its JSON
+    (reference_metadata) beside it, both or neither; return the CSV paths."""
     paths = []
     for scene_name, build in REFERENCES.items():
         scene = load_scene(find_file(scene_name, (scene_dir,)))
-        paths.append(
-            write_csv(Path(out_dir) / f"{scene_name}.csv", sample_times(scene), build(scene))
+        columns = build(scene)
+        path = Path(out_dir) / f"{scene_name}.csv"
+        atomic_write_all(
+            {
+                path: csv_writer(list(sample_times(scene)), columns),
+                path.with_suffix(".json"): json_text(reference_metadata(scene, list(columns))),
+            }
         )
+        paths.append(path)
     return paths

@@ -50,7 +50,8 @@ from fmpy import read_model_description
 
 from .. import __version__
 from ..cosim.files import atomic_write
-from ..cosim.master import Simulation, default_fmu_dir, resolve_fmu
+from ..cosim.locate import scene_fmu_folder
+from ..cosim.master import Simulation, resolve_fmu
 from ..cosim.scene import Scene, SceneError, load_scene
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
@@ -136,7 +137,7 @@ def describe(
         scene = load_scene(scene)
     simulation = Simulation(scene, fmu_dir)  # the master's checks, with its messages
     _refuse_unexpressible(scene)
-    fmu_dir = Path(fmu_dir) if fmu_dir else default_fmu_dir()
+    fmu_dir = scene_fmu_folder(scene, fmu_dir)
     parts: dict[str, Any] = {}
     resources: dict[str, Path] = {}
     for name, spec in scene.components.items():

@@ -850,7 +850,7 @@ def run_sweep(
     samples: int | None = None,
     seed: int | None = None,
     method: str = "lhs",
-    fmu_dir: str = "fmus",
+    fmu_dir: str | Path | None = None,
     plot: bool = False,
     on_point: Callable | None = None,
     progress: bool = True,
@@ -879,6 +879,7 @@ def run_sweep(
     """
     from ..cosim.files import output_folder
     from ..cosim.interrupt import InterruptGuard, signal_name
+    from ..cosim.locate import scene_fmu_folder
     from ..cosim.scene import load_scene
 
     scene_path = Path(scene_path)
@@ -906,6 +907,7 @@ def run_sweep(
     else:
         points = grid_points(varies)
         method_name = "grid"
+    fmu_dir = scene_fmu_folder(scene, fmu_dir)  # the one rule (cosim/locate.py)
     kinds, references = check_sweep(scene, varies, metrics, fmu_dir, links)
     scene = resolve_fmus(scene, fmu_dir)
     name = name or scene.name

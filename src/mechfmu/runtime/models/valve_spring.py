@@ -4,6 +4,7 @@ contact and stopped by a compliant seat, integrated inside each communication st
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.declarations import motion_inputs, motion_units, only_with
 from ..fmi.slave import Status, integrator_variables, output, parameter
+from ..physics import cam_geometry
 from ..physics import valve_spring as vs
 from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
 from ..numerics.stepping import advance_through_events
@@ -240,6 +241,15 @@ class ValveSpring(IntegratingSlave):
             "seat_impacts",
             0,
             "Arrivals of the valve on its seat moving down so far (closings and bounces)",
+        ),
+        output(
+            "camshaft_torque",
+            0.0,
+            "drive = camshaft: torque the camshaft must supply to the cam, in its direction "
+            "of rotation, F_c dL/dtheta (massless, frictionless rocker and tappet: its power "
+            "is the contact's, F_c L'); 0 with drive = rocker",
+            unit="N.m",
+            depends=_ON_POSITION_AND_RATE,
         ),
         output("kinetic_energy", 0.0, "m v^2 / 2", unit="J"),
         output(
@@ -489,6 +499,9 @@ class ValveSpring(IntegratingSlave):
             v["penetration"],
         ) = (lift, velocity, f.acceleration, f.contact, f.seat, f.spring, f.penetration)
         v["contact_lost"] = f.penetration <= 0.0 and L - p.lash > 0.0
+        if isinstance(self.drive, vs.CamshaftStepDrive):
+            lift_rate = self.drive.valve_lift_rate(self.held_inputs[0])
+            v["camshaft_torque"] = cam_geometry.camshaft_torque(f.contact, lift_rate)
         v["kinetic_energy"] = vs.kinetic_energy(p, velocity)
         v["elastic_energy"] = vs.elastic_energy(p, L, lift)
         v["contact_work"] = work

@@ -12,7 +12,7 @@ from ..fmi.slave import (
     output,
     parameter,
 )
-from ..physics import cam_laws, constraint_models
+from ..physics import cam_geometry, cam_laws, constraint_models
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
 from .linkage import LinkageSlave, solver_variables
@@ -95,6 +95,69 @@ def cam_law_variables() -> tuple:
     )
 
 
+def follower_variables() -> tuple:
+    """The cam follower's parameters of the cam_geometry effect (ValveTrain)."""
+    return (
+        parameter(
+            "follower",
+            "flat_faced",
+            "cam_geometry: the follower on the cam: flat_faced (the pushrod tappet; a face "
+            "perpendicular to its axis) or roller (a roller of roller_radius on the axis)",
+            values=cam_geometry.FOLLOWERS,
+        ),
+        non_negative(
+            "roller_radius", 0.008, "cam_geometry: roller radius Rf (follower = roller)", "m"
+        ),
+        parameter(
+            "follower_offset",
+            0.0,
+            "cam_geometry: offset e of the follower's axis from the camshaft centre, along +x "
+            "(positive: lowers the roller's pressure angle while it rises, the camshaft "
+            "turning counter-clockwise)",
+            unit="m",
+        ),
+        parameter(
+            "pressure_angle_limit",
+            cam_geometry.DEFAULT_PRESSURE_ANGLE_LIMIT,
+            "cam_geometry: largest pressure angle the design accepts (Norton: about 30 deg "
+            "for a translating roller); beyond it a warning at initialisation",
+            unit="rad",
+            min=0.0,
+            max=math.pi / 2.0,
+        ),
+    )
+
+
+_CAM_OUTPUTS = (
+    (
+        "pressure_angle",
+        "rad",
+        "Pressure angle: between the follower's axis and the normal at the contact (0 for a flat face)",
+    ),
+    (
+        "radius_of_curvature",
+        "m",
+        "Radius of curvature of the cam surface at the contact (negative: concave)",
+    ),
+    (
+        "pitch_radius_of_curvature",
+        "m",
+        "Radius of curvature of the pitch curve, the trace point's path (roller centre; flat face: the face on the axis)",
+    ),
+    (
+        "cam_contact_x",
+        "m",
+        "Contact point on the cam surface, x in the cam's frame (equal to the fixed frame at camshaft angle 0)",
+    ),
+    ("cam_contact_y", "m", "Contact point on the cam surface, y in the cam's frame"),
+    (
+        "face_contact_position",
+        "m",
+        "Where the contact lies on a flat face, from the follower's axis along +x: ds/dtheta - e (0 for a roller)",
+    ),
+)
+
+
 def cam_setup(values: dict) -> tuple:
     """(ValveGeometry, CamProfile) validated from the parameter values of geometry_variables
     and cam_law_variables (RangeError names the parameter)."""
@@ -126,7 +189,8 @@ class ValveTrain(LinkageSlave):
     description = (
         "Cam-driven pushrod valve train (tappet, rocker, valve) on the planar "
         "constraint solver: forward (cam law on the tappet) or inverse (desired "
-        "valve motion in, cam displacement diagram out); valve spring and float"
+        "valve motion in, cam displacement diagram out); valve spring, float and "
+        "camshaft torque; the cam's geometry (profile, pressure angle, radius of curvature)"
     )
     VARIABLES = (
         *geometry_variables(),
@@ -184,6 +248,49 @@ class ValveTrain(LinkageSlave):
             "the valve starts to float with this cam and spring (-1: effect off)",
             unit="rad/s",
         ),
+        output(
+            "camshaft_torque",
+            0.0,
+            "valve_spring: torque the camshaft must supply to the cam, in its direction of "
+            "rotation: contact_force dL/dtheta (frictionless; zero mean over a revolution at "
+            "constant speed)",
+            unit="N.m",
+            depends=_CAM,
+        ),
+        effect(
+            "cam_geometry",
+            "the cam that produces the tappet motion (forward: the cam law; inverse: the "
+            "tappet diagram the desired valve motion needs) with the follower below and the "
+            "base circle cam_base_radius: pressure angle, radii of curvature and contact "
+            "point at each step; a cusp or undercut refused at initialisation, a pressure "
+            "angle over its limit warned",
+        ),
+        *follower_variables(),
+        *(
+            output(name, 0.0, "cam_geometry: " + text, unit=unit, depends=_CAM[:2])
+            for name, unit, text in _CAM_OUTPUTS
+        ),
+        output(
+            "min_radius_of_curvature",
+            -1.0,
+            "cam_geometry: least radius of curvature of the cam surface where it is convex, "
+            "over a revolution (-1: effect off)",
+            unit="m",
+        ),
+        output(
+            "max_pressure_angle",
+            -1.0,
+            "cam_geometry: largest magnitude of the pressure angle over a revolution "
+            "(-1: effect off)",
+            unit="rad",
+        ),
+        output(
+            "face_width",
+            -1.0,
+            "cam_geometry: width of flat face the contact sweeps over a revolution, "
+            "max - min of ds/dtheta (0 for a roller, -1: effect off)",
+            unit="m",
+        ),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -192,6 +299,8 @@ class ValveTrain(LinkageSlave):
         self.profile = CAM
         self.motion = cam_laws.motion_function(CAM)  # follower_motion of self.profile
         self.closed_height = 0.0  # m, valve foot height with the valve closed
+        self.cam_follower: Any = None  # cam_geometry.Follower with the cam_geometry effect
+        self.reported: set = set()  # design warnings logged (initialisation may run twice)
 
     # --- parameters -------------------------------------------------------------------
     def check_geometry(self) -> Any:
@@ -214,6 +323,35 @@ class ValveTrain(LinkageSlave):
             v["float_camshaft_speed"] = (
                 speed.camshaft_speed if math.isfinite(speed.camshaft_speed) else -1.0
             )
+        self.cam_follower = None
+        for name in ("min_radius_of_curvature", "max_pressure_angle", "face_width"):
+            v[name] = -1.0
+        if v["cam_geometry"]:
+            self._design_cam()
+
+    def _design_cam(self) -> None:
+        """The cam_geometry effect at initialisation: the follower checked, the cam designed
+        over a revolution (a cusp or an undercut refused: CamDesignError), its figures
+        published and a pressure angle over the limit warned."""
+        v = self.values
+        self.cam_follower = cam_geometry.check_follower(
+            v["follower"], self.geometry.cam_base_radius, v["roller_radius"], v["follower_offset"]
+        )
+        found = cam_geometry.require_design(
+            self.cam_follower,
+            cam_geometry.design(
+                self.cam_follower,
+                vt.tappet_pieces(self.geometry, self.profile, v["mode"]),
+                v["pressure_angle_limit"],
+            ),
+        )
+        v["min_radius_of_curvature"] = found.least_radius
+        v["max_pressure_angle"] = abs(found.largest_pressure_angle)
+        v["face_width"] = found.face_width
+        for problem in found.problems:
+            if problem.message not in self.reported:
+                self.reported.add(problem.message)
+                self.log(problem.message, Status.warning)
 
     # --- kinematics -------------------------------------------------------------------
     def _law(self):
@@ -256,8 +394,44 @@ class ValveTrain(LinkageSlave):
         }
 
     # --- valve spring -----------------------------------------------------------------
+    def tappet_diagram(self) -> tuple[float, float, float]:
+        """(s m, s1 m/rad, s2 m/rad^2) of the tappet at the camshaft angle: the cam law
+        (forward), or inverse's tappet motion for the valve law at unit speed (inverse)."""
+        s, s1, s2, _ = cam_laws.cam_lift(self.profile, self.values["camshaft_angle"])
+        if self.values["mode"] == "inverse":
+            motion = vt.inverse(self.geometry, s, s1, s2)
+            return motion.tappet_lift, motion.tappet_velocity, motion.tappet_acceleration
+        return s, s1, s2
+
+    def valve_lift_rate(self) -> float:
+        """dL/dtheta (m/rad) at the camshaft angle: the cam law's (inverse), or the valve's
+        through the rocker (forward)."""
+        s, s1, _, _ = cam_laws.cam_lift(self.profile, self.values["camshaft_angle"])
+        if self.values["mode"] == "inverse":
+            return s1
+        return vt.valve_lift_rate(self.geometry, self.closed_height, s, s1)
+
     def after_update(self, time: float) -> Any:
         v = self.values
+        if v["cam_geometry"]:
+            point = cam_geometry.cam_point(
+                self.cam_follower, v["camshaft_angle"], *self.tappet_diagram()
+            )
+            (
+                v["pressure_angle"],
+                v["radius_of_curvature"],
+                v["pitch_radius_of_curvature"],
+                v["cam_contact_x"],
+                v["cam_contact_y"],
+                v["face_contact_position"],
+            ) = (
+                point.pressure_angle,
+                point.radius_of_curvature,
+                point.pitch_radius_of_curvature,
+                point.x,
+                point.y,
+                point.face_contact,
+            )
         if not v["valve_spring"]:
             return
         force = vt.contact_force(
@@ -275,6 +449,7 @@ class ValveTrain(LinkageSlave):
             v["valve_acceleration"],
         )
         v["contact_force"] = force
+        v["camshaft_torque"] = cam_geometry.camshaft_torque(force, self.valve_lift_rate())
         if lost and not v["contact_lost"]:
             v["float_events"] += 1
             message = (

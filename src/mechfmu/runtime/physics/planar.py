@@ -31,6 +31,7 @@ from collections import namedtuple
 
 from ..errors import MechanismError, SingularConfiguration
 from ..numerics.linalg import Singular, condition_number, determinant_sign, lu_factor, lu_solve
+from . import planar_kernel  # imported whole here: an FMU's runtime loads while it is extracted
 from collections.abc import Callable, Sequence
 from typing import Any, cast
 
@@ -114,6 +115,7 @@ class _PointJoint:
 class Revolute(_PointJoint):
     """Point ``point_i`` of body i coincides with point ``point_j`` of body j (2 equations)."""
 
+    kernel = "revolute"  # its form in planar_kernel (compiled fast path)
     equations = 2
     kinds = ("length", "length")
 
@@ -150,6 +152,7 @@ class PointOnLine(_PointJoint):
     Phi = n_j . (P_i - P_j) with n_j the line's unit normal, A_j perp(u_j).
     """
 
+    kernel = "point_on_line"  # its form in planar_kernel (compiled fast path)
     equations = 1
     kinds = ("length",)
 
@@ -213,6 +216,7 @@ class PointOnLine(_PointJoint):
 class RelativeAngle:
     """phi_i - phi_j = angle (rad): with PointOnLine it makes a translational joint."""
 
+    kernel = "relative_angle"  # its form in planar_kernel (compiled fast path)
     equations = 1
     kinds = ("angle",)
 
@@ -258,6 +262,7 @@ class Driver:
     drive tuple passed to the solver. ``kind``: "length" or "angle", the unit of f.
     """
 
+    kernel = "driver"  # its form in planar_kernel (compiled fast path)
     equations = 1
 
     def __init__(
@@ -911,11 +916,6 @@ class BranchFollower:
         change = [(0.0, b[0] - a[0], 0.0) for a, b in zip(start, end)]
         tangent = mechanism.unscale(lu_solve(factored, mechanism.velocity_rhs(change)))
         return [v + fraction * t for v, t in zip(q, tangent)]
-
-
-# At the end: planar_kernel imports this module's joints. Not lazily, in BranchFollower: an
-# FMU's runtime must be imported whole while its extracted folder exists.
-from . import planar_kernel  # noqa: E402
 
 
 _step_state = attrgetter(*BranchFollower._STEP_FIELDS)  # BranchFollower.step_state

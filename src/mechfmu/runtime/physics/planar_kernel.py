@@ -30,7 +30,9 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
-from .planar import GROUND, Driver, PointOnLine, RelativeAngle, Revolute
+# planar.GROUND: the ground is body None. This module imports nothing of planar.py (which
+# imports it): a joint names the form its kernel takes in its ``kernel`` attribute.
+GROUND = None
 
 
 Drive = Sequence[Sequence[float]]  # per driver: (value, rate, second derivative)
@@ -109,7 +111,7 @@ class _Emitter:
         self.rate_rows: dict[int, int] = {}  # row -> drive index (velocity right-hand side)
         row = 0
         for k, joint in enumerate(mechanism.joints):
-            emit = _JOINTS.get(type(joint))
+            emit = _JOINTS.get(type(joint).__dict__.get("kernel", ""))
             if emit is None:
                 raise Unsupported(type(joint).__name__)
             emit(self, k, row, joint)
@@ -232,11 +234,13 @@ def _driver(e: _Emitter, k: int, row: int, joint: Any) -> None:
     e.gamma_rows.append(f"d[{joint.index}][2]")
 
 
-_JOINTS: dict[type, Callable[[_Emitter, int, int, Any], None]] = {
-    Revolute: _revolute,
-    PointOnLine: _point_on_line,
-    RelativeAngle: _relative_angle,
-    Driver: _driver,
+# the emitter of each joint's ``kernel`` form (planar.Revolute, PointOnLine, RelativeAngle,
+# Driver); a joint class that names none (a subclass included) takes planar.py's path
+_JOINTS: dict[str, Callable[[_Emitter, int, int, Any], None]] = {
+    "revolute": _revolute,
+    "point_on_line": _point_on_line,
+    "relative_angle": _relative_angle,
+    "driver": _driver,
 }
 
 

@@ -492,6 +492,14 @@ class CamshaftStepDrive:
         )
         return motion
 
+    def valve_lift_rate(self, camshaft_angle: float) -> float:
+        """dL/dtheta (m/rad) of the rocker's valve end at ``camshaft_angle`` (rad), on the
+        segment ValveTrain's closed form uses there: what turns the contact force into the
+        camshaft torque."""
+        index = segment_index(self.profile, camshaft_angle)
+        s, s1, _ = segment_cam_lift(self.profile, index, camshaft_angle)
+        return vt.valve_lift_rate(self.geometry, self.closed_height, s, s1)
+
     def at(self, t: float) -> tuple[float, float, float]:
         """(L m, L' m/s, L'' m/s^2) at time t (s) inside the current step: inside the piece
         the exact integrator is on, that piece's quintic (what it integrates, so that events

@@ -53,7 +53,7 @@ from functools import lru_cache
 from collections import namedtuple
 from typing import Any
 
-from . import cam_laws
+from . import cam_geometry, cam_laws
 from ..errors import (
     RangeError,
     require_above,
@@ -63,6 +63,7 @@ from ..errors import (
     require_positive,
 )
 from .cam_laws import CamProfile
+from ..numerics.roots import refined_minimum
 from collections.abc import Callable
 
 ValveGeometry = namedtuple(
@@ -99,7 +100,6 @@ DEFAULT_VALVE_GEOMETRY = ValveGeometry(
 
 SINGULAR_ULPS = 4  # triangle factors this small (in units of eps * perimeter) are dead centres
 _EPS = sys.float_info.epsilon
-GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # 0.618...
 
 
 # --- geometry checks and ranges ----------------------------------------------------------
@@ -631,6 +631,39 @@ def inverse(
     )
 
 
+def tappet_pieces(
+    g: "ValveGeometry", profile: CamProfile, mode: str = "forward"
+) -> tuple["cam_geometry.Piece", ...]:
+    """The tappet's displacement diagram over a camshaft revolution as cam_geometry Pieces
+    (start rad, span rad, motion: phase x -> (s m, s1 m/rad, s2 m/rad^2)): the cam the
+    valve train needs. forward: the cam law is the tappet lift. inverse: the cam law is the
+    valve lift L(theta); the tappet's s, s1, s2 are inverse's lift, velocity and acceleration
+    for the valve motion (L, L1, L2) at unit camshaft speed (time derivatives equal angle
+    derivatives there)."""
+    pieces = cam_geometry.law_pieces(profile)
+    if mode == "forward":
+        return pieces
+
+    def through_rocker(valve: Callable) -> Callable:
+        def tappet(x: float) -> tuple[float, float, float]:
+            motion = inverse(g, *valve(x))
+            return motion.tappet_lift, motion.tappet_velocity, motion.tappet_acceleration
+
+        return tappet
+
+    return tuple(
+        cam_geometry.Piece(piece.start, piece.span, through_rocker(piece.motion))
+        for piece in pieces
+    )
+
+
+def valve_lift_rate(g: "ValveGeometry", y3_closed: float, lift: float, lift_rate: float) -> float:
+    """dL/dtheta (m/rad): the valve lift's rate per camshaft radian where the tappet is at
+    ``lift`` (m) rising ``lift_rate`` = ds/dtheta (m/rad): the valve velocity at unit
+    camshaft speed (``y3_closed``: rest_position(g)[1], m)."""
+    return motion_from_tappet(g, y3_closed, lift, lift_rate, 0.0).valve_velocity
+
+
 def rocker_ratio(g: "ValveGeometry", tappet_lift: float = 0.0) -> float:
     """Instantaneous ratio d(valve lift) / d(tappet lift) at ``tappet_lift`` (m)."""
     return forward(g, tappet_lift, 1.0, 0.0).valve_velocity
@@ -689,28 +722,6 @@ def contact_lost(
     return force < -FLOAT_RTOL * scale
 
 
-def _golden_minimum(function: Callable, low: float, high: float) -> tuple[float, float]:
-    """Minimum value and its abscissa of a unimodal ``function`` on [low, high]."""
-    x1 = high - GOLDEN * (high - low)
-    x2 = low + GOLDEN * (high - low)
-    f1, f2 = function(x1), function(x2)
-    best = min((f1, x1), (f2, x2), (function(low), low), (function(high), high))
-    for _ in range(200):
-        if high - low <= 4.0 * _EPS * max(1.0, abs(low), abs(high)):
-            break
-        if f1 <= f2:
-            high, x2, f2 = x2, x1, f1
-            x1 = high - GOLDEN * (high - low)
-            f1 = function(x1)
-            best = min(best, (f1, x1))
-        else:
-            low, x1, f1 = x1, x2, f2
-            x2 = low + GOLDEN * (high - low)
-            f2 = function(x2)
-            best = min(best, (f2, x2))
-    return best
-
-
 def float_speed(
     g: "ValveGeometry",
     profile: CamProfile,
@@ -763,19 +774,11 @@ def float_speed(
     for segment, beta in (("rise", profile.rise_angle), ("return", profile.return_angle)):
         count = max(8, math.ceil(samples * beta / cam_laws.TAU))
         grid = [i / count for i in range(count + 1)]
-        values = [ratio(segment, x) for x in grid]
-        for i, value in enumerate(values):
-            if value == math.inf:
-                continue
-            left = values[i - 1] if i > 0 else math.inf
-            right = values[i + 1] if i < count else math.inf
-            if value <= left and value <= right:
-                found = _golden_minimum(
-                    lambda x: ratio(segment, x), grid[max(i - 1, 0)], grid[min(i + 1, count)]
-                )
-                found = min(found, (value, grid[i]))
-                if found[0] < best[0]:
-                    best = (found[0], profile.rise_start + starts[segment] + found[1] * beta)
+        value, x = refined_minimum(
+            lambda x: ratio(segment, x), grid, [ratio(segment, x) for x in grid]
+        )
+        if value < best[0]:
+            best = (value, profile.rise_start + starts[segment] + x * beta)
     if best[0] == math.inf:
         return FloatSpeed(math.inf, math.nan)
     return FloatSpeed(math.sqrt(best[0]), best[1])

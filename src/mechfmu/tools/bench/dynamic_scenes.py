@@ -96,10 +96,6 @@ def _whole_steps(scene: Any, fraction: float):
 
 # --- what a larger communication step does to a scene's reference check -------------------
 
-# (rtol, atol) of the shipped valve scenes' reference checks (tests/test_scenes.py)
-CHECK_TOLERANCES = {"valve_train_dynamic": (1e-6, 1e-3), "valve_float_dynamic": (1e-5, 1e-3)}
-
-
 # the valve's configurations that sims/dynamic_step_accuracy.py compares: (ValveSpring's
 # parameters, what drives it): the rocker inputs from ValveTrain (the scenes before issue
 # 21's goal 4) or the camshaft itself
@@ -161,7 +157,7 @@ def step_accuracy(
     """pandas DataFrame: ``name`` run at each communication step in ``steps`` (s, each
     dividing the span) in each of ``configurations`` (CONFIGURATIONS by default), its loop
     wall time per simulated s (median of ``repeats``), the right-hand-side (exact: closed
-    form) evaluations, and its reference check at CHECK_TOLERANCES[name] against the scipy
+    form) evaluations, and its reference check at the scene's declared tolerances ([check]) against the scipy
     reference sampled every ``reference_step`` s (computed here, by the same function as
     the shipped CSV, so every step is checked at all its points): the worst deviation as a
     fraction of its allowance (<= 1 passes), its column and time."""
@@ -172,16 +168,20 @@ def step_accuracy(
     from ...check import compare
     from ...cosim.run import run_scene
     from ...cosim.scene import find_file
-    from ...cosim.results import write_csv
+    from ...cosim.results import write_csv, write_json
     from ..scene_references import REFERENCES, sample_times
 
-    rtol, atol = CHECK_TOLERANCES[name]
     shipped = load_scene(find_file(name, (scene_dir,)))
     rows = []
     with tempfile.TemporaryDirectory(prefix="mechfmu_step_accuracy_") as out:
         fine = dataclasses.replace(shipped, step=float(reference_step))
         reference = write_csv(
             Path(out) / f"{name}_reference.csv", sample_times(fine), REFERENCES[name](fine)
+        )
+        # the scene's declared tolerances, as beside its shipped reference
+        write_json(
+            reference.with_suffix(".json"),
+            {"check": shipped.check.as_dict() if shipped.check else None},
         )
         for label, (parameters, driven_by) in (configurations or CONFIGURATIONS).items():
             for step in steps:
@@ -192,7 +192,7 @@ def step_accuracy(
                 for _ in range(repeats):
                     result, paths = run_scene(scene, out, fmu_dir, plot=False)
                     loops.append(result.meta["loop_time_s"])
-                check = compare(paths["csv"], reference, rtol, atol)
+                check = compare(paths["csv"], reference)
                 # the column whose largest deviation is the largest share of its allowance
                 worst = check.summary.sort_values("ratio").iloc[-1]
                 loops.sort()

@@ -34,8 +34,9 @@ def settings_for(args: Namespace) -> Settings:
     )
 
 
-def missing_fmus(fmu_dir: str) -> list[Any]:
-    needed = {
+# the models the benchmarks load (mechfmu bench finds them by the one rule: cosim/locate.py)
+MODELS_NEEDED = sorted(
+    {
         "LandingGear",
         "PistonActuator",
         "LoadProfile",
@@ -47,7 +48,12 @@ def missing_fmus(fmu_dir: str) -> list[Any]:
         "HydraulicActuator",
         *(case.model for case in model_cost.CASES),
     }
-    return sorted(name for name in needed if not (Path(fmu_dir) / f"{name}.fmu").is_file())
+)
+
+
+def missing_fmus(fmu_dir: str) -> list[Any]:
+    """The models of MODELS_NEEDED that ``fmu_dir`` lacks."""
+    return [name for name in MODELS_NEEDED if not (Path(fmu_dir) / f"{name}.fmu").is_file()]
 
 
 def run_benchmarks(

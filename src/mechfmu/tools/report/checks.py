@@ -11,13 +11,14 @@ are then skipped: not compared), a result without a reference a skipped ``(file)
 from __future__ import annotations
 
 import html
+import io
 import math
 import xml.etree.ElementTree as ET
 from os import PathLike
 from pathlib import Path
 
 from ...check import CheckRun, FileCheck
-from ...comparison import describe_failure, file_label
+from ...comparison import file_label
 from ...cosim.files import atomic_write, atomic_write_all, output_folder
 
 
@@ -32,7 +33,7 @@ def _cases(check: FileCheck) -> list[tuple[str, str | None, str | None, str]]:
     cases: list[tuple[str, str | None, str | None, str]] = []
     grid = failures.pop("time", None)
     if grid is not None:
-        cases.append(("(time grid)", "time grid", describe_failure(grid), ""))
+        cases.append(("(time grid)", "time grid", comparison.describe(grid), ""))
     names = list(comparison.reference.columns)
     names += [
         c
@@ -42,7 +43,7 @@ def _cases(check: FileCheck) -> list[tuple[str, str | None, str | None, str]]:
     for name in names:
         row = failures.get(name)
         if row is not None:
-            cases.append((name, row["kind"], describe_failure(row), ""))
+            cases.append((name, row["kind"], comparison.describe(row), ""))
         elif name not in comparison.summary.index:
             cases.append((name, None, None, "not compared: the time grids differ"))
         else:
@@ -67,13 +68,9 @@ def junit_xml(run: CheckRun) -> str:
                 ET.SubElement(case, "skipped", message=skipped)
     for key, value in counts.items():
         suite.set(key, str(value))
-    root = ET.Element(
-        "testsuites",
-        name="mechfmu check",
-        tests=str(counts["tests"]),
-        failures=str(counts["failures"]),
-        errors="0",
-    )
+    root = ET.Element("testsuites", {"name": "mechfmu check"})
+    for key, value in counts.items():
+        root.set(key, str(value))
     root.append(suite)
     ET.indent(root)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, "unicode") + "\n"
@@ -95,17 +92,96 @@ def _number(value: float) -> str:
     )
 
 
+def _summary_table(run: CheckRun) -> str:
+    """The failures first: one row per failing file and column (file, column, kind, first
+    failing time, worst deviation as a share of its allowance), linked to its section."""
+    rows = []
+    for number, check in enumerate(run.files):
+        if check.passed:
+            continue
+        anchor = f"file-{number}"
+        if check.comparison is None:
+            rows.append((anchor, check.name, "(file)", check.kind or "", math.nan, math.nan))
+            continue
+        summary = check.comparison.summary
+        for row in check.comparison.failures.to_dict("records"):
+            ratio = (
+                summary.loc[row["column"], "ratio"] if row["column"] in summary.index else math.nan
+            )
+            rows.append((anchor, check.name, row["column"], row["kind"], row["time"], ratio))
+    if not rows:
+        return "<p>No failures.</p>"
+    cells = "".join(
+        f'<tr><td><a href="#{anchor}">{html.escape(name)}</a></td><td>{html.escape(column)}'
+        f"</td><td>{html.escape(kind)}</td><td>{_number(time)}</td><td>{_number(ratio)}</td></tr>"
+        for anchor, name, column, kind, time, ratio in rows
+    )
+    return (
+        "<table><tr><th>file</th><th>column</th><th>kind</th><th>first failure [s]</th>"
+        "<th>worst / allowed</th></tr>" + cells + "</table>"
+    )
+
+
+def _file_section(check: FileCheck, anchor: str, folder: Path, contents: dict) -> str:
+    """One file's heading, line, failures table and a plot of each failing column (PNGs
+    added to ``contents``)."""
+    verdict = "pass" if check.passed else "fail"
+    parts = [
+        f'<h3 id="{anchor}" class="{verdict}">{html.escape(check.name)}</h3>'
+        f'<p class="{verdict}">{html.escape(check.line())}</p>'
+    ]
+    comparison = check.comparison
+    if comparison is None or comparison.failures.empty:
+        return "".join(parts)
+    rows = "".join(
+        "<tr>"
+        + "".join(
+            f"<td>{html.escape(cell)}</td>"
+            for cell in (
+                str(row["column"]),
+                _number(row["time"]),
+                _number(row["value"]),
+                _number(row["reference"]),
+                _number(row["allowed"]),
+                str(row["kind"]),
+            )
+        )
+        + "</tr>"
+        for row in comparison.failures.to_dict("records")
+    )
+    parts.append(
+        "<table><tr><th>column</th><th>time [s]</th><th>value</th><th>reference"
+        "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>"
+    )
+    for column in comparison.failures["column"]:
+        if column not in comparison.summary.index:
+            continue
+        buffer = io.BytesIO()
+        comparison.plot(column).savefig(buffer, format="png", dpi=90)
+        name = file_label(f"{check.name}__{column}") + ".png"
+        contents[folder / name] = buffer.getvalue()
+        parts.append(f'<p><img src="{html.escape(name)}" alt="{html.escape(column)}"></p>')
+    return "".join(parts)
+
+
 def write_report(run: CheckRun, folder: str | PathLike) -> Path:
-    """Write ``folder``/index.html (every file's verdict line and failures table) and, for
-    every failing value column, a PNG of the result, the reference, the tolerance band or
-    tube and the first failure; all files atomically. Returns the index's path."""
+    """Write ``folder``/index.html and, for every failing value column, a PNG of the result,
+    the reference, the tolerance band or tube and the first failure; all files atomically.
+    The page opens with the summary and a table of the failures, then each failing file
+    (its line, failures and plots), then the files that match, folded. Returns the index's
+    path."""
     folder = Path(output_folder(Path(folder)))
     contents: dict[Path, str | bytes] = {}
     options = run.options
+    tolerance = (
+        "the references' declared tolerances"
+        if options.get("rtol") is None and options.get("atol") is None
+        else f"rtol {options.get('rtol')!r}, atol {options.get('atol')!r}"
+    )
     body = [
         f"<h1>mechfmu check</h1><p>{html.escape(run.summary())}</p>",
-        f"<p>method {html.escape(str(options.get('method')))}, rtol "
-        f"{options.get('rtol')!r}, atol {options.get('atol')!r}"
+        f"<p>method {html.escape(str(options.get('method') or 'as declared'))}, "
+        f"{html.escape(tolerance)}"
         + (
             f", time tolerance {options.get('time_tolerance')!r} s"
             if options.get("method") == "tube"
@@ -117,47 +193,20 @@ def write_report(run: CheckRun, folder: str | PathLike) -> Path:
             else ""
         )
         + "</p>",
+        "<h2>Failures</h2>",
+        _summary_table(run),
     ]
-    for check in run.files:
-        verdict = "pass" if check.passed else "fail"
+    failing = [(n, c) for n, c in enumerate(run.files) if not c.passed]
+    passing = [(n, c) for n, c in enumerate(run.files) if c.passed]
+    if failing:
+        body.append("<h2>Failing files</h2>")
+        body += [_file_section(c, f"file-{n}", folder, contents) for n, c in failing]
+    if passing:
         body.append(
-            f'<h2 class="{verdict}">{html.escape(check.name)}</h2>'
-            f'<p class="{verdict}">{html.escape(check.line())}</p>'
+            f"<details><summary>{len(passing)} file(s) that match</summary>"
+            + "".join(_file_section(c, f"file-{n}", folder, contents) for n, c in passing)
+            + "</details>"
         )
-        comparison = check.comparison
-        if comparison is None or comparison.failures.empty:
-            continue
-        rows = "".join(
-            "<tr>"
-            + "".join(
-                f"<td>{html.escape(cell)}</td>"
-                for cell in (
-                    str(row["column"]),
-                    _number(row["time"]),
-                    _number(row["value"]),
-                    _number(row["reference"]),
-                    _number(row["allowed"]),
-                    str(row["kind"]),
-                )
-            )
-            + "</tr>"
-            for row in comparison.failures.to_dict("records")
-        )
-        body.append(
-            "<table><tr><th>column</th><th>time [s]</th><th>value</th><th>reference"
-            "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>"
-        )
-        for column in comparison.failures["column"]:
-            if column not in comparison.summary.index:
-                continue
-            figure = comparison.plot(column)
-            import io
-
-            buffer = io.BytesIO()
-            figure.savefig(buffer, format="png", dpi=90)
-            name = file_label(f"{check.name}__{column}") + ".png"
-            contents[folder / name] = buffer.getvalue()
-            body.append(f'<p><img src="{html.escape(name)}" alt="{html.escape(column)}"></p>')
     index = folder / "index.html"
     contents[index] = (
         '<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>mechfmu '
@@ -174,8 +223,6 @@ def tube_example() -> bytes:
     reference and a result one step (10 ms) late, its snap-through at 3.11 s instead of
     3.10 s; the deflection compared pointwise (fails at the snap) and in a 10 ms tube
     (passes), both with atol 2 % of the deflection's range."""
-    import io
-
     import numpy as np
     from matplotlib.figure import Figure
 

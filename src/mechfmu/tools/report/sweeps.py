@@ -34,7 +34,7 @@ QUICK_VARY = {
 def run_shipped(
     sweep_dir: Any,
     out_dir: Any,
-    fmu_dir: str = "fmus",
+    fmu_dir: str | None = None,
     jobs: int | None = None,
     quick: bool = False,
     scheduler: Any = None,

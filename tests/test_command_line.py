@@ -1,0 +1,225 @@
+"""The command tree as a new user meets it: --version, scenes, --set, one rule for finding
+the FMUs from any folder, help on every option, messages that say what to do."""
+
+import argparse
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from hypothesis import given, strategies as st
+
+import mechfmu
+from cli_process import run_mechfmu
+from conftest import ROOT, SCENES
+from mechfmu.cli import main as cli, parse_assignments, parser
+from mechfmu.cosim import locate
+from mechfmu.cosim.scene import SceneError, load_scene
+from mechfmu.io import read_result
+from mechfmu.runtime.models import MODELS
+
+
+def test_version_and_the_top_help_list_every_verb(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        cli(["--version"])
+    assert exit_.value.code == 0 and capsys.readouterr().out == f"mechfmu {mechfmu.__version__}\n"
+    with pytest.raises(SystemExit):
+        cli(["--help"])
+    top = capsys.readouterr().out
+    verbs = [a for a in parser()._actions if isinstance(a, argparse._SubParsersAction)][0]
+    for verb in verbs.choices:
+        assert f"\n    {verb}" in top, verb
+    assert "``" not in top
+
+
+def _options(tree, path=("mechfmu",)):
+    """(verb path, option) for every option of every (nested) verb."""
+    for action in tree._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, verb in action.choices.items():
+                yield from _options(verb, (*path, name))
+        elif action.option_strings and action.help != argparse.SUPPRESS:
+            yield path, action
+
+
+def test_every_option_has_help_stating_its_default():
+    options = list(_options(parser()))
+    assert len(options) > 60
+    for path, action in options:
+        where = f"{' '.join(path)} {action.option_strings[0]}"
+        assert action.help, where
+        if action.default not in (None, False, [], argparse.SUPPRESS) and not isinstance(
+            action, (argparse._HelpAction, argparse._VersionAction)
+        ):
+            assert "default" in action.help, where
+    spellings = {option for _, action in options for option in action.option_strings}
+    assert "--fmu-dir" in spellings and "--fmus" not in spellings
+
+
+def test_scenes_lists_every_shipped_scene_from_any_folder(tmp_path):
+    done = run_mechfmu("scenes", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    for path in SCENES.glob("*.toml"):
+        scene = load_scene(path)
+        (row,) = [line for line in lines if line.startswith(f"{scene.name} ")]
+        assert f"{scene.stop_time:g} s" in row
+        for name, spec in scene.components.items():
+            assert f"{name} ({spec.fmu})" in row
+    assert f"{len(list(SCENES.glob('*.toml')))} shipped scenes in {SCENES}" in done.stdout
+
+
+@pytest.mark.parametrize(
+    "texts, expected",
+    [
+        (["actuator.stroke_time=2.5"], {"actuator.stroke_time": 2.5}),
+        (["a.n=3", "a.flag=true"], {"a.n": 3, "a.flag": True}),
+        (
+            ['a.profile="cycloidal"', "a.law=cycloidal"],
+            {"a.profile": "cycloidal", "a.law": "cycloidal"},
+        ),
+        (["a.x = 1e-3 "], {"a.x": 1e-3}),
+        (["a.file=data/x.csv"], {"a.file": "data/x.csv"}),
+    ],
+)
+def test_set_values_read_as_toml_or_as_plain_text(texts, expected):
+    assert parse_assignments(texts) == expected
+
+
+@pytest.mark.parametrize("text", ["stroke_time", "=2", "a.x="])
+def test_a_set_without_name_or_value_says_the_form(text):
+    with pytest.raises(ValueError, match=r"expected component.parameter=value \(e.g."):
+        parse_assignments([text])
+
+
+@given(
+    name=st.from_regex(r"[a-z]{1,8}\.[a-z_]{1,12}", fullmatch=True),
+    value=st.floats(allow_nan=False, allow_infinity=False) | st.integers() | st.booleans(),
+)
+def test_a_number_or_boolean_set_reads_back_as_itself(name, value):
+    text = str(value).lower() if isinstance(value, bool) else repr(value)
+    assert parse_assignments([f"{name}={text}"]) == {name: value}
+
+
+def test_run_set_changes_the_run_as_the_api_and_the_closed_form_do(fmu_dir, tmp_path):
+    done = run_mechfmu(
+        "run",
+        "gear_retraction",
+        "--set",
+        "actuator.stroke_time=2.0",
+        "--set",
+        "actuator.profile=cycloidal",
+        "--no-plot",
+        cwd=tmp_path,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    result = read_result(tmp_path / "out" / "gear_retraction.csv")
+    parameters = {"actuator.stroke_time": 2.0, "actuator.profile": "cycloidal"}
+    assert result.attrs["parameters"] == parameters
+    comparison = mechfmu.compare(
+        result, mechfmu.reference("gear_retraction", parameters=parameters)
+    )
+    assert comparison.passed, str(comparison)
+    assert result.index[np.argmax(result["gear.gear_angle"].to_numpy())] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize(
+    "arguments, message",
+    [
+        (
+            ["gear_retraction", "--set", "actuator.stroke_tme=2"],
+            "scene error: parameters: 'actuator.stroke_tme': 'actuator' (PistonActuator) has "
+            "no parameter 'stroke_tme'; its parameters: end_extension, profile,",
+        ),
+        (
+            ["gear_retraction", "--set", "actuator.stroke_time=fast"],
+            "scene error: ",
+        ),
+        (["gear_retraction", "--set", "stroke_time"], "mechfmu run: error: --set 'stroke_time'"),
+        (["--all", "--set", "a.b=1"], "mechfmu run: error: --set changes one scene's parameters"),
+        ([], "mechfmu run: error: name a scene (a shipped scene's name, which 'mechfmu scenes'"),
+    ],
+)
+def test_run_errors_say_what_to_do(fmu_dir, tmp_path, capsys, arguments, message):
+    assert cli(["run", *arguments, "--out", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.startswith(message)
+
+
+def test_the_fmu_search_path_and_the_error_listing_it(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setenv("MECHFMU_FMU_DIR", str(tmp_path / "env"))
+    labels = [label for label, _ in locate.search_path()]
+    assert labels[0] == "$MECHFMU_FMU_DIR" and labels[1] == "./fmus"
+    assert labels[-1] == "the user cache (mechfmu build)"
+    folders = dict(locate.search_path())
+    assert folders["./fmus"] == tmp_path / "fmus"
+    version = f"{sys.version_info[0]}.{sys.version_info[1]}"
+    assert (
+        folders[labels[-1]] == tmp_path / "cache" / "mechfmu" / f"{mechfmu.__version__}-py{version}"
+    )
+    assert locate.search_path("given") == [("--fmu-dir", locate.Path("given"))]
+    with pytest.raises(SceneError) as caught:
+        locate.fmu_folder(["NoSuchModel"], what="scene x")
+    message = str(caught.value)
+    assert message.startswith("scene x: FMU(s) NoSuchModel.fmu not found in any of the folders")
+    for label, folder in locate.search_path():
+        assert f"{label}: {folder}" in message
+    assert "'mechfmu build'" in message and "--fmu-dir DIR" in message
+
+
+def test_the_first_folder_holding_every_model_wins(fmu_dir, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MECHFMU_FMU_DIR", raising=False)
+    monkeypatch.setattr(locate, "CHECKOUT", None)
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(cache))
+    (tmp_path / "fmus").mkdir()
+    os.symlink(fmu_dir / "LandingGear.fmu", tmp_path / "fmus" / "LandingGear.fmu")
+    locate.user_cache().mkdir(parents=True)
+    for model in ("LandingGear", "PistonActuator"):
+        os.symlink(fmu_dir / f"{model}.fmu", locate.user_cache() / f"{model}.fmu")
+    assert locate.fmu_folder(["LandingGear"]) == tmp_path / "fmus"
+    assert locate.fmu_folder(["LandingGear", "PistonActuator"]) == locate.user_cache()
+    frame = mechfmu.simulate("gear_retraction", stop_time=0.1)  # found in the cache
+    assert frame.attrs["fmus"]["gear"]["file"] == str(locate.user_cache() / "LandingGear.fmu")
+
+
+def test_build_writes_into_the_user_cache_and_refuses_unknown_models(tmp_path, monkeypatch, capsys):
+    from mechfmu.packaging import build
+
+    built = []
+    monkeypatch.setattr(build, "build_all", lambda out, *a, **k: built.append(out) or [])
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert cli(["build", "LandingGear"]) == 0 and built == [locate.user_cache()]
+    assert cli(["build", "NoSuchModel"]) == 2
+    assert capsys.readouterr().err == (
+        f"build error: unknown model(s) NoSuchModel; models: {', '.join(MODELS)}\n"
+    )
+    assert len(built) == 1  # nothing compiled for an unknown name
+
+
+def test_output_piped_into_a_reader_that_stops_is_quiet():
+    command = f"{sys.executable} -m mechfmu docs | head -n 2"
+    done = subprocess.run(
+        ["bash", "-o", "pipefail", "-c", command], capture_output=True, text=True, timeout=120
+    )
+    assert done.stdout.startswith("### `LandingGear.fmu`")
+    assert done.stderr == "" and done.returncode == 0
+
+
+def test_fuzz_keeps_its_old_fmus_spelling_as_a_hidden_alias():
+    args = parser().parse_args(["fuzz", "--fmus", "somewhere"])
+    assert args.fmu_dir == "somewhere"
+
+
+def test_sims_runner_help_names_the_script():
+    done = subprocess.run(
+        [sys.executable, str(ROOT / "sims" / "run_sweeps.py"), "--help"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0 and done.stdout.startswith("usage: run_sweeps.py [-h]")
