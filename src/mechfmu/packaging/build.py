@@ -19,6 +19,7 @@ binary, and the build says so. ``embed_python`` adds the build interpreter's own
 from typing import Any
 from collections.abc import Iterator
 import contextlib
+import hashlib
 import importlib
 import importlib.util
 import io
@@ -219,6 +220,14 @@ def _stage_runtime(target: Any, fmi_version: Any, module: str) -> None:
         (target / "fmi" / "binding.py").write_text(FMI3_BINDING)
 
 
+def _variant_tag(starts: dict[str, Any] | None) -> str:
+    """The suffix of the module names of an FMU built with other start values ('' for none):
+    a digest of those values."""
+    if not starts:
+        return ""
+    return "_" + hashlib.sha256(repr(sorted(starts.items())).encode()).hexdigest()[:10]
+
+
 def null_name(name: str) -> str:
     """FMU name of the null variant of model ``name`` (see build_model)."""
     return f"{name}Null"
@@ -347,10 +356,13 @@ def build_model(
     fmu_name = null_name(name) if null else name
     folder = staging / f"{fmu_name}_fmi{fmi_version}"
     folder.mkdir()
-    package = folder / runtime_package(fmu_name, fmi_version)
+    # a variant with other start values gets module names of its own: a process that loads
+    # it next to the plain FMU (both of model ``name``) must not mix their modules
+    tag = _variant_tag(starts)
+    package = folder / (runtime_package(fmu_name, fmi_version) + tag)
     _stage_runtime(package, fmi_version, module)
     inner_module = module.replace("mechfmu.runtime.", f"{package.name}.", 1)
-    script = folder / f"{_entry_module(fmu_name, fmi_version)}.py"
+    script = folder / f"{_entry_module(fmu_name, fmi_version)}{tag}.py"
     script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version, starts))
     builder, options = _builder(fmi_version)
     with _own_modules(package.name):
