@@ -337,6 +337,7 @@ def build_model(
     fmi_version: Any = 2,
     embed: Any = None,
     starts: dict[str, Any] | None = None,
+    experiment: dict[str, float] | None = None,
 ) -> Any:
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
@@ -347,7 +348,8 @@ def build_model(
     ``loader`` is compile_loader's (path or None, message) for ``fmi_version``; None compiles
     it here. ``embed`` is an embed.EmbeddedPython: the FMU then carries that Python runtime.
     ``starts``: start values (variable name -> value) that replace the declared ones, e.g.
-    the parameters and fixed inputs of a scene (the FMUs of ``mechfmu export-cross-check``).
+    the parameters and fixed inputs of a scene (the FMUs of ``mechfmu export-cross-check``);
+    ``experiment``: DefaultExperiment attributes in place of the reference scene's.
     """
     if fmi_version not in FMI_VERSIONS:
         raise ValueError(f"FMI version {fmi_version!r} is not one of {FMI_VERSIONS}")
@@ -379,7 +381,7 @@ def build_model(
     # atomic: a reader never sees a half-written FMU
     return atomic_write(
         Path(out_dir) / f"{fmu_name}.fmu",
-        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking, name),
+        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking, name, experiment),
     )
 
 
@@ -405,6 +407,7 @@ def _rewrite_fmu(
     extra: Any,
     linking: Path,
     model: str | None = None,
+    experiment: dict[str, float] | None = None,
 ) -> bytes:
     """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
     binary_patch; pythonfmu3's library has other code there and is left as built) and, when
@@ -419,7 +422,7 @@ def _rewrite_fmu(
         raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu FMU?")
     if model is not None:
         info, description = members["modelDescription.xml"]
-        members["modelDescription.xml"] = (info, described(description, model))
+        members["modelDescription.xml"] = (info, described(description, model, experiment))
         described_members = self_description(model, fmi_version, linking / "docs")
     else:
         described_members = {}

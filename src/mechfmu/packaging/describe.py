@@ -111,22 +111,27 @@ def default_experiment(name: str) -> dict[str, str]:
     }
 
 
-def described(description: bytes, name: str) -> bytes:
+def described(description: bytes, name: str, experiment: dict[str, float] | None = None) -> bytes:
     """``description`` (a modelDescription.xml) with the package version as its model version
-    and the reference scene's DefaultExperiment, placed where both schemas want it (after
-    LogCategories, before the variables)."""
+    and the reference scene's DefaultExperiment (``experiment``: attributes to use instead,
+    e.g. a finer stepSize), placed where both schemas want it (after LogCategories, before
+    the variables)."""
     root = ElementTree.fromstring(description)
     root.set("version", __version__)
     for old in root.findall("DefaultExperiment"):
         root.remove(old)
-    experiment = ElementTree.Element("DefaultExperiment", default_experiment(name))
-    experiment.tail = "\n\t"
+    attributes = {
+        **default_experiment(name),
+        **{key: repr(float(value)) for key, value in (experiment or {}).items()},
+    }
+    element = ElementTree.Element("DefaultExperiment", attributes)
+    element.tail = "\n\t"
     anchor = root.find("ModelVariables")
     children = list(root)
     position = children.index(anchor) if anchor is not None else len(children)
     if position > 0 and children[position - 1].tag == "VendorAnnotations":
         position -= 1
-    root.insert(position, experiment)
+    root.insert(position, element)
     text = ElementTree.tostring(root, encoding="unicode")
     return ('<?xml version="1.0" encoding="UTF-8"?>\n' + text + "\n").encode("utf-8")
 

@@ -6,17 +6,19 @@ For each model, in ``DIR/fmus/2.0/cs/linux64/mechfmu/<version>/<Model>/``:
 - ``<Model>.fmu``: the model built with the start values its component has in the model's
   reference scene (describe.REFERENCE_SCENES): its parameters, effects and fixed inputs, since
   a cross-check run sets nothing but the inputs of ``_in.csv``;
-- ``<Model>_ref.csv``: the component's columns of the scene's reference CSV, the closed forms
-  of ``mechfmu references`` (never an FMU run), named as the FMU names them;
-- ``<Model>_in.csv`` (models with connected inputs): the input signals our master feeds the
-  component in the scene (the connected sources' outputs at every communication point);
-- ``<Model>_ref.opt``: start time, stop time, step size of the scene and a relative tolerance;
+- ``<Model>_ref.csv``: every output, from the scene's reference computed on the exported grid
+  (numpy closed forms, scipy integrations: never an FMU run; reference_columns), or, for the
+  outputs it has no column for (solver diagnostics), the FMU's own values as fmpy runs it;
+- ``<Model>_in.csv`` (models with inputs): every input as our master feeds it in the scene;
+- ``<Model>_ref.opt``: start time, stop time, the exported step and a relative tolerance;
 - ``<Model>_cc.sh``: the mechfmu commands that made the files; ``ReadMe.md``: what the model
   is, where the reference comes from, and the FMU's documentation (documentation/index.html).
 
 Models without a reference CSV of their own component (HydraulicActuator: its reference scene
-uses the landing gear's built-in actuator) are left out, and the command says so. Files are
-kept under the repository's 1 MB limit: a longer table keeps every n-th row.
+uses the landing gear's built-in actuator) are left out, and the command says so. The tables
+have MAX_ROWS rows (fmpy's cross-check marks longer ones; the repository allows 1 MB per
+file): the exported run takes MAX_ROWS - 1 steps (export_scene), and the FMU's
+DefaultExperiment gives that step to the importing tool.
 """
 
 from __future__ import annotations
@@ -35,12 +37,13 @@ from ..cosim.files import atomic_write
 from ..cosim.master import Simulation
 from ..cosim.scene import SCENE_DIR, ComponentSpec, Scene, load_scene
 from ..cosim.variables import start_value
+from .scene_references import REFERENCES, sample_times
 from ..packaging.build import build_model, compile_loader
 from ..packaging.describe import REFERENCE_SCENES
 from ..runtime.models import MODELS
 
 TOOL, PLATFORM = "mechfmu", "linux64"
-MAX_FILE = 1_000_000  # bytes: the repository's limit for every file but the FMU
+MAX_ROWS = 1000  # rows of a CSV (fmpy's cross-check marks longer ones)
 REL_TOL = 1e-6  # the _ref.opt tolerance (our FMUs integrate with their own rtol parameters)
 
 
@@ -62,81 +65,82 @@ def _csv_text(header: list[str], rows: list[Any]) -> str:
     return buffer.getvalue()
 
 
-def _table(header: list[str], rows: list[Any]) -> str:
-    """CSV text (floats exact); every n-th row (and the last) when all of them would pass
-    MAX_FILE."""
-    every = 1
-    while True:
-        kept = rows[::every]
-        if kept[-1] is not rows[-1]:
-            kept.append(rows[-1])
-        text = _csv_text(header, kept)
-        if len(text.encode()) <= MAX_FILE:
-            return text
-        every += 1
+def _table(columns: dict[str, Any]) -> str:
+    """CSV text of ``columns`` (first: time; floats exact)."""
+    return _csv_text(list(columns), list(zip(*columns.values())))
 
 
-def reference_columns(scene: Scene, component: ComponentSpec) -> dict[str, list[float]]:
-    """The closed-form columns of ``component`` in the scene's reference CSV, by the FMU's
-    variable names (and 'time')."""
-    assert scene.reference is not None, f"scene {scene.name} has no reference CSV"
-    with open(scene.reference, newline="") as handle:
-        rows = list(csv.reader(handle))
-    prefix = f"{component.name}."
-    columns = {"time": [float(row[0]) for row in rows[1:] if row]}
-    for index, name in enumerate(rows[0]):
-        if name.startswith(prefix):
-            columns[name[len(prefix) :]] = [float(row[index]) for row in rows[1:] if row]
-    return columns
+def export_scene(scene: Scene) -> Scene:
+    """The scene at the exported step, recording everything: MAX_ROWS - 1 steps from its
+    start to its stop time, the grid on which fmpy's cross-check draws its band around a
+    reference (np.linspace of MAX_ROWS points), so that a value it compares lies on it; and
+    a step finer than most scenes': a cross-check tool sets each step's inputs at its start
+    (mechfmu's master at its end, from the components already stepped), and the finer step
+    keeps that lag small."""
+    step = (scene.stop_time - scene.start_time) / (MAX_ROWS - 1)
+    return dataclasses.replace(scene, step=step, record=None)
 
 
-def scene_run(scene: Scene, component: ComponentSpec, fmu: Path, fmu_dir: Path | None) -> Any:
-    """Our master's run of the scene, recording every numeric output of ``component`` (the
-    FMU ``fmu``) and the outputs that feed its inputs."""
-    description = read_model_description(str(fmu))
-    outputs = [
-        f"{component.name}.{v.name}"
-        for v in description.modelVariables
-        if v.causality == "output" and v.type != "String"
-    ]
-    feeding = [f"{c.source}.{c.output}" for c in scene.connections if c.target == component.name]
-    return Simulation(dataclasses.replace(scene, record=outputs + feeding), fmu_dir).run()
-
-
-def tables(
+def input_columns(
     scene: Scene, component: ComponentSpec, fmu: Path, fmu_dir: Path | None
-) -> tuple[dict[str, list[float]], dict[str, list[float]] | None, list[str]]:
-    """(reference columns, input columns or None, outputs taken from our own run): every
-    output of the FMU, from the closed form where the scene's reference CSV has it and from our
-    master's run where it does not (solver diagnostics such as iteration counts); every input,
-    as our master feeds it in the scene (a fixed input: its value throughout)."""
-    run = scene_run(scene, component, fmu, fmu_dir)
-    closed = reference_columns(scene, component)
-    if closed["time"] != run.times:
-        raise ValueError(f"scene {scene.name}: the reference CSV is not on the run's time grid")
-    prefix = f"{component.name}."
-    reference, own = {"time": run.times}, []
-    for column, values in run.columns.items():
-        if column.startswith(prefix):
-            name = column[len(prefix) :]
-            reference[name] = closed.get(name, values)
-            if name not in closed:
-                own.append(name)
-    variables = read_model_description(str(fmu)).modelVariables
-    inputs = [v for v in variables if v.causality == "input"]
+) -> dict[str, list[float]] | None:
+    """Every input of the FMU ``fmu`` over the exported grid, as mechfmu's master feeds it in
+    the scene (a fixed input: its value throughout); None for a model without inputs."""
+    inputs = [v for v in read_model_description(str(fmu)).modelVariables if v.causality == "input"]
     if not inputs:
-        return reference, None, own
+        return None
     fed = {
         c.input: f"{c.source}.{c.output}" for c in scene.connections if c.target == component.name
     }
-    signals = {"time": run.times}
+    fine = export_scene(scene)
+    run = Simulation(dataclasses.replace(fine, record=list(fed.values())), fmu_dir).run()
+    columns: dict[str, list[float]] = {"time": run.times}
     for variable in inputs:
         if variable.name in fed:
-            signals[variable.name] = run.columns[fed[variable.name]]
+            columns[variable.name] = run.columns[fed[variable.name]]
         else:
-            start = start_value(variable)
-            signals[variable.name] = [float(start)] * len(run.times)
-    return reference, signals, own
+            columns[variable.name] = [float(start_value(variable))] * len(run.times)
+    return columns
+
+
+def reference_columns(
+    scene: Scene, component: ComponentSpec, fmu: Path, inputs: dict[str, list[float]] | None
+) -> tuple[dict[str, list[float]], list[str]]:
+    """(every numeric output of the FMU over the exported grid, the outputs that have no
+    closed form): the scene's reference computed again on that grid (tools/scene_references:
+    numpy closed forms and scipy integrations, never an FMU run); where it has no column for
+    an output (solver diagnostics such as iteration counts, residuals, work counters; a few
+    energies), the exported FMU's own values, run by fmpy as a cross-check tool runs it (with
+    the inputs ``inputs``)."""
+    import numpy as np
+    from fmpy import simulate_fmu
+
+    fine = export_scene(scene)
+    closed = REFERENCES[scene.name](fine)
+    times = list(sample_times(fine))
+    outputs = [
+        v.name
+        for v in read_model_description(str(fmu)).modelVariables
+        if v.causality == "output" and v.type != "String"
+    ]
+    prefix = f"{component.name}."
+    own = [name for name in outputs if prefix + name not in closed]
+    values: dict[str, Any] = {}
+    if own:
+        table = None
+        if inputs is not None:
+            names = list(inputs)
+            table = np.array(list(zip(*inputs.values())), dtype=[(n, float) for n in names])
+        run = simulate_fmu(
+            str(fmu), stop_time=fine.stop_time, input=table, output=own, validate=False
+        )
+        if len(run) != len(times):
+            raise ValueError(f"{fmu.name}: fmpy ran {len(run)} points, the grid has {len(times)}")
+        values = {name: list(run[name].astype(float)) for name in own}
+    columns = {"time": times}
+    for name in outputs:
+        columns[name] = list(closed[prefix + name]) if name not in own else values[name]
+    return columns, own
 
 
 def starts_of(component: ComponentSpec) -> dict[str, Any]:
@@ -158,10 +162,12 @@ with mechfmu's C loader, which finds any CPython 3.10 or newer on the machine; s
 - Built with the start values its component `{component}` has in the
   mechfmu scene `{scene.name}` (parameters, effects, fixed inputs), so that it needs nothing
   but {"the inputs of `" + model + "_in.csv`" if has_inputs else "its defaults"}.
-- `{model}_ref.csv` is the closed-form reference of that scene (`mechfmu references`: numpy,
-  never an FMU run), the component's columns, from {scene.start_time} s to {scene.stop_time} s{
-        "; the outputs " + ", ".join(f"`{name}`" for name in own) + " have no closed form (solver "
-        "diagnostics): their columns are mechfmu's own run of the scene"
+- `{model}_ref.csv` is the reference of that scene (as `mechfmu references` computes it: numpy
+  closed forms, scipy integrations; never an FMU run) on the exported grid, from
+  {scene.start_time} s to {scene.stop_time} s{
+        "; the outputs " + ", ".join(f"`{name}`" for name in own) + " have none (solver "
+        "diagnostics, counters): their columns are this FMU's own values, run by fmpy as a "
+        "cross-check tool runs it"
         if own
         else ""
     }.
@@ -170,7 +176,11 @@ with mechfmu's C loader, which finds any CPython 3.10 or newer on the machine; s
         if has_inputs
         else ""
     }
-- Step size {scene.step} s (`{model}_ref.opt`); `{model}_cc.sh` has the commands.
+- Step size {export_scene(scene).step!r} s (`{model}_ref.opt`, and the FMU's DefaultExperiment):
+  {MAX_ROWS - 1} steps from start to stop, finer than the scene's {scene.step!r} s for most
+  models, since a cross-check tool sets each step's inputs at its start (mechfmu's master at
+  its end, from the components already stepped).
+- `{model}_cc.sh` has the commands.
 """
 
 
@@ -194,17 +204,24 @@ def export_model(
         return None
     folder = model_folder(out_dir, model)
     folder.mkdir(parents=True, exist_ok=True)
-    fmu = build_model(model, folder, staging, loader=loader, starts=starts_of(component))
-    reference, inputs, own = tables(scene, component, fmu, fmu_dir)
-    atomic_write(
-        folder / f"{model}_ref.csv", _table(list(reference), list(zip(*reference.values())))
+    step = export_scene(scene).step
+    fmu = build_model(
+        model,
+        folder,
+        staging,
+        loader=loader,
+        starts=starts_of(component),
+        experiment={"stepSize": step},
     )
+    inputs = input_columns(scene, component, fmu, fmu_dir)
+    reference, own = reference_columns(scene, component, fmu, inputs)
+    atomic_write(folder / f"{model}_ref.csv", _table(reference))
     if inputs is not None:
-        atomic_write(folder / f"{model}_in.csv", _table(list(inputs), list(zip(*inputs.values()))))
+        atomic_write(folder / f"{model}_in.csv", _table(inputs))
     options = {
         "StartTime": scene.start_time,
         "StopTime": scene.stop_time,
-        "StepSize": scene.step,
+        "StepSize": step,
         "RelTol": REL_TOL,
     }
     atomic_write(
