@@ -27,7 +27,7 @@ endif
 
 .PHONY: run test test-fast lint fmus references report study work-precision bench sweeps \
 	docs clean lock test-latest test-portable test-other-python test-subset tolerances \
-	boundary cross-check
+	boundary cross-check fuzz-inputs
 
 $(VENV)/.installed: pyproject.toml requirements.lock.txt
 	@echo "installing mechfmu and its locked dependencies into $(VENV)/ (log: $(VENV)/install.log)"
@@ -91,12 +91,13 @@ test-latest:
 # The numeric layers (physics, references, FMU runs against references, scenes, small
 # studies and sweeps) with numpy's SIMD dispatch narrowed as on other CPUs: without AVX-512,
 # then without AVX2 and FMA as well (tests/portable.py lists what this CPU has of them).
-PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.py \
+PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_cam_geometry.py tests/test_camshaft.py \
+	tests/test_physics_landing_gear.py \
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_hard_cases.py \
 	tests/test_integrators.py tests/test_planar.py tests/test_four_bar_boundary.py \
 	tests/test_gear_dynamics.py tests/test_suspension_dynamics.py tests/test_valve_spring.py \
-	tests/test_exact_valve.py \
+	tests/test_exact_valve.py tests/test_link_forces.py tests/test_force_fmus.py \
 	tests/test_scenes.py tests/test_outputs.py tests/test_fmus.py tests/test_linkage_fmus.py \
 	tests/test_coupling.py tests/test_study.py tests/test_sweep.py \
 	tests/test_sweep_references.py tests/test_portable.py tests/test_tolerances.py
@@ -110,7 +111,8 @@ test-portable: $(FMUS)/.built
 # under `pyenv root`/versions), each in its own .venv-X.Y and fmus-X.Y.
 OTHER_PYTHONS ?= 3.10 3.12 3.13
 PYENV_ROOT ?= $(shell pyenv root 2>/dev/null || echo $(HOME)/.pyenv)
-OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_physics_landing_gear.py \
+OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_cam_geometry.py \
+	tests/test_physics_landing_gear.py \
 	tests/test_physics_linkages.py tests/test_physics_profiles.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
 	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
@@ -132,7 +134,8 @@ test-subset: $(FMUS)/.built
 	$(PY) -m pytest -q -p no:cacheprovider $(TESTS)
 
 references: $(VENV)/.installed
-	$(VENV)/bin/mechfmu references --out src/mechfmu/scenes/reference
+	$(VENV)/bin/mechfmu references --out src/mechfmu/scenes/reference \
+		--tables src/mechfmu/scenes/tables
 
 # What each shipped scene's check tolerance rests on (docs/checks.md): every scene run on each
 # CPython that has a venv here (and with the C library's FMA and AVX2 variants off), every
@@ -183,13 +186,28 @@ cross-check: $(FMUS)/.built
 	MECHFMU_CROSS_CHECK_MODELS="$(CROSS_CHECK_MODELS)" $(PY) -m pytest -q -p no:cacheprovider \
 		tests/test_cross_check.py
 
+# The hostile-input fuzzing at length (the suite runs a short budget of each): the hypothesis
+# harness with 50 times the suite's examples, 1000 SIGKILLs of result writers, then atheris
+# (coverage-guided; CPython 3.11-3.13) for FUZZ_SECONDS on scenes, results and FMU archives,
+# its corpus and any failing input under out/fuzz-inputs/.
+FUZZ_SECONDS ?= 600
+fuzz-inputs: $(FMUS)/.built
+	MECHFMU_FUZZ_EXAMPLES=50 $(PY) -m pytest -q -p no:cacheprovider tests/test_input_fuzz.py
+	MECHFMU_PAIR_KILLS=1000 $(PY) -m pytest -q -p no:cacheprovider tests/test_result_pairs.py
+	@if $(PY) -c 'import atheris' 2>/dev/null; then \
+		mkdir -p out/fuzz-inputs/corpus && \
+		$(PY) tests/atheris_inputs.py -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096 \
+			-artifact_prefix=$(CURDIR)/out/fuzz-inputs/ $(CURDIR)/out/fuzz-inputs/corpus; \
+	else echo "atheris is not installed for this Python (CPython 3.11-3.13 only): skipped"; fi
+
 # The shipped parameter sweeps, checked against their references (out/sweeps/summary.md).
 sweeps: $(FMUS)/.built
 	$(PY) sims/run_sweeps.py
 
 # The docs site into site/ (open site/index.html); strict: a broken link or reference fails.
-# The variables hush a banner of the mkdocs 1.x plugins about a future mkdocs 2.
-docs: $(VENV)/.installed
+# The FMUs run the model pages' animations. The variables hush a banner of the mkdocs 1.x
+# plugins about a future mkdocs 2.
+docs: $(FMUS)/.built
 	NO_MKDOCS_2_WARNING=1 DISABLE_MKDOCS_2_WARNING=true $(VENV)/bin/mkdocs build --strict
 
 clean:

@@ -5,7 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from mechfmu.cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
+from mechfmu.cosim.locate import fmu_folder
+from mechfmu.cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR, SceneError
 from mechfmu.packaging.build import build_all
 from mechfmu.runtime.models import MODELS
 
@@ -18,11 +19,15 @@ SWEEPS = SWEEP_DIR
 
 @pytest.fixture(scope="session")
 def fmu_dir():
-    """fmus/ as built by `make fmus`; built here when missing (e.g. a bare `pytest`)."""
-    missing = [name for name in MODELS if not (FMU_DIR / f"{name}.fmu").is_file()]
-    if missing:
+    """The built FMUs, found by the rule every command follows (cosim/locate.py:
+    $MECHFMU_FMU_DIR, which make sets, ./fmus, the checkout's, the user cache); built into
+    FMU_DIR when none holds them all (e.g. a bare `pytest` on a fresh clone)."""
+    try:
+        return fmu_folder(MODELS)
+    except SceneError:
+        missing = [name for name in MODELS if not (FMU_DIR / f"{name}.fmu").is_file()]
         build_all(FMU_DIR, missing)
-    return FMU_DIR
+        return FMU_DIR
 
 
 @pytest.fixture(scope="session")
@@ -56,10 +61,14 @@ LAYERS = {
     "test_integrators.py": "unit",
     "test_planar.py": "unit",
     "test_planar_kernel.py": "unit",
+    "test_link_forces.py": "unit",
     "test_physics_cam_valve.py": "unit",
     "test_cam_geometry.py": "unit",
+    "test_cam_design.py": "unit",
+    "test_camshaft.py": "unit",
     "test_physics_landing_gear.py": "unit",
     "test_physics_linkages.py": "unit",
+    "test_joint_positions.py": "unit",  # the geometry effect's points, drawings, frames
     "test_physics_profiles.py": "unit",
     "test_physics_suspension.py": "unit",
     "test_references.py": "unit",
@@ -72,10 +81,14 @@ LAYERS = {
     "test_docs.py": "unit",
     "test_work_precision.py": "unit",
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)
+    "test_hostile_inputs.py": "unit",
+    "test_result_pairs.py": "unit",
+    "test_input_fuzz.py": "fmu",
     "test_compare.py": "unit",
     "test_import_graph.py": "unit",
     "test_tolerances.py": "unit",
     "test_api.py": "fmu",
+    "test_animate.py": "fmu",  # animations of the shipped scenes, files, the commands
     "test_baseline.py": "fmu",
     "test_check_cli.py": "fmu",
     "test_readme.py": "fmu",
@@ -87,6 +100,7 @@ LAYERS = {
     "test_coupling.py": "fmu",
     "test_four_bar_boundary.py": "fmu",
     "test_fmus.py": "fmu",
+    "test_force_fmus.py": "fmu",
     "test_interrupts.py": "fmu",
     "test_linkage_fmus.py": "fmu",
     "test_cam_fmu.py": "fmu",

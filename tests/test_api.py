@@ -141,7 +141,7 @@ def test_unknown_scene_and_missing_fmus_say_what_to_do(tmp_path):
     with pytest.raises(
         SceneError,
         match="no shipped scene named 'gear_retract' and no such "
-        "file; shipped scenes: four_bar_crank_rocker, ",
+        "file; shipped scenes: camshaft_inline_four, four_bar_crank_rocker, ",
     ):
         mechfmu.simulate("gear_retract")
     with pytest.raises(

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import mechfmu
+from mechfmu.cli import main as cli
 from mechfmu.cosim.master import SimulationError
 from mechfmu.cosim.scene import find_file, load_scene
 from mechfmu.runtime.physics import cam_geometry as cg
@@ -44,7 +45,9 @@ def follower_of(parameters):
 
 
 def test_effect_off_costs_no_output(fmu_dir):
-    scene = scene_recording("valve_train", *DESIGN_OUTPUTS, "pressure_angle")
+    scene = scene_recording(
+        "valve_train", *DESIGN_OUTPUTS, "pressure_angle", "pitch_radius_of_curvature"
+    )
     table = mechfmu.simulate(scene, parameters={"valve.cam_geometry": False}, stop_time=0.002)
     for name in DESIGN_OUTPUTS:
         assert (table[f"valve.{name}"] == -1.0).all()
@@ -171,3 +174,15 @@ def test_valve_spring_torque_balances_the_contact_power(fmu_dir):
     peak = np.max(np.abs(torque))
     assert peak > 1.0
     np.testing.assert_allclose(torque * speed, power, rtol=1e-9, atol=1e-9 * peak * speed[0])
+
+
+def test_camshaft_example_compares_the_sequences(fmu_dir, tmp_path, capsys):
+    status = cli(
+        ["example", "camshaft", "--out", str(tmp_path), "--fmu-dir", str(fmu_dir), "--no-plot"]
+    )
+    out = capsys.readouterr().out
+    assert status == 0
+    assert "| firing order 1-3-4-2 | 18.627 | 6.801 |" in out
+    assert "| firing order 1-2-3-4 | 18.627 | 6.801 |" in out
+    assert "| crank-throw angles 0-180-180-0 (not halved) | 37.60" in out
+    assert (tmp_path / "camshaft_torque.png").read_bytes()[:4] == b"\x89PNG"

@@ -11,6 +11,7 @@ from conftest import REFERENCES
 
 from mechfmu.cli import main as cli
 from mechfmu.io import read_result, write_result
+from mechfmu.tools.report.checks import plot_name
 
 SCENES = ["gear_retraction", "suspension_load_ramp", "valve_train"]
 
@@ -241,10 +242,11 @@ def test_report_has_a_plot_of_every_failing_column(trees, capsys, tmp_path):
     assert code == 1 and f"report: {report / 'index.html'}" in out
     page = (report / "index.html").read_text()
     pngs = sorted(path.name for path in report.glob("*.png"))
-    assert pngs == [
-        "valve_valve_train.csv__valve.contact_force.png",
-        "valve_valve_train.csv__valve.valve_lift.png",
-    ]
+    assert pngs == sorted(
+        plot_name("valve/valve_train.csv", column)
+        for column in ("valve.contact_force", "valve.valve_lift")
+    )
+    assert pngs[0].startswith("valve_valve_train.csv__valve.contact_force-")
     for name in pngs:
         assert f'<img src="{name}"' in page
         assert (report / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

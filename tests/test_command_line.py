@@ -110,11 +110,15 @@ def test_run_set_changes_the_run_as_the_api_and_the_closed_form_do(fmu_dir, tmp_
         "actuator.stroke_time=2.0",
         "--set",
         "actuator.profile=cycloidal",
+        "--check",
         "--no-plot",
         cwd=tmp_path,
         timeout=300,
     )
     assert done.returncode == 0, done.stdout + done.stderr
+    # checked against the closed form of the new parameters, not the scene's own CSV
+    assert "against the reference recomputed for --set (declared by the reference: " in done.stdout
+    assert "): match: 6 column(s), 301 sample(s)" in done.stdout
     result = read_result(tmp_path / "out" / "gear_retraction.csv")
     parameters = {"actuator.stroke_time": 2.0, "actuator.profile": "cycloidal"}
     assert result.attrs["parameters"] == parameters

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from PIL import Image
 
 from conftest import ROOT, SCENES
 from mechfmu.io import read_csv
@@ -70,9 +71,14 @@ def test_reference_plots_label_every_real_column_with_its_declared_unit():
     assert gear["actuator.piston_speed"] == "m/s"
 
 
-def test_docs_site_builds_strictly(tmp_path):
+def test_docs_site_builds_strictly(tmp_path, fmu_dir):
     site = tmp_path / "site"
-    env = dict(os.environ, NO_MKDOCS_2_WARNING="1", DISABLE_MKDOCS_2_WARNING="true")
+    env = dict(
+        os.environ,
+        NO_MKDOCS_2_WARNING="1",
+        DISABLE_MKDOCS_2_WARNING="true",
+        MECHFMU_FMU_DIR=str(fmu_dir),  # the model pages' animations run the FMUs
+    )
     done = subprocess.run(
         [sys.executable, "-m", "mkdocs", "build", "--strict", "--site-dir", str(site)],
         cwd=ROOT,
@@ -99,6 +105,18 @@ def test_docs_site_builds_strictly(tmp_path):
                 assert image.is_file() and image.stat().st_size > 1000, (path, source)
                 images += 1
     assert images >= 20  # the models' reference plots and the study's
+    # each mechanism's page shows its reference scene moving
+    frames = {path.name: Image.open(path).n_frames for path in (site / "moving").glob("*.gif")}
+    assert len(frames) == 7 and min(frames.values()) > 10, frames
+    showing = {path.stem for path, text in pages.items() if 'src="../moving/' in text}
+    assert showing == {
+        "four_bar",
+        "slider_crank",
+        "landing_gear",
+        "suspension",
+        "valve_train",
+        "valve_spring",
+    }
     assert links_from_disk(site, pages) > 1000
 
 

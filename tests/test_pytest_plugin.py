@@ -125,3 +125,34 @@ def test_an_unreadable_baseline_is_one_line(pytester):
         ]
     )
     assert "Traceback" not in result.stdout.str()
+
+
+DECLARED = """
+import numpy as np
+import pandas as pd
+
+
+def test_declared(mechfmu_regression):
+    times = np.linspace(0.0, 1.0, 11)
+    frame = pd.DataFrame({{"a.x": {amplitude} * np.sin(times)}}, index=pd.Index(times, name="time"))
+    frame.attrs["check"] = {{"rtol": 1e-3, "why": "a scene's [check], as simulate carries it"}}
+    mechfmu_regression.check(frame)
+"""
+
+
+def test_the_baseline_keeps_the_declared_tolerance_and_the_check_applies_it(pytester):
+    """A DataFrame from mechfmu.simulate carries its scene's [check]; the baseline stores it in
+    its JSON and later checks apply it (here 1e-3 relative, not the default 1e-9)."""
+    pytester.makepyfile(test_declared=DECLARED.format(amplitude=1.0))
+    pytester.runpytest("-p", "no:cacheprovider").assert_outcomes(failed=1)  # baseline written
+    assert read_result(pytester.path / "test_declared" / "test_declared.csv").attrs["check"][
+        "rtol"
+    ] == pytest.approx(1e-3)
+    pytester.makepyfile(test_declared=DECLARED.format(amplitude=1.0005))
+    pytester.runpytest("-p", "no:cacheprovider").assert_outcomes(passed=1)
+    pytester.makepyfile(test_declared=DECLARED.format(amplitude=1.002))
+    result = pytester.runpytest("-p", "no:cacheprovider")
+    result.assert_outcomes(failed=1)
+    result.stdout.fnmatch_lines(
+        ["*differs from the baseline*declared by the reference: rtol 0.001*"]
+    )

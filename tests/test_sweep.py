@@ -679,7 +679,10 @@ def dask_scheduler(tmp_path_factory):
     ]
     try:
         deadline = time.monotonic() + 60
-        while not scheduler_file.is_file() and time.monotonic() < deadline:
+        # the file appears before dask has written it: wait for its content too
+        while time.monotonic() < deadline and not (
+            scheduler_file.is_file() and scheduler_file.read_text().rstrip().endswith("}")
+        ):
             time.sleep(0.1)
         address = json.loads(scheduler_file.read_text())["address"]
         assert address.startswith("tcp://127.0.0.1:")

@@ -158,7 +158,12 @@ def test_each_shipped_table_follows_the_rule_written_in_its_why(name):
         peak = float(np.max(np.abs(reference[column])))
         entry = scene.check.columns.get(column)
         if peak > 0:
-            assert entry.atol == pytest.approx(round_up(scene.check.rtol * peak)), column
+            expected = round_up(scene.check.rtol * peak)
+            found = entry.atol if entry is not None else None
+            assert found == pytest.approx(expected), (
+                f"{name}: [check.columns] {column!r} = {{ atol = {expected:g} }} by the rule, "
+                f"found {found}; 'make tolerances' measures the scene and prints its table"
+            )
 
 
 def test_the_rule_rounds_ten_times_the_worst_total_up_to_a_power_of_ten():

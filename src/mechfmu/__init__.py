@@ -8,6 +8,8 @@ host side. The Python API returns pandas DataFrames::
     ref = mechfmu.reference("gear_retraction")        # its closed form on the same grid
     mechfmu.write_result(df, "out/gear.csv")          # the CSV + JSON pair of mechfmu run
     df = mechfmu.read_result("out/gear.csv")
+    cam = mechfmu.cam_profile("valve_train")         # the valve train's cam, one row per angle
+    mechfmu.animate(mechfmu.simulate("four_bar_crank_rocker", geometry=True))  # see it move
 
 The API is imported on first use, so ``import mechfmu`` (and the command line) stays light.
 """
@@ -21,7 +23,9 @@ __version__ = "0.1.0"
 _API = {
     "simulate": "api",
     "reference": "api",
+    "cam_profile": "tools.cam_design",
     "sweep": "api",
+    "animate": "tools.animate",
     "read_result": "io",
     "write_result": "io",
     "read_table": "io",
@@ -32,8 +36,10 @@ _API = {
 
 __all__ = [
     "Comparison",
+    "animate",
     "ResultFileError",
     "__version__",
+    "cam_profile",
     "compare",
     "read_result",
     "read_table",
@@ -47,6 +53,8 @@ if TYPE_CHECKING:
     from .api import reference, simulate, sweep
     from .comparison import Comparison, compare
     from .io import ResultFileError, read_result, read_table, write_result
+    from .tools.cam_design import cam_profile
+    from .tools.animate import animate
 
 
 def __getattr__(name: str) -> Any:

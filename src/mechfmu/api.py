@@ -10,8 +10,6 @@ Pa, ...); ``df.attrs["units"]`` names the unit of each column.
 
 from __future__ import annotations
 
-import copy
-import math
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from os import PathLike
@@ -21,65 +19,18 @@ from typing import Any
 import numpy
 import pandas
 
+from .cosim import limits
 from .cosim.interrupt import InterruptGuard
 from .cosim.locate import scene_fmu_folder
 from .cosim.master import Simulation, SimulationInterrupted, parameter_values
 from .cosim.results import versions
-from .cosim.run import simulate as run_simulation
-from .cosim.scene import (
-    SCENE_DIR,
-    Scene,
-    SceneError,
-    apply_parameters,
-    check_times,
-    find_file,
-    load_scene,
-)
+from .cosim.run import choose_scene, simulate as run_simulation
+from .cosim.scene import Scene, SceneError, apply_parameters, load_scene
 
 __all__ = ["reference", "simulate", "sweep"]
 
 SceneLike = str | PathLike | Scene
 StrPath = str | PathLike
-
-
-def _scene(
-    scene: SceneLike,
-    start_time: float | None = None,
-    stop_time: float | None = None,
-    step: float | None = None,
-) -> Scene:
-    """The Scene ``scene`` names (a Scene, a path, or a shipped scene's name), with the given
-    times replacing its own (checked as in the scene file: a whole number of steps)."""
-    overrides = {
-        key: value
-        for key, value in (("start_time", start_time), ("stop_time", stop_time), ("step", step))
-        if value is not None
-    }
-    if isinstance(scene, Scene):
-        chosen = copy.deepcopy(scene)
-        for key, value in overrides.items():
-            if (
-                isinstance(value, bool)
-                or not isinstance(value, (int, float))
-                or not math.isfinite(value)
-            ):
-                raise SceneError(f"{key} = {value!r} must be a finite number")
-            setattr(chosen, key, float(value))
-        check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
-        return chosen
-    if not isinstance(scene, (str, PathLike)):
-        raise TypeError(
-            f"scene must be a shipped scene's name, a scene file or a Scene, got "
-            f"{type(scene).__name__}"
-        )
-    path = find_file(str(scene))
-    if not path.exists() and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
-        shipped = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
-        raise SceneError(
-            f"no shipped scene named {str(scene)!r} and no such file; shipped "
-            f"scenes: {', '.join(shipped)}"
-        )
-    return load_scene(path, overrides)
 
 
 def _plain(value: Any) -> Any:
@@ -88,8 +39,14 @@ def _plain(value: Any) -> Any:
 
 
 def _plain_parameters(parameters: Mapping[str, Any] | None) -> dict[str, Any]:
-    """``parameters`` with string keys and numpy scalars as Python numbers."""
-    return {str(name): _plain(value) for name, value in (parameters or {}).items()}
+    """``parameters`` with numpy scalars as Python numbers (apply_parameters
+    checks names and values); SceneError when it is not a mapping."""
+    if parameters is not None and not isinstance(parameters, Mapping):
+        raise SceneError(
+            f"parameters must map 'component.parameter' names to values, got "
+            f"{type(parameters).__name__} {limits.shortened(parameters)}"
+        )
+    return {name: _plain(value) for name, value in (parameters or {}).items()}
 
 
 def _fmu_versions(simulation: Simulation) -> dict[str, dict[str, Any]]:
@@ -133,6 +90,7 @@ def simulate(
     stop_time: float | None = None,
     step: float | None = None,
     fmu_dir: StrPath | None = None,
+    geometry: bool = False,
 ) -> pandas.DataFrame:
     """Run ``scene`` and return its recorded variables as a DataFrame.
 
@@ -143,7 +101,8 @@ def simulate(
     sets may be given the same way. ``start_time``, ``stop_time`` and ``step`` (s) replace
     the scene's. ``fmu_dir``: the folder of the built FMUs (default: the first of
     $MECHFMU_FMU_DIR, ./fmus, the source checkout's and the user cache that holds them:
-    mechfmu.cosim.locate).
+    mechfmu.cosim.locate). ``geometry``: switch the geometry effect on in every mechanism
+    component and record its outputs (the joints' positions that mechfmu.animate draws).
 
     Returns a DataFrame indexed by ``time`` (s), one float64 column per recorded variable
     named ``component.variable`` as in the CSV of ``mechfmu run``, and in ``attrs``:
@@ -161,13 +120,22 @@ def simulate(
     ``result`` holds the rows computed before). Ctrl-C (SIGINT, in the main thread) stops
     the run between two steps, frees the FMU instances and raises KeyboardInterrupt.
     """
-    chosen = _scene(scene, start_time, stop_time, step)
+    times: dict[str, float | None] = {
+        "start_time": start_time,
+        "stop_time": stop_time,
+        "step": step,
+    }
+    if geometry:  # the geometry effect on in every mechanism, its outputs recorded
+        from .tools.animate import with_geometry
+
+        scene, times = with_geometry(choose_scene(scene, **times)), {}
     overrides = _plain_parameters(parameters)
     with InterruptGuard() as guard:  # Ctrl-C: taken between steps, every instance freed
         try:
-            simulation, result = run_simulation(chosen, fmu_dir, overrides, guard)
+            simulation, result = run_simulation(scene, fmu_dir, overrides, guard, **times)
         except SimulationInterrupted as stopped:
             raise KeyboardInterrupt(str(stopped)) from None
+    chosen = simulation.scene
     return frame(
         result.times,
         result.columns,
@@ -191,6 +159,30 @@ def simulate(
     )
 
 
+def configured_scene(
+    scene: SceneLike,
+    parameters: Mapping[str, Any] | None = None,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+) -> Scene:
+    """The Scene ``scene`` names (a shipped scene's name, a scene file or a Scene, copied)
+    with ``parameters`` ({"component.parameter": value}) and the times (s) applied, the
+    names checked against the models' declarations: no FMU is needed. SceneError for an
+    unknown component or a parameter the model does not declare."""
+    from .tools.docs import model_class
+
+    chosen = choose_scene(scene, start_time, stop_time, step)
+
+    def declared(spec: Any) -> tuple[str, list[str]]:
+        model: Any = model_class(Path(spec.fmu).stem)
+        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
+        return Path(spec.fmu).stem, names
+
+    apply_parameters(chosen, _plain_parameters(parameters), declared)
+    return chosen
+
+
 def reference(
     scene: SceneLike,
     *,
@@ -211,24 +203,17 @@ def reference(
     FMU is needed. SceneError for a scene without a reference, an unknown component or
     a parameter the model does not declare.
     """
-    from .tools.docs import declared_units, model_class
+    from .tools.docs import declared_units
     from .tools.scene_references import REFERENCES, sample_times
 
-    chosen = _scene(scene, start_time, stop_time, step)
+    overrides = _plain_parameters(parameters)
+    chosen = configured_scene(scene, overrides, start_time, stop_time, step)
     build = REFERENCES.get(chosen.name)
     if build is None:
         raise SceneError(
             f"scene {chosen.name} ({chosen.path}) has no closed-form reference; "
             f"scenes with one: {', '.join(REFERENCES)}"
         )
-
-    def declared(spec: Any) -> tuple[str, list[str]]:
-        model: Any = model_class(Path(spec.fmu).stem)
-        names = [v.name for v in model.VARIABLES if v.causality == "parameter"]
-        return Path(spec.fmu).stem, names
-
-    overrides = _plain_parameters(parameters)
-    apply_parameters(chosen, overrides, declared)
     columns = build(chosen)
     return frame(
         sample_times(chosen),

@@ -91,10 +91,13 @@ class CheckRun:
 
     @property
     def exit_code(self) -> int:
-        """0 every file matches, 1 any mismatch, 2 nothing comparable (no pair of files)."""
-        if self.error or not any(f.result and f.reference for f in self.files):
+        """0 every file matches, 1 any mismatch (a missing or malformed file too), 2 nothing
+        comparable (the paths cannot be compared, or no file has a reference)."""
+        if self.error:
             return 2
-        return 0 if all(f.passed for f in self.files) else 1
+        if not all(f.passed for f in self.files):
+            return 1
+        return 0 if any(f.result and f.reference for f in self.files) else 2
 
     def summary(self) -> str:
         """The last line ``mechfmu check`` prints."""
@@ -106,7 +109,7 @@ class CheckRun:
         text = f"{len(self.files)} file(s): {matched} match, {failed} mismatch"
         if skipped:
             text += f", {skipped} without reference (not compared)"
-        if not any(f.result and f.reference for f in self.files):
+        if self.exit_code == 2:
             text += "; nothing to compare"
         return text
 

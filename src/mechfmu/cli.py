@@ -12,11 +12,14 @@ from typing import TYPE_CHECKING
 import argparse
 import os
 import sys
+import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
 from . import __version__
 from .cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR
+from .cosim import limits
+from .cosim.text import one_line
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .cosim.files import OutputError
@@ -39,7 +42,8 @@ def parse_assignments(texts: list[str]) -> dict[str, Any]:
     """``--set`` values: each ``component.parameter=value`` as {name: value}, the value read
     as a TOML value when it parses as one (``2.5``, ``true``, ``"cycloidal"``, ``[1, 2]``),
     else taken as a bare string (``cycloidal``). ValueError naming the text for one without
-    ``=`` or without a name; the names and values are checked against the scene and its
+    ``=`` or without a name, or a value beyond mechfmu.cosim.limits (nesting, digits); the
+    names and values are checked against the scene and its
     FMUs where they are applied (cosim.scene.apply_parameters), as the API's are."""
     if sys.version_info >= (3, 11):
         import tomllib
@@ -55,6 +59,9 @@ def parse_assignments(texts: list[str]) -> dict[str, Any]:
                 f"--set {text!r}: expected component.parameter=value (e.g. "
                 f"actuator.stroke_time=2.5)"
             )
+        problem = limits.scan_problem(value, limits.MAX_TOML_DEPTH, "toml")
+        if problem:  # before tomllib, whose recursion a deep value would exhaust
+            raise ValueError(f"--set {limits.shortened(text)}: {problem.split(': ', 1)[-1]}")
         try:
             assignments[name] = tomllib.loads(f"value = {value}")["value"]
         except tomllib.TOMLDecodeError:
@@ -109,7 +116,7 @@ def _scene_failure(
 
     if isinstance(error, (SceneError, OutputError)):
         kind = "scene" if isinstance(error, SceneError) else "output"
-        print(f"{kind} error: {error}", file=sys.stderr)
+        print(f"{kind} error: {one_line(str(error))}", file=sys.stderr)
         return exit_code(guard.take()) if guard is not None and guard.requested else 2
     interrupted = isinstance(error, SimulationInterrupted)
     print(f"{'' if interrupted else 'simulation failed: '}{error}", file=sys.stderr)
@@ -207,11 +214,16 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
     from .cosim.interrupt import exit_code, signal_name
     from .cosim.master import SimulationError
     from .cosim.run import run_scene
-    from .cosim.scene import SceneError
+    from .cosim.scene import Scene, SceneError, load_scene
 
     try:
+        scene: Path | Scene = scene_path
+        if getattr(args, "animate", None):
+            from .tools.animate import with_geometry
+
+            scene = with_geometry(load_scene(scene_path))
         result, paths = run_scene(
-            scene_path,
+            scene,
             args.out,
             args.fmu_dir,
             plot=not args.no_plot,
@@ -230,18 +242,87 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
         )
         return exit_code(guard.signum)
     reference = args.reference or (result.scene.reference if args.check else None)
-    try:
-        lines, comparison = run_report(result, paths, reference, args.rtol, args.atol)
-    except ValueError as error:  # a malformed reference CSV (ResultFileError names it)
-        print(f"check error: {error}", file=sys.stderr)
-        for kind, path in paths.items():
-            print(f"  {kind}: {path}", file=sys.stderr)
-        return 2
+    label = "reference"
+    with tempfile.TemporaryDirectory(prefix="mechfmu-reference-") as scratch:
+        try:
+            if args.check and args.parameters and not args.reference and reference:
+                # the shipped CSV is for the scene's own parameters: computed afresh for these
+                reference = _recomputed_reference(result.scene, Path(scratch))
+                label = "reference recomputed for --set"
+            lines, comparison = run_report(result, paths, reference, args.rtol, args.atol, label)
+        except ValueError as error:  # a malformed reference CSV (ResultFileError names it)
+            print(f"check error: {error}", file=sys.stderr)
+            for kind, path in paths.items():
+                print(f"  {kind}: {path}", file=sys.stderr)
+            return 2
     print("\n".join(lines))
     note = ended_note(result.meta)
     if note:
         print(note)
-    return 0 if comparison is None or comparison.ok else 1
+    status = 0 if comparison is None or comparison.ok else 1
+    if getattr(args, "animate", None):
+        animation = paths["csv"].with_suffix("." + args.animate)
+        return max(status, _animate_result(paths["csv"], animation))
+    return status
+
+
+def _animate_result(
+    result: Path | str,
+    out: Path | str,
+    speed: float = 1.0,
+    fps: float | None = None,
+    panels: list[str] | None = None,
+    width: int | None = None,
+) -> int:
+    """Write the animation of the result CSV ``result`` to ``out`` and say so; the exit
+    status (2 when it cannot be animated or written)."""
+    from .cosim.files import OutputError
+    from .tools.animate import DEFAULT_FPS, DEFAULT_WIDTH, animate, speed_hint
+
+    try:
+        animation = animate(
+            result,
+            speed=speed,
+            fps=DEFAULT_FPS if fps is None else fps,
+            panels=panels or (),
+            width=DEFAULT_WIDTH if width is None else width,
+        )
+        path = animation.save(out)
+    except (ValueError, OutputError) as error:  # AnimationError, ResultFileError
+        print(f"animate error: {error}", file=sys.stderr)
+        return 2
+    times = animation.frame_times
+    print(
+        f"  animation: {path} ({len(animation)} frames at {animation.fps:g} frames/s, "
+        f"speed {animation.schedule.speed:g}: t = {times[0]:g} .. {times[-1]:g} s)"
+    )
+    hint = speed_hint(animation)
+    if hint:
+        print(f"  note: {hint}")
+    return 0
+
+
+def _animate(args: argparse.Namespace) -> int:
+    out = args.out or Path(args.result).with_suffix(".gif")
+    return _animate_result(args.result, out, args.speed, args.fps, args.panel, args.width)
+
+
+def _recomputed_reference(scene: Any, folder: Path) -> Path:
+    """The closed-form reference of ``scene`` (its parameters as set) as a CSV with its JSON
+    (the scene's check tolerances) in ``folder``; SceneError (a ValueError) saying what to do
+    for a scene without one."""
+    from .api import reference
+    from .cosim.scene import SceneError
+    from .io import write_result
+
+    try:
+        table = reference(scene)
+    except SceneError as error:
+        raise SceneError(
+            f"--check with --set compares with the reference computed for the new "
+            f"parameters, and {error}; run without --check, or give --reference CSV"
+        ) from None
+    return write_result(table, folder / f"{scene.name}.csv")
 
 
 def _checkpoints(args: argparse.Namespace) -> Any:
@@ -273,6 +354,7 @@ EXAMPLES = {
     "suspension": ("out", "suspension load ramp past the limit load: snap-through"),
     "suspension_dynamics": ("out", "road bump and sudden load against solve_ivp"),
     "valve_train": ("out", "valve train forward, inverse and valve float"),
+    "camshaft": ("out", "a whole camshaft's torque, firing order against wrong sequences"),
     "sweeps": ("out/sweeps", "the shipped sweeps against their references (make sweeps)"),
 }
 
@@ -353,7 +435,7 @@ def _check(args: Any) -> int:
         ignore_extra=args.ignore_extra,
     )
     for check in run.files:
-        print(check.line())
+        print(one_line(check.line()))
     for key in run.unused_tolerances():
         print(f"check warning: --tol {key} matches no column", file=sys.stderr)
     print(run.summary(), file=sys.stderr if run.error else sys.stdout)
@@ -391,11 +473,14 @@ def _baseline_update(args: argparse.Namespace) -> int:
 
 def _references(args: Any) -> int:
     from .cosim.files import OutputError, output_folder
-    from .tools.scene_references import generate
+    from .tools.scene_references import generate, generate_tables
 
     try:
         for path in generate(args.scenes, output_folder(args.out)):
             print(f"wrote {path} (and its JSON)")
+        if args.tables is not None:
+            for path in generate_tables(output_folder(args.tables)):
+                print(f"wrote {path}")
     except OutputError as error:
         print(f"output error: {error}", file=sys.stderr)
         return 2
@@ -477,6 +562,51 @@ def _docs(args: Any) -> int:
     except (OSError, ValueError) as error:
         print(f"docs error: {error}", file=sys.stderr)
         return 2
+    return 0
+
+
+def _cam_setup_failure(error: Exception) -> int:
+    print(f"cam error: {error}", file=sys.stderr)
+    return 2
+
+
+def _cam_profile(args: argparse.Namespace) -> int:
+    from .cosim.files import OutputError
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_profile, summary_markdown, write_cam_files
+
+    try:
+        table = cam_profile(args.scene, parse_assignments(args.set), args.component, args.points)
+        paths = write_cam_files(table, args.out)
+    except OutputError as error:
+        print(f"output error: {error}", file=sys.stderr)
+        return 2
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    print(summary_markdown(table), end="")
+    for kind, path in paths.items():
+        print(f"{kind}: {path}")
+    return 1 if table.attrs["design"]["problems"] else 0
+
+
+def _cam_size(args: argparse.Namespace) -> int:
+    from .cosim.scene import SceneError
+    from .runtime.errors import MechanismError
+    from .tools.cam_design import cam_setup_of, smallest_base_circle
+
+    try:
+        setup = cam_setup_of(args.scene, parse_assignments(args.set), args.component)
+        sizing = smallest_base_circle(setup, args.min_radius_of_curvature)
+    except (SceneError, MechanismError, ValueError) as error:
+        return _cam_setup_failure(error)
+    where = "" if sizing.angle != sizing.angle else f" at camshaft angle {sizing.angle:.6g} rad"
+    print(
+        f"{setup.scene.name}.{setup.component} ({setup.follower.kind} follower, "
+        f"{setup.profile.law} {setup.parameters['mode']}): smallest cam_base_radius "
+        f"{sizing.base_circle_radius!r} m (set by {sizing.limit}{where}); "
+        f"now {setup.geometry.cam_base_radius!r} m"
+    )
     return 0
 
 
@@ -599,6 +729,64 @@ def _example_verbs(verbs: argparse._SubParsersAction) -> None:
                 "local processes)",
             )
     example.set_defaults(func=_example)
+
+
+def _set_option(verb: argparse.ArgumentParser) -> None:
+    """--set COMPONENT.PARAMETER=VALUE (repeatable), read by parse_assignments."""
+    verb.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="COMPONENT.PARAMETER=VALUE",
+        help="replace a parameter (or a constant input, or an effect: true/false) of the "
+        'scene, in SI units; the value is read as TOML (2.5, true, "text") or as plain '
+        "text; repeatable (default: the scene's values)",
+    )
+
+
+def _cam_verb(verbs: argparse._SubParsersAction, name: str, help: str) -> argparse.ArgumentParser:
+    """A verb about the cam of a scene's ValveTrain: SCENE, --set, --component."""
+    verb = verbs.add_parser(name, help=help)
+    verb.add_argument("scene", help="scene TOML file, or the name of a shipped scene")
+    _set_option(verb)
+    verb.add_argument(
+        "--component", help="the ValveTrain component (default: the scene's only one)"
+    )
+    return verb
+
+
+def _cam_verbs(verbs: argparse._SubParsersAction) -> None:
+    """cam-profile and cam-size: the cam a scene's valve train needs."""
+    profile = _cam_verb(
+        verbs,
+        "cam-profile",
+        "the cam of a scene's ValveTrain: profile CSV, DXF (mm), drawing and summary "
+        "with the design checks; exit 1 if a check fails (pressure angle), 2 if no cam "
+        "can be made (cusp, undercut) or the input is bad",
+    )
+    profile.add_argument(
+        "--points",
+        type=int,
+        default=3600,
+        help="profile points per revolution (default: 3600, every 0.1 degree)",
+    )
+    profile.add_argument("--out", default="out", help="output folder (default: out)")
+    profile.set_defaults(func=_cam_profile)
+    size = _cam_verb(
+        verbs,
+        "cam-size",
+        "the smallest base circle (cam_base_radius) with which a scene's ValveTrain's "
+        "cam law and follower make a cam meeting the limits",
+    )
+    size.add_argument(
+        "--min-radius-of-curvature",
+        type=float,
+        default=0.0,
+        metavar="M",
+        help="least radius of curvature of the cam surface, m (default: 0, the cusp or "
+        "undercut limit itself: add a margin)",
+    )
+    size.set_defaults(func=_cam_size)
 
 
 def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
@@ -849,6 +1037,40 @@ def _export_verb(
     return verb
 
 
+def _animate_verb(verbs: argparse._SubParsersAction) -> None:
+    animate = verbs.add_parser(
+        "animate",
+        help="animate the mechanisms of a result CSV recorded with the geometry effect "
+        "(mechfmu run SCENE --animate records it): GIF, MP4 or HTML",
+    )
+    animate.add_argument("result", help="result CSV (its JSON beside it names the models)")
+    animate.add_argument(
+        "--out",
+        help="the .gif, .mp4 (needs the video extra: imageio-ffmpeg) or .html file to "
+        "write (default: RESULT with .gif)",
+    )
+    animate.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        help="playback speed against real time (default 1: real time; 0.01 plays a "
+        "hundred times slower)",
+    )
+    animate.add_argument(
+        "--fps", type=float, default=None, help="frames per second (default 25; GIF at most 50)"
+    )
+    animate.add_argument(
+        "--panel",
+        action="append",
+        default=[],
+        metavar="COLUMN",
+        help="a result column to plot against time beside the mechanism, with a cursor "
+        "(repeatable; default: none)",
+    )
+    animate.add_argument("--width", type=int, default=None, help="width in pixels (default 720)")
+    animate.set_defaults(func=_animate)
+
+
 def _run_verb(verbs: argparse._SubParsersAction) -> None:
     run = verbs.add_parser(
         "run", help="run a scene (or every shipped scene) and write CSV, JSON and PNG"
@@ -865,15 +1087,7 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "check); a failing scene does not stop the others",
     )
     _scene_options(run)
-    run.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="COMPONENT.PARAMETER=VALUE",
-        help="replace a parameter (or a constant input, or an effect: true/false) of the "
-        'scene, in SI units; the value is read as TOML (2.5, true, "text") or as plain '
-        "text; repeatable (default: the scene's values)",
-    )
+    _set_option(run)
     run.add_argument(
         "--check",
         action="store_true",
@@ -901,6 +1115,15 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         metavar="FILE",
         help="continue the run from this checkpoint (of the same scene and FMUs); the "
         "result equals the uninterrupted run's (default: start from the beginning)",
+    )
+    run.add_argument(
+        "--animate",
+        nargs="?",
+        const="gif",
+        choices=("gif", "mp4", "html"),
+        help="also record the mechanisms' geometry (the geometry effect) and write "
+        "<scene>.gif (or .mp4, .html) into --out, played in real time (default: no "
+        "animation; without a format: gif)",
     )
     run.set_defaults(func=_run)
 
@@ -1023,6 +1246,7 @@ def parser() -> argparse.ArgumentParser:
     build.set_defaults(func=_build)
 
     _run_verb(verbs)
+    _animate_verb(verbs)
     _example_verbs(verbs)
 
     export = _export_verb(
@@ -1066,7 +1290,7 @@ def parser() -> argparse.ArgumentParser:
     references = verbs.add_parser(
         "references",
         help="regenerate the shipped scenes' reference CSVs (and their JSON: units and "
-        "check tolerances)",
+        "check tolerances) and their generated input tables",
     )
     _scene_folder_option(references)
     references.add_argument(
@@ -1075,6 +1299,13 @@ def parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="output folder (default: reference, in the current folder; make references "
         "writes the shipped ones)",
+    )
+    references.add_argument(
+        "--tables",
+        default=None,
+        metavar="DIR",
+        help="also write the scenes' generated input tables, such as the engine's gas force, "
+        "into DIR (default: not written; make references writes the shipped ones)",
     )
     references.set_defaults(func=_references)
 
@@ -1103,6 +1334,7 @@ def parser() -> argparse.ArgumentParser:
     )
     docs.set_defaults(func=_docs)
 
+    _cam_verbs(verbs)
     _measurement_verbs(verbs)
     return main
 

@@ -22,7 +22,6 @@ grid"). ``Comparison.failures`` lists the first failing sample of each failing c
 from __future__ import annotations
 
 import math
-import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from fnmatch import fnmatchcase
@@ -33,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from .cosim.tolerances import Check, parse_check
+from .cosim.text import plot_text
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -358,7 +358,7 @@ class Comparison:
             axis.axvline(data.times[first], color="tab:red", linewidth=0.6)
         units = {**self.reference.attrs.get("units", {}), **self.result.attrs.get("units", {})}
         unit = units.get(column)
-        axis.set_ylabel(f"[{unit}]" if unit else "")
+        axis.set_ylabel(plot_text(f"[{unit}]") if unit else "")
         axis.grid(True, linewidth=0.3)
         if legend:
             axis.legend(fontsize=7, loc="best")
@@ -390,7 +390,7 @@ class Comparison:
         )
         for row, name in zip(axes, columns):
             self.draw(row[0], name)
-            row[0].set_title(name, fontsize=9, loc="left")
+            row[0].set_title(plot_text(name), fontsize=9, loc="left")
             data = self._columns[name]
             if zoomed and data.failing.any():
                 i = int(np.argmax(data.failing))
@@ -724,8 +724,3 @@ def compare(
         reference=reference_frame,
         _columns=columns,
     )
-
-
-def file_label(text: str) -> str:
-    """``text`` (a relative path and a column) as a safe file-name stem."""
-    return re.sub(r"[^\w.-]+", "_", text).strip("_") or "file"

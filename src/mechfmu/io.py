@@ -15,8 +15,9 @@ they apply.
 
 from __future__ import annotations
 
-import json
+import csv
 import math
+import os
 import re
 from collections.abc import Iterable
 from os import PathLike
@@ -26,9 +27,10 @@ from typing import Any
 import numpy
 import pandas
 
-from .cosim.files import atomic_write_all
-from .cosim.results import csv_writer, json_text
-from .cosim.tables import ResultFileError, read_profile_table
+from .cosim import limits
+from .cosim.files import atomic_write_all, remove_stale_temporaries
+from .cosim.results import csv_writer, pair_problem, sealed_pair
+from .cosim.tables import ResultFileError, check_file, read_profile_table
 from .cosim.tolerances import parse_check
 
 __all__ = [
@@ -48,13 +50,25 @@ def companion_json(path: StrPath) -> Path:
     return Path(path).with_suffix(".json")
 
 
+def _check_csv(path: Path) -> None:
+    """ResultFileError unless ``path`` is a regular file within MAX_CSV_BYTES whose header
+    (its first record, read alone by the csv module: a header of 10001 columns costs no
+    parse of the rows) is within the columns' limits."""
+    check_file(path, limits.MAX_CSV_BYTES, "a CSV file")
+    try:
+        with open(path, newline="", encoding="utf-8") as handle:
+            header = next(csv.reader(handle), None)
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return  # pandas' reading names these
+    problem = _names_problem([name.strip() for name in header or []])
+    if problem:
+        raise ResultFileError(f"{path}: line 1: {problem}")
+
+
 def _raw_rows(path: Path) -> pandas.DataFrame:
     """Every line of the CSV at ``path`` as strings (row 0 is the header), trailing blank
     lines dropped; ResultFileError for a missing, empty or unreadable file."""
-    if not path.exists():
-        raise ResultFileError(f"{path}: file not found")
-    if path.is_dir():
-        raise ResultFileError(f"{path}: is a directory, not a CSV file")
+    _check_csv(path)
     try:
         raw = pandas.read_csv(
             path, header=None, dtype=str, na_filter=False, skip_blank_lines=False, encoding="utf-8"
@@ -86,6 +100,9 @@ def _raw_rows(path: Path) -> pandas.DataFrame:
 
 def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
     names = [name.strip() for name in raw.iloc[0]]
+    problem = _names_problem(names)
+    if problem:
+        raise ResultFileError(f"{path}: line 1: {problem}")
     if first is not None and names[0] != first:
         raise ResultFileError(
             f"{path}: line 1: the first column must be {first!r}, got {names[0]!r} (no header?)"
@@ -96,6 +113,19 @@ def _header(path: Path, raw: pandas.DataFrame, first: str | None) -> list[str]:
         if name in names[:index]:
             raise ResultFileError(f"{path}: line 1: column {name!r} appears twice")
     return names
+
+
+def _names_problem(names: list[str]) -> str | None:
+    """Why a CSV header of ``names`` is beyond the limits (columns, name length), or None."""
+    if len(names) > limits.MAX_COLUMNS:
+        return f"{len(names)} columns, more than the limit of {limits.MAX_COLUMNS}"
+    for index, name in enumerate(names):
+        if len(name) > limits.MAX_COLUMN_NAME:
+            return (
+                f"column {index + 1} has a name of {len(name)} characters, more than the "
+                f"limit of {limits.MAX_COLUMN_NAME}"
+            )
+    return None
 
 
 def _problem_cell(
@@ -157,7 +187,12 @@ def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
             path, header=None, nrows=1, dtype=str, na_filter=False, encoding="utf-8"
         )
         names = [name.strip() for name in header.iloc[0]]
-        if names[0] != "time" or "" in names or len(set(names)) != len(names):
+        if (
+            names[0] != "time"
+            or "" in names
+            or len(set(names)) != len(names)
+            or _names_problem(names)
+        ):
             return None, []
         table = pandas.read_csv(
             path,
@@ -179,18 +214,16 @@ def _fast_values(path: Path) -> tuple[numpy.ndarray | None, list[str]]:
 
 
 def _metadata(path: Path) -> dict[str, Any]:
-    """The JSON beside the result CSV at ``path`` as a dict ({} when there is none)."""
+    """The JSON beside the result CSV at ``path`` as a dict ({} when there is none), read
+    within the limits of mechfmu.cosim.limits and checked to describe this very CSV
+    (mechfmu.cosim.results.pair_problem: a pair whose two files come from two runs is
+    refused)."""
     meta_path = companion_json(path)
-    if not meta_path.is_file():
+    if not os.path.lexists(meta_path):
         return {}
-    try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as error:
-        raise ResultFileError(f"{meta_path}: cannot be read: {error}") from None
-    except json.JSONDecodeError as error:
-        raise ResultFileError(
-            f"{meta_path}: malformed JSON: {error.msg} at line {error.lineno}, column {error.colno}"
-        ) from None
+    meta, problem = limits.load_json(meta_path)
+    if problem:
+        raise ResultFileError(f"{meta_path}: {problem}")
     if not isinstance(meta, dict):
         raise ResultFileError(f"{meta_path}: must hold a JSON object, got {type(meta).__name__}")
     units = meta.get("units", {})
@@ -198,6 +231,9 @@ def _metadata(path: Path) -> dict[str, Any]:
         isinstance(unit, str) or unit is None for unit in units.values()
     ):
         raise ResultFileError(f"{meta_path}: 'units' must map column names to unit strings")
+    problem = pair_problem(path, meta, meta_path)
+    if problem:
+        raise ResultFileError(problem)
     if meta.get("check") is not None:  # a reference's tolerances (its scene's [check] table)
         parse_check(meta["check"], str(meta_path), ResultFileError)
     return meta
@@ -220,6 +256,7 @@ def read_result(path: StrPath) -> pandas.DataFrame:
     not increase; and for a malformed JSON beside it.
     """
     path = Path(path)
+    _check_csv(path)
     values, names = _fast_values(path)
     if values is None:  # something is wrong: read it again as text to say what and where
         raw = _raw_rows(path)
@@ -294,11 +331,14 @@ def write_result(frame: pandas.DataFrame, path: StrPath) -> Path:
     units = meta.get("units") or {}
     meta["units"] = {name: units[name] for name in names if name in units}
     meta["recorded"] = names
+    remove_stale_temporaries(path.parent)
     atomic_write_all(
-        {
-            path: csv_writer(frame.index.to_numpy(dtype=float).tolist(), columns),
-            companion_json(path): json_text(meta),
-        }
+        sealed_pair(
+            path,
+            companion_json(path),
+            csv_writer(frame.index.to_numpy(dtype=float).tolist(), columns),
+            meta,
+        )
     )
     return path
 

@@ -4,7 +4,9 @@ CSV stored next to the test.
 
 ``mechfmu_regression.check(df)`` compares ``df`` (a DataFrame indexed by time, as
 ``mechfmu.simulate`` returns) with ``<test folder>/<test module>/<test name>.csv`` using
-``mechfmu.compare`` (same tolerances and methods). Without a baseline, the check writes one
+``mechfmu.compare`` (same tolerances and methods: by default the baseline's own, the
+``check`` its JSON carries when the DataFrame came from ``mechfmu.simulate`` of a scene with a
+[check] table, else rtol 1e-9, atol 1e-12). Without a baseline, the check writes one
 (CSV and its JSON, as ``mechfmu run`` writes them) and fails, so that a new baseline is
 looked at before it is trusted: the next run compares with it. ``pytest --mechfmu-regen``
 rewrites the baselines that fail (and fails those tests once, naming the files). A failing
@@ -65,9 +67,9 @@ class MechfmuRegression:
         data: pandas.DataFrame,
         *,
         basename: str | None = None,
-        rtol: float = 1e-9,
-        atol: float = 1e-12,
-        method: str = "pointwise",
+        rtol: float | None = None,
+        atol: float | None = None,
+        method: str | None = None,
         time_tolerance: float | None = None,
         tolerances: Mapping[str, Any] | None = None,
         interpolate: bool = False,
@@ -123,8 +125,8 @@ class MechfmuRegression:
         except (ValueError, OSError):
             kept = ""
         pytest.fail(
-            f"mechfmu_regression: differs from the baseline {path} ({method}, rtol "
-            f"{rtol:g}, atol {atol:g}):\n{table}{kept}\n(pytest --mechfmu-regen "
+            f"mechfmu_regression: differs from the baseline {path} ({comparison.method}, "
+            f"{comparison.tolerance_text()}):\n{table}{kept}\n(pytest --mechfmu-regen "
             f"accepts the new values)",
             pytrace=False,
         )

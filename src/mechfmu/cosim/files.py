@@ -9,14 +9,23 @@ The temporary file is created with mode 0666 minus the umask, as ``open()`` woul
 file itself (``tempfile.mkstemp`` would give 0600). A full disk or any other OSError becomes
 an OutputError whose one-line message names the file and the cause; nothing half-written is
 left behind.
+
+A writer killed mid-write (SIGKILL, a power cut) cannot remove its temporary files. Their
+names say whose they are, ``.<name>.<pid>.<host>.<random>.tmp`` (``host``: 8 hex digits of
+the machine's name), and ``output_folder`` removes those of this machine whose process is
+gone (``stale_temporaries``); those of a live writer, of another machine or not ours are
+left alone.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
+import hashlib
 import io
 import os
+import re
 import secrets
+import socket
 from pathlib import Path
 from typing import Any
 from collections.abc import Callable
@@ -58,7 +67,8 @@ def plain_file_name(name: str) -> str | None:
 
 def output_folder(folder: Path | str) -> Path:
     """``folder`` as a Path, created with its parents if missing, after checking that files
-    can be created in it (a probe file, created and removed): OutputError otherwise.
+    can be created in it (a probe file, created and removed): OutputError otherwise. The
+    temporary files that killed writers left there are removed (remove_stale_temporaries).
 
     Call it before any work whose results go there, so a bad --out costs nothing.
     """
@@ -69,12 +79,13 @@ def output_folder(folder: Path | str) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         raise OutputError(f"output folder {folder} cannot be created: {_cause(error)}") from None
-    probe = folder / f".mechfmu-probe-{secrets.token_hex(6)}"
+    probe = folder / temporary_name("mechfmu-probe")
     try:
         os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
         os.unlink(probe)
     except OSError as error:
         raise OutputError(f"output folder {folder} is not writable: {_cause(error)}") from None
+    remove_stale_temporaries(folder)
     return folder
 
 
@@ -107,9 +118,60 @@ def _content_bytes(content: Callable | bytes | str, path: Path) -> bytes:
     )
 
 
+HOST_TAG = hashlib.sha256(socket.gethostname().encode("utf-8", "replace")).hexdigest()[:8]
+_TEMPORARY = re.compile(r"^\..*\.(\d+)\.([0-9a-f]{8})\.[0-9a-f]{12}\.tmp$", re.DOTALL)
+
+
+def temporary_name(name: str) -> str:
+    """The name of a temporary file for ``name``: hidden, this process's id and machine tag,
+    random; the part of ``name`` it repeats is cut to 180 characters (a file name holds 255
+    bytes)."""
+    return f".{name[:180]}.{os.getpid()}.{HOST_TAG}.{secrets.token_hex(6)}.tmp"
+
+
+def process_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists on this machine (another user's counts)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    except (OSError, OverflowError):
+        return False
+    return True
+
+
+def stale_temporaries(folder: Path) -> list[Path]:
+    """The temporary files in ``folder`` left by writers of this machine that are gone."""
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return []
+    stale = []
+    for name in names:
+        match = _TEMPORARY.match(name)
+        if match and match.group(2) == HOST_TAG and not process_alive(int(match.group(1))):
+            stale.append(Path(folder) / name)
+    return stale
+
+
+def remove_stale_temporaries(folder: Path) -> list[Path]:
+    """Remove stale_temporaries(folder) (those that vanish meanwhile are skipped); returns
+    the paths removed."""
+    removed = []
+    for path in stale_temporaries(folder):
+        try:
+            os.unlink(path)
+        except OSError:
+            continue
+        removed.append(path)
+    return removed
+
+
 def _write_temporary(path: Path, data: bytes) -> Path:
     """A new temporary file beside ``path`` holding ``data``; its path."""
-    temporary = path.with_name(f".{path.name}.{secrets.token_hex(6)}.tmp")
+    temporary = path.with_name(temporary_name(path.name))
     descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
         try:
@@ -160,11 +222,16 @@ def atomic_write(path: str | Path, content: bytes | str | Callable[[Any], None])
     return atomic_write_all({path: content})[0]
 
 
-def save_figure(path: Path, figure: Figure, **options: Any) -> Path:
-    """Write a matplotlib figure (PNG unless ``format`` says otherwise) atomically."""
+def figure_bytes(figure: Figure, **options: Any) -> bytes:
+    """A matplotlib figure's file content (PNG unless ``format`` says otherwise)."""
     buffer = io.BytesIO()
     figure.savefig(buffer, format=options.pop("format", "png"), **options)
-    return atomic_write(path, buffer.getvalue())
+    return buffer.getvalue()
+
+
+def save_figure(path: Path, figure: Figure, **options: Any) -> Path:
+    """Write a matplotlib figure (PNG unless ``format`` says otherwise) atomically."""
+    return atomic_write(path, figure_bytes(figure, **options))
 
 
 def move_aside(paths: list[Path], marker: str = "previous") -> list[Any]:

@@ -18,7 +18,6 @@ import re
 import functools
 import shutil
 from array import array
-import tempfile
 import time as clock
 import weakref
 from ctypes import byref
@@ -27,7 +26,6 @@ from pathlib import Path
 from typing import Any
 from collections.abc import Callable
 
-from fmpy import extract
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
@@ -46,7 +44,8 @@ from .checkpoint import Checkpoint, CheckpointError, Checkpoints, check_matches
 from .checkpoint import save as save_checkpoint
 from .checkpoint import scene_digest
 from .experiment import resolved_times
-from .fmu_file import FmuError, checked_description
+from .fmu_file import FmuError, checked_description, unpack
+from .text import joined_lines
 from .interrupt import signal_name
 from .locate import scene_fmu_folder
 from .scene import SceneError, split_name
@@ -69,12 +68,12 @@ STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: 
 def _read(component: Any, variable: Any) -> bool:
     """Whether the component reads ``variable`` (an input) in the scene's configuration:
     always, unless its description says "Only with P = V: " and parameter P (the scene's
-    value, else its start value) is not V."""
+    value, True for an effect the scene lists, else its start value) is not V."""
     match = ONLY_WITH.match(variable.description or "")
     if match is None:
         return True
     name, wanted = match.groups()
-    value = component.spec.parameters.get(name)
+    value = True if name in component.spec.effects else component.spec.parameters.get(name)
     if value is None and name in component.variables:
         value = component.variables[name].start
     return str(value) == wanted
@@ -224,9 +223,11 @@ class LogBook:
         return ""
 
     def last_problem(self, instance: str) -> str:
+        """The last error of ``instance`` in the log, as one line (an FMU's message may span
+        several, a Python traceback: its lines are joined with '; ')."""
         for entry in reversed(self.messages):
             if entry["instance"] == instance and entry["status"] in ("error", "fatal", "discard"):
-                return entry["message"]
+                return joined_lines(entry["message"])
         return "no log message from the FMU"
 
 
@@ -254,7 +255,10 @@ class Instances:
         version = file_version(component.path)
         folder = self._folders.get(version)
         if folder is None:
-            folder = extract(str(component.path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_"))
+            try:
+                folder = unpack(component.path)
+            except FmuError as error:
+                raise FmuError(f"component {component.name!r}: FMU file {error}") from None
             self._folders[version] = folder
         idle = self._idle.get((folder, component.name))
         if idle:

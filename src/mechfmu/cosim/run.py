@@ -8,9 +8,11 @@ checks it; ``simulate`` runs it; ``run_scene`` runs it and writes its result fil
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
+import copy
 import os
 from contextlib import nullcontext
 
+from . import limits
 from .checkpoint import Checkpoints
 from .checkpoint import load as load_checkpoint
 from .files import OutputError, output_folder
@@ -25,11 +27,60 @@ from .master import (
     resolve_fmu,
 )
 from .results import move_aside_complete, write_result
-from .scene import ComponentSpec, Scene, apply_parameters, check_tables, load_scene
+from .scene import (
+    SCENE_DIR,
+    ComponentSpec,
+    Scene,
+    SceneError,
+    apply_parameters,
+    check_tables,
+    check_times,
+    find_file,
+    load_scene,
+)
 from pathlib import Path
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .master import Result
+
+
+def choose_scene(
+    scene: Scene | str | os.PathLike,
+    start_time: float | None = None,
+    stop_time: float | None = None,
+    step: float | None = None,
+) -> Scene:
+    """The Scene ``scene`` names (a Scene, copied; a scene file; or a shipped scene's name,
+    found from any folder), with the given times (s) replacing its own, checked as in the
+    scene file (a whole number of steps). SceneError naming the shipped scenes for a name
+    that is neither one of them nor a file."""
+    overrides = {
+        key: value
+        for key, value in (("start_time", start_time), ("stop_time", stop_time), ("step", step))
+        if value is not None
+    }
+    if isinstance(scene, Scene):
+        chosen = copy.deepcopy(scene)
+        for key, value in overrides.items():
+            number = limits.finite_float(value)
+            if number is None:
+                raise SceneError(f"{key} = {limits.shortened(value)} must be a finite number")
+            setattr(chosen, key, number)
+        check_times(str(chosen.path), chosen.start_time, chosen.stop_time, chosen.step)
+        return chosen
+    if not isinstance(scene, (str, os.PathLike)):
+        raise TypeError(
+            f"scene must be a shipped scene's name, a scene file or a Scene, got "
+            f"{type(scene).__name__}"
+        )
+    path = find_file(str(scene))
+    if not path.exists() and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
+        shipped = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
+        raise SceneError(
+            f"no shipped scene named {str(scene)!r} and no such file; shipped "
+            f"scenes: {', '.join(shipped)}"
+        )
+    return load_scene(path, overrides)
 
 
 def prepare(
@@ -55,15 +106,19 @@ def prepare(
 
 
 def simulate(
-    scene: Scene,
+    scene: Scene | str | os.PathLike,
     fmu_dir: str | os.PathLike | None = None,
     parameters: dict[str, Any] | None = None,
     guard: InterruptGuard | None = None,
+    **times: float | None,
 ) -> tuple[Simulation, Result]:
-    """prepare ``scene``, then run it: (the Simulation, its Result). ``guard``: the caller's
-    InterruptGuard (SIGINT, SIGTERM taken between steps), or None for one installed here.
+    """Load ``scene`` (choose_scene: a Scene, a file or a shipped scene's name; ``times``:
+    start_time, stop_time, step replacing its own), prepare it (its FMUs, ``parameters``,
+    its table files), then run it: (the Simulation, whose ``scene`` is the one run, and its
+    Result). ``guard``: the caller's InterruptGuard (SIGINT, SIGTERM taken between steps),
+    or None for one installed here. SceneError for a scene that cannot run;
     SimulationError (SimulationInterrupted) when a component fails (a signal stops it)."""
-    simulation = prepare(scene, fmu_dir, parameters)
+    simulation = prepare(choose_scene(scene, **times), fmu_dir, parameters)
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         return simulation, simulation.run(stop=guard)
 

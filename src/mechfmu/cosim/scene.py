@@ -37,6 +37,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from . import limits
 from .files import plain_file_name
 from .tolerances import Check, parse_check, refuse_unknown
 from typing import Any
@@ -135,9 +136,39 @@ def _number(data: dict[str, Any], key: str, where: str, default: float | None = 
     value = data.get(key, default)
     if value is None:
         raise SceneError(f"{where}: missing '{key}'")
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise SceneError(f"{where}: '{key}' = {value!r} must be a finite number")
-    return float(value)
+    number = limits.finite_float(value)
+    if number is None:
+        raise SceneError(f"{where}: '{key}' = {limits.shortened(value)} must be a finite number")
+    return number
+
+
+def _text(data: dict[str, Any], key: str, where: str, default: str) -> str:
+    """The string ``data[key]`` (``default`` when absent); SceneError naming it otherwise."""
+    value = data.get(key, default)
+    problem = (
+        limits.value_problem(value)
+        if isinstance(value, str)
+        else f"must be a string, got {type(value).__name__}"
+    )
+    if problem:
+        raise SceneError(f"{where}: {key} = {limits.shortened(value)} {problem}")
+    return value
+
+
+def _values(spec: dict[str, Any], key: str, where: str) -> dict[str, Any]:
+    """A copy of the table ``spec[key]`` ({} when absent) of name = value (a number, a bool
+    or a string within mechfmu.cosim.limits); SceneError naming the item otherwise."""
+    table = spec.get(key, {})
+    if not isinstance(table, dict):
+        raise SceneError(
+            f"{where}: '{key}' must be a table of name = value, got "
+            f"{type(table).__name__} {limits.shortened(table)}"
+        )
+    for name, value in table.items():
+        problem = limits.value_problem(value)
+        if problem:
+            raise SceneError(f"{where}: {key}.{name} = {limits.shortened(value)} {problem}")
+    return dict(table)
 
 
 def split_name(text: str, where: str) -> tuple[str, str]:
@@ -163,7 +194,8 @@ def check_times(
     where: str, start_time: float, stop_time: float, step: float
 ) -> tuple[float, float, float]:
     """(start_time, stop_time, step) in s, checked: step > 0, stop after start, a whole
-    number of communication steps between them; SceneError naming ``where`` otherwise."""
+    number of communication steps between them, at most mechfmu.cosim.limits.MAX_STEPS;
+    SceneError naming ``where`` otherwise."""
     if step <= 0.0:
         raise SceneError(f"{where}: step = {step!r} s must be > 0")
     if stop_time <= start_time:
@@ -171,6 +203,11 @@ def check_times(
             f"{where}: stop_time = {stop_time!r} s must exceed start_time = {start_time!r} s"
         )
     ratio = (stop_time - start_time) / step
+    if not ratio <= limits.MAX_STEPS:  # also an infinite ratio (a span beyond a double)
+        raise SceneError(
+            f"{where}: (stop_time - start_time) / step = {ratio!r} communication steps, "
+            f"more than the limit of {limits.MAX_STEPS:.0e}"
+        )
     if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
         raise SceneError(
             f"{where}: (stop_time - start_time) / step = {ratio!r} is not a "
@@ -209,20 +246,28 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
         if not isinstance(spec, dict):
             raise SceneError(f"{cwhere} must be a table")
         refuse_unknown_keys(spec, _COMPONENT_KEYS, cwhere)
-        if not isinstance(spec.get("fmu"), str):
+        if not isinstance(spec.get("fmu"), str) or not spec["fmu"]:
             raise SceneError(f"{cwhere}: missing 'fmu' (a model name or an .fmu path)")
-        parameters = dict(spec.get("parameters", {}))
+        problem = limits.value_problem(spec["fmu"])
+        if problem:
+            raise SceneError(f"{cwhere}: fmu = {limits.shortened(spec['fmu'])} {problem}")
+        parameters = _values(spec, "parameters", cwhere)
         for key, value in parameters.items():
             if key.endswith("_file") and isinstance(value, str) and value:
                 parameters[key] = str((path.parent / value).resolve())
-        inputs = dict(spec.get("inputs", {}))
+        inputs = _values(spec, "inputs", cwhere)
         effects = spec.get("effects", [])
         if not isinstance(effects, list) or not all(isinstance(e, str) for e in effects):
             raise SceneError(f"{cwhere}: 'effects' must be a list of effect names")
         components[name] = ComponentSpec(name, spec["fmu"], parameters, inputs, list(effects))
+    raw_connections = data.get("connections", [])
+    if not isinstance(raw_connections, list):
+        raise SceneError(
+            f"{where}: 'connections' must be a list of 'component.output -> "
+            f"component.input' strings, got {limits.shortened(raw_connections)}"
+        )
     connections = [
-        _connection(text, f"{where}: connections[{i}]")
-        for i, text in enumerate(data.get("connections", []))
+        _connection(text, f"{where}: connections[{i}]") for i, text in enumerate(raw_connections)
     ]
     record = data.get("record")
     if record is not None:
@@ -230,15 +275,17 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
             raise SceneError(f"{where}: 'record' must be a list of 'component.variable' names")
         for item in record:
             split_name(item, f"{where}: record")
-    reference = data.get("reference")
+    reference = _text(data, "reference", where, "")
     coupling = data.get("coupling", COUPLINGS[0])
     if coupling not in COUPLINGS:
-        raise SceneError(f"{where}: coupling = {coupling!r} is not one of {', '.join(COUPLINGS)}")
-    name = data.get("name", path.stem)
+        raise SceneError(
+            f"{where}: coupling = {limits.shortened(coupling)} is not one of {', '.join(COUPLINGS)}"
+        )
+    name = _text(data, "name", where, path.stem)
     problem = plain_file_name(name)
     if problem:
         raise SceneError(
-            f"{where}: name = {name!r} must be a plain file name (the result "
+            f"{where}: name = {limits.shortened(name)} must be a plain file name (the result "
             f"files are named after it inside the output folder): {problem}"
         )
     return Scene(
@@ -250,7 +297,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
         components=components,
         connections=connections,
         record=record,
-        description=data.get("description", ""),
+        description=_text(data, "description", where, ""),
         coupling=coupling,
         reference=(path.parent / reference).resolve() if reference else None,
         check=parse_check(data["check"], where, SceneError) if "check" in data else None,
@@ -282,15 +329,26 @@ def find_file(text: str, folders: tuple = (SCENE_DIR,)) -> Path:
 def read_toml(
     path: Path, error: type[Exception] = SceneError, what: str = "scene file"
 ) -> dict[str, Any]:
-    """The parsed TOML file at ``path``; a missing or malformed file raises ``error`` naming
-    the file and the problem."""
+    """The parsed TOML file at ``path``, checked against the limits of mechfmu.cosim.limits
+    before and after parsing (size, UTF-8, nesting, digits, 64-bit integers); a missing,
+    malformed or out-of-limits file raises ``error`` naming the file, the place and the
+    problem, in one line."""
+    text, problem = limits.read_text(path, limits.MAX_TOML_BYTES)
+    if text is None:
+        if problem == "file not found":
+            raise error(f"{what} {path} not found")
+        raise error(f"{what} {path}: {problem}")
+    problem = limits.scan_problem(text, limits.MAX_TOML_DEPTH, "toml")
+    if problem:
+        raise error(f"{path}: {problem}")
     try:
-        with open(path, "rb") as handle:
-            return tomllib.load(handle)
-    except FileNotFoundError:
-        raise error(f"{what} {path} not found") from None
-    except tomllib.TOMLDecodeError as problem:
-        raise error(f"{path}: malformed TOML: {problem}") from None
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as malformed:
+        raise error(f"{path}: malformed TOML: {malformed}") from None
+    problem = limits.structure_problem(data, limits.MAX_TOML_DEPTH)
+    if problem:
+        raise error(f"{path}: {problem}")
+    return data
 
 
 def load_scene(path: Path | str, overrides: dict[str, Any] | None = None) -> Scene:
@@ -330,9 +388,15 @@ def apply_parameters(
     place. A name may also be a constant input the scene gives a value, or an effect (True
     or False). ``declared(spec)``: the model name and parameter names of a component.
     SceneError naming the item for an unknown component or a name the component's model
-    has no parameter of; the value's type is checked with the scene (by the master)."""
+    has no parameter of, or a value that is not a number, a bool or a string within
+    mechfmu.cosim.limits (value_problem); the value's type is checked with the scene (by the
+    master)."""
     for name, value in (parameters or {}).items():
-        component, dot, variable = str(name).partition(".")
+        if not isinstance(name, str):
+            raise SceneError(
+                f"parameters: {limits.shortened(name)} is not of the form component.parameter"
+            )
+        component, dot, variable = name.partition(".")
         if not dot or not component or not variable:
             raise SceneError(f"parameters: {name!r} is not of the form component.parameter")
         spec = scene.components.get(component)
@@ -341,6 +405,9 @@ def apply_parameters(
                 f"parameters: {name!r}: scene {scene.name} has no component "
                 f"{component!r}; its components: {', '.join(scene.components)}"
             )
+        problem = limits.value_problem(value)
+        if problem:
+            raise SceneError(f"parameters: {name} = {limits.shortened(value)} {problem}")
         if variable in spec.inputs:
             spec.inputs[variable] = value
             continue

@@ -16,12 +16,24 @@ from pathlib import Path
 import numpy
 import pandas
 
+from . import limits
+
 StrPath = str | PathLike
 
 
 class ResultFileError(ValueError):
     """A CSV (or its JSON metadata) mechfmu cannot read; the one-line message names the file
     and what is wrong (with the line and column where they apply)."""
+
+
+def check_file(path: Path, max_bytes: int, kind: str) -> None:
+    """ResultFileError unless ``path`` is a regular file of at most ``max_bytes``
+    (mechfmu.cosim.limits.file_problem); ``kind`` names what a directory is not."""
+    problem = limits.file_problem(path, max_bytes)
+    if problem:
+        if problem.startswith("is a directory"):
+            problem = f"is a directory, not {kind}"
+        raise ResultFileError(f"{path}: {problem}")
 
 
 def read_profile_table(path: StrPath) -> pandas.DataFrame:
@@ -38,9 +50,7 @@ def read_profile_table(path: StrPath) -> pandas.DataFrame:
     non-finite number, a time that does not increase, or no data rows.
     """
     path = Path(path)
-    if not path.is_file():
-        problem = "is a directory, not a table file" if path.is_dir() else "file not found"
-        raise ResultFileError(f"{path}: {problem}")
+    check_file(path, limits.MAX_TABLE_BYTES, "a table file")
     try:
         with warnings.catch_warnings():  # lines with more values: the first two are kept
             warnings.simplefilter("ignore", pandas.errors.ParserWarning)

@@ -212,9 +212,10 @@ class Fuzzed:
     """One instantiated FMU under fmpy, driven sequence after sequence."""
 
     def __init__(self, path: Any, instance: str = "fuzzed") -> None:
-        from fmpy import extract, read_model_description
+        from fmpy import read_model_description
         from fmpy.fmi2 import FMU2Slave
 
+        from ..cosim.fmu_file import unpack
         from ..cosim.master import LogBook
 
         self.description = read_model_description(str(path))
@@ -225,7 +226,7 @@ class Fuzzed:
             if v.causality == "output" and v.type == "Real"
         ]
         self.output_refs = [v.valueReference for v in self.outputs]
-        self.folder = extract(str(path))
+        self.folder = unpack(path)
         self.logbook = LogBook()
         self.instance = instance
         self.slave = FMU2Slave(
@@ -389,7 +390,13 @@ class Fuzzed:
             raise Finding(f"rolled back to step {first} and repeated: outputs differ {diff[:3]}")
 
     def close(self) -> None:
-        self.slave.freeInstance()
+        """Free the instance and remove the unpacked FMU."""
+        import shutil
+
+        try:
+            self.slave.freeInstance()
+        finally:
+            shutil.rmtree(self.folder, ignore_errors=True)
 
 
 def child(

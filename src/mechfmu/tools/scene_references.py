@@ -16,15 +16,19 @@ from pathlib import Path
 import numpy as np
 
 from ..cosim.files import atomic_write_all
-from ..cosim.results import csv_writer, json_text
+from ..cosim.results import csv_writer, json_text, write_csv
+from ..io import read_profile_table
 from ..cosim.scene import find_file, load_scene
 from ..runtime.models import MODELS
 from .docs import declared_units
 from ..references import (
     cam_geometry,
     drives,
+    engine,
     gear_dynamics,
+    gear_forces,
     landing_gear,
+    link_forces,
     linkages,
     suspension,
     suspension_dynamics,
@@ -57,7 +61,7 @@ def _components(scene: Scene, model: str) -> list[tuple[str, dict[str, Any]]]:
     ]
 
 
-def _component(scene: Scene, model: str):
+def component(scene: Scene, model: str) -> tuple[str, dict[str, Any]]:
     """(name, parameters over defaults) of the scene's (first) component using ``model``."""
     found = _components(scene, model)
     if not found:
@@ -73,8 +77,8 @@ def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
     """Positional arguments of references.landing_gear.retraction for a PistonActuator ->
     LandingGear scene: its sample times (s) and the actuator's and gear's parameters over the
     defaults (m, s, the profile's name)."""
-    _, stroke = _component(scene, "PistonActuator")
-    _, geometry = _component(scene, "LandingGear")
+    _, stroke = component(scene, "PistonActuator")
+    _, geometry = component(scene, "LandingGear")
     return (
         sample_times(scene),
         geometry["attachment_distance"],
@@ -88,8 +92,8 @@ def retraction_arguments(scene: Scene) -> tuple[Any, ...]:
 
 def gear_retraction(scene: Any) -> Any:
     """Piston stroke and gear motion columns for a PistonActuator -> LandingGear scene."""
-    actuator, _ = _component(scene, "PistonActuator")
-    gear, _ = _component(scene, "LandingGear")
+    actuator, _ = component(scene, "PistonActuator")
+    gear, _ = component(scene, "LandingGear")
     columns = landing_gear.retraction(*retraction_arguments(scene))
     owner = {
         "piston_extension": actuator,
@@ -101,8 +105,8 @@ def gear_retraction(scene: Any) -> Any:
 
 def suspension_load_ramp(scene: Any) -> Any:
     """Load and equilibrium columns for a LoadProfile(ramp) -> Suspension scene."""
-    source, ramp = _component(scene, "LoadProfile")
-    name, spring = _component(scene, "Suspension")
+    source, ramp = component(scene, "LoadProfile")
+    name, spring = component(scene, "Suspension")
     if ramp["shape"] != "ramp":
         raise ValueError(f"scene {scene.name}: the reference covers ramp loads only")
     times = sample_times(scene)
@@ -119,12 +123,12 @@ def suspension_load_ramp(scene: Any) -> Any:
 
 def suspension_dynamics_scene(scene: Any) -> Any:
     """LoadProfile [-> RoadProfile] -> Suspension with the dynamics effect: solve_ivp columns."""
-    source, load = _component(scene, "LoadProfile")
-    name, parameters = _component(scene, "Suspension")
+    source, load = component(scene, "LoadProfile")
+    name, parameters = component(scene, "Suspension")
     parameters.update({effect: True for effect in scene.components[name].effects})
     road_name, road = None, None
     if any(Path(spec.fmu).stem == "RoadProfile" for spec in scene.components.values()):
-        road_name, road = _component(scene, "RoadProfile")
+        road_name, road = component(scene, "RoadProfile")
     return suspension_dynamics.scene_columns(
         sample_times(scene), source, load, name, parameters, road_name, road, scene.record
     )
@@ -132,7 +136,7 @@ def suspension_dynamics_scene(scene: Any) -> Any:
 
 def gear_dynamics_scene(scene: Scene) -> Any:
     """Recorded columns of a dynamic LandingGear scene (no connections), by scipy."""
-    name, _ = _component(scene, "LandingGear")
+    name, _ = component(scene, "LandingGear")
     spec = scene.components[name]
     values = gear_dynamics.gear_values(
         start_values("LandingGear"), spec.parameters, spec.effects, spec.inputs
@@ -149,7 +153,7 @@ def _shaft_columns(
     scene: Any, model: str = "CrankDrive", prefix: str = "crank", ratio: float = 1.0
 ):
     """(component name, {angle, speed, acceleration}) of the scene's shaft drive."""
-    name, shaft = _component(scene, model)
+    name, shaft = component(scene, model)
     columns = drives.shaft_rotation(sample_times(scene), shaft, ratio)
     return name, {f"{prefix}_{key}": value for key, value in columns.items()}
 
@@ -165,7 +169,7 @@ def _linkage_scene(scene: Any, model: str, solve: Any, dimensions: tuple[str, ..
     with the linkage's ``dimensions`` (m), its circuit and the crank's angle, speed and
     acceleration."""
     crank_name, crank = _shaft_columns(scene)
-    name, p = _component(scene, model)
+    name, p = component(scene, model)
     motion = solve(
         *(p[key] for key in dimensions),
         p["circuit"],
@@ -263,9 +267,9 @@ def valve_spring_scene(scene: Any) -> Any:
     """CamshaftDrive -> ValveTrain -> ValveSpring: the kinematic columns as valve_train_scene,
     the valve's dynamics on that drive by scipy (references/valve_spring.py); with the
     valve's drive = camshaft, the drive from the valve's own cam and geometry parameters."""
-    _, shaft = _component(scene, "CamshaftDrive")
-    _, train = _component(scene, "ValveTrain")
-    name, parameters = _component(scene, "ValveSpring")
+    _, shaft = component(scene, "CamshaftDrive")
+    _, train = component(scene, "ValveTrain")
+    name, parameters = component(scene, "ValveSpring")
     if parameters["drive"] == "camshaft":  # the valve's own cam law and rocker geometry
         train = {**parameters, "mode": "forward"}
     columns = valve_train_scene(scene)
@@ -274,6 +278,119 @@ def valve_spring_scene(scene: Any) -> Any:
         angle = drives.shaft_rotation(sample_times(scene), shaft, 0.5)["angle"]
         dynamics["camshaft_torque"] = camshaft_torque(train, angle, dynamics["contact_force"])
     columns.update({f"{name}.{key}": value for key, value in dynamics.items()})
+    return _recorded(scene, columns)
+
+
+def link_layouts(p: dict, links: tuple[str, ...]) -> list[tuple[float, float, float, float]]:
+    """(mass, com_along, com_across, inertia) of each link from a model's parameters."""
+    return [
+        (p[f"{link}_mass"], p[f"{link}_com_along"], p[f"{link}_com_across"], p[f"{link}_inertia"])
+        for link in links
+    ]
+
+
+def linkage_gravity(p: dict, effects: Any) -> tuple[float, float]:
+    """Gravity (m/s^2) of a linkage with the forces effect: none unless the scene lists it."""
+    if "gravity" not in effects:
+        return (0.0, 0.0)
+    return (
+        p["gravity_acceleration"] * np.cos(p["gravity_direction"]),
+        p["gravity_acceleration"] * np.sin(p["gravity_direction"]),
+    )
+
+
+def constant_inputs(scene: Any, name: str, model: str) -> dict:
+    """The model's input start values under the scene's constant inputs."""
+    return {**start_values(model, "input"), **scene.components[name].inputs}
+
+
+def four_bar_forces_scene(scene: Any) -> Any:
+    """CrankDrive -> FourBar with the forces effect: the motion as four_bar_scene, the pin
+    forces and crank torque by Norton's matrix, the energies and shaking from the links'
+    motion (references/link_forces.py)."""
+    columns = four_bar_scene(scene)
+    crank_name, crank = _shaft_columns(scene)
+    name, p = component(scene, "FourBar")
+    lengths = [
+        p[key] for key in ("ground_length", "crank_length", "coupler_length", "rocker_length")
+    ]
+    drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
+    motion = linkages.four_bar(lengths[0], lengths[1], lengths[2], lengths[3], p["circuit"], *drive)
+    links = link_forces.four_bar_links(lengths, drive, motion)
+    layouts = link_layouts(p, ("crank", "coupler", "rocker"))
+    gravity = linkage_gravity(p, scene.components[name].effects)
+    loads = constant_inputs(scene, name, "FourBar")
+    point = (p["coupler_point_along"], p["coupler_point_across"])
+    force = (loads["coupler_force_x"], loads["coupler_force_y"])
+    forces = link_forces.norton_four_bar(
+        lengths, links, layouts, gravity, point, force, loads["rocker_torque"]
+    )
+    forces.update(link_forces.energies(links, layouts, gravity))
+    with np.errstate(divide="ignore"):
+        forces["mechanical_advantage"] = drive[1] / motion["rocker_angular_velocity"]
+    columns.update({f"{name}.{key}": value for key, value in forces.items()})
+    return _recorded(scene, columns)
+
+
+def slider_crank_engine_scene(scene: Any) -> Any:
+    """CrankDrive and LoadProfile(table) -> SliderCrank with the forces effect: the motion as
+    slider_crank_scene, the gas force interpolated in the scene's table, the forces by the
+    slider-crank's matrix (references/link_forces.py)."""
+    columns = slider_crank_scene(scene)
+    _, crank = _shaft_columns(scene)
+    name, p = component(scene, "SliderCrank")
+    gas_name, gas = component(scene, "LoadProfile")
+    geometry = [p[key] for key in ("crank_length", "coupler_length", "offset")]
+    drive = (crank["crank_angle"], crank["crank_speed"], crank["crank_acceleration"])
+    motion = linkages.slider_crank(geometry[0], geometry[1], geometry[2], p["circuit"], *drive)
+    links = link_forces.slider_crank_links(geometry, drive, motion)
+    layouts = link_layouts(p, ("crank", "coupler")) + [(p["slider_mass"], 0.0, 0.0, 0.0)]
+    gravity = linkage_gravity(p, scene.components[name].effects)
+    loads = constant_inputs(scene, name, "SliderCrank")
+    table = read_profile_table(gas["table_file"])
+    load = np.interp(sample_times(scene), table.index.to_numpy(), table.iloc[:, 0].to_numpy())
+    towards_crank = -1.0 if p["circuit"] == 0 else 1.0
+    counterweight = (p["counterweight_mass"], p["counterweight_radius"])
+    forces = link_forces.norton_slider_crank(
+        links,
+        layouts,
+        gravity,
+        (p["coupler_point_along"], p["coupler_point_across"]),
+        geometry[0],
+        geometry[1],
+        (loads["coupler_force_x"], loads["coupler_force_y"]),
+        towards_crank * load,
+        counterweight,
+    )
+    forces.update(
+        link_forces.energies(
+            [*links, links[0]],  # the counterweight turns with the crank
+            [*layouts, (counterweight[0], -counterweight[1], 0.0, 0.0)],
+            gravity,
+        )
+    )
+    forces["mechanical_advantage"] = towards_crank * motion["slider_speed"] / drive[1]
+    columns[f"{gas_name}.load"] = load
+    columns.update({f"{name}.{key}": value for key, value in forces.items()})
+    return _recorded(scene, columns)
+
+
+def gear_loads_scene(scene: Any) -> Any:
+    """PistonActuator -> LandingGear (motion drive) with the forces effect: the retraction
+    as gear_retraction, the required piston force and the pivot and anchor loads from
+    references/gear_forces.py."""
+    columns = gear_retraction(scene)
+    actuator, _ = component(scene, "PistonActuator")
+    name, p = component(scene, "LandingGear")
+    effects = scene.components[name].effects
+    values = {**p, **{effect: effect in effects for effect in gear_forces.EFFECTS}}
+    values.update(constant_inputs(scene, name, "LandingGear"))
+    x, v, a = (
+        columns[f"{actuator}.piston_{key}"] for key in ("extension", "speed", "acceleration")
+    )
+    columns.update(
+        {f"{name}.{key}": value for key, value in gear_forces.loads(values, x, v, a).items()}
+    )
     return _recorded(scene, columns)
 
 
@@ -293,6 +410,10 @@ REFERENCES = {
     "valve_float": valve_train_scene,
     "valve_train_dynamic": valve_spring_scene,
     "valve_float_dynamic": valve_spring_scene,
+    "four_bar_forces": four_bar_forces_scene,
+    "slider_crank_engine": slider_crank_engine_scene,
+    "gear_retraction_loads": gear_loads_scene,
+    "camshaft_inline_four": valve_train_scene,
 }
 
 
@@ -322,6 +443,23 @@ def reference_metadata(scene: Scene, columns: list[str]) -> dict[str, Any]:
         "check": scene.check.as_dict() if scene.check else None,
         "generated_by": "mechfmu references",
     }
+
+
+def engine_gas_force() -> tuple[ndarray, dict[str, ndarray]]:
+    """The slider_crank_engine scene's gas force table: one four-stroke cycle at its crank
+    speed, 3000 rpm (references/engine.py)."""
+    times, force = engine.gas_force_table(100.0 * np.pi)
+    return times, {"load": force}
+
+
+# Input tables of the shipped scenes (file names in the scenes' tables/ folder), generated
+# from the documented models in references/ by the same command as the references.
+TABLES = {"engine_gas_force.csv": engine_gas_force}
+
+
+def generate_tables(out_dir: Any) -> list[Path]:
+    """Write every table of TABLES into ``out_dir``; return their paths."""
+    return [write_csv(Path(out_dir) / name, *build()) for name, build in TABLES.items()]
 
 
 def generate(scene_dir: Any, out_dir: Any) -> Any:

@@ -59,6 +59,7 @@ import numpy as np
 import pandas
 from scipy.stats import qmc
 
+from ..cosim import limits
 from ..cosim.files import atomic_write, inside, save_figure
 from ..cosim.results import write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
@@ -796,8 +797,15 @@ def _resumed_rows(csv_path: Any, json_path: Any, summary: Any, header: Any):
             f"nothing to resume in {csv_path.parent}: no sweep.json and "
             f"sweep.csv of a stopped sweep there"
         )
+    previous, problem = limits.load_json(json_path)
+    where = json_path
+    if not problem and not isinstance(previous, dict):
+        problem = "must hold a JSON object"
+    if not problem:
+        where, problem = csv_path, limits.file_problem(csv_path, limits.MAX_CSV_BYTES)
+    if problem:
+        raise SweepError(f"cannot resume from {csv_path.parent}: {where}: {problem}")
     try:
-        previous = json.loads(json_path.read_text(encoding="utf-8"))
         lines = (
             pandas.read_csv(
                 csv_path,

@@ -21,6 +21,7 @@ import math
 from operator import itemgetter
 
 from ..errors import MechanismError, require_finite
+from . import geometry
 from .binding import Binding
 from .state import INVALID, decode, encode
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
@@ -68,6 +69,9 @@ class MechSlave(Binding):
     """Base of every mechfmu model. Subclasses set VARIABLES, check_parameters, update."""
 
     VARIABLES: tuple[Variable, ...] = ()
+    # Outputs only an effect changes, by effect name: with the effect off they keep their
+    # start values, so the per-step finiteness check leaves them out (it is what they cost).
+    EFFECT_OUTPUTS: dict[str, tuple[str, ...]] = {}
     # False for a model whose update never changes its internal_state (a source's table
     # read at initialisation): its do_step then saves only the values for a rollback.
     STEP_CHANGES_STATE = True
@@ -99,6 +103,10 @@ class MechSlave(Binding):
         )
         self._inputs_of = _tuple_getter(self.real_inputs)
         self._outputs_of = _tuple_getter(self.real_outputs)
+        # the geometry effect's outputs (fmi/geometry.py), idle while it is off
+        self._geometry_outputs = frozenset(
+            name for name in self.real_outputs if geometry.is_geometry(self.declared[name])
+        )
         for variable in self.VARIABLES:
             self.register_declared(variable)
         self.finish_registration()
@@ -130,6 +138,11 @@ class MechSlave(Binding):
         """Outputs at initialisation; models with internal state may override."""
         self.update(time, 0.0)
 
+    def geometry_points(self) -> dict[str, float]:
+        """The values of the geometry effect's outputs from the current values (a model
+        that declares the effect implements it: fmi/geometry.py)."""
+        raise NotImplementedError
+
     # --- FMI calls (never raise) ----------------------------------------------------
     def setup_experiment(
         self, start_time: float, stop_time: None = None, tolerance: None = None
@@ -149,7 +162,7 @@ class MechSlave(Binding):
         self.stale = False
         values_before = dict(self.values)
         try:
-            self.check_parameters()
+            self._build()
             self.outputs_at_start(self.start_time)
             self._check_outputs(values_before)
             return None
@@ -158,6 +171,29 @@ class MechSlave(Binding):
                 if variable.causality == "output":
                     self.values[variable.name] = variable.start
             return self._describe(error, self.start_time)
+
+    def _build(self) -> None:
+        """What the parameters define: checked and built (check_parameters; raises
+        MechanismError), the geometry effect's outputs installed when it is on, the per-step
+        output check narrowed to what the enabled effects change."""
+        self.check_parameters()
+        drawn = geometry.install(self)  # the geometry effect's outputs, only when on
+        self._watch_live_outputs(drawn)
+
+    def _watch_live_outputs(self, drawn: bool) -> None:
+        """Check at every step only the outputs the enabled effects can change: with an
+        effect off (EFFECT_OUTPUTS; the geometry effect unless ``drawn``) its outputs hold
+        their start values."""
+        values = self.values
+        idle = {
+            name
+            for switch, names in self.EFFECT_OUTPUTS.items()
+            if not values[switch]
+            for name in names
+        }
+        if not drawn:
+            idle |= self._geometry_outputs
+        self._outputs_of = _tuple_getter(tuple(n for n in self.real_outputs if n not in idle))
 
     def refresh_initial_outputs(self) -> None:
         """Before the binding reads outputs: in initialisation mode, compute them from the
@@ -318,9 +354,9 @@ class MechSlave(Binding):
         self.values.update(values)  # in place: the registered getters hold this dict
         if rebuild:
             # A state taken by another instance (another process): build what the parameters
-            # define (integrator, mechanism) before the internal state is put back into it.
+            # define (integrator, mechanism, effects) before the internal state is put back.
             try:
-                self.check_parameters()
+                self._build()
             except Exception as error:  # never raised into C++ (see the module docstring)
                 self.log(self._describe(error, state["time_reached"]), Status.error)
         if state["internal"] is not None:

@@ -1,13 +1,61 @@
 """FourBar.fmu: the four-bar linkage driven by its crank (closed form or constraint solver)."""
 
 from typing import Any
-from ..fmi.slave import non_negative, output, parameter
+from ..fmi.geometry import geometry_effect
+from ..fmi.slave import input_, non_negative, output, parameter
 from ..physics import constraint_models
 from ..physics import four_bar as fb
+from ..physics import joint_positions
+from ..physics import linkage_forces as lf
 from ..errors import RangeError
+from . import force_variables as fv
 from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
 
 COURSEWORK = fb.COURSEWORK_FOUR_BAR
+_LOADS = lf.FourBarLoads._fields  # rocker_torque, coupler_force_x, coupler_force_y
+_LOADED = _CRANK + _LOADS
+_LINKS = ("crank", "coupler", "rocker")
+
+# The forces effect's variables (force_variables): masses, gravity, loads, forces.
+FORCE_VARIABLES = (
+    fv.forces_effect(
+        "pin forces at O2, A, B and O4, crank torque, input power, shaking force and "
+        "moment, mechanical advantage, coupler point path"
+    ),
+    *fv.gravity_variables(),
+    *(
+        variable
+        for link, layout, along in zip(
+            _LINKS, lf.DEFAULT_FOUR_BAR_MASSES, ("O2 -> A", "A -> B", "O4 -> B")
+        )
+        for variable in fv.link_mass_variables(link, layout, link, along)
+    ),
+    *fv.coupler_point_variables(*lf.DEFAULT_FOUR_BAR_COUPLER_POINT, "A -> B"),
+    input_(
+        "rocker_torque",
+        0.0,
+        fv.only_with_forces(
+            "external torque on the rocker, counter-clockwise (a load resists: opposite "
+            "to the rocker's angular velocity)"
+        ),
+        "N.m",
+    ),
+    *fv.joint_force_outputs("crank_pivot", "F12, ground on crank at O2", _LOADED),
+    *fv.joint_force_outputs("crank_pin", "F32, coupler on crank at A", _LOADED),
+    *fv.joint_force_outputs("rocker_pin", "F43, rocker on coupler at B", _LOADED),
+    *fv.joint_force_outputs("rocker_pivot", "F14, ground on rocker at O4", _LOADED),
+    *fv.crank_drive_outputs(_LOADED),
+    *fv.shaking_outputs("the crank pivot O2", _LOADED),
+    output(
+        "mechanical_advantage",
+        0.0,
+        "forces: rocker torque per unit crank torque, omega2/omega4 (unbounded where "
+        "crank and coupler are collinear)",
+        unit="1",
+        depends=_CRANK[:1],
+    ),
+    *fv.coupler_point_outputs(_CRANK[:1]),
+)
 
 
 class FourBar(LinkageSlave):
@@ -69,7 +117,20 @@ class FourBar(LinkageSlave):
             0,
             "Grashof class: " + "; ".join(f"{c.code} {c.name}" for c in fb.GRASHOF_CLASSES),
         ),
+        *geometry_effect(
+            "origin at the crank pivot O2, +x along the ground link towards the rocker "
+            "pivot O4, +y counter-clockwise from it",
+            {
+                "crank_pivot": "O2, the crank's ground pivot (the origin)",
+                "rocker_pivot": "O4, the rocker's ground pivot (d, 0)",
+                "crank_pin": "A, the crank-coupler joint",
+                "rocker_pin": "B, the coupler-rocker joint",
+            },
+            depends=_CRANK[:1],
+        ),
+        *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {fv.FORCES: fv.outputs_of(FORCE_VARIABLES)}
 
     def _lengths(self) -> tuple[float, float, float, float]:
         v = self.values
@@ -83,6 +144,21 @@ class FourBar(LinkageSlave):
             )
         self.values["grashof_class"] = fb.grashof_class(*self._lengths())
         self.lengths = fb.check_four_bar(*self._lengths())
+        self.forces = self.force_analysis()
+
+    def force_analysis(self) -> "lf.FourBarForces | None":
+        """The forces effect's analysis from the parameters, or None with the effect off."""
+        v = self.values
+        gravity = fv.gravity_setting(v)
+        if not v[fv.FORCES]:
+            return None
+        return lf.FourBarForces(
+            self.lengths,
+            [fv.link_layout(v, link) for link in _LINKS],
+            gravity,
+            fv.coupler_point(v),
+            v["singularity_threshold"],
+        )
 
     def closed_form(self, time: float) -> dict[str, float]:
         # lengths and circuit validated in check_geometry, the inputs finite (do_step)
@@ -111,3 +187,15 @@ class FourBar(LinkageSlave):
             "rocker_angular_acceleration": qddot[8],
             "transmission_angle": fb.transmission_angle(coupler, rocker),
         }
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        return joint_positions.flattened(
+            joint_positions.four_bar_points(
+                v["ground_length"],
+                v["crank_length"],
+                v["rocker_length"],
+                v["crank_angle"],
+                v["rocker_angle"],
+            )
+        )

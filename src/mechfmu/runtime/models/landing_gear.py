@@ -2,11 +2,14 @@
 
 import math
 
+from ..fmi.geometry import geometry_effect
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.slave import Status, effect, input_, integrator_variables
 from ..fmi.slave import non_negative, output, parameter
 from ..physics import gear_dynamics as gd
+from ..physics import gear_forces
 from ..physics import hydraulics
+from ..physics import joint_positions
 from ..physics import landing_gear as gear
 from ..errors import MechanismError, require_finite
 from ..physics.landing_gear import (
@@ -15,6 +18,7 @@ from ..physics.landing_gear import (
     COURSEWORK_RETRACTED_LENGTH,
     DEFAULT_GEOMETRY,
 )
+from .force_variables import outputs_of
 from .hydraulic_actuator import HYDRAULIC_PARAMETERS
 from typing import Any
 
@@ -23,6 +27,40 @@ _FORCES = ("piston_force", "airspeed")
 DRIVES = ("motion", "dynamics")
 _MOMENT_EFFECTS = ("gravity", "aero_drag", "pivot_friction")
 _FORCE_DRIVE = ("piston_force", "valve_command")  # the dynamics drive's own inputs
+
+
+_REACTIONS = _PISTON + _FORCES
+# The forces effect's variables: the reactions on the airframe side and the input power.
+FORCE_VARIABLES = (
+    effect(
+        "forces",
+        "reactions at the bar pivot B and at the actuator's anchor on the airframe "
+        "(airframe axes: origin B, x forward, y up), input power of the piston",
+    ),
+    *(
+        output(
+            f"{joint}_force_{part}",
+            0.0,
+            f"forces: {what}, {part} (airframe axes)",
+            unit="N",
+            depends=_REACTIONS,
+            min=0.0 if part == "magnitude" else None,
+        )
+        for joint, what in (
+            ("pivot", "force of the airframe on the bar at the pivot B"),
+            ("anchor", "force of the airframe on the actuator at its fixed pivot"),
+        )
+        for part in ("x", "y", "magnitude")
+    ),
+    output(
+        "piston_power",
+        0.0,
+        "forces: power the piston delivers, drive force times piston rate (motion drive: "
+        "the required force)",
+        unit="W",
+        depends=_REACTIONS,
+    ),
+)
 
 
 class LandingGear(IntegratingSlave):
@@ -270,12 +308,27 @@ class LandingGear(IntegratingSlave):
             unit="s",
         ),
         output("stop_contacts", 0, "End-stop contacts started so far"),
+        *geometry_effect(
+            "earth axes at the bar pivot B: +x forward (horizontal), +y up; the airframe "
+            "(and with it the piston's fixed pivot) pitched nose-up by airframe_pitch; the "
+            "bar hangs straight down at gear_angle = down_angle - airframe_pitch",
+            {
+                "bar_pivot": "B, the bar's pivot on the airframe (the origin)",
+                "piston_pivot": "the piston's fixed pivot on the airframe, h from B",
+                "piston_attachment": "the piston's joint on the bar, d from B",
+                "wheel_axle": "A, the wheel's axle at the bar's end, bar_length from B",
+            },
+            depends=_PISTON[:1],
+        ),
+        *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {"forces": outputs_of(FORCE_VARIABLES)}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
         self.ignored_inputs: tuple[str, ...] = ()  # inputs of the other driver last warned about
         self.model: Any = None  # gear_dynamics.Dynamics or InverseDynamics
+        self.forces: Any = None  # gear_forces.GearForces with the forces effect on
 
     # --- set-up (IntegratingSlave: the dynamics drive integrates [theta, omega, work(, p1,
     # p2)]; the motion drive computes closed forms) ----------------------------------------
@@ -291,6 +344,7 @@ class LandingGear(IntegratingSlave):
         )
         if v["drive"] not in DRIVES:
             raise MechanismError(f"drive = {v['drive']!r} is not one of {', '.join(DRIVES)}")
+        self.forces = gear_forces.GearForces(v, body, geometry) if v["forces"] else None
         if v["drive"] == "dynamics":
             if not v["inertia"]:
                 raise MechanismError(
@@ -374,7 +428,20 @@ class LandingGear(IntegratingSlave):
             )
 
     def publish(self, time: float) -> None:
-        self.model.publish(self.values, time, self.state)
+        v = self.values
+        self.model.publish(v, time, self.state)
+        if self.forces is not None:
+            on_bar = self.model.piston_force_on_bar(self.state, v)
+            v.update(
+                self.forces.reactions(
+                    v["gear_angle"],
+                    v["gear_angular_velocity"],
+                    v["gear_angular_acceleration"],
+                    on_bar,
+                    v["airspeed"],
+                )
+            )
+            v["piston_power"] = v["piston_force_applied"] * v["piston_rate"]
 
     def update_without_state(self, time: float, step_size: float) -> None:
         """Motion drive: the outputs from the prescribed piston motion (closed forms)."""
@@ -388,6 +455,26 @@ class LandingGear(IntegratingSlave):
         v["wheel_speed"] = v["bar_length"] * motion.angular_velocity
         v["piston_length"], v["piston_rate"] = v["piston_extension"], v["piston_speed"]
         self.model.publish(v, motion)
+        if self.forces is not None:
+            gear_forces.check_moment_arm(
+                arm, self.forces.geometry, motion.angle, v["piston_length"]
+            )
+            force = v["piston_force_required"]
+            v.update(self.forces.reactions(*motion, force, v["airspeed"]))
+            v["piston_power"] = force * v["piston_speed"]
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        return joint_positions.flattened(
+            joint_positions.gear_points(
+                v["attachment_distance"],
+                v["pivot_height"],
+                v["bar_length"],
+                v["gear_angle"],
+                v["down_angle"],
+                v["airframe_pitch"],
+            )
+        )
 
 
 # Start values and units of the inputs, for the other-driver warning.

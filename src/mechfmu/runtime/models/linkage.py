@@ -95,6 +95,8 @@ class LinkageSlave(MechSlave):
         self.follower: Any = None  # planar.BranchFollower (set_up)
         self.model: Any = None  # planar.Mechanism: the solver's, and the closed form's crossings
         self.last_drive: Any = None  # the closed form's drive at its last communication point
+        # the forces effect's analysis (None while it is off); its LU row order is state
+        self.forces: Any = None
 
     def driver_inputs(self) -> tuple[float, float, float]:
         """The current values of DRIVE_INPUTS: (angle, speed, acceleration) of the crank."""
@@ -126,7 +128,10 @@ class LinkageSlave(MechSlave):
         raise NotImplementedError
 
     def after_update(self, time: float) -> None:
-        """Hook for effects computed from the kinematic outputs (contact forces, ...)."""
+        """Hook for effects computed from the kinematic outputs (contact forces, ...); here
+        the forces effect of a crank-driven linkage (its analysis' ``outputs``)."""
+        if self.forces is not None:
+            self.values.update(self.forces.outputs(self.driver_inputs(), self.values))
 
     # --- MechSlave contract -------------------------------------------------------------
     def check_parameters(self) -> Any:
@@ -186,21 +191,30 @@ class LinkageSlave(MechSlave):
         return {
             "follower": None if self.follower is None else self.follower.snapshot(),
             "last_drive": None if self.last_drive is None else [list(d) for d in self.last_drive],
+            "forces": None if self.forces is None else self.forces.equations.snapshot(),
         }
 
     def step_state(self) -> Any:
-        """The branch as references (BranchFollower.step_state) and the last drive: nothing
-        is copied, as neither is ever changed in place."""
-        follower = self.follower
-        return (None if follower is None else follower.step_state(), self.last_drive)
+        """The branch as references (BranchFollower.step_state), the last drive and the
+        force analysis' pivoting: nothing is copied, as none is ever changed in place."""
+        follower, forces = self.follower, self.forces
+        return (
+            None if follower is None else follower.step_state(),
+            self.last_drive,
+            None if forces is None else forces.equations.snapshot(),
+        )
 
     def restore_step_state(self, state: Any) -> None:
-        branch, self.last_drive = state
+        branch, self.last_drive, pivoting = state
         if branch is not None and self.follower is not None:
             self.follower.restore_step_state(branch)
+        if pivoting is not None and self.forces is not None:
+            self.forces.equations.restore(pivoting)
 
     def restore_internal_state(self, state: Any) -> None:
         if self.follower is not None and state.get("follower") is not None:
             self.follower.restore(state["follower"])
         if state.get("last_drive") is not None:
             self.last_drive = [tuple(d) for d in state["last_drive"]]
+        if self.forces is not None and state.get("forces") is not None:
+            self.forces.equations.restore(state["forces"])

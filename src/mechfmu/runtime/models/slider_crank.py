@@ -1,16 +1,76 @@
 """SliderCrank.fmu: the offset slider-crank driven by its crank (closed form or solver)."""
 
 from typing import Any
-from ..fmi.slave import non_negative, motion_outputs, parameter
+from ..fmi.geometry import geometry_effect
+from ..fmi.slave import input_, non_negative, motion_outputs, output, parameter
 from ..physics import constraint_models
+from ..physics import joint_positions
+from ..physics import link_forces
+from ..physics import linkage_forces as lf
 from ..physics import slider_crank as sc
-from ..errors import RangeError
+from ..errors import RangeError, require_finite
+from . import force_variables as fv
 from .linkage import CRANK as _CRANK, LinkageSlave, crank_inputs, solver_variables
 
 _SLIDER = ("slider_position", "slider_speed", "slider_acceleration")
 _COUPLER = ("coupler_angle", "coupler_angular_velocity", "coupler_angular_acceleration")
 
 DEFAULT = sc.DEFAULT_SLIDER_CRANK
+_LOADS = lf.SliderCrankLoads._fields  # slider_force, coupler_force_x, coupler_force_y
+_LOADED = _CRANK + _LOADS
+_MASSES = lf.DEFAULT_SLIDER_CRANK_MASSES
+
+# The forces effect's variables (force_variables): masses, counterweight, gravity, loads.
+FORCE_VARIABLES = (
+    fv.forces_effect(
+        "pin forces at the crank pivot, A and B, guide force, crank torque, input power, "
+        "shaking force and moment, mechanical advantage, coupler point path"
+    ),
+    *fv.gravity_variables(),
+    *fv.link_mass_variables("crank", _MASSES.crank, "crank (without counterweight)", "pivot -> A"),
+    *fv.link_mass_variables("coupler", _MASSES.coupler, "connecting rod", "A -> B"),
+    non_negative(
+        "slider_mass", _MASSES.slider.mass, "forces: mass of the slider (piston), at B", "kg"
+    ),
+    non_negative(
+        "counterweight_mass",
+        0.0,
+        "forces: balancing counterweight on the crank, a point mass opposite the crank pin",
+        "kg",
+    ),
+    non_negative(
+        "counterweight_radius",
+        DEFAULT.crank,
+        "forces: distance of the counterweight from the crank pivot",
+        "m",
+    ),
+    *fv.coupler_point_variables(*lf.DEFAULT_SLIDER_CRANK_COUPLER_POINT, "A -> B"),
+    input_(
+        "slider_force",
+        0.0,
+        fv.only_with_forces(
+            "external force on the slider along its axis, positive towards the crank "
+            "(-x on circuit 0, +x on circuit 1): an engine's gas force, pressure times "
+            "piston area"
+        ),
+        "N",
+    ),
+    *fv.joint_force_outputs("crank_pivot", "F12, ground on crank at the pivot", _LOADED),
+    *fv.joint_force_outputs("crank_pin", "F32, connecting rod on crank at A", _LOADED),
+    *fv.joint_force_outputs("slider_pin", "F43, slider on connecting rod at B", _LOADED),
+    *fv.joint_force_outputs("guide", "F14, guide on slider (normal to the axis)", _LOADED),
+    *fv.crank_drive_outputs(_LOADED),
+    *fv.shaking_outputs("the crank pivot", _LOADED),
+    output(
+        "mechanical_advantage",
+        0.0,
+        "forces: crank torque per newton of slider force towards the crank (the piston "
+        "driving, as in an engine): a lever arm, 0 at the dead centres",
+        unit="m",
+        depends=_CRANK[:1],
+    ),
+    *fv.coupler_point_outputs(_CRANK[:1]),
+)
 
 
 class SliderCrank(LinkageSlave):
@@ -51,7 +111,19 @@ class SliderCrank(LinkageSlave):
             ("theta3: angle of the connecting rod A -> B", "omega3", "alpha3"),
             _CRANK,
         ),
+        *geometry_effect(
+            "origin at the crank pivot, +x along the slider's line (which runs at y = "
+            "offset), +y counter-clockwise from it",
+            {
+                "crank_pivot": "the crank's ground pivot (the origin)",
+                "crank_pin": "A, the crank-rod joint",
+                "slider_pin": "B, the rod-slider joint (slider_position, offset)",
+            },
+            depends=_CRANK[:1],
+        ),
+        *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {fv.FORCES: fv.outputs_of(FORCE_VARIABLES)}
 
     def _geometry(self) -> tuple[float, float, float]:
         v = self.values
@@ -61,6 +133,30 @@ class SliderCrank(LinkageSlave):
         self.geometry = sc.check_slider_crank(*self._geometry())
         if self.values["circuit"] not in sc.CIRCUITS:
             raise RangeError("circuit", self.values["circuit"], "{0, 1}")
+        self.forces = self.force_analysis()
+
+    def force_analysis(self) -> "lf.SliderCrankForces | None":
+        """The forces effect's analysis from the parameters, or None with the effect off."""
+        v = self.values
+        gravity = fv.gravity_setting(v)
+        if not v[fv.FORCES]:
+            return None
+        counterweight = link_forces.mass_layout(
+            "counterweight", v["counterweight_mass"], 0.0, 0.0, 0.0
+        ).mass
+        radius = require_finite("counterweight_radius", v["counterweight_radius"], "m")
+        if radius < 0.0:
+            raise RangeError("counterweight_radius", radius, "[0, inf)", "m", "a distance")
+        crank = link_forces.with_point_mass(fv.link_layout(v, "crank"), counterweight, -radius, 0.0)
+        slider = link_forces.mass_layout("slider", v["slider_mass"], 0.0, 0.0, 0.0)
+        return lf.SliderCrankForces(
+            self.geometry,
+            int(v["circuit"]),
+            [crank, fv.link_layout(v, "coupler"), slider],
+            gravity,
+            fv.coupler_point(v),
+            v["singularity_threshold"],
+        )
 
     def closed_form(self, time: float) -> Any:
         # the lengths and circuit validated once (check_geometry), the inputs by the step
@@ -88,3 +184,11 @@ class SliderCrank(LinkageSlave):
             "coupler_angular_velocity": qdot[5],
             "coupler_angular_acceleration": qddot[5],
         }
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        return joint_positions.flattened(
+            joint_positions.slider_crank_points(
+                v["crank_length"], v["offset"], v["crank_angle"], v["slider_position"]
+            )
+        )

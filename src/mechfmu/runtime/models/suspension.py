@@ -1,8 +1,10 @@
 """Suspension.fmu: static (load in, equilibrium out) or dynamic (sprung mass integrated)."""
 
+from ..fmi.geometry import geometry_output, geometry_effect
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.slave import Status, effect, input_, integrator_variables
 from ..fmi.slave import non_negative, output, parameter
+from ..physics import joint_positions
 from ..physics import suspension as physics
 from ..physics import suspension_dynamics as dyn
 from ..errors import IntegrationError, MechanismError, SnapThrough, require_finite
@@ -219,6 +221,25 @@ class Suspension(IntegratingSlave):
             unit="J",
             depends=_INPUTS,
         ),
+        *geometry_effect(
+            "origin on the centre line at the height of the spring bases with the base "
+            "at z = 0, +x right, +y up",
+            {
+                "left_base": "the left spring's lower end (-d, -z)",
+                "right_base": "the right spring's lower end (d, -z)",
+                "apex": "the springs' upper ends, where the load and the sprung mass act",
+            },
+            depends=_INPUTS,
+            extra=(
+                geometry_output(
+                    "road_surface_y",
+                    "road surface height above its level at rest (road_height with the "
+                    "road_input effect, else 0); at rest it lies the tyre's undeformed "
+                    "length below the origin (not modelled: a drawing chooses it)",
+                    depends=_INPUTS,
+                ),
+            ),
+        ),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -430,6 +451,20 @@ class Suspension(IntegratingSlave):
         v["tangent_stiffness"] = physics.tangent_stiffness(u, spring)
         v["stable"], v["marginal"] = physics.stability(v["tangent_stiffness"], spring)
         v["branch"] = dyn.region(u, spring)
+
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        spring = self._spring()
+        points = joint_positions.flattened(
+            joint_positions.suspension_points(
+                spring.base_offset,
+                physics.rest_height(spring),
+                v["deflection"],
+                v["unsprung_displacement"],
+            )
+        )
+        points["road_surface_y"] = v["road_height"] if v["road_input"] else 0.0
+        return points
 
 
 _NAMES = {dyn.NEAR: "near", dyn.FAR: "far"}

@@ -3,13 +3,16 @@ contact and stopped by a compliant seat, integrated inside each communication st
 
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.declarations import motion_inputs, motion_units, only_with
+from ..fmi.geometry import geometry_effect
 from ..fmi.slave import Status, integrator_variables, output, parameter
-from ..physics import cam_geometry
+from ..physics import cam_geometry, cam_laws, joint_positions
 from ..physics import valve_spring as vs
+from ..physics import valve_train as vt
 from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
 from ..numerics.stepping import advance_through_events
 from ..physics.valve_spring import Happening
 from .valve_train import CAMSHAFT_DESCRIPTIONS, CAMSHAFT_INPUTS, cam_law_variables, cam_setup
+from .valve_train import VALVE_TRAIN_FRAME, VALVE_TRAIN_POINTS, cam_angle_output
 from .valve_train import geometry_variables
 from typing import Any
 
@@ -268,6 +271,19 @@ class ValveSpring(IntegratingSlave):
             "elastic energy when both dampings are 0)",
             unit="J",
         ),
+        *geometry_effect(
+            VALVE_TRAIN_FRAME + ", with the geometry parameters (drive = rocker: only the "
+            "valve axis; the other joints and cam_angle stay 0)",
+            {
+                **VALVE_TRAIN_POINTS,
+                "rocker_end": "the rocker's valve end on the valve axis (ValveTrain's "
+                "valve_foot), rocker_lift below its closed position",
+                "valve_tip": "the valve's tip on the valve axis, lash below the rocker end "
+                "with both closed, valve_lift below that",
+            },
+            depends=_ON_POSITION,
+            extra=(cam_angle_output(_CAMSHAFT[:1]),),
+        ),
     )
 
     def __init__(self, **kwargs: Any) -> None:
@@ -283,6 +299,10 @@ class ValveSpring(IntegratingSlave):
         self.peak_energy = 0.0  # J: largest energy in play so far
         self.max_lift: Any = None  # m: max_valve_lift, the travel limit
         self.last_float: Any = None  # s: when the valve last left the rocker (float), for messages
+        # geometry effect: the valve train drawn, its cam law and closed valve foot height (m)
+        self.drawn_geometry: Any = None
+        self.cam_law: Any = None
+        self.closed_height = 0.0
 
     # --- set-up (IntegratingSlave: the state is (x, v, W), the inputs (L, L', L'')) ----------
     def set_up(self) -> bool:
@@ -305,6 +325,10 @@ class ValveSpring(IntegratingSlave):
             self.drive = vs.CamshaftStepDrive(profile, geometry, v["input_interpolation"])
         else:
             self.drive = vs.StepDrive(v["input_interpolation"])
+        if v["geometry"]:  # the valve train it draws (validated: the rocker drive has none)
+            self.drawn_geometry, profile = cam_setup(v)
+            self.cam_law = cam_laws.motion_function(profile)
+            self.closed_height = vt.rest_position(self.drawn_geometry)[1]
         self.modes = vs.Modes()
         self.rhs = vs.build_rhs(self.parameters, self.drive, self.modes)
         self.events = vs.build_events(self.parameters, self.drive, self.max_lift)
@@ -505,6 +529,30 @@ class ValveSpring(IntegratingSlave):
         v["kinetic_energy"] = vs.kinetic_energy(p, velocity)
         v["elastic_energy"] = vs.elastic_energy(p, L, lift)
         v["contact_work"] = work
+
+    def geometry_points(self) -> dict[str, float]:
+        """The valve on its axis and, with the camshaft drive, the valve train that moves
+        the rocker end: ValveTrain's closed forms at the camshaft angle."""
+        v, g = self.values, self.drawn_geometry
+        if isinstance(self.drive, vs.CamshaftStepDrive):
+            angle = self.held_inputs[0]
+            train = vt.forward(g, self.cam_law(angle, 0.0, 0.0)[0], 0.0, 0.0)
+            chain = joint_positions.valve_train_points(
+                g, train.tappet_lift, train.rocker_angle, self.closed_height - train.valve_lift
+            )
+            points = joint_positions.flattened(chain)
+            del points["valve_foot_x"], points["valve_foot_y"]  # the rocker end, below
+            points["cam_angle"], rocker_lift = angle, train.valve_lift
+        else:
+            points, rocker_lift = {}, self.held_inputs[0]
+        points.update(
+            joint_positions.flattened(
+                joint_positions.valve_axis_points(
+                    g.valve_axis_x, self.closed_height, v["lash"], rocker_lift, v["valve_lift"]
+                )
+            )
+        )
+        return points
 
 
 def _drive_text(happening: Happening) -> str:

@@ -3,6 +3,7 @@
 from typing import Any
 import math
 
+from ..fmi.geometry import geometry_effect, geometry_output
 from ..fmi.slave import (
     non_negative,
     Status,
@@ -12,10 +13,14 @@ from ..fmi.slave import (
     output,
     parameter,
 )
-from ..physics import cam_geometry, cam_laws, constraint_models
+from ..physics import cam_geometry, cam_laws, constraint_models, joint_positions
+from ..physics import valve_forces
+from ..physics.link_forces import mass_layout
 from ..physics import valve_train as vt
 from ..errors import MechanismError, RangeError
+from . import force_variables as fv
 from .linkage import LinkageSlave, solver_variables
+from ..fmi.declarations import Variable
 
 _CAM = CAMSHAFT_INPUTS = ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
 CAMSHAFT_DESCRIPTIONS = (
@@ -45,6 +50,32 @@ _GEOMETRY_DESCRIPTIONS = {
     "valve_axis_x": "x of the valve axis (the valve foot Q slides on it)",
     "valve_link_length": "Valve link length from V down to the valve foot Q",
 }
+
+
+# The valve train's joints (physics/joint_positions.py), shared by ValveTrain and ValveSpring.
+VALVE_TRAIN_FRAME = (
+    "origin at the camshaft centre of a flat-faced tappet without offset, +x right, +y up "
+    "(valve_train.py's frame)"
+)
+VALVE_TRAIN_POINTS = {
+    "cam_centre": "the camshaft centre: the origin, or under a roller or an offset follower "
+    "(cam_geometry's follower parameters) where the cam holds it at the tappet foot",
+    "tappet_foot": "P, the tappet's flat face on the cam, on the tappet axis x = 0",
+    "rocker_fulcrum": "the rocker's pivot on the block (rocker_pivot_x, rocker_pivot_y)",
+    "pushrod_end": "T, the pushrod-rocker joint",
+    "valve_end": "V, the rocker-valve link joint",
+}
+
+
+def cam_angle_output(depends: tuple[str, ...]) -> Variable:
+    """The geometry output of the cam's angle (rad): the camshaft angle it turns by,
+    counter-clockwise, from the angle 0 of its cam law."""
+    return geometry_output(
+        "cam_angle",
+        "the cam's angle, counter-clockwise: the camshaft angle of its cam law",
+        unit="rad",
+        depends=depends,
+    )
 
 
 def geometry_variables() -> tuple:
@@ -158,6 +189,52 @@ _CAM_OUTPUTS = (
 )
 
 
+# The forces effect's variables (force_variables): pushrod and rocker masses, gravity, the
+# cam's push, each joint's force, the camshaft torque with the links' inertia.
+FORCE_VARIABLES = (
+    fv.forces_effect(
+        "the cam's push on the tappet, the pushrod, rocker pivot, valve link and guide forces, "
+        "the camshaft torque and input power with the pushrod's and rocker's inertia (and the "
+        "valve's mass and spring with valve_spring)"
+    ),
+    *fv.gravity_variables(),
+    *fv.link_mass_variables(
+        "pushrod", valve_forces.DEFAULT_PUSHROD, "tappet and pushrod", "P -> T"
+    ),
+    *fv.link_mass_variables(
+        "rocker", valve_forces.DEFAULT_ROCKER, "rocker", "the pivot -> the valve arm"
+    ),
+    output(
+        "cam_force",
+        0.0,
+        "forces: the cam's push on the tappet along the follower's axis (roller: the "
+        "normal force's axial part; the guide carries the rest)",
+        unit="N",
+        depends=_CAM,
+    ),
+    output(
+        "cam_torque",
+        0.0,
+        "forces: torque the camshaft supplies to this cam, cam_force ds/dtheta (with the "
+        "pushrod's and rocker's inertia; camshaft_torque when they are massless)",
+        unit="N.m",
+        depends=_CAM,
+    ),
+    output(
+        "input_power",
+        0.0,
+        "forces: power the cam delivers, cam_force times the tappet velocity",
+        unit="W",
+        depends=_CAM,
+    ),
+    *fv.joint_force_outputs("tappet_guide", "tappet guide on tappet at P", _CAM),
+    *fv.joint_force_outputs("pushrod", "rocker on pushrod at T", _CAM),
+    *fv.joint_force_outputs("rocker_pivot", "cylinder head on rocker at its pivot", _CAM),
+    *fv.joint_force_outputs("valve_link", "rocker on valve link at V", _CAM),
+    *fv.joint_force_outputs("valve_guide", "valve guide on valve at Q", _CAM),
+)
+
+
 def cam_setup(values: dict) -> tuple:
     """(ValveGeometry, CamProfile) validated from the parameter values of geometry_variables
     and cam_law_variables (RangeError names the parameter)."""
@@ -173,6 +250,19 @@ def cam_setup(values: dict) -> tuple:
         values["return_angle"],
     )
     return geometry, profile
+
+
+def valve_train_geometry_effect() -> tuple:
+    """ValveTrain's geometry effect: the joints and the valve foot Q (the valve)."""
+    return geometry_effect(
+        VALVE_TRAIN_FRAME,
+        {
+            **VALVE_TRAIN_POINTS,
+            "valve_foot": "Q, the valve (link foot) on the valve axis x = valve_axis_x",
+        },
+        depends=_CAM[:1],
+        extra=(cam_angle_output(_CAM[:1]),),
+    )
 
 
 class ValveTrain(LinkageSlave):
@@ -291,7 +381,10 @@ class ValveTrain(LinkageSlave):
             "max - min of ds/dtheta (0 for a roller, -1: effect off)",
             unit="m",
         ),
+        *valve_train_geometry_effect(),
+        *FORCE_VARIABLES,
     )
+    EFFECT_OUTPUTS = {fv.FORCES: fv.outputs_of(FORCE_VARIABLES)}
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
@@ -300,6 +393,7 @@ class ValveTrain(LinkageSlave):
         self.motion = cam_laws.motion_function(CAM)  # follower_motion of self.profile
         self.closed_height = 0.0  # m, valve foot height with the valve closed
         self.cam_follower: Any = None  # cam_geometry.Follower with the cam_geometry effect
+        self.drawn_cam_centre = (0.0, 0.0)  # m, the cam's centre (geometry effect)
         self.reported: set = set()  # design warnings logged (initialisation may run twice)
 
     # --- parameters -------------------------------------------------------------------
@@ -328,6 +422,38 @@ class ValveTrain(LinkageSlave):
             v[name] = -1.0
         if v["cam_geometry"]:
             self._design_cam()
+        if v["geometry"]:  # where the cam sits under its follower (a roller, an offset)
+            self.drawn_cam_centre = joint_positions.cam_centre(
+                cam_geometry.check_follower(
+                    v["follower"],
+                    self.geometry.cam_base_radius,
+                    v["roller_radius"],
+                    v["follower_offset"],
+                )
+            )
+        self.forces = self.force_analysis()
+
+    def force_analysis(self) -> "valve_forces.ValveTrainForces | None":
+        """The forces effect's analysis from the parameters, or None with the effect off."""
+        v = self.values
+        gravity = fv.gravity_setting(v)
+        if not v[fv.FORCES]:
+            return None
+        spring = None
+        if v["valve_spring"]:
+            spring = valve_forces.ValveSpringLoad(
+                mass_layout("valve", v["valve_mass"], 0.0, 0.0, 0.0).mass,
+                v["spring_stiffness"],
+                v["spring_preload"],
+            )
+        return valve_forces.ValveTrainForces(
+            self.geometry,
+            valve_forces.pushrod_frame(fv.link_layout(v, "pushrod")),
+            fv.link_layout(v, "rocker"),
+            spring,
+            gravity,
+            v["singularity_threshold"],
+        )
 
     def _design_cam(self) -> None:
         """The cam_geometry effect at initialisation: the follower checked, the cam designed
@@ -393,6 +519,20 @@ class ValveTrain(LinkageSlave):
             "valve_acceleration": -qddot[_VALVE_Y],
         }
 
+    def geometry_points(self) -> dict[str, float]:
+        v = self.values
+        points = joint_positions.flattened(
+            joint_positions.valve_train_points(
+                self.geometry,
+                v["tappet_lift"],
+                v["rocker_angle"],
+                self.closed_height - v["valve_lift"],
+                self.drawn_cam_centre,
+            )
+        )
+        points["cam_angle"] = v["camshaft_angle"]
+        return points
+
     # --- valve spring -----------------------------------------------------------------
     def tappet_diagram(self) -> tuple[float, float, float]:
         """(s m, s1 m/rad, s2 m/rad^2) of the tappet at the camshaft angle: the cam law
@@ -413,6 +553,9 @@ class ValveTrain(LinkageSlave):
 
     def after_update(self, time: float) -> Any:
         v = self.values
+        if self.forces is not None:
+            lift_rate = self.tappet_diagram()[1]
+            v.update(self.forces.analyse(v, self.closed_height, lift_rate))
         if v["cam_geometry"]:
             point = cam_geometry.cam_point(
                 self.cam_follower, v["camshaft_angle"], *self.tappet_diagram()

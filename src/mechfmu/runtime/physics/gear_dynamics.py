@@ -264,13 +264,26 @@ class Dynamics:
             return hydraulics.piston_force(y[3], y[4], self.actuator)
         return v["piston_force"]
 
-    def derivatives(self, y: list[float], v: dict[str, float]) -> tuple[list[float], float, float]:
-        """(dy/dt, acceleration, drive force) at state y with inputs held over the step."""
-        length, rate, arm = self.piston_kinematics(y)
+    def _piston_forces(
+        self, y: list[float], v: dict[str, float], length: float, rate: float, arm: float
+    ) -> tuple[float, float]:
+        """(drive force, drive plus end-stop force) along the piston (N) at state y, the
+        piston's length (m), rate (m/s) and moment arm (m) given."""
         force = self._drive_force(y, v)
         on_piston = force
         if self.stops:
             on_piston += stop_force(length, rate, self.inertia / (arm * arm), self.stops)
+        return force, on_piston
+
+    def piston_force_on_bar(self, y: list[float], v: dict[str, float]) -> float:
+        """The whole force along the piston on the bar at state y (N): drive and end stops."""
+        length, rate, arm = self.piston_kinematics(y)
+        return self._piston_forces(y, v, length, rate, arm)[1]
+
+    def derivatives(self, y: list[float], v: dict[str, float]) -> tuple[list[float], float, float]:
+        """(dy/dt, acceleration, drive force) at state y with inputs held over the step."""
+        length, rate, arm = self.piston_kinematics(y)
+        force, on_piston = self._piston_forces(y, v, length, rate, arm)
         moment = on_piston * arm + sum(term(y[0], y[1], v["airspeed"]) for term in self.terms)
         alpha = moment / self.inertia
         rates = [y[1], alpha, force * rate]

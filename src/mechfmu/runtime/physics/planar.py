@@ -533,7 +533,6 @@ class BranchFollower:
             self.kernel = planar_kernel.MechanismKernel(mechanism)
         except planar_kernel.Unsupported:
             self.kernel = None
-        self.kernel_module = planar_kernel
         self.order: tuple[int, ...] | None = None
         # planar_kernel.LuKernel of self.order (a cache)
         self.lu_kernel: planar_kernel.LuKernel | None = None
@@ -670,23 +669,10 @@ class BranchFollower:
         """The LU kernel and factors of the scaled Jacobian ``values`` (non-zeros): in the
         row order of the last step while its pivots stay within a factor 2 of their
         columns' largest, else in partial pivoting's order here. None if singular."""
-        if self.order is not None:
-            lu = self.lu_kernel
-            if lu is None or lu.order is not self.order:
-                lu = self.lu_kernel = kernel.lu(self.order)
-            factors = lu.factor(values)
-            if factors is not None:
-                return lu, factors
-        try:
-            _, pivots = lu_factor(kernel.dense(values))
-            lu = kernel.lu(tuple(pivots))
-        except (Singular, ZeroDivisionError):
-            return None
-        factors = lu.factor(values)
-        if factors is None:
-            return None
-        self.order, self.lu_kernel = lu.order, lu
-        return lu, factors
+        factored = kernel.factor(values, self.order)
+        if factored is not None:
+            self.order, self.lu_kernel = factored[0].order, factored[0]
+        return factored
 
     def _fast_guess(
         self, kernel: "planar_kernel.MechanismKernel", last: Solution, dt: float
@@ -782,13 +768,7 @@ class BranchFollower:
             return None
         if factors[-1] != self.sign:  # lu.sign(factors)
             return None
-        column = self.column
-        condition = None if column is None else lu.condition(factors, values, column)
-        if condition is None:  # Hager's estimate needs more than the one step
-            inverse_norm, column = self.kernel_module.inverse_one_norm(
-                lu, factors, kernel.size, column
-            )
-            condition = kernel.one_norm(values) * inverse_norm
+        condition, column = kernel.condition(lu, factors, values, self.column)
         if not condition <= self.singularity_threshold:
             return None
         self.column, self.factored, self.factored_at = column, factored, at

@@ -30,6 +30,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any, NamedTuple
 
+from ..numerics.linalg import Singular, lu_factor
+
 # planar.GROUND: the ground is body None. This module imports nothing of planar.py (which
 # imports it): a joint names the form its kernel takes in its ``kernel`` attribute.
 GROUND = None
@@ -414,6 +416,38 @@ class MechanismKernel:
                 self.pattern, self.size, order, self.column_scale, self.constants, self.sources
             )
         return kernel
+
+    def factor(
+        self, values: Sequence[float], order: tuple[int, ...] | None = None
+    ) -> "tuple[LuKernel, Factors] | None":
+        """The LU kernel and factors of the scaled Jacobian ``values`` (jacobian()'s
+        non-zeros): in row order ``order`` while its pivots stay within a factor 2 of their
+        columns' largest, else in the order partial pivoting chooses here. None if the
+        matrix is singular."""
+        if order is not None:
+            lu = self.lu(order)
+            factors = lu.factor(values)
+            if factors is not None:
+                return lu, factors
+        try:
+            _, pivots = lu_factor(self.dense(values))
+            lu = self.lu(tuple(pivots))
+        except (Singular, ZeroDivisionError):
+            return None
+        factors = lu.factor(values)
+        return None if factors is None else (lu, factors)
+
+    def condition(
+        self, lu: "LuKernel", factors: Factors, values: Sequence[float], column: int | None
+    ) -> tuple[float, int]:
+        """(1-norm condition estimate of the scaled Jacobian ``values`` factored as
+        ``factors``, the column of its inverse that attains it): one Hager step from
+        ``column`` (the last call's) when that settles it, else inverse_one_norm."""
+        condition = None if column is None else lu.condition(factors, values, column)
+        if condition is not None:
+            return condition, column  # type: ignore[return-value]  # column is set here
+        inverse_norm, column = inverse_one_norm(lu, factors, self.size, column)
+        return self.one_norm(values) * inverse_norm, column
 
 
 def _known_locals(statements: Sequence[str]) -> dict[str, float]:

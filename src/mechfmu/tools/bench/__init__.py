@@ -15,6 +15,7 @@ BENCHMARKS = (
     "sweep",
     "dynamic_scenes",
     "growth",
+    "animation",
 )
 
 
@@ -29,6 +30,8 @@ class Settings:
     sweep_scenes: int = 1000  # scenes of the sweep benchmark, run once on 1 and on 2 workers
     dynamic_stop_fraction: float | None = None  # None: the dynamic scenes as written
     growth_base_s: float = 3.0  # the growth benchmark's 1x stop time (gear_retraction's)
+    animation_s: float = 10.0  # simulated time the animation benchmark plays
+    animation_fps: float = 30.0  # its frames per second
 
 
 FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
@@ -41,4 +44,6 @@ QUICK = Settings(
     sweep_scenes=16,
     dynamic_stop_fraction=0.1,
     growth_base_s=0.25,
+    animation_s=1.0,
+    animation_fps=10.0,
 )

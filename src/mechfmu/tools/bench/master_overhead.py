@@ -20,13 +20,14 @@ import dataclasses
 import io
 import pstats
 import shutil
-import tempfile
 from pathlib import Path
 from typing import NamedTuple
 from collections.abc import Callable, Sequence
 
-from fmpy import extract, read_model_description, simulate_fmu
+from fmpy import read_model_description, simulate_fmu
 from fmpy.fmi2 import FMU2Slave
+
+from ...cosim.fmu_file import unpack
 
 from ...cosim.master import CallTimer, Simulation
 from . import model_cost, timing
@@ -102,7 +103,7 @@ class FmpyGearAlone:
     ) -> None:
         self.scene, self.outputs = scene, tuple(outputs)
         self.description = read_model_description(str(fmu_path))
-        self.folder = extract(str(fmu_path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
+        self.folder = unpack(fmu_path)
         spec = scene.components[component]
         self.table = piston_table(scene) if component == "gear" else None
         # the unconnected inputs (and the parameters) as start values

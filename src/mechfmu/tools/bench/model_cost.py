@@ -22,9 +22,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from fmpy import extract, read_model_description
+from fmpy import read_model_description
 from fmpy.fmi2 import FMU2Slave
 
+from ...cosim.fmu_file import unpack
 from ...packaging.build import build_all
 from ...references import landing_gear
 from ...runtime.physics import landing_gear as gear
@@ -98,6 +99,20 @@ class ModelCase:
     duration_s: float
     parameters: dict = field(default_factory=dict)
     inputs: Any = None
+    effect_of: str | None = None  # the label of the same case with this case's effect off
+
+
+def with_forces(case: ModelCase, extra: dict | None = None) -> ModelCase:
+    """``case`` with the forces effect on (and ``extra`` parameters): its cost against
+    ``case`` is the effect's."""
+    return ModelCase(
+        case.label.replace(")", ", forces)"),
+        case.model,
+        case.duration_s,
+        {**case.parameters, "forces": True, **(extra or {})},
+        case.inputs,
+        effect_of=case.label,
+    )
 
 
 CASES = (
@@ -140,6 +155,20 @@ CASES = (
         )
         for solver in ("closed_form", "constraint_solver")
     ),
+)
+# The forces effect on, against the same cases with it off (issue 29): every model that
+# has it, the linkages with gravity too.
+CASES += tuple(
+    with_forces(case, extra)
+    for case in CASES
+    for label, extra in (
+        ("LandingGear (motion drive)", {"inertia": True, "gravity": True}),
+        ("FourBar (closed_form)", {"gravity": True}),
+        ("FourBar (constraint_solver)", {"gravity": True}),
+        ("SliderCrank (closed_form)", {}),
+        ("ValveTrain (constraint_solver)", {"valve_spring": True}),
+    )
+    if case.label == label
 )
 
 
@@ -215,7 +244,7 @@ class ExtractedFmu:
     def __init__(self, path: Path) -> None:
         self.path = Path(path)
         self.description = read_model_description(str(path))
-        self.folder = extract(str(path), unzipdir=tempfile.mkdtemp(prefix="mechfmu_bench_"))
+        self.folder = unpack(path)
 
     @contextlib.contextmanager
     def initialised(self, parameters: dict[str, str]) -> Iterator[FMU2Slave]:
@@ -300,7 +329,9 @@ def _measure_case(
         )
         for kind in ("model", "null")
     )
-    target = SOLVER_TARGET if "constraint_solver" in case.label else TARGET
+    target: Target | None = SOLVER_TARGET if "constraint_solver" in case.label else TARGET
+    if case.effect_of is not None:  # an effect's cost: no target, reported against its base
+        target = None
     return [
         model_row,
         null_row,
@@ -320,7 +351,7 @@ def measure(
             for model in models
         }
         try:
-            return [
+            rows = [
                 row
                 for case in cases
                 for row in _measure_case(case, *fmus[case.model], steps, repeats)
@@ -329,3 +360,18 @@ def measure(
             for pair in fmus.values():
                 for fmu in pair:
                     fmu.close()
+    return rows + effect_rows(cases, rows)
+
+
+def effect_rows(cases: tuple[ModelCase, ...], rows: list[Row]) -> list[Row]:
+    """Per case with an effect on whose base case was measured too: the effect's cost, the
+    model's time per step with it on over with it off."""
+    by_case = {row.case: row for row in rows}
+    found = []
+    for case in cases:
+        base = by_case.get(f"{case.effect_of}: model")
+        if base is not None:
+            found.append(
+                ratio_row(f"{case.label}: effect on / off", by_case[f"{case.label}: model"], base)
+            )
+    return found

@@ -111,7 +111,9 @@ def measure_case(case: model_cost.ModelCase, number: int = 20000) -> Floor:
 
 def closed_form_cases() -> tuple[model_cost.ModelCase, ...]:
     """model_cost's cases whose target is 1.3x (every one but the constraint solvers)."""
-    return tuple(c for c in model_cost.CASES if "constraint_solver" not in c.label)
+    return tuple(
+        c for c in model_cost.CASES if "constraint_solver" not in c.label and c.effect_of is None
+    )
 
 
 def measure(fmu_dir: str | None, steps: int, repeats: int) -> list[Floor]:

@@ -10,7 +10,8 @@ import time
 from pathlib import Path
 
 from . import BENCHMARKS, FULL, QUICK, Settings
-from . import dynamic_scenes, effects, floor, growth, master_overhead, model_cost, sweep, timing
+from . import animation, dynamic_scenes, effects, floor, growth, master_overhead, model_cost
+from . import sweep, timing
 from .report import machine, machine_line, markdown_table, write_outputs
 from argparse import Namespace
 from typing import Any
@@ -31,6 +32,8 @@ def settings_for(args: Namespace) -> Settings:
         scenes,
         chosen.dynamic_stop_fraction,
         chosen.growth_base_s,
+        chosen.animation_s,
+        chosen.animation_fps,
     )
 
 
@@ -77,6 +80,13 @@ def run_benchmarks(
         ),
         "growth": lambda: growth.measure(
             args.scenes, args.fmu_dir, settings.repeats, settings.growth_base_s
+        ),
+        "animation": lambda: animation.measure(
+            args.scenes,
+            args.fmu_dir,
+            settings.repeats,
+            settings.animation_s,
+            settings.animation_fps,
         ),
     }
     return [row for name in names for row in measures[name]()]

@@ -1,6 +1,7 @@
 """Timing primitives: medians of side-by-side rounds after a warm-up, per-step slopes."""
 
 from typing import Any
+import os
 import statistics
 import time
 from collections.abc import Callable
@@ -20,6 +21,15 @@ def use_cpu_time(cpu: bool) -> None:
 
 def now() -> float:
     """The benchmarks' clock in s: wall (default) or CPU time (use_cpu_time)."""
+    return _clock()
+
+
+def now_with_children() -> float:
+    """now(), plus with CPU time the CPU time of the child processes that have ended (an
+    encoder that runs as a subprocess, such as ffmpeg)."""
+    if _clock is time.process_time:
+        times = os.times()
+        return _clock() + times.children_user + times.children_system
     return _clock()
 
 

@@ -6,20 +6,29 @@ JUnit: one ``<testsuite name="mechfmu check">``; one ``<testcase>`` per file and
 failure's line as its message and its kind as ``type``; a file that is missing or malformed
 is one testcase named ``(file)``, a different time grid one named ``(time grid)`` (its columns
 are then skipped: not compared), a result without a reference a skipped ``(file)``.
+
+Names come from the files checked and may hold anything: in the XML every character XML 1.0
+cannot hold (a control character, a lone surrogate) is replaced by its escape (``\\x01``,
+mechfmu.cosim.text.one_line); the HTML likewise; each plot's file name is a readable ASCII
+label of the file and column, at most 60 characters, and a hash of the exact pair, so two
+pairs never share a plot and no name is too long (plot_name). A plot that cannot be written
+is named in the index, which is always written, last.
 """
 
 from __future__ import annotations
 
+import hashlib
 import html
 import io
 import math
+import re
 import xml.etree.ElementTree as ET
 from os import PathLike
 from pathlib import Path
 
 from ...check import CheckRun, FileCheck
-from ...comparison import file_label
-from ...cosim.files import atomic_write, atomic_write_all, output_folder
+from ...cosim.files import OutputError, atomic_write, output_folder
+from ...cosim.text import one_line
 
 
 def _cases(check: FileCheck) -> list[tuple[str, str | None, str | None, str]]:
@@ -57,15 +66,19 @@ def junit_xml(run: CheckRun) -> str:
     counts = {"tests": 0, "failures": 0, "errors": 0, "skipped": 0}
     for check in run.files:
         for name, kind, message, skipped in _cases(check):
-            case = ET.SubElement(suite, "testcase", classname=check.name, name=name, time="0")
+            case = ET.SubElement(
+                suite, "testcase", classname=one_line(check.name), name=one_line(name), time="0"
+            )
             counts["tests"] += 1
             if kind is not None:
                 counts["failures"] += 1
-                failure = ET.SubElement(case, "failure", message=message or kind, type=kind)
-                failure.text = f"{check.name}: {message}"
+                failure = ET.SubElement(
+                    case, "failure", message=one_line(message or kind), type=one_line(kind)
+                )
+                failure.text = one_line(f"{check.name}: {message}")
             elif skipped:
                 counts["skipped"] += 1
-                ET.SubElement(case, "skipped", message=skipped)
+                ET.SubElement(case, "skipped", message=one_line(skipped))
     for key, value in counts.items():
         suite.set(key, str(value))
     root = ET.Element("testsuites", {"name": "mechfmu check"})
@@ -92,6 +105,33 @@ def _number(value: float) -> str:
     )
 
 
+def _text(value: object) -> str:
+    """``value`` as HTML text: one line of printable characters, escaped."""
+    return html.escape(one_line(str(value)))
+
+
+def plot_name(file: str, column: str) -> str:
+    """The PNG file name of ``column`` of ``file`` in a report: an ASCII label of both (at
+    most 60 characters) and 12 hex digits of the SHA-256 of the exact pair, so distinct
+    pairs never share a name ('x y' and 'x_y', 'sub/x.csv' and 'sub_x.csv')."""
+    label = re.sub(r"[^A-Za-z0-9._-]+", "_", f"{file}__{column}").strip("_.")[:60] or "plot"
+    pair = f"{file}\x00{column}".encode("utf-8", "surrogatepass")
+    return f"{label}-{hashlib.sha256(pair).hexdigest()[:12]}.png"
+
+
+def _plot(check: FileCheck, column: str, folder: Path) -> str:
+    """The HTML of ``column``'s plot, written to its PNG (or why it could not be)."""
+    assert check.comparison is not None
+    name = plot_name(check.name, column)
+    try:
+        buffer = io.BytesIO()
+        check.comparison.plot(column).savefig(buffer, format="png", dpi=90)
+        atomic_write(folder / name, buffer.getvalue())
+    except OutputError as error:
+        return f'<p class="fail">plot of {_text(column)} not written: {_text(error)}</p>'
+    return f'<p><img src="{html.escape(name)}" alt="{_text(column)}"></p>'
+
+
 def _summary_table(run: CheckRun) -> str:
     """The failures first: one row per failing file and column (file, column, kind, first
     failing time, worst deviation as a share of its allowance), linked to its section."""
@@ -112,8 +152,8 @@ def _summary_table(run: CheckRun) -> str:
     if not rows:
         return "<p>No failures.</p>"
     cells = "".join(
-        f'<tr><td><a href="#{anchor}">{html.escape(name)}</a></td><td>{html.escape(column)}'
-        f"</td><td>{html.escape(kind)}</td><td>{_number(time)}</td><td>{_number(ratio)}</td></tr>"
+        f'<tr><td><a href="#{anchor}">{_text(name)}</a></td><td>{_text(column)}'
+        f"</td><td>{_text(kind)}</td><td>{_number(time)}</td><td>{_number(ratio)}</td></tr>"
         for anchor, name, column, kind, time, ratio in rows
     )
     return (
@@ -122,13 +162,13 @@ def _summary_table(run: CheckRun) -> str:
     )
 
 
-def _file_section(check: FileCheck, anchor: str, folder: Path, contents: dict) -> str:
-    """One file's heading, line, failures table and a plot of each failing column (PNGs
-    added to ``contents``)."""
+def _file_section(check: FileCheck, anchor: str, folder: Path) -> str:
+    """One file's heading, line, failures table and a plot of each failing column (each
+    PNG written as it is drawn)."""
     verdict = "pass" if check.passed else "fail"
     parts = [
-        f'<h3 id="{anchor}" class="{verdict}">{html.escape(check.name)}</h3>'
-        f'<p class="{verdict}">{html.escape(check.line())}</p>'
+        f'<h3 id="{anchor}" class="{verdict}">{_text(check.name)}</h3>'
+        f'<p class="{verdict}">{_text(check.line())}</p>'
     ]
     comparison = check.comparison
     if comparison is None or comparison.failures.empty:
@@ -136,7 +176,7 @@ def _file_section(check: FileCheck, anchor: str, folder: Path, contents: dict) -
     rows = "".join(
         "<tr>"
         + "".join(
-            f"<td>{html.escape(cell)}</td>"
+            f"<td>{_text(cell)}</td>"
             for cell in (
                 str(row["column"]),
                 _number(row["time"]),
@@ -154,24 +194,19 @@ def _file_section(check: FileCheck, anchor: str, folder: Path, contents: dict) -
         "</th><th>allowed</th><th>kind</th></tr>" + rows + "</table>"
     )
     for column in comparison.failures["column"]:
-        if column not in comparison.summary.index:
-            continue
-        buffer = io.BytesIO()
-        comparison.plot(column).savefig(buffer, format="png", dpi=90)
-        name = file_label(f"{check.name}__{column}") + ".png"
-        contents[folder / name] = buffer.getvalue()
-        parts.append(f'<p><img src="{html.escape(name)}" alt="{html.escape(column)}"></p>')
+        if column in comparison.summary.index:
+            parts.append(_plot(check, column, folder))
     return "".join(parts)
 
 
 def write_report(run: CheckRun, folder: str | PathLike) -> Path:
     """Write ``folder``/index.html and, for every failing value column, a PNG of the result,
-    the reference, the tolerance band or tube and the first failure; all files atomically.
+    the reference, the tolerance band or tube and the first failure (plot_name); each file
+    atomically, the index last and always (a plot that cannot be written is named there).
     The page opens with the summary and a table of the failures, then each failing file
     (its line, failures and plots), then the files that match, folded. Returns the index's
     path."""
     folder = Path(output_folder(Path(folder)))
-    contents: dict[Path, str | bytes] = {}
     options = run.options
     tolerance = (
         "the references' declared tolerances"
@@ -179,19 +214,15 @@ def write_report(run: CheckRun, folder: str | PathLike) -> Path:
         else f"rtol {options.get('rtol')!r}, atol {options.get('atol')!r}"
     )
     body = [
-        f"<h1>mechfmu check</h1><p>{html.escape(run.summary())}</p>",
-        f"<p>method {html.escape(str(options.get('method') or 'as declared'))}, "
-        f"{html.escape(tolerance)}"
+        f"<h1>mechfmu check</h1><p>{_text(run.summary())}</p>",
+        f"<p>method {_text(options.get('method') or 'as declared')}, "
+        f"{_text(tolerance)}"
         + (
             f", time tolerance {options.get('time_tolerance')!r} s"
             if options.get("method") == "tube"
             else ""
         )
-        + (
-            f", per column: {html.escape(str(options.get('tolerances')))}"
-            if options.get("tolerances")
-            else ""
-        )
+        + (f", per column: {_text(options.get('tolerances'))}" if options.get("tolerances") else "")
         + "</p>",
         "<h2>Failures</h2>",
         _summary_table(run),
@@ -200,22 +231,20 @@ def write_report(run: CheckRun, folder: str | PathLike) -> Path:
     passing = [(n, c) for n, c in enumerate(run.files) if c.passed]
     if failing:
         body.append("<h2>Failing files</h2>")
-        body += [_file_section(c, f"file-{n}", folder, contents) for n, c in failing]
+        body += [_file_section(c, f"file-{n}", folder) for n, c in failing]
     if passing:
         body.append(
             f"<details><summary>{len(passing)} file(s) that match</summary>"
-            + "".join(_file_section(c, f"file-{n}", folder, contents) for n, c in passing)
+            + "".join(_file_section(c, f"file-{n}", folder) for n, c in passing)
             + "</details>"
         )
-    index = folder / "index.html"
-    contents[index] = (
+    return atomic_write(
+        folder / "index.html",
         '<!DOCTYPE html>\n<html><head><meta charset="utf-8"><title>mechfmu '
         f"check</title><style>{STYLE}</style></head><body>\n"
         + "\n".join(body)
-        + "\n</body></html>\n"
+        + "\n</body></html>\n",
     )
-    atomic_write_all(contents)
-    return index
 
 
 def tube_example() -> bytes:

@@ -19,7 +19,7 @@ from mechfmu.runtime.physics.suspension import (
     COURSEWORK_STIFFNESS,
     GRAVITY,
 )
-from mechfmu.runtime.physics import cam_laws
+from mechfmu.runtime.physics import cam_geometry, cam_laws
 from mechfmu.runtime.physics.four_bar import COURSEWORK_CRANK_ANGLE, COURSEWORK_FOUR_BAR, INCH
 from mechfmu.runtime.physics.valve_train import DEFAULT_VALVE_GEOMETRY
 from mechfmu.references import landing_gear as lg
@@ -535,6 +535,113 @@ def _cam_section():
     return out
 
 
+def _cam_geometry_section():
+    """Seed 002's open aims: the cam's geometry from the follower motion (each law on the
+    default valve train, flat tappet and 8 mm roller) and the torque the camshaft needs,
+    one lobe and the inline four's camshaft in its firing order against wrong ones."""
+    from mechfmu.api import reference
+    from mechfmu.cosim.scene import find_file, load_scene
+    from mechfmu.tools import camshaft
+
+    out = ["### Cam geometry from the desired motion (seed 002's general objective)", ""]
+    base, roller = DEFAULT_VALVE_GEOMETRY.cam_base_radius, 0.008
+    rows, fine = [], []
+    for law in cam_laws.CAM_LAWS:
+        profile = cam_laws.check_profile(law, 0.007, 0.0, 1.2, 0.1, 1.2)
+        pieces = cam_geometry.law_pieces(profile)
+        flat = cam_geometry.design(cam_geometry.check_follower("flat_faced", base), pieces)
+        rolling = cam_geometry.design(cam_geometry.check_follower("roller", base, roller), pieces)
+        flat_size = cam_geometry.smallest_base_circle("flat_faced", pieces)
+        roller_size = cam_geometry.smallest_base_circle("roller", pieces, roller)
+        if not rolling.problems:
+            fine.append(law)
+        rows.append(
+            [
+                law,
+                _f(flat.least_radius * 1e3, 3),
+                _f(flat_size.base_circle_radius * 1e3, 3),
+                _f(flat.face_width * 1e3, 3),
+                _f(np.degrees(abs(rolling.largest_pressure_angle)), 2),
+                _f(rolling.least_radius * 1e3, 3),
+                f"{_f(roller_size.base_circle_radius * 1e3, 3)} ({roller_size.limit})",
+            ]
+        )
+    out += [
+        f"The cam under the tappet for 7 mm of lift, rise and return over 1.2 rad, a 0.1 rad "
+        f"dwell (runtime/physics/cam_geometry.py). On the project's {_g(base * 1e3)} mm base "
+        f"circle a flat tappet's cam has a cusp wherever the least radius of curvature "
+        f"Rb + s + s'' is negative: each law needs the smallest base circle below. An "
+        f"{_g(roller * 1e3)} mm roller on the same base circle makes a cam without undercut "
+        f"or a pressure angle over 30 deg for {', '.join(fine) or 'none of them'}; its "
+        f"smallest base circle is set by that pressure angle or by the undercut (pitch-curve "
+        f"radius above the roller's), whichever needs more:",
+        "",
+    ]
+    out += [
+        _table(
+            [
+                "law",
+                "flat: least rho at 15 mm (mm)",
+                "flat: smallest Rb (mm)",
+                "face swept (mm)",
+                "roller: largest pressure angle (deg)",
+                "roller: least rho (mm)",
+                "roller: smallest Rb (mm)",
+            ],
+            rows,
+        ),
+        "",
+    ]
+    scene = load_scene(find_file("camshaft_inline_four"))
+    single = reference("valve_train")
+    torque = camshaft.fluctuation(single["valve.camshaft_torque"])
+    speed = 0.5 * scene.components["camshaft"].parameters["speed"]
+    out += [
+        "### The torque the camshaft needs",
+        "",
+        f"One lobe (the valve_train scene: 3-4-5 cam, 0.1 kg valve, 50 kN/m spring, 300 N "
+        f"preload, camshaft at {_f(speed, 1)} rad/s): the torque F dL/dtheta swings "
+        f"{_f(torque['peak_to_peak'], 3)} N.m peak to peak (RMS {_f(torque['rms'], 3)} N.m); "
+        f"over a revolution its mean is {torque['mean']:.1e} N.m: the spring and the valve's "
+        f"inertia give back on the return what the rise took (computed from the rocker's "
+        f"statics, references/cam_geometry.py).",
+        "",
+    ]
+
+    def run(chosen: Any, parameters: Any) -> Any:
+        return reference(chosen, parameters=parameters)
+
+    table, _ = camshaft.compare_phasings(scene, run)
+    rows = [
+        [
+            name,
+            _f(row["peak_to_peak"], 3),
+            _f(row["rms"], 3),
+            _f(row["largest_section_torque"], 3),
+        ]
+        for name, row in table.iterrows()
+    ]
+    out += [
+        "The inline four's camshaft (camshaft_inline_four: eight such lobes, intake lobes a "
+        "quarter turn apart in the firing order, exhaust lobes 110 deg ahead of them). The "
+        "coursework says the cams must act in the correct sequence so that the torque the "
+        "engine supplies fluctuates as little as possible. The total torque is a sum of one "
+        "lobe's torque over the lobes' phases, so it depends only on the set of phases: any "
+        "firing order of evenly spaced lobes gives the same total (the first two rows agree "
+        "to rounding). What keeps the fluctuation low is the even spacing itself; lobes "
+        "mounted at the crank throws' angles (forgetting that the camshaft turns at half "
+        "speed) double the swing. The firing order matters for the crankshaft's balance, "
+        "not for the camshaft's total torque:",
+        "",
+        _table(
+            ["phasing", "peak-to-peak (N.m)", "RMS (N.m)", "largest in a shaft section (N.m)"],
+            rows,
+        ),
+        "",
+    ]
+    return out
+
+
 def build_report() -> Any:
     """The seed-reproduction report as Markdown text."""
     lines = ["# Seed reproduction: landing gear, suspension, four-bar and valve train", ""]
@@ -548,6 +655,7 @@ def build_report() -> Any:
     lines += _suspension_section()
     lines += _four_bar_section()
     lines += _cam_section()
+    lines += _cam_geometry_section()
     return "\n".join(lines).rstrip("\n") + "\n"
 
 
