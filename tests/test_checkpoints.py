@@ -62,7 +62,7 @@ def test_a_run_stopped_by_a_signal_resumes_in_a_new_process_bit_for_bit(
 
 
 def test_periodic_checkpoints_resume_from_the_last(fmu_dir, tmp_path):
-    scene = SCENE_DIR / "gear_retraction.toml"
+    scene = SCENE_DIR / "gear_retraction_loads.toml"  # the forces effect on: its loads resume too
     checkpoint = tmp_path / "gear.checkpoint"
     result = Simulation(load_scene(scene), fmu_dir).run(checkpoints=Checkpoints(checkpoint, 120))
     assert load(checkpoint).index == 240 and result.meta["checkpoint"]["index"] == 240
