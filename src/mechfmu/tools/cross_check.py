@@ -8,7 +8,8 @@ For each model, in ``DIR/fmus/2.0/cs/linux64/mechfmu/<version>/<Model>/``:
   a cross-check run sets nothing but the inputs of ``_in.csv``;
 - ``<Model>_ref.csv``: every output, from the scene's reference computed on the exported grid
   (numpy closed forms, scipy integrations: never an FMU run; reference_columns), or, for the
-  outputs it has no column for (solver diagnostics), the FMU's own values as fmpy runs it;
+  outputs it has no column for (solver diagnostics; the outputs of effects the scene leaves
+  off, which hold their start values), the FMU's own values as fmpy runs it;
 - ``<Model>_in.csv`` (models with inputs): every input as our master feeds it in the scene;
 - ``<Model>_ref.opt``: start time, stop time, the exported step and a relative tolerance;
 - ``<Model>_cc.sh``: the mechfmu commands that made the files; ``ReadMe.md``: what the model
@@ -166,8 +167,9 @@ with mechfmu's C loader, which finds any CPython 3.10 or newer on the machine; s
   closed forms, scipy integrations; never an FMU run) on the exported grid, from
   {scene.start_time} s to {scene.stop_time} s{
         "; the outputs " + ", ".join(f"`{name}`" for name in own) + " have none (solver "
-        "diagnostics, counters): their columns are this FMU's own values, run by fmpy as a "
-        "cross-check tool runs it"
+        "diagnostics, counters; the outputs of effects the scene leaves off, at their start "
+        "values): their columns are this FMU's own values, run by fmpy as a cross-check tool "
+        "runs it"
         if own
         else ""
     }.
