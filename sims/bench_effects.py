@@ -5,7 +5,7 @@ this script runs it alone and only prints its rows (``mechfmu bench --only effec
 medians of --repeats after one warm-up).
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "bench", "--only", "effects")

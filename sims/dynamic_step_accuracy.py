@@ -1,10 +1,11 @@
 """The valve scenes at larger communication steps: speed against their reference check.
 
 python sims/dynamic_step_accuracy.py [--repeats 3]: runs valve_train_dynamic and
-valve_float_dynamic at steps 1e-5 .. 2e-3 s in three configurations of the valve (the
+valve_float_dynamic at steps 1e-5 .. 2e-3 s in four configurations of the valve (the
 rocker inputs with dopri5, as shipped before issue 21's goal 4; the rocker inputs with the
-exact integrator; the camshaft drive with the exact integrator, as shipped now), prints a
-Markdown table (loop wall time per simulated s, right-hand sides or closed-form
+exact integrator; the camshaft drive with the exact integrator on drive pieces of 0.1 ms,
+as shipped before issue 33, and of 1 ms, as shipped now), prints a Markdown table (loop
+CPU time per simulated s, right-hand sides or closed-form
 evaluations, worst deviation from the scipy reference sampled every 1e-5 s as a fraction of
 the check's allowance; > 1 fails). See docs/dynamics.md, "Dynamic scenes against real time".
 """

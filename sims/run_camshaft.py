@@ -5,7 +5,7 @@ and at the crank throws' angles, and prints each total torque's fluctuation:
 ``mechfmu example camshaft``.
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "camshaft", out="out", fmu_dir="fmus")

@@ -6,7 +6,7 @@ and four_bar_solver_crossed (crossed circuit, generic constraint solver) and pri
 column's worst deviation from the numpy reference: ``mechfmu example four_bar``.
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "four_bar")

@@ -6,7 +6,7 @@ angle, angular velocity and angular acceleration: ``mechfmu example gear`` (``ma
 runs it). Writes out/ in the current folder (--out DIR elsewhere).
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "gear")

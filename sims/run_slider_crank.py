@@ -4,7 +4,7 @@ Runs the scene slider_crank_offset and prints each column's worst deviation from
 reference, the stroke and the peak slider acceleration: ``mechfmu example slider_crank``.
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "slider_crank")

@@ -4,7 +4,7 @@ Runs the scene suspension_load_ramp (LoadProfile -> Suspension through fmpy) and
 snap-through and the deviation from the closed-form reference: ``mechfmu example suspension``.
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "suspension")

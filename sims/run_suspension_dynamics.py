@@ -5,7 +5,7 @@ worst deviation from its reference at the scene's declared tolerance, and the su
 snap-through times: ``mechfmu example suspension_dynamics``.
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "suspension_dynamics")

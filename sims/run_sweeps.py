@@ -7,7 +7,7 @@ sweep's folder, summary.md, suspension_mass.png): ``mechfmu example sweeps`` (``
 Exit status 1 if a sweep disagrees with its reference.
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "sweeps")

@@ -5,7 +5,7 @@ forward solver with the inverse run's tappet lift, and runs valve_float 1 % belo
 the predicted float speed: ``mechfmu example valve_train``.
 """
 
-from mechfmu.cli import script_main
+from _venv import script_main
 
 if __name__ == "__main__":
     script_main(__file__, "example", "valve_train")

@@ -102,6 +102,7 @@ LAYERS = {
     "test_fmus.py": "fmu",
     "test_force_fmus.py": "fmu",
     "test_interrupts.py": "fmu",
+    "test_long_runs.py": "fmu",
     "test_linkage_fmus.py": "fmu",
     "test_cam_fmu.py": "fmu",
     "test_outputs.py": "fmu",

@@ -16,7 +16,9 @@ from fmpy.validation import validate_fmu
 
 from cli_process import run_mechfmu
 from foreign_fmus import build_foreign_fmus
+from mechfmu.cosim import master
 from mechfmu.cosim.master import Simulation
+from mechfmu.cosim.run import run_scene
 from mechfmu.cosim.scene import SceneError, parse_scene
 
 
@@ -97,6 +99,23 @@ def test_an_fmu_that_asks_to_end_ends_the_run_cleanly(foreign, tmp_path, version
     meta = json.loads((tmp_path / "out" / "stair.json").read_text())
     assert meta["ended_by"]["component"] == "stair" and meta["ended_by"]["time"] == end
     assert meta["partial"] is False
+
+
+@pytest.mark.parametrize("version", [2, 3])
+def test_the_row_at_the_end_an_fmu_asked_for_reaches_the_streamed_file(
+    foreign, tmp_path, monkeypatch, version
+):
+    """A run that keeps no rows and hands them over two at a time: the row at the time the
+    FMU ended the run (0.75 s, FMI 2.0; 0.8 s, FMI 3.0) is the streamed CSV's last."""
+    monkeypatch.setattr(master, "CHUNK_ROWS", 2)
+    scene_file = tmp_path / "stair.toml"
+    scene_file.write_text(f'[components.stair]\nfmu = "{foreign[version, "TestStair"]}"\n')
+    result, paths = run_scene(scene_file, tmp_path / "out", plot=False, keep=False)
+    end = 0.75 if version == 2 else 0.8
+    rows = paths["csv"].read_text().splitlines()
+    assert not result.kept and result.rows == len(rows) - 1 == 9
+    assert float(rows[-1].split(",")[0]) == end and result.meta["ended_by"]["time"] == end
+    assert json.loads(paths["json"].read_text())["partial"] is False
 
 
 def test_fmus_of_both_versions_connect_in_one_scene(foreign, tmp_path):

@@ -135,3 +135,25 @@ def test_an_exact_guess_skips_the_chord_and_keeps_the_solution():
         again = follower.follow(drive, 1e-3)
         assert relative(again.q, solution.q) < 1e-15 and again.iterations == solution.iterations
     assert seen_exact and not follower.exact_guess  # the moving drive is not predicted exactly
+
+
+def test_one_kernel_per_mechanism_shape_in_a_process():
+    """Followers of the same mechanism (built twice) share one compiled kernel and its LU
+    kernels; another geometry gets its own; the cache keeps KERNEL_CACHE_SIZE shapes."""
+    planar_kernel._KERNELS.clear()
+    first = planar.BranchFollower(constraint_models.four_bar(*fb.COURSEWORK_FOUR_BAR))
+    again = planar.BranchFollower(constraint_models.four_bar(*fb.COURSEWORK_FOUR_BAR))
+    assert first.kernel is not None and first.kernel is again.kernel
+    ground, crank, coupler, rocker = fb.COURSEWORK_FOUR_BAR
+    other = planar.BranchFollower(constraint_models.four_bar(ground, crank * 1.1, coupler, rocker))
+    assert other.kernel is not first.kernel
+    # the shared kernel follows both as a kernel of its own would
+    start = 0.3
+    coupler_angle, rocker_angle = fb.position(*fb.COURSEWORK_FOUR_BAR, start, 0)
+    guess = constraint_models.four_bar_guess(ground, crank, start, coupler_angle, rocker_angle)
+    for follower in (first, again):
+        follower.assemble(guess, [(start, 2.0, 0.0)])
+        assert follower.follow([(start + 0.01, 2.0, 0.0)], 5e-3).q == first.solution.q
+    for k in range(planar_kernel.KERNEL_CACHE_SIZE + 3):
+        planar.BranchFollower(constraint_models.four_bar(ground + 1e-3 * k, crank, coupler, rocker))
+    assert len(planar_kernel._KERNELS) == planar_kernel.KERNEL_CACHE_SIZE

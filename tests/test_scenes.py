@@ -1,6 +1,7 @@
 """Scenes end to end: the master, result files, checks against references, scene errors."""
 
 import json
+import shutil
 import subprocess
 import sys
 
@@ -296,6 +297,28 @@ def test_a_script_in_sims_writes_to_the_current_folder_and_is_named_in_its_usage
         [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=60
     )
     assert usage.returncode == 0 and usage.stdout.startswith("usage: run_gear.py ")
+
+
+def test_a_script_in_sims_run_by_a_python_without_mechfmu_uses_the_clones_venv(tmp_path):
+    """python sims/run_gear.py typed without activating the venv that make run made: the script
+    runs again under that venv's python; with no venv, one line says to run make run."""
+    clone = tmp_path / "clone"
+    (clone / "sims").mkdir(parents=True)
+    for name in ("_venv.py", "run_gear.py"):
+        shutil.copy(ROOT / "sims" / name, clone / "sims" / name)
+    # -S: the base interpreter without site-packages, so mechfmu cannot be imported there
+    bare = [getattr(sys, "_base_executable", sys.executable), "-S"]
+    script = str(clone / "sims" / "run_gear.py")
+    without = subprocess.run([*bare, script, "--help"], capture_output=True, text=True, timeout=60)
+    assert without.returncode == 1
+    assert without.stderr.strip().splitlines() == [
+        f"run_gear.py: mechfmu is not installed for {bare[0]}; run 'make run' in "
+        f"{clone.resolve()} first (it creates .venv), or activate the venv that has it"
+    ]
+    (clone / ".venv").symlink_to(sys.prefix, target_is_directory=True)
+    within = subprocess.run([*bare, script, "--help"], capture_output=True, text=True, timeout=60)
+    assert within.returncode == 0, within.stderr
+    assert within.stdout.startswith("usage: run_gear.py ")
 
 
 def test_package_data_ships_every_scene_sweep_and_reference():

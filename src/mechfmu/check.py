@@ -241,6 +241,21 @@ def worst_deviations(result: Any, reference_path: Any) -> Any:
     return rows
 
 
+def _rows_of(path: Path, units: dict[str, str]) -> Any:
+    """The rows of a result file as worst_deviations reads a Result (times, columns, units):
+    for a run whose rows went to the file alone (result.kept False)."""
+    from types import SimpleNamespace
+
+    from .io import read_result
+
+    frame = read_result(path)
+    return SimpleNamespace(
+        times=frame.index.to_numpy(dtype=float),
+        columns={name: frame[name].to_numpy(dtype=float) for name in frame.columns},
+        units=units,
+    )
+
+
 def run_report(
     result: Result,
     paths: dict[str, Path],
@@ -270,12 +285,15 @@ def run_report(
             f"  worst deviation from the {label} (absolute; as a fraction of the "
             f"column's peak |value|):"
         )
-        for name, difference, unit, time, fraction in worst_deviations(result, reference):
+        data = paths.get("csv") or paths["parquet"]
+        for name, difference, unit, time, fraction in worst_deviations(
+            result if result.kept else _rows_of(data, result.units), reference
+        ):
             lines.append(
                 f"    {name:34s} {difference:.2e} {unit:6s} at t = {time:.5g} s "
                 f"({fraction:.1e} of peak)"
             )
-        comparison = compare(paths["csv"], reference, rtol, atol)
+        comparison = compare(data, reference, rtol, atol)
         lines.append(f"  against the {label} ({comparison.tolerance_text()}): {comparison}")
     lines += [f"  {kind}: {path}" for kind, path in paths.items()]
     return lines, comparison

@@ -231,6 +231,8 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
             parameters=getattr(args, "parameters", None),
             checkpoints=_checkpoints(args),
             resume=Path(args.resume) if args.resume else None,
+            fmt=getattr(args, "format", "csv"),
+            max_output=getattr(args, "max_output", None),
         )
     except (SceneError, OutputError, SimulationError) as error:
         return _scene_failure(error, guard)
@@ -261,8 +263,9 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
         print(note)
     status = 0 if comparison is None or comparison.ok else 1
     if getattr(args, "animate", None):
-        animation = paths["csv"].with_suffix("." + args.animate)
-        return max(status, _animate_result(paths["csv"], animation))
+        data = paths.get("csv") or paths["parquet"]
+        animation = data.with_suffix("." + args.animate)
+        return max(status, _animate_result(data, animation))
     return status
 
 
@@ -1114,7 +1117,9 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "--resume",
         metavar="FILE",
         help="continue the run from this checkpoint (of the same scene and FMUs); the "
-        "result equals the uninterrupted run's (default: start from the beginning)",
+        "result equals the uninterrupted run's. A long run's checkpoint continues its "
+        "<scene>.partial file: give the same --out and --format (default: start from the "
+        "beginning)",
     )
     run.add_argument(
         "--animate",
@@ -1125,7 +1130,41 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "<scene>.gif (or .mp4, .html) into --out, played in real time (default: no "
         "animation; without a format: gif)",
     )
+    run.add_argument(
+        "--format",
+        choices=("csv", "parquet"),
+        default="csv",
+        help="form of the result's rows: <scene>.csv, or <scene>.parquet (columnar, "
+        "pyarrow: pip install 'mechfmu[parquet]'); the same columns and JSON beside "
+        "(default: csv)",
+    )
+    run.add_argument(
+        "--max-output",
+        metavar="SIZE",
+        type=_byte_size,
+        default=None,
+        help="run even if the result is estimated larger than this, in bytes (500M, 10G; "
+        "default: 2G, a run over it is refused before its first step)",
+    )
     run.set_defaults(func=_run)
+
+
+def _byte_size(text: str) -> int:
+    """A size in bytes from '2000', '1.5e9', '500M', '10G' or '1T' (decimal: k, M, G, T;
+    binary: Ki, Mi, Gi, Ti); argparse's error names the text otherwise."""
+    units = {"": 1, "k": 10**3, "m": 10**6, "g": 10**9, "t": 10**12}
+    units.update({"ki": 2**10, "mi": 2**20, "gi": 2**30, "ti": 2**40})
+    raw = text.strip().lower().removesuffix("b")
+    number = raw.rstrip("kmgti")
+    try:
+        value = float(number) * units[raw[len(number) :]]
+    except (ValueError, KeyError):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a size in bytes (e.g. 500M, 10G, 2e9)"
+        ) from None
+    if not 0 < value < 2**63:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive size below 2^63 bytes")
+    return int(value)
 
 
 def _check_verbs(verbs: argparse._SubParsersAction) -> None:

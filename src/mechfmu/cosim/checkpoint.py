@@ -4,9 +4,17 @@
 time and when SIGINT or SIGTERM stops the run; ``mechfmu run SCENE --resume FILE`` continues from it. A
 checkpoint holds, at one communication point, every component's FMU state serialised by the
 FMU itself (fmi2SerializeFMUstate / fmi3SerializeFMUState: our FMUs write their state as
-bit-exact JSON, see runtime/fmi/state.py) and the rows recorded so far, in the recorders' own
-bytes; the resumed run restores the states and the rows and steps on, so its result equals
-the uninterrupted run's, row for row and bit for bit.
+bit-exact JSON, see runtime/fmi/state.py) and the rows the run still holds in memory, in the
+recorders' own bytes; the resumed run restores the states and the rows and steps on, so its
+result equals the uninterrupted run's, row for row and bit for bit.
+
+A long run does not keep its rows: it streams them to its result file and lets them go
+(results.StreamedResult; Simulation.run(keep=False)). Its checkpoint then holds none of
+them, only how many were streamed (``streamed``) and where the file stood (``stream``: the
+CSV's size and SHA-256 at that row, or the Parquet rows, and the plot's sample): a bounded
+size whatever the run's length. Resuming such a checkpoint continues that file in the same
+output folder (the ``.partial`` file a stopped or killed run leaves): checked, cut back to
+the checkpoint's row, and written on.
 
 The file is JSON, versioned (FORMAT, VERSION) and checked before anything is restored: the
 scene (a digest of its resolved settings: times, components, parameters, connections,
@@ -22,7 +30,7 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from .files import atomic_write
 from .scene import SceneError
@@ -72,7 +80,9 @@ def scene_digest(scene: Scene) -> str:
 @dataclass
 class Checkpoint:
     """A run at communication point ``index`` (time ``time``, s): each component's guid and
-    serialised FMU state, each recorder's rows so far ((typecode, bytes) by key)."""
+    serialised FMU state, each recorder's rows still in memory ((typecode, bytes) by key) and
+    their ``times``; the ``streamed`` rows before them were let go to the result file, which
+    stood at ``stream`` (StreamedResult.position; None when nothing was let go)."""
 
     scene: str
     digest: str
@@ -82,6 +92,8 @@ class Checkpoint:
     states: dict[str, bytes]
     rows: dict[str, tuple[str, bytes]]
     times: list[float] = field(default_factory=list)
+    streamed: int = 0
+    stream: dict[str, Any] | None = None
 
     def to_json(self) -> str:
         def encoded(data: bytes) -> str:
@@ -104,6 +116,8 @@ class Checkpoint:
                     for key, (code, data) in self.rows.items()
                 },
                 "times": self.times,
+                "streamed": self.streamed,
+                "stream": self.stream,
             }
         )
 
@@ -145,6 +159,8 @@ def load(path: Path) -> Checkpoint:
                 for key, r in document["rows"].items()
             },
             times=[float(t) for t in document["times"]],
+            streamed=int(document["streamed"]),
+            stream=_stream(document["stream"]),
         )
     except (KeyError, TypeError, ValueError, AttributeError) as error:
         raise refuse(f"is damaged ({error!r})") from None
@@ -165,8 +181,16 @@ def check_matches(checkpoint: Checkpoint, scene: Scene, guids: dict[str, str]) -
                 f"component {name!r}: its FMU is not the one the checkpoint was taken with "
                 f"(guid {checkpoint.guids.get(name)!r}, now {guid!r}: rebuilt since?)"
             )
-    if len(checkpoint.times) != checkpoint.index + 1:
+    held = checkpoint.streamed + len(checkpoint.times)
+    if held != checkpoint.index + 1 or (checkpoint.streamed > 0) != (checkpoint.stream is not None):
         raise CheckpointError(
-            f"the checkpoint has {len(checkpoint.times)} times for communication point "
-            f"{checkpoint.index}: it is damaged"
+            f"the checkpoint has {checkpoint.streamed} streamed and {len(checkpoint.times)} "
+            f"held rows for communication point {checkpoint.index}: it is damaged"
         )
+
+
+def _stream(stream: Any) -> dict[str, Any] | None:
+    """A checkpoint's ``stream`` entry: None or a dict (TypeError otherwise)."""
+    if stream is not None and not isinstance(stream, dict):
+        raise TypeError(f"stream is {type(stream).__name__}, not an object")
+    return stream

@@ -33,7 +33,9 @@ MAX_JSON_DEPTH = 64  # nested objects and arrays in a JSON file (ours: 4)
 MAX_DIGITS = 100  # digits in a row in a number (a double needs 17; 4300 stops int())
 INTEGER_RANGE = (-(2**63), 2**63 - 1)  # TOML's integers: 64-bit signed (the TOML spec)
 MAX_STRING_CHARACTERS = 64 * KIB  # a string value given to a component (a path, a name)
-MAX_STEPS = 10**9  # communication steps of a scene (its rows are kept in memory: 8 bytes each)
+MAX_STEPS = 10**9  # communication steps of a scene (whatever the output: days of stepping)
+# output a run may write unless told otherwise (mechfmu run --max-output; run_scene max_output)
+MAX_RUN_OUTPUT_BYTES = 2 * GIB
 
 # --- CSV tables ---------------------------------------------------------------------------
 MAX_CSV_BYTES = 2 * GIB  # a result or reference CSV (read whole into memory)
@@ -106,7 +108,13 @@ LIMITS = (
         "scene",
         "communication steps ((stop_time - start_time) / step)",
         f"{MAX_STEPS:.0e}",
-        "each recorded row is kept in memory until the run ends",
+        "at 10 us a step, 3 hours; the master streams its rows (memory does not grow)",
+    ),
+    Limit(
+        "run (mechfmu run, run_scene)",
+        "estimated output (rows x columns x bytes per value)",
+        _size(MAX_RUN_OUTPUT_BYTES) + " unless --max-output",
+        "refused before the first step, naming the steps and the size",
     ),
     Limit("result JSON metadata", "size", _size(MAX_JSON_BYTES), "read whole; ours: a few KiB"),
     Limit(

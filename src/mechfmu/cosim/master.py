@@ -58,6 +58,9 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from .interrupt import InterruptGuard
     from .scene import ComponentSpec, Connection, Scene
 
+MAX_LOG_MESSAGES = 10_000  # FMU log messages a run keeps (then only its problems)
+CHUNK_ROWS = 4096  # rows a run given a sink hands over at once (memory: CHUNK_ROWS rows)
+FLUSH_SECONDS = 1.0  # ... or after this long (s, wall clock): a slow run's file keeps up
 EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.runtime.fmi.slave)
 # how a model marks an input it reads only in one configuration ("Only with drive = camshaft:
 # ..."; mechfmu.runtime.fmi.declarations.only_with): unfed, it is no mistake in the others
@@ -100,13 +103,17 @@ class SimulationInterrupted(SimulationError):
         RuntimeError.__init__(
             self,
             f"interrupted by {signal_name(signum)} at t = {time!r} s "
-            f"after {max(len(result.times) - 1, 0)} step(s)",
+            f"after {max(result.rows - 1, 0)} step(s)",
         )
 
 
 @dataclass
 class Result:
-    """Recorded signals of one run: ``columns`` maps 'component.variable' to values."""
+    """Recorded signals of one run: ``columns`` maps 'component.variable' to values.
+
+    ``rows``: the communication points recorded (the first included). A run given a
+    ``sink`` that does not keep its rows (``Simulation.run(keep=False)``) has empty
+    ``times`` and ``columns``: its rows went to the sink (a result file) as they came."""
 
     scene: Any
     times: list = field(default_factory=list)
@@ -115,6 +122,8 @@ class Result:
     meta: dict = field(default_factory=dict)
     log: list = field(default_factory=list)
     partial: bool = False
+    rows: int = 0
+    kept: bool = True  # whether times and columns hold every row
 
 
 def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
@@ -177,6 +186,7 @@ class LogBook:
 
     def __init__(self) -> None:
         self.messages: list[Any] = []
+        self.dropped = 0  # messages not kept (record)
         self.key = LogBook._next_key
         LogBook._next_key += 1
         LogBook._books[self.key] = self
@@ -203,9 +213,16 @@ class LogBook:
         return log
 
     def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
+        """Keep one message; past MAX_LOG_MESSAGES only the problems (error, fatal,
+        discard) are kept and the others counted in ``dropped`` (a long run that warns at
+        every step stays in bounded memory)."""
+
         def text(raw: Any):
             return raw.decode("utf-8", "replace") if isinstance(raw, bytes) else str(raw)
 
+        if len(self.messages) >= MAX_LOG_MESSAGES and status < _DISCARD:
+            self.dropped += 1
+            return
         self.messages.append(
             {
                 "instance": text(instance),
@@ -620,6 +637,8 @@ class Simulation:
         stop: Any = None,
         checkpoints: Checkpoints | None = None,
         resume: Checkpoint | None = None,
+        sink: Any = None,
+        keep: bool = True,
     ) -> Result:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
@@ -633,7 +652,17 @@ class Simulation:
         instantiation and between steps; when it has received a signal the run stops there
         with SimulationInterrupted (the rows so far, every instance freed).
         ``checkpoints``: where and how often to write a checkpoint (cosim/checkpoint.py;
-        always when a signal stops the run); ``resume``: a checkpoint of this scene to continue from.
+        always when a signal stops the run); ``resume``: a checkpoint of this scene to continue
+        from. A checkpoint holds the rows still in memory; the rows a run that does not keep
+        them has let go are in its sink's file: the checkpoint holds the sink's position
+        there (``sink.position()``), and a resumed run needs a sink that continues that file
+        (``sink.continued``: results.StreamedResult(resume=...)).
+        ``sink``: where the recorded rows go as the run makes them (a RowSink of
+        mechfmu.cosim.results: ``begin(names)``, then ``rows(times, columns)`` per chunk
+        of at most CHUNK_ROWS rows or FLUSH_SECONDS, also for the rows made before a
+        failure); ``keep``: whether the Result holds every row too (False: memory bounded
+        whatever the run's length; ``result.kept`` says which).
+        The time points are computed as the run goes (scene.time), never listed.
         """
         scene = self.scene
         result = Result(
@@ -647,10 +676,13 @@ class Simulation:
             instances = Instances()
         logbook = instances.logbook
         logbook.messages = result.log = []
+        logbook.dropped = 0
+        # a resumed run whose first rows went to a file has only the later ones in memory
+        result.kept = (keep or sink is None) and not (resume is not None and resume.streamed)
         instantiated = []
         started = clock.perf_counter()
         current = (None, scene.start_time)
-        recorders = []
+        plan = None
         stop = stop or _NEVER
         try:
             for name in self.order:
@@ -668,21 +700,24 @@ class Simulation:
             for connection in self.lagged:  # their sources initialise after their targets
                 self._set_from_source(connection)
             timer = CallTimer() if time_fmi_calls else None
-            plan = _StepPlan(self, timer)
-            recorders = plan.recorders
+            plan = _StepPlan(self, timer, sink, result.kept)
+            if sink is not None:
+                sink.begin([name for name, _, _ in self.recorded])
             current = (None, scene.start_time)
             if stop.requested:
                 raise _Stopped(scene.start_time)
             first = 1
             if resume is not None:
-                first = self._resume(resume, plan, result) + 1
-            plan.start(result, result.times[-1] if resume else scene.start_time, resume is None)
+                first = self._resume(resume, plan, result, sink) + 1
+            plan.start(result, resume.time if resume else scene.start_time, resume is None)
             saving = self._checkpointer(checkpoints, plan, result)
-            loop_started = clock.perf_counter()
+            loop_started, loop_cpu_started = clock.perf_counter(), clock.process_time()
             try:
                 plan.run(result, scene, stop, first, saving)
             finally:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
+                # the process's CPU time: the loop's work whatever else runs on the machine
+                result.meta["loop_cpu_time_s"] = clock.process_time() - loop_cpu_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
         except _Ended as ended:
@@ -704,8 +739,9 @@ class Simulation:
             ) from None
         except _Stopped as stopped:
             result.partial = True
-            if checkpoints is not None and recorders:  # every component at the last row
-                self._save_checkpoint(checkpoints, plan, len(result.times) - 1, result)
+            if checkpoints is not None and plan is not None and plan.recorded():
+                # every component at the last row (the stop comes between steps)
+                self._save_checkpoint(checkpoints, plan, plan.recorded() - 1, result)
             raise SimulationInterrupted(stop.take(), stopped.time, result) from None
         except _CallFailed as failure:
             result.partial = True
@@ -723,9 +759,14 @@ class Simulation:
             message = logbook.last_problem(name) if name else str(error)
             raise SimulationError(name, at, f"{message} [{error}]", result) from None
         finally:
-            _StepPlan.collect(recorders, result)
+            if plan is not None:
+                plan.drain(result)  # the rows not yet handed over (also after a failure)
+                if result.kept:
+                    plan.collect(result)
             result.meta["wall_time_s"] = clock.perf_counter() - started
-            result.meta["steps"] = max(len(result.times) - 1, 0)
+            result.meta["steps"] = max(result.rows - 1, 0)
+            if logbook.dropped:
+                result.meta["log_dropped"] = logbook.dropped
             for component in instantiated:
                 instances.release(component)
                 component.slave = None
@@ -755,15 +796,31 @@ class Simulation:
     def _save_checkpoint(
         self, checkpoints: Checkpoints, plan: _StepPlan, index: int, result: Result
     ) -> None:
+        """Write a checkpoint at point ``index`` (the last recorded): the FMU states, the
+        rows still in memory and, when rows were let go, where the sink's file holds them
+        (every row up to ``index`` is handed to the sink first)."""
+        plan.drain(result)
+        time = plan.times[-1] if plan.times else plan.last_time
+        stream = None
+        if plan.let_go:
+            position = getattr(plan.sink, "position", None)
+            if position is None:
+                raise CheckpointError(
+                    "the run lets its rows go to a sink that cannot say where they are: "
+                    "no checkpoint"
+                )
+            stream = position()
         checkpoint = Checkpoint(
             scene=self.scene.name,
             digest=scene_digest(self.scene),
             index=index,
-            time=result.times[index],
+            time=time,
             guids=self._guids(),
             states=self._states(),
             rows=plan.recorded_rows(),
-            times=list(result.times[: index + 1]),
+            times=list(plan.times),
+            streamed=plan.let_go,
+            stream=stream,
         )
         save_checkpoint(checkpoints.path, checkpoint)
         result.meta["checkpoint"] = {"file": str(checkpoints.path), "index": index}
@@ -796,17 +853,35 @@ class Simulation:
                     "serialise its FMU state (canSerializeFMUstate is false): no checkpoints"
                 )
 
-    def _resume(self, checkpoint: Checkpoint, plan: _StepPlan, result: Result) -> int:
-        """Restore ``checkpoint`` (every FMU state, the rows); the index of its point."""
+    def check_resume(self, checkpoint: Checkpoint) -> None:
+        """CheckpointError unless ``checkpoint`` was taken by a run of this scene with these
+        FMUs (before anything runs or is written)."""
         check_matches(checkpoint, self.scene, self._guids())
+
+    def _resume(self, checkpoint: Checkpoint, plan: _StepPlan, result: Result, sink: Any) -> int:
+        """Restore ``checkpoint`` (every FMU state, the rows); the index of its point. The
+        rows it let go must be in ``sink``'s file already (``sink.continued``); the rows it
+        holds go to the sink unless that file has them too."""
+        self.check_resume(checkpoint)
+        continued = getattr(sink, "continued", 0)
+        if checkpoint.streamed != continued:
+            raise CheckpointError(
+                f"the checkpoint's first {checkpoint.streamed} rows were streamed to the "
+                f"result file of its run, here {continued} rows are: resume into the output "
+                "folder of the run that wrote the checkpoint (its .partial file continues)"
+            )
         for name, component in self.components.items():
             slave, data = component.slave, checkpoint.states[name]
             if component.version == 3:
                 slave.setFMUState(slave.deserializeFMUState(data))
             else:
                 slave.setFMUstate(slave.deSerializeFMUstate(data))
-        plan.restore_rows(checkpoint.rows, checkpoint.index + 1)
-        result.times[:] = checkpoint.times
+        plan.restore_rows(checkpoint.rows, len(checkpoint.times))
+        plan.times.extend(checkpoint.times)
+        plan.let_go = checkpoint.streamed
+        plan.last_time = checkpoint.time
+        plan.handed = len(checkpoint.times) if checkpoint.streamed else 0
+        result.rows = checkpoint.index + 1
         result.meta["resumed_from"] = {"index": checkpoint.index, "time": checkpoint.time}
         return checkpoint.index
 
@@ -1048,7 +1123,19 @@ class _StepPlan:
     inputs are set from the buffers of the previous point before any component steps.
     """
 
-    def __init__(self, simulation: Simulation, timer: CallTimer | None) -> None:
+    def __init__(
+        self,
+        simulation: Simulation,
+        timer: CallTimer | None,
+        sink: Any = None,
+        keep: bool = True,
+    ) -> None:
+        self.sink, self.keep = sink, keep
+        self.times = array("d")  # the recorded rows' times not yet let go (keep: all)
+        self.handed = 0  # of them, rows already given to the sink
+        self.let_go = 0  # rows given to the sink and dropped (keep False)
+        self.last_time = math.nan  # s, the time of the last row let go
+        self.last_drain = clock.perf_counter()
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
         members: dict[
@@ -1076,6 +1163,11 @@ class _StepPlan:
         self.recorders = [self.outputs[key] for key in recorded]
         self.recorder_keys = [f"{name}|{fmi_type}" for name, fmi_type in recorded]
         self.versions = {name: component.version for name, component in components.items()}
+        # each recorded name's (recorder, position in its rows) in the recorded order
+        self.layout = [
+            (self.outputs[(component.name, variable.type)], full_name)
+            for full_name, component, variable in simulation.recorded
+        ]
         self.steps = []  # (name, doStep, instance, [input sets], [output reads], ended)
         for name in simulation.order:
             sets = [
@@ -1153,7 +1245,45 @@ class _StepPlan:
     def _record(self, result: Result, time: float) -> None:
         for recorder in self.recorders:
             recorder.rows.frombytes(recorder.raw)
-        result.times.append(time)
+        self.times.append(time)
+        result.rows = self.let_go + len(self.times)
+
+    def recorded(self) -> int:
+        """The rows recorded so far, let go or not."""
+        return self.let_go + len(self.times)
+
+    def drain(self, result: Result) -> None:
+        """Give the rows recorded since the last drain to the sink (each column as an
+        array, in the recorded order) and, unless the run keeps its rows, let them go."""
+        result.rows = self.let_go + len(self.times)
+        self.last_drain = clock.perf_counter()
+        if self.sink is None:
+            return
+        rows = min(
+            [len(self.times)] + [len(r.rows) // r.call.count for r in self.recorders]
+        )  # complete rows (a failed step records none)
+        first = self.handed
+        if rows > first:
+            self.sink.rows(
+                self.times[first:rows],
+                [
+                    recorder.rows[
+                        first * recorder.call.count + recorder.positions[name] : rows
+                        * recorder.call.count : recorder.call.count
+                    ]
+                    for recorder, name in self.layout
+                ],
+            )
+        if self.keep:
+            self.handed = rows
+            return
+        self.let_go += rows
+        if rows:
+            self.last_time = self.times[rows - 1]
+        del self.times[:rows]
+        for recorder in self.recorders:
+            del recorder.rows[: rows * recorder.call.count]
+        self.handed = 0
 
     def run(
         self,
@@ -1163,14 +1293,17 @@ class _StepPlan:
         first: int = 1,
         on_point: Callable[[int], None] | None = None,
     ) -> None:
-        """Step from start_time to stop_time, recording after every communication step;
-        before each step, stop with _Stopped if ``stop`` has been requested. A component
-        that asks to end the simulation ends the run after its outputs are read: the last
-        row is at the time it reached (_Ended). ``first``: the index of the first communication
-        point to step to (a resumed run: the one after its checkpoint); ``on_point(index)``:
-        called after each row is recorded (checkpoints)."""
-        times = [scene.time(index) for index in range(scene.steps + 1)]
+        """Step from start_time to stop_time, recording after every communication step
+        (each time point computed as it comes: scene.time, no list of them); before each
+        step, stop with _Stopped if ``stop`` has been requested; with a sink, drain every
+        CHUNK_ROWS rows or FLUSH_SECONDS. A component that asks to end the simulation ends
+        the run after its outputs are read: the last row is at the time it reached
+        (_Ended; the caller's final drain hands it to the sink). ``first``: the index of the
+        first communication point to step to (a resumed run: the one after its checkpoint);
+        ``on_point(index)``: called after each row is recorded (checkpoints)."""
         put_changed, jacobi = self._set, self.jacobi
+        time_of, last_index = scene.time, scene.steps
+        draining, now = self.sink is not None, clock.perf_counter
         # Everything a step calls, unpacked once: (name, doStep, instance, input sets,
         # output reads as (function, instance, references, count, buffer, call)).
         steps = [
@@ -1185,12 +1318,13 @@ class _StepPlan:
             for name, do_step, instance, sets, reads, ended in self.steps
         ]
         rows = [(recorder.rows.frombytes, recorder.raw) for recorder in self.recorders]
-        append_time = result.times.append
-        for index in range(first, len(times)):
-            start = times[index - 1]
+        append_time, times = self.times.append, self.times
+        end = time_of(first - 1)
+        for index in range(first, last_index + 1):
+            start = end
             if stop.requested:
                 raise _Stopped(start)
-            end = times[index]
+            end = time_of(index)
             size = end - start
             if jacobi:  # every input from the previous point's outputs, then every step
                 for _, _, _, sets, _, _ in steps:
@@ -1210,8 +1344,13 @@ class _StepPlan:
             for add, raw in rows:  # _record, inline
                 add(raw)
             append_time(end)
+            if draining and (
+                len(times) - self.handed >= CHUNK_ROWS or now() - self.last_drain >= FLUSH_SECONDS
+            ):
+                self.drain(result)
             if on_point is not None:
                 on_point(index)
+        result.rows = self.let_go + len(times)
 
     def _end(
         self, name: str, start: float, status: int, time: float | None, reads: Any, result: Result
@@ -1226,13 +1365,13 @@ class _StepPlan:
         self._record(result, time)
         raise _Ended(name, time)
 
-    @staticmethod
-    def collect(recorders: list[_Outputs], result: Result) -> None:
-        """Copy the recorded rows into result.columns (also after a failed run)."""
-        if not recorders:
-            return
-        rows = min(len(recorder.rows) // recorder.call.count for recorder in recorders)
-        del result.times[rows:]
+    def collect(self, result: Result) -> None:
+        """Copy the recorded rows into result.times and result.columns (also after a
+        failed run)."""
+        recorders = self.recorders
+        rows = min([len(self.times)] + [len(r.rows) // r.call.count for r in recorders])
+        result.times = [float(time) for time in self.times[:rows]]
+        result.rows = rows
         for recorder in recorders:
             width = recorder.call.count
             for name, position in recorder.positions.items():
@@ -1242,6 +1381,7 @@ class _StepPlan:
 
 
 _WARNING = 1  # fmi2Warning: the worst status a step may return and still count as done
+_DISCARD = 2  # fmi2Discard: from here on a status is a problem (LogBook keeps it)
 
 
 def parameter_values(

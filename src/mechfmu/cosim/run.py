@@ -26,7 +26,13 @@ from .master import (
     parameter_values,
     resolve_fmu,
 )
-from .results import move_aside_complete, write_result
+from .results import (
+    CSV_VALUE_BYTES,
+    PARQUET_VALUE_BYTES,
+    StreamedResult,
+    move_aside_complete,
+    result_meta,
+)
 from .scene import (
     SCENE_DIR,
     ComponentSpec,
@@ -123,6 +129,45 @@ def simulate(
         return simulation, simulation.run(stop=guard)
 
 
+IN_MEMORY_ROWS = 100_000  # rows run_scene keeps in its Result besides the file (keep=None)
+
+
+def output_estimate(scene: Scene, columns: int, fmt: str = "csv") -> tuple[int, int]:
+    """(rows, bytes) a run of ``scene`` recording ``columns`` variables writes: its
+    communication points and, per row, the time and each column at the most a value takes
+    in ``fmt`` (CSV_VALUE_BYTES, PARQUET_VALUE_BYTES)."""
+    rows = scene.steps + 1
+    per_value = CSV_VALUE_BYTES if fmt == "csv" else PARQUET_VALUE_BYTES
+    return rows, rows * (columns + 1) * per_value
+
+
+def _size_text(size: float) -> str:
+    """A byte count for people: '2.1 GB'."""
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if size >= scale:
+            return f"{size / scale:.3g} {unit}"
+    return f"{size:.0f} bytes"
+
+
+def check_output_size(
+    scene: Scene, columns: int, fmt: str = "csv", max_output: int | None = None
+) -> None:
+    """SceneError, one line naming the steps, the estimated size and the option that lifts
+    the limit, when a run of ``scene`` would write more than ``max_output`` bytes (None:
+    limits.MAX_RUN_OUTPUT_BYTES). Called before anything runs."""
+    limit = limits.MAX_RUN_OUTPUT_BYTES if max_output is None else max_output
+    rows, size = output_estimate(scene, columns, fmt)
+    if size > limit:
+        raise SceneError(
+            f"{scene.path}: {rows - 1} steps of {scene.step!r} s (start_time "
+            f"{scene.start_time!r} s to stop_time {scene.stop_time!r} s) would write up to "
+            f"{_size_text(size)} of {fmt.upper()} ({columns + 1} columns), over the limit of "
+            f"{_size_text(limit)}: pass --max-output {_size_text(size * 1.1).replace(' ', '')} "
+            f"(max_output= in Python) to run it anyway, or record less, coarsen the step or "
+            f"shorten the run"
+        )
+
+
 def run_scene(
     scene: Path | Scene,
     out_dir: Path | str,
@@ -132,12 +177,21 @@ def run_scene(
     parameters: dict[str, Any] | None = None,
     checkpoints: Checkpoints | None = None,
     resume: Path | None = None,
+    fmt: str = "csv",
+    max_output: int | None = None,
+    keep: bool | None = None,
 ) -> tuple[Result, dict[str, Path]]:
     """Run ``scene`` (a Scene or a path) and write its files into ``out_dir``.
 
     The scene (prepare: its FMUs, ``parameters``, its table files) and the output folder
     (created if missing, OutputError if it cannot be written) are checked before anything
-    runs. Returns (Result, {kind: path}).
+    runs, and so is the output's size (check_output_size: ``max_output`` bytes, None for
+    limits.MAX_RUN_OUTPUT_BYTES). Returns (Result, {kind: path}).
+
+    The rows are streamed to ``<scene>.partial.csv`` (``fmt = "parquet"``: .parquet) as
+    they are made (StreamedResult), renamed to ``<scene>.csv`` with its JSON at the end:
+    memory stays bounded whatever the run's length. ``keep``: whether the Result holds
+    every row too (None: when the run has at most IN_MEMORY_ROWS rows; ``result.kept``).
 
     SIGINT and SIGTERM are taken between steps: ``guard`` is an InterruptGuard the caller
     has installed (the command line, for its whole duration), or None for one installed
@@ -149,16 +203,23 @@ def run_scene(
 
     ``checkpoints``: write checkpoints of the run (cosim/checkpoint.py); ``resume``: the path
     of a checkpoint of this scene to continue from (checked before anything runs: a
-    CheckpointError, a SceneError, names what does not match).
+    CheckpointError, a SceneError, names what does not match). A checkpoint of a run that
+    let its rows go to its file continues that file: ``out_dir`` must be that run's, and
+    ``fmt`` its format; the resumed run's files equal an uninterrupted run's.
     """
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         simulation = prepare(scene, fmu_dir, parameters)
+        check_output_size(simulation.scene, len(simulation.recorded), fmt, max_output)
         if checkpoints is not None:
             simulation.check_checkpoints()
         checkpoint = load_checkpoint(resume) if resume is not None else None
+        if checkpoint is not None:
+            simulation.check_resume(checkpoint)
         out_dir = output_folder(out_dir)
+        if keep is None:
+            keep = simulation.scene.steps + 1 <= IN_MEMORY_ROWS
         setup = {
             "parameters": dict(parameters or {}),
             "components": parameter_values(simulation),
@@ -167,8 +228,18 @@ def run_scene(
             "pruned": simulation.pruned,
             "lagged_connections": [str(c) for c in simulation.lagged],
         }
+        # a checkpoint that let rows go continues their file (the others start a new one)
+        stream = StreamedResult(
+            out_dir, scene.name, fmt, resume=checkpoint.stream if checkpoint else None
+        )
         try:
-            result = simulation.run(stop=guard, checkpoints=checkpoints, resume=checkpoint)
+            result = simulation.run(
+                stop=guard,
+                checkpoints=checkpoints,
+                resume=checkpoint,
+                sink=stream,
+                keep=keep,
+            )
         except SimulationError as error:
             interrupted = isinstance(error, SimulationInterrupted)
             error.moved_aside = move_aside_complete(scene.name, out_dir)
@@ -184,9 +255,11 @@ def run_scene(
                 moved_aside=[str(path) for path in error.moved_aside],
             )
             try:
-                error.paths = write_result(error.result, out_dir, plot)
+                error.paths = stream.finish(error.result, result_meta(error.result), plot)
             except OutputError as problem:  # the failure is the news; the writer's joins it
                 error.output_error = problem
             raise
+        finally:
+            stream.abandon()  # any other exception: the rows so far stay readable
         result.meta.update(setup, error=None, interrupted=False, signal=None)
-        return result, write_result(result, out_dir, plot)
+        return result, stream.finish(result, result_meta(result), plot)

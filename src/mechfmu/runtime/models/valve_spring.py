@@ -5,7 +5,7 @@ from ..fmi.integrating import IntegratingSlave
 from ..fmi.declarations import motion_inputs, motion_units, only_with
 from ..fmi.geometry import geometry_effect
 from ..fmi.slave import Status, integrator_variables, output, parameter
-from ..physics import cam_geometry, cam_laws, joint_positions
+from ..physics import cam_geometry, cam_laws, joint_positions, valve_exact
 from ..physics import valve_spring as vs
 from ..physics import valve_train as vt
 from ..errors import IntegrationError, MechanismError, RangeError, require_finite, require_positive
@@ -161,7 +161,7 @@ class ValveSpring(IntegratingSlave):
             max_substep=2e-5,
             own_methods=(
                 (
-                    vs.EXACT,
+                    valve_exact.EXACT,
                     "each contact mode solved in closed form on drive pieces of at most "
                     "max_substep, switches located on it",
                 ),
@@ -335,11 +335,11 @@ class ValveSpring(IntegratingSlave):
         return True
 
     def check_parameters(self) -> None:
-        if self.values["integrator"] != vs.EXACT:
+        if self.values["integrator"] != valve_exact.EXACT:
             super().check_parameters()
             return
         self.set_up()
-        self.integrator = vs.ExactIntegrator(
+        self.integrator = valve_exact.ExactIntegrator(
             require_positive("max_substep", self.values["max_substep"], "s")
         )
 
@@ -395,8 +395,9 @@ class ValveSpring(IntegratingSlave):
         found = []
         phase = [self.phase]
 
-        def judge(t: float, y: Any):
-            phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], vs.drive_at(self.drive, t))
+        def judge(t: float, y: Any, drive: Any = None):
+            drive = drive or vs.drive_at(self.drive, t)
+            phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], drive)
             found.extend(new)
             for happening in new:
                 if happening.kind == vs.FLOAT and self.values["stop_on_float"]:
@@ -408,19 +409,25 @@ class ValveSpring(IntegratingSlave):
                 self._refuse_travel(
                     t, y, vs.drive_at(self.drive, t), floated[-1] if floated else self.last_float
                 )
+            drive = vs.drive_at(self.drive, t)
             if event.name in vs.SWITCH_EVENTS:
-                L, rate, _ = vs.drive_at(self.drive, t)
                 self.modes.engaged = vs.after_switch(
-                    p, self.modes.engaged, vs.SWITCH_EVENTS.index(event.name), L, rate, y[0], y[1]
+                    p,
+                    self.modes.engaged,
+                    vs.SWITCH_EVENTS.index(event.name),
+                    drive[0],
+                    drive[1],
+                    y[0],
+                    y[1],
                 )
-            judge(t, y)
+            judge(t, y, drive)
             return y
 
         self.modes.engaged = vs.resume(
             p, self.engaged, *self.rocker(self.held_inputs)[:2], *self.state[:2]
         )
-        if isinstance(self.integrator, vs.ExactIntegrator):
-            y = vs.integrate_exact(
+        if isinstance(self.integrator, valve_exact.ExactIntegrator):
+            y = valve_exact.integrate_exact(
                 p,
                 self.drive,
                 self.modes,
@@ -524,7 +531,7 @@ class ValveSpring(IntegratingSlave):
         ) = (lift, velocity, f.acceleration, f.contact, f.seat, f.spring, f.penetration)
         v["contact_lost"] = f.penetration <= 0.0 and L - p.lash > 0.0
         if isinstance(self.drive, vs.CamshaftStepDrive):
-            lift_rate = self.drive.valve_lift_rate(self.held_inputs[0])
+            lift_rate = self.drive.valve_lift_rate(self.held_inputs)
             v["camshaft_torque"] = cam_geometry.camshaft_torque(f.contact, lift_rate)
         v["kinetic_energy"] = vs.kinetic_energy(p, velocity)
         v["elastic_energy"] = vs.elastic_energy(p, L, lift)

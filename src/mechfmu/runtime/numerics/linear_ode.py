@@ -81,6 +81,23 @@ class Oscillator:
             decay * (rate0 * c - (self.sigma * rate0 + self.w02 * e0) * s),
         )
 
+    def free_bounds(self, e0: float, rate0: float, span: float) -> tuple[float, float]:
+        """Bounds (m, m/s) on |e(tau)| and |e'(tau)| for tau in [0, span] (s) of the free
+        motion from e(0) = e0, e'(0) = rate0, with exp(-sigma tau) <= 1: |e0| |C| + |e0' +
+        sigma e0| |S| and |e0'| |C| + |sigma e0' + w0^2 e0| |S| with |C| <= 1 and |S| <= span
+        (also 1/w when under-damped); when under-damped also the amplitudes
+        sqrt(e0^2 + ((e0' + sigma e0) / w)^2) and sqrt(e0'^2 + ((sigma e0' + w0^2 e0) / w)^2)
+        (Cauchy-Schwarz on cos and sin), the smaller of the two."""
+        e_coefficient = rate0 + self.sigma * e0
+        rate_coefficient = self.sigma * rate0 + self.w02 * e0
+        e_bound = abs(e0) + abs(e_coefficient) * span
+        rate_bound = abs(rate0) + abs(rate_coefficient) * span
+        if self.d2 > 0.0:
+            w = self.root
+            e_bound = min(e_bound, math.hypot(e0, e_coefficient / w))
+            rate_bound = min(rate_bound, math.hypot(rate0, rate_coefficient / w))
+        return e_bound, rate_bound
+
 
 class Solution:
     """x(tau), x'(tau) of m x'' + c x' + k x = g(tau) from x(0) = x0, x'(0) = v0."""
@@ -95,8 +112,10 @@ class Solution:
         forcing: tuple[float, ...] | list[float],
         x0: float,
         v0: float,
+        oscillator: "Oscillator | None" = None,
     ) -> None:
-        self.oscillator = Oscillator(mass, damping, stiffness)
+        # ``oscillator``: Oscillator(mass, damping, stiffness) when the caller keeps one
+        self.oscillator = oscillator or Oscillator(mass, damping, stiffness)
         self.load = tuple(g / mass for g in forcing)  # g / m, m/s^2 per s^j
         self.particular = particular_polynomial(mass, damping, stiffness, forcing)
         self.particular_rate = derivative(self.particular)
@@ -112,22 +131,28 @@ class Solution:
         )
 
     def free_bounds(self, span: float) -> tuple[float, float]:
-        """Bounds (m, m/s) on |e(tau)| and |e'(tau)| for tau in [0, span] (s): the free
-        motion's |e0| + |e0' + sigma e0| max|S| and |e0'| + |sigma e0' + w0^2 e0| max|S|,
-        with |C| exp(-sigma tau) <= 1 and max|S| <= span (also 1/w when under-damped)."""
-        o = self.oscillator
-        reach = span
-        if o.d2 > 0.0 and o.root * span > 1.0:
-            reach = 1.0 / o.root
-        return (
-            abs(self.e0) + abs(self.rate0 + o.sigma * self.e0) * reach,
-            abs(self.rate0) + abs(o.sigma * self.rate0 + o.w02 * self.e0) * reach,
-        )
+        """Bounds (m, m/s) on |e(tau)| and |e'(tau)| for tau in [0, span] (s):
+        Oscillator.free_bounds of this solution's free motion."""
+        return self.oscillator.free_bounds(self.e0, self.rate0, span)
 
     def acceleration(self, tau: float, x: float, v: float) -> float:
         """x'' (m/s^2) at tau where the state is (x m, v m/s): the equation itself."""
         o = self.oscillator
         return polynomial(self.load, tau) - 2.0 * o.sigma * v - o.w02 * x
+
+
+def exponential_integral(
+    coefficients: tuple[float, ...] | list[float], rate: complex
+) -> tuple[complex, ...]:
+    """Coefficients of the polynomial G with G' + rate G = R for R's ``coefficients``, so
+    that exp(rate tau) G(tau) is an antiderivative of R(tau) exp(rate tau) (rate != 0, 1/s;
+    G = sum_k (-1)^k R^(k) / rate^(k + 1), by the backward recurrence
+    g_j = (r_j - (j + 1) g_(j+1)) / rate)."""
+    n = len(coefficients)
+    g = [0j] * (n + 1)
+    for j in range(n - 1, -1, -1):
+        g[j] = (coefficients[j] - (j + 1) * g[j + 1]) / rate
+    return tuple(g[:n])
 
 
 def _legendre(n: int, x: float) -> tuple[float, float]:

@@ -530,7 +530,7 @@ class BranchFollower:
         # does not know; the LU row order in use and the condition estimate's start column.
         self.kernel: planar_kernel.MechanismKernel | None
         try:
-            self.kernel = planar_kernel.MechanismKernel(mechanism)
+            self.kernel = planar_kernel.mechanism_kernel(mechanism)  # shared by shape
         except planar_kernel.Unsupported:
             self.kernel = None
         self.order: tuple[int, ...] | None = None

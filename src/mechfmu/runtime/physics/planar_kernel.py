@@ -450,6 +450,45 @@ class MechanismKernel:
         return self.one_norm(values) * inverse_norm, column
 
 
+# MechanismKernel by mechanism shape, for every instance of the process (a FourBar's kernels
+# take milliseconds to write and compile: per step of a 2000-step run about what the step
+# itself costs; a sweep or a re-instantiated FMU builds the same mechanism again).
+KERNEL_CACHE_SIZE = 32  # shapes kept, the oldest dropped first (a sweep over geometries)
+_KERNELS: dict[tuple, "MechanismKernel"] = {}
+
+
+def mechanism_shape(mechanism: Any) -> tuple | None:
+    """What a mechanism's generated code depends on: its name (the code's file name in a
+    traceback), each joint's class and attributes but its name (bodies, local points, line
+    normals, angles, driver terms), the row and column scales; None when an attribute is
+    not hashable (such a mechanism is not cached)."""
+    joints = tuple(
+        (type(joint), tuple(sorted((k, v) for k, v in vars(joint).items() if k != "name")))
+        for joint in mechanism.joints
+    )
+    shape = (mechanism.name, joints, tuple(mechanism.row_scale), tuple(mechanism.column_scale))
+    try:
+        hash(shape)
+    except TypeError:
+        return None
+    return shape
+
+
+def mechanism_kernel(mechanism: Any) -> "MechanismKernel":
+    """The MechanismKernel of ``mechanism``, built once per mechanism shape in this process
+    (mechanism_shape) and shared: its functions and its LU kernels by row order are pure.
+    Unsupported as MechanismKernel."""
+    shape = mechanism_shape(mechanism)
+    kernel = _KERNELS.get(shape) if shape is not None else None
+    if kernel is None:
+        kernel = MechanismKernel(mechanism)
+        if shape is not None:
+            if len(_KERNELS) >= KERNEL_CACHE_SIZE:
+                del _KERNELS[next(iter(_KERNELS))]
+            _KERNELS[shape] = kernel
+    return kernel
+
+
 def _known_locals(statements: Sequence[str]) -> dict[str, float]:
     """The locals of generated ``name = expression; ...`` statements whose value does not
     depend on q (their expressions use only numbers and such locals), with their values."""

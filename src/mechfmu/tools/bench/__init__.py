@@ -16,6 +16,7 @@ BENCHMARKS = (
     "dynamic_scenes",
     "growth",
     "animation",
+    "long_runs",
 )
 
 
@@ -32,6 +33,7 @@ class Settings:
     growth_base_s: float = 3.0  # the growth benchmark's 1x stop time (gear_retraction's)
     animation_s: float = 10.0  # simulated time the animation benchmark plays
     animation_fps: float = 30.0  # its frames per second
+    long_base_steps: int = 10_000  # the long-runs benchmark's 1x (then 10x, 100x)
 
 
 FULL = Settings(repeats=5, master_lengths_s=(3.0, 60.0), model_steps=2000)
@@ -46,4 +48,5 @@ QUICK = Settings(
     growth_base_s=0.25,
     animation_s=1.0,
     animation_fps=10.0,
+    long_base_steps=500,
 )

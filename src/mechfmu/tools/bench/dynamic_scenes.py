@@ -1,12 +1,15 @@
 """Benchmark 6: every shipped dynamic scene against real time.
 
 A scene is dynamic when one of its components integrates a state inside each communication
-step (``is_dynamic``). For each, the row ``SCENE: wall / simulated`` is the wall time of the
-master's stepping loop (``meta['loop_time_s']``: every doStep, get and set; without the
-one-off extraction and instantiation, which do not grow with simulated time) divided by the
-simulated time, both in s: at most 1 is real time or faster. Each scene runs as shipped
-(its communication step, integrator and tolerances: the accuracy its reference check
-demands); ``stop_fraction`` shortens every scene for a quick run.
+step (``is_dynamic``). For each, the row ``SCENE: loop / simulated`` is the time of the
+master's stepping loop (every doStep, get and set; without the one-off extraction and
+instantiation, which do not grow with simulated time) divided by the simulated time, both
+in s: the process's CPU time with ``mechfmu bench --cpu-time`` (``meta['loop_cpu_time_s']``,
+what holds on a busy machine), else the wall clock (``meta['loop_time_s']``). At most 1 is
+real time or faster; the valve scenes are asked for 0.25 (issue 33: four times faster
+than real time). Each scene runs as shipped (its communication step, integrator and
+tolerances: the accuracy its reference check demands); ``stop_fraction`` shortens every
+scene for a quick run.
 """
 
 from collections.abc import Sequence
@@ -17,11 +20,17 @@ from pathlib import Path
 from ...cosim.master import Simulation
 from ...cosim.scene import load_scene
 from .report import Row, Target
+from . import timing
 from .timing import side_by_side_medians
 
 BENCHMARK = "dynamic scenes"
-TARGET = Target(1.0, "<= 1")  # the issue: every dynamic scene at least real time
-CASE_SUFFIX = ": wall / simulated"
+TARGET = Target(1.0, "<= 1")  # issue 21: every dynamic scene at least real time
+# issue 33: the valve scenes four times faster than real time (CPU time)
+FAST_TARGETS = {
+    "valve_train_dynamic": Target(0.25, "<= 0.25"),
+    "valve_float_dynamic": Target(0.25, "<= 0.25"),
+}
+CASE_SUFFIX = ": loop / simulated"
 
 
 def is_dynamic(scene: Any) -> bool:
@@ -45,13 +54,16 @@ def dynamic_scenes(scene_dir: Any) -> list:
 
 
 def _loop(simulation: Any):
-    return {"loop": simulation.run().meta["loop_time_s"]}
+    """The stepping loop's time (s): CPU time under use_cpu_time, else wall."""
+    meta = simulation.run().meta
+    return {"loop": meta["loop_cpu_time_s"] if timing.cpu_time() else meta["loop_time_s"]}
 
 
 def measure(
     scene_dir: Any, fmu_dir: Any, repeats: int, stop_fraction: "float | None" = None
 ) -> list:
-    """Rows of benchmark 6: per dynamic scene, loop wall time (s) / simulated time (s).
+    """Rows of benchmark 6: per dynamic scene, loop time (s, CPU or wall: _loop) /
+    simulated time (s).
     ``stop_fraction`` (0, 1] shortens each scene to that part of its span (None: as
     written)."""
     scenes = dynamic_scenes(scene_dir)
@@ -80,8 +92,9 @@ def measure(
                 medians[scene.name]["loop"] / span,
                 "s/s",
                 repeats,
-                TARGET,
-                f"stepping loop {medians[scene.name]['loop'] * 1e3:.4g} ms for "
+                FAST_TARGETS.get(scene.name, TARGET),
+                f"stepping loop {medians[scene.name]['loop'] * 1e3:.4g} ms "
+                f"{'CPU' if timing.cpu_time() else 'wall'} time for "
                 f"{span:g} s simulated; step {scene.step:g} s, {scene.steps} steps",
             )
         )
@@ -105,8 +118,12 @@ CONFIGURATIONS: dict[str, tuple[dict, str]] = {
         {"drive": "rocker", "integrator": "exact", "max_substep": 1e-4},
         "rocker",
     ),
-    "camshaft, exact (shipped)": (
+    "camshaft, exact, 0.1 ms pieces (before issue 33)": (
         {"drive": "camshaft", "integrator": "exact", "max_substep": 1e-4},
+        "camshaft",
+    ),
+    "camshaft, exact, 1 ms pieces (shipped)": (
+        {"drive": "camshaft", "integrator": "exact", "max_substep": 1e-3},
         "camshaft",
     ),
 }
@@ -156,9 +173,9 @@ def step_accuracy(
 ) -> Any:
     """pandas DataFrame: ``name`` run at each communication step in ``steps`` (s, each
     dividing the span) in each of ``configurations`` (CONFIGURATIONS by default), its loop
-    wall time per simulated s (median of ``repeats``), the right-hand-side (exact: closed
-    form) evaluations, and its reference check at the scene's declared tolerances ([check]) against the scipy
-    reference sampled every ``reference_step`` s (computed here, by the same function as
+    CPU time per simulated s (median of ``repeats``), the right-hand-side (exact: closed
+    form) evaluations, and its reference check at the scene's declared tolerances ([check])
+    against the scipy reference sampled every ``reference_step`` s (computed here, by the same function as
     the shipped CSV, so every step is checked at all its points): the worst deviation as a
     fraction of its allowance (<= 1 passes), its column and time."""
     import tempfile
@@ -191,7 +208,7 @@ def step_accuracy(
                 loops = []
                 for _ in range(repeats):
                     result, paths = run_scene(scene, out, fmu_dir, plot=False)
-                    loops.append(result.meta["loop_time_s"])
+                    loops.append(result.meta["loop_cpu_time_s"])
                 check = compare(paths["csv"], reference)
                 # the column whose largest deviation is the largest share of its allowance
                 worst = check.summary.sort_values("ratio").iloc[-1]
@@ -201,7 +218,7 @@ def step_accuracy(
                         "scene": name,
                         "valve": label,
                         "step_s": float(step),
-                        "wall_per_simulated": loops[len(loops) // 2]
+                        "cpu_per_simulated": loops[len(loops) // 2]
                         / (scene.stop_time - scene.start_time),
                         "rhs_evaluations": result.columns["valve.rhs_evaluations"][-1]
                         if "valve.rhs_evaluations" in result.columns

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from . import BENCHMARKS, FULL, QUICK, Settings
 from . import animation, dynamic_scenes, effects, floor, growth, master_overhead, model_cost
-from . import sweep, timing
+from . import long_runs, sweep, timing
 from .report import machine, machine_line, markdown_table, write_outputs
 from argparse import Namespace
 from typing import Any
@@ -34,6 +34,7 @@ def settings_for(args: Namespace) -> Settings:
         chosen.growth_base_s,
         chosen.animation_s,
         chosen.animation_fps,
+        chosen.long_base_steps,
     )
 
 
@@ -87,6 +88,9 @@ def run_benchmarks(
             settings.repeats,
             settings.animation_s,
             settings.animation_fps,
+        ),
+        "long_runs": lambda: long_runs.measure(
+            args.scenes, args.fmu_dir, settings.repeats, settings.long_base_steps
         ),
     }
     return [row for name in names for row in measures[name]()]

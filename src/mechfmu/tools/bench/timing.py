@@ -19,6 +19,11 @@ def use_cpu_time(cpu: bool) -> None:
     _clock = time.process_time if cpu else time.perf_counter
 
 
+def cpu_time() -> bool:
+    """Whether the benchmarks time by CPU time (use_cpu_time)."""
+    return _clock is time.process_time
+
+
 def now() -> float:
     """The benchmarks' clock in s: wall (default) or CPU time (use_cpu_time)."""
     return _clock()
