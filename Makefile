@@ -26,7 +26,8 @@ logged = @{ $(2); } > $(1) 2>&1 || { cat $(1); echo "make: failed; the whole out
 endif
 
 .PHONY: run test test-fast lint fmus references report study work-precision bench sweeps \
-	docs clean lock test-latest test-portable test-other-python test-subset tolerances fuzz-inputs
+	docs clean lock test-latest test-portable test-other-python test-subset tolerances \
+	boundary cross-check fuzz-inputs
 
 $(VENV)/.installed: pyproject.toml requirements.lock.txt
 	@echo "installing mechfmu and its locked dependencies into $(VENV)/ (log: $(VENV)/install.log)"
@@ -169,6 +170,21 @@ work-precision: $(VENV)/.installed
 
 bench: $(FMUS)/.built
 	$(VENV)/bin/mechfmu bench
+
+# The FMI boundary's property test at length (make test runs 6 fixed sequences per model and
+# FMI version): 300 freshly random call sequences per model and version.
+BOUNDARY_EXAMPLES ?= 300
+boundary: $(FMUS)/.built
+	MECHFMU_BOUNDARY_EXAMPLES=$(BOUNDARY_EXAMPLES) $(PY) -m pytest -q -p no:cacheprovider \
+		tests/test_fmi_boundary.py
+
+# Every model with a reference of its own exported in the fmi-cross-check layout and run
+# through fmpy's cross-check tooling (make test exports two of them).
+CROSS_CHECK_MODELS := LandingGear PistonActuator Suspension LoadProfile RoadProfile CrankDrive \
+	FourBar SliderCrank CamshaftDrive ValveTrain ValveSpring
+cross-check: $(FMUS)/.built
+	MECHFMU_CROSS_CHECK_MODELS="$(CROSS_CHECK_MODELS)" $(PY) -m pytest -q -p no:cacheprovider \
+		tests/test_cross_check.py
 
 # The hostile-input fuzzing at length (the suite runs a short budget of each): the hypothesis
 # harness with 50 times the suite's examples, 1000 SIGKILLs of result writers, then atheris

@@ -120,6 +120,12 @@ LAYERS = {
     "test_container.py": "hosts",
     "test_embedded.py": "hosts",
     "test_fmi3.py": "hosts",
+    "test_fmi_boundary.py": "hosts",
+    "test_foreign_fmus.py": "fmu",
+    "test_fmu_state.py": "hosts",
+    "test_self_description.py": "fmu",
+    "test_cross_check.py": "fmu",
+    "test_checkpoints.py": "fmu",
     "test_libcosim.py": "hosts",
 }
 # Whole files, then single tests (by name without parameters), that take more than a few

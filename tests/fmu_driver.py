@@ -55,11 +55,15 @@ class Driven:
             self.slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
             self.slave.setupExperiment(startTime=start_time)
             self.slave.enterInitializationMode()
+        self.instance = instance
         self.set(**(parameters or {}))
         self.set(**(inputs or {}))
-        self.slave.exitInitializationMode()
+        self.init_error = None  # the FMU's message when it refused to leave initialisation
+        try:
+            self.slave.exitInitializationMode()
+        except FMICallException as error:
+            self.init_error = f"{self.logbook.last_problem(instance)} [{error}]"
         self.time = start_time
-        self.instance = instance
 
     def set(self, **values):
         for name, value in values.items():
@@ -69,6 +73,14 @@ class Driven:
     def get(self, name):
         variable = self.variables[name]
         return accessor(self.slave, variable.type, "get")([variable.valueReference])[0]
+
+    def outputs(self):
+        """Every Real (Float64) output, in declaration order."""
+        return [
+            self.get(v.name)
+            for v in self.description.modelVariables
+            if v.causality == "output" and v.type in ("Real", "Float64")
+        ]
 
     def step(self, size, **inputs):
         """Set inputs, do one step; True on success, else the FMU's last error message."""
@@ -100,5 +112,7 @@ class Driven:
     def close(self):
         try:
             self.slave.terminate()
+        except FMICallException:
+            pass  # not allowed in every state (error, instantiated): freeing is
         finally:
             self.slave.freeInstance()

@@ -77,7 +77,9 @@ def test_a_signal_in_the_middle_of_a_run_keeps_the_rows_and_marks_them(fmu_dir, 
     deadline = time.monotonic() + 60
     while not unpacked_fmus(temporary) and time.monotonic() < deadline:
         time.sleep(0.01)  # the FMUs are being unpacked: the run has begun
-    time.sleep(0.8)
+    # into its steps (instantiating three Python FMUs takes a few tenths of a second of CPU,
+    # seconds on a machine shared with other jobs; the run itself takes about 10 s)
+    time.sleep(3.0)
     process.send_signal(signum)
     stdout, stderr = process.communicate(timeout=60)
     assert process.returncode == EXIT_CODES[signum], stderr

@@ -155,6 +155,8 @@ def _run_guarded(args: argparse.Namespace, guard: InterruptGuard) -> int:
         )
     elif args.all and args.set:
         problem = "--set changes one scene's parameters; name the scene instead of --all"
+    elif args.all and (args.checkpoint or args.resume):
+        problem = "--checkpoint and --resume name one scene's checkpoint; not with --all"
     try:
         args.parameters = parse_assignments(args.set)
     except ValueError as error:
@@ -227,6 +229,8 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
             plot=not args.no_plot,
             guard=guard,
             parameters=getattr(args, "parameters", None),
+            checkpoints=_checkpoints(args),
+            resume=Path(args.resume) if args.resume else None,
             fmt=getattr(args, "format", "csv"),
             max_output=getattr(args, "max_output", None),
         )
@@ -254,6 +258,9 @@ def _run_one(args: argparse.Namespace, guard: InterruptGuard, scene_path: Path) 
                 print(f"  {kind}: {path}", file=sys.stderr)
             return 2
     print("\n".join(lines))
+    note = ended_note(result.meta)
+    if note:
+        print(note)
     status = 0 if comparison is None or comparison.ok else 1
     if getattr(args, "animate", None):
         data = paths.get("csv") or paths["parquet"]
@@ -319,6 +326,27 @@ def _recomputed_reference(scene: Any, folder: Path) -> Path:
             f"parameters, and {error}; run without --check, or give --reference CSV"
         ) from None
     return write_result(table, folder / f"{scene.name}.csv")
+
+
+def _checkpoints(args: argparse.Namespace) -> Any:
+    """The run's Checkpoints from --checkpoint and --checkpoint-every (None without)."""
+    if not args.checkpoint:
+        return None
+    from .cosim.checkpoint import Checkpoints
+
+    return Checkpoints(Path(args.checkpoint), seconds=args.checkpoint_every)
+
+
+def ended_note(meta: dict[str, Any]) -> str | None:
+    """The note of a run an FMU ended before its stop time (None for the others)."""
+    ended = meta.get("ended_by")
+    if not ended:
+        return None
+    said = f": {ended['message']}" if ended.get("message") else ""
+    return (
+        f"note: component {ended['component']!r} asked to end the simulation at "
+        f"t = {ended['time']!r} s{said}; the run ended there, every row kept"
+    )
 
 
 # name: (default output folder, what it shows); each is a function of tools/examples.py
@@ -999,6 +1027,22 @@ def _scene_folder_option(verb: argparse.ArgumentParser) -> None:
     )
 
 
+def _export_cross_check(args: argparse.Namespace) -> int:
+    from .cosim.scene import SceneError
+    from .tools.cross_check import export_cross_check
+
+    try:
+        written, skipped = export_cross_check(Path(args.out), args.models or None, args.fmu_dir)
+    except (SceneError, ValueError) as error:
+        print(f"mechfmu export-cross-check: error: {error}", file=sys.stderr)
+        return 2
+    for folder in written:
+        print(f"wrote {folder}")
+    for reason in skipped:
+        print(f"left out {reason}")
+    return 0
+
+
 def _export_verb(
     verbs: argparse._SubParsersAction, name: str, help: str, suffix: str
 ) -> argparse.ArgumentParser:
@@ -1070,6 +1114,27 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         "--reference", metavar="CSV", help="compare with this CSV afterwards (one scene)"
     )
     _tolerance_options(run)
+    run.add_argument(
+        "--checkpoint",
+        metavar="FILE",
+        help="write a checkpoint of the run to FILE (every --checkpoint-every seconds and "
+        "when Ctrl-C or SIGTERM stops it) for --resume (default: none)",
+    )
+    run.add_argument(
+        "--checkpoint-every",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="seconds of wall time between checkpoints; 0: only when stopped (default: 60)",
+    )
+    run.add_argument(
+        "--resume",
+        metavar="FILE",
+        help="continue the run from this checkpoint (of the same scene and FMUs); the "
+        "result equals the uninterrupted run's. A long run's checkpoint continues its "
+        "<scene>.partial file: give the same --out and --format (default: start from the "
+        "beginning)",
+    )
     run.add_argument(
         "--animate",
         nargs="?",
@@ -1262,6 +1327,16 @@ def parser() -> argparse.ArgumentParser:
         "every link lags one step (default: scene)",
     )
     container.set_defaults(func=_export_fmu)
+
+    cross = verbs.add_parser(
+        "export-cross-check",
+        help="write the FMUs with their reference results as the fmi-cross-check "
+        "repository lays out test FMUs (fmus/2.0/cs/linux64/mechfmu/<version>/<Model>/)",
+    )
+    cross.add_argument("out", help="the folder to write into (created if missing)")
+    cross.add_argument("models", nargs="*", help="model names (default: all)")
+    _fmu_dir_option(cross)
+    cross.set_defaults(func=_export_cross_check)
 
     _check_verbs(verbs)
 

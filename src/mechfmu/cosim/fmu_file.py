@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fmpy import platform as fmi2_platform
+from fmpy import platform_tuple as fmi3_platform
 from fmpy import read_model_description, sharedLibraryExtension
 
 from . import limits
@@ -172,7 +173,7 @@ def checked_description(path: str) -> ModelDescription:
             refuse(f"its modelDescription.xml cannot be read: {limits.shortened(str(error), 300)}")
         if description.coSimulation is None:
             refuse("it does not support co-simulation (no <CoSimulation> element)")
-        folder = f"binaries/{fmi2_platform}/"
+        folder = f"binaries/{binary_folder(description.fmiVersion)}/"
         binary = f"{folder}{description.coSimulation.modelIdentifier}{sharedLibraryExtension}"
         if binary not in sizes:
             offered = [
@@ -196,6 +197,12 @@ def checked_description(path: str) -> ModelDescription:
                     if problem:
                         refuse(f"its binary {name} {problem}")
     return description
+
+
+def binary_folder(fmi_version: str) -> str:
+    """The folder under binaries/ of this platform's binary for FMI ``fmi_version`` (FMI
+    2.0: linux64, win64 ...; FMI 3.0: x86_64-linux, x86_64-windows ...)."""
+    return fmi3_platform if fmi_version.startswith("3") else fmi2_platform
 
 
 _SLAVE_MODULE = "resources/slavemodule.txt"

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 import ctypes
+import math
 import re
 import functools
 import shutil
@@ -28,23 +29,29 @@ from collections.abc import Callable
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import (
     FMU2Slave,
-    fmi2Boolean,
     fmi2CallbackAllocateMemoryTYPE,
     fmi2CallbackFreeMemoryTYPE,
     fmi2CallbackFunctions,
     fmi2CallbackLoggerTYPE,
-    fmi2Integer,
-    fmi2Real,
     fmi2True,
     fmi2ValueReference,
 )
 from fmpy import calloc, free
+from fmpy.fmi2 import fmi2LastSuccessfulTime, fmi2Terminated
+from fmpy.fmi3 import FMU3Slave, fmi3Boolean, fmi3Float64
 
+from .checkpoint import Checkpoint, CheckpointError, Checkpoints, check_matches
+from .checkpoint import save as save_checkpoint
+from .checkpoint import scene_digest
+from .experiment import resolved_times
 from .fmu_file import FmuError, checked_description, unpack
 from .text import joined_lines
 from .interrupt import signal_name
 from .locate import scene_fmu_folder
 from .scene import SceneError, split_name
+from .variables import called_type, connectable, element, movable, recordable, scene_value
+from .variables import start_value
+from .variables import unit_of
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from fmpy.model_description import ModelDescription, ModelVariable
@@ -59,7 +66,6 @@ EFFECT_PREFIX = "Effect: "  # how a model marks its effect parameters (mechfmu.r
 # ..."; mechfmu.runtime.fmi.declarations.only_with): unfed, it is no mistake in the others
 ONLY_WITH = re.compile(r"^Only with (\w+) = (\w+): ")
 STATUS_NAMES = {0: "ok", 1: "warning", 2: "discard", 3: "error", 4: "fatal", 5: "pending"}
-_PYTHON_TYPES = {"Real": (int, float), "Integer": (int,), "Boolean": (bool,), "String": (str,)}
 
 
 def _read(component: Any, variable: Any) -> bool:
@@ -196,6 +202,16 @@ class LogBook:
         except Exception:
             pass
 
+    def fmi3_logger(self, instance: str) -> Callable:
+        """An FMI 3.0 logMessage callback for ``instance`` (FMI 3.0 passes no instance name:
+        each instance gets its own, and no variadic message needs fmpy's proxy)."""
+        name = instance.encode()
+
+        def log(environment: Any, status: int, category: bytes, message: bytes) -> None:
+            self.record(name, status, category, message)
+
+        return log
+
     def record(self, instance: bytes, status: int, category: bytes, message: bytes) -> None:
         """Keep one message; past MAX_LOG_MESSAGES only the problems (error, fatal,
         discard) are kept and the others counted in ``dropped`` (a long run that warns at
@@ -215,6 +231,13 @@ class LogBook:
                 "message": text(message),
             }
         )
+
+    def last_message(self, instance: str) -> str:
+        """The last message ``instance`` logged, of any status ('' when none)."""
+        for entry in reversed(self.messages):
+            if entry["instance"] == instance:
+                return str(entry["message"])
+        return ""
 
     def last_problem(self, instance: str) -> str:
         """The last error of ``instance`` in the log, as one line (an FMU's message may span
@@ -244,8 +267,8 @@ class Instances:
         self._idle: dict[tuple, list] = {}  # (folder, instance name) -> [FMU2Slave ready to set up]
         self.created = self.reused = 0
 
-    def acquire(self, component: "_Component") -> FMU2Slave:
-        """An instantiated FMU2Slave for ``component``, named after it."""
+    def acquire(self, component: "_Component") -> Any:
+        """An instantiated FMU2Slave or FMU3Slave for ``component``, named after it."""
         version = file_version(component.path)
         folder = self._folders.get(version)
         if folder is None:
@@ -258,14 +281,20 @@ class Instances:
         if idle:
             self.reused += 1
             return idle.pop()
-        slave = FMU2Slave(
+        options = dict(
             guid=component.description.guid,
             unzipDirectory=folder,
             modelIdentifier=component.description.coSimulation.modelIdentifier,
             instanceName=component.name,
         )
+        slave: Any = (FMU3Slave if component.version == 3 else FMU2Slave)(**options)
         try:
-            slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
+            if component.version == 3:
+                slave.instantiate(
+                    loggingOn=True, logMessage=self.logbook.fmi3_logger(component.name)
+                )
+            else:
+                slave.instantiate(callbacks=self.logbook.callbacks, loggingOn=True)
         except Exception:  # fmpy says only "Failed to instantiate model"; the FMU's log says why
             slave.freeLibrary()
             raise _InstantiationFailed(component.name) from None
@@ -307,7 +336,9 @@ class _Component:
     def __init__(self, spec: ComponentSpec, path: Path, description: ModelDescription) -> None:
         self.spec, self.name, self.path, self.description = spec, spec.name, path, description
         self.variables = {v.name: v for v in description.modelVariables}
-        self.slave: Any = None  # fmpy's FMU2Slave, from InstancePool.acquire
+        self.version = 3 if description.fmiVersion.startswith("3") else 2
+        self.slave: Any = None  # fmpy's FMU2Slave or FMU3Slave, from Instances.acquire
+        self.settings: list[tuple[Any, Any]] = []  # (variable, value): set at initialisation
 
     def variable(self, name: str, where: str, causality: tuple[str] | None = None) -> ModelVariable:
         variable = self.variables.get(name)
@@ -332,24 +363,30 @@ class _Component:
     def setter(self, variable: ModelVariable) -> Callable:
         """A function setting the variable (bound once, called per step)."""
         put, reference = accessor(self.slave, variable.type, "set"), [variable.valueReference]
+        if variable.type == "String":
+            return lambda value: put(
+                reference, [value.decode() if isinstance(value, bytes) else value]
+            )
         return lambda value: put(reference, [value])
 
-    def set(self, variable: ModelVariable, value: float) -> None:
+    def set(self, variable: ModelVariable, value: Any) -> None:
         self.setter(variable)(value)
 
+    def initialise(self, start_time: float, stop_time: float) -> None:
+        """Into initialisation mode for a run from ``start_time`` to ``stop_time`` (s), as the
+        FMU's version has it."""
+        if self.version == 3:
+            self.slave.enterInitializationMode(startTime=start_time, stopTime=stop_time)
+        else:
+            self.slave.setupExperiment(startTime=start_time, stopTime=stop_time)
+            self.slave.enterInitializationMode()
 
-def accessor(slave: FMU2Slave, fmi_type: str, verb: str) -> Callable:
-    """fmpy's get/set method of an FMU2Slave for an FMI type ('Real', 'Integer', ...)."""
-    return getattr(slave, f"{verb}{fmi_type}")
 
-
-def _check_value(component: str, variable: ModelVariable, value: float, where: str) -> None:
-    expected = _PYTHON_TYPES[variable.type]
-    if not isinstance(value, expected) or (variable.type != "Boolean" and isinstance(value, bool)):
-        raise SceneError(
-            f"{where}: {component}.{variable.name} is {variable.type}, got "
-            f"{type(value).__name__} {value!r}"
-        )
+def accessor(slave: Any, fmi_type: str, verb: str) -> Callable:
+    """fmpy's get/set method of an FMU2Slave or FMU3Slave for an FMI type ('Real',
+    'Float64', 'Enumeration', ...)."""
+    version = 3 if isinstance(slave, FMU3Slave) else 2
+    return getattr(slave, f"{verb}{called_type(version, fmi_type)}")
 
 
 def order_components(
@@ -443,6 +480,9 @@ class Simulation:
             except FmuError as error:
                 raise FmuError(f"component {name!r}: FMU file {error}") from None
             self.components[name] = _Component(spec, path, description)
+        self.scene = resolved_times(
+            scene, {name: c.description for name, c in self.components.items()}
+        )
         self._check()
         self.order, self.lagged = order_components(
             list(self.components), self.connections, self._feedthrough
@@ -472,15 +512,25 @@ class Simulation:
             target = self.components[connection.target].variable(
                 connection.input, f"{where}: connection {connection}", ("input",)
             )
-            if source.type != target.type:
+            ends = [
+                (self.components[name].version, variable.type)
+                for name, variable in ((connection.source, source), (connection.target, target))
+            ]
+            if not all(movable(*end) for end in ends):
                 raise SceneError(
-                    f"{where}: connection {connection} joins a {source.type} "
-                    f"output to a {target.type} input"
+                    f"{where}: connection {connection} joins {source.type} variables; the "
+                    "master connects Real (Float32, Float64), integer, Boolean, String and "
+                    "Enumeration variables"
                 )
-            if source.type not in _CTYPES:
+            if not connectable(*ends):
                 raise SceneError(
-                    f"{where}: connection {connection} joins {source.type} "
-                    f"variables; only Real, Integer and Boolean are connected"
+                    f"{where}: connection {connection} joins a {source.type} output to a "
+                    f"{target.type} input"
+                    + (
+                        " (of FMUs of FMI 2.0 and 3.0, whose values differ in size)"
+                        if source.type == target.type
+                        else ""
+                    )
                 )
             key = (connection.target, connection.input)
             if key in fed:
@@ -492,7 +542,8 @@ class Simulation:
         for component in self.components.values():
             for name, value in component.spec.parameters.items():
                 variable = component.variable(name, f"{where}: parameters", ("parameter",))
-                _check_value(component.name, variable, value, f"{where}: parameters")
+                converted = scene_value(component.name, variable, value, f"{where}: parameters")
+                component.settings.append((variable, converted))
             available = sorted(
                 v.name
                 for v in component.variables.values()
@@ -512,9 +563,12 @@ class Simulation:
                         f"{where}: effect {component.name}.{name} is also given "
                         f"under parameters; list it in one place only"
                     )
+            for name in component.spec.effects:
+                component.settings.append((component.variables[name], True))
             for name, value in component.spec.inputs.items():
                 variable = component.variable(name, f"{where}: inputs", ("input",))
-                _check_value(component.name, variable, value, f"{where}: inputs")
+                converted = scene_value(component.name, variable, value, f"{where}: inputs")
+                component.settings.append((variable, converted))
                 if (component.name, name) in fed:
                     raise SceneError(
                         f"{where}: input {component.name}.{name} is both "
@@ -539,17 +593,18 @@ class Simulation:
             f"{c.name}.{v.name}"
             for c in self.components.values()
             for v in c.variables.values()
-            if v.causality == "output"
+            if v.causality == "output" and recordable(c.version, v.type)
         ]
         for full_name in names:
             component_name, variable_name = split_name(full_name, f"{where}: record")
             if component_name not in self.components:
                 raise SceneError(f"{where}: record names unknown component {component_name!r}")
-            variable = self.components[component_name].variable(variable_name, f"{where}: record")
-            if variable.type not in _CTYPES:
+            component = self.components[component_name]
+            variable = component.variable(variable_name, f"{where}: record")
+            if not recordable(component.version, variable.type):
                 raise SceneError(
-                    f"{where}: record: {full_name} is a {variable.type}; only "
-                    f"Real, Integer and Boolean variables are recorded"
+                    f"{where}: record: {full_name} is a {variable.type}; result columns are "
+                    "numbers: Real, integer, Boolean and Enumeration variables are recorded"
                 )
             self.recorded.append((full_name, self.components[component_name], variable))
         self.pruned = self._prune()
@@ -580,6 +635,8 @@ class Simulation:
         time_fmi_calls: bool = False,
         instances: Any = None,
         stop: Any = None,
+        checkpoints: Checkpoints | None = None,
+        resume: Checkpoint | None = None,
         sink: Any = None,
         keep: bool = True,
     ) -> Result:
@@ -594,6 +651,12 @@ class Simulation:
         ``stop``: an InterruptGuard (mechfmu.cosim.interrupt) asked before each component's
         instantiation and between steps; when it has received a signal the run stops there
         with SimulationInterrupted (the rows so far, every instance freed).
+        ``checkpoints``: where and how often to write a checkpoint (cosim/checkpoint.py;
+        always when a signal stops the run); ``resume``: a checkpoint of this scene to continue
+        from. A checkpoint holds the rows still in memory; the rows a run that does not keep
+        them has let go are in its sink's file: the checkpoint holds the sink's position
+        there (``sink.position()``), and a resumed run needs a sink that continues that file
+        (``sink.continued``: results.StreamedResult(resume=...)).
         ``sink``: where the recorded rows go as the run makes them (a RowSink of
         mechfmu.cosim.results: ``begin(names)``, then ``rows(times, columns)`` per chunk
         of at most CHUNK_ROWS rows or FLUSH_SECONDS, also for the rows made before a
@@ -605,7 +668,7 @@ class Simulation:
         result = Result(
             scene=scene,
             columns={name: [] for name, _, _ in self.recorded},
-            units={name: variable.unit for name, _, variable in self.recorded},
+            units={name: unit_of(variable) for name, _, variable in self.recorded},
         )
         result.meta["coupling"] = scene.coupling
         own = instances is None
@@ -614,7 +677,8 @@ class Simulation:
         logbook = instances.logbook
         logbook.messages = result.log = []
         logbook.dropped = 0
-        result.kept = keep or sink is None
+        # a resumed run whose first rows went to a file has only the later ones in memory
+        result.kept = (keep or sink is None) and not (resume is not None and resume.streamed)
         instantiated = []
         started = clock.perf_counter()
         current = (None, scene.start_time)
@@ -628,16 +692,9 @@ class Simulation:
                 component = self.components[name]
                 component.slave = instances.acquire(component)
                 instantiated.append(component)
-                component.slave.setupExperiment(
-                    startTime=scene.start_time, stopTime=scene.stop_time
-                )
-                component.slave.enterInitializationMode()
-                for pname, value in component.spec.parameters.items():
-                    component.set(component.variables[pname], value)
-                for ename in component.spec.effects:
-                    component.set(component.variables[ename], True)
-                for iname, value in component.spec.inputs.items():
-                    component.set(component.variables[iname], value)
+                component.initialise(scene.start_time, scene.stop_time)
+                for variable, value in component.settings:
+                    component.set(variable, value)
                 self._feed(name, skip=self.lagged)
                 component.slave.exitInitializationMode()
             for connection in self.lagged:  # their sources initialise after their targets
@@ -649,16 +706,27 @@ class Simulation:
             current = (None, scene.start_time)
             if stop.requested:
                 raise _Stopped(scene.start_time)
-            plan.start(result, scene.start_time)
+            first = 1
+            if resume is not None:
+                first = self._resume(resume, plan, result, sink) + 1
+            plan.start(result, resume.time if resume else scene.start_time, resume is None)
+            saving = self._checkpointer(checkpoints, plan, result)
             loop_started, loop_cpu_started = clock.perf_counter(), clock.process_time()
             try:
-                plan.run(result, scene, stop)
+                plan.run(result, scene, stop, first, saving)
             finally:
                 result.meta["loop_time_s"] = clock.perf_counter() - loop_started
                 # the process's CPU time: the loop's work whatever else runs on the machine
                 result.meta["loop_cpu_time_s"] = clock.process_time() - loop_cpu_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
+        except _Ended as ended:
+            message = logbook.last_message(ended.component)
+            result.meta["ended_by"] = {
+                "component": ended.component,
+                "time": ended.time,
+                "message": message,
+            }
         except _InstantiationFailed as failure:
             result.partial = True
             raise SimulationError(
@@ -671,6 +739,9 @@ class Simulation:
             ) from None
         except _Stopped as stopped:
             result.partial = True
+            if checkpoints is not None and plan is not None and plan.recorded():
+                # every component at the last row (the stop comes between steps)
+                self._save_checkpoint(checkpoints, plan, plan.recorded() - 1, result)
             raise SimulationInterrupted(stop.take(), stopped.time, result) from None
         except _CallFailed as failure:
             result.partial = True
@@ -703,6 +774,117 @@ class Simulation:
                 instances.close()
         return result
 
+    # --- checkpoints ------------------------------------------------------------------
+    def _states(self) -> dict[str, bytes]:
+        """Every component's FMU state, serialised by the FMU."""
+        states = {}
+        for name, component in self.components.items():
+            slave = component.slave
+            if component.version == 3:
+                state = slave.getFMUState()
+                states[name] = bytes(slave.serializeFMUState(state))
+                slave.freeFMUState(state)
+            else:
+                state = slave.getFMUstate()
+                states[name] = bytes(slave.serializeFMUstate(state))
+                slave.freeFMUstate(state)
+        return states
+
+    def _guids(self) -> dict[str, str]:
+        return {name: c.description.guid for name, c in self.components.items()}
+
+    def _save_checkpoint(
+        self, checkpoints: Checkpoints, plan: _StepPlan, index: int, result: Result
+    ) -> None:
+        """Write a checkpoint at point ``index`` (the last recorded): the FMU states, the
+        rows still in memory and, when rows were let go, where the sink's file holds them
+        (every row up to ``index`` is handed to the sink first)."""
+        plan.drain(result)
+        time = plan.times[-1] if plan.times else plan.last_time
+        stream = None
+        if plan.let_go:
+            position = getattr(plan.sink, "position", None)
+            if position is None:
+                raise CheckpointError(
+                    "the run lets its rows go to a sink that cannot say where they are: "
+                    "no checkpoint"
+                )
+            stream = position()
+        checkpoint = Checkpoint(
+            scene=self.scene.name,
+            digest=scene_digest(self.scene),
+            index=index,
+            time=time,
+            guids=self._guids(),
+            states=self._states(),
+            rows=plan.recorded_rows(),
+            times=list(plan.times),
+            streamed=plan.let_go,
+            stream=stream,
+        )
+        save_checkpoint(checkpoints.path, checkpoint)
+        result.meta["checkpoint"] = {"file": str(checkpoints.path), "index": index}
+
+    def _checkpointer(
+        self, checkpoints: Checkpoints | None, plan: _StepPlan, result: Result
+    ) -> Callable[[int], None] | None:
+        """``on_point`` for the loop: a checkpoint every ``checkpoints.steps`` points and
+        whenever ``checkpoints.seconds`` of wall time have passed since the last."""
+        if checkpoints is None or (checkpoints.steps <= 0 and checkpoints.seconds <= 0):
+            return None
+        steps, seconds = checkpoints.steps, checkpoints.seconds
+        due = [clock.monotonic() + seconds if seconds > 0 else math.inf]
+
+        def on_point(index: int) -> None:
+            if (steps > 0 and index % steps == 0) or clock.monotonic() >= due[0]:
+                self._save_checkpoint(checkpoints, plan, index, result)
+                if seconds > 0:
+                    due[0] = clock.monotonic() + seconds
+
+        return on_point
+
+    def check_checkpoints(self) -> None:
+        """SceneError unless every component can serialise its FMU state."""
+        for name, component in self.components.items():
+            capabilities = component.description.coSimulation
+            if not (capabilities.canGetAndSetFMUstate and capabilities.canSerializeFMUstate):
+                raise CheckpointError(
+                    f"component {name!r} ({component.description.modelName}) cannot "
+                    "serialise its FMU state (canSerializeFMUstate is false): no checkpoints"
+                )
+
+    def check_resume(self, checkpoint: Checkpoint) -> None:
+        """CheckpointError unless ``checkpoint`` was taken by a run of this scene with these
+        FMUs (before anything runs or is written)."""
+        check_matches(checkpoint, self.scene, self._guids())
+
+    def _resume(self, checkpoint: Checkpoint, plan: _StepPlan, result: Result, sink: Any) -> int:
+        """Restore ``checkpoint`` (every FMU state, the rows); the index of its point. The
+        rows it let go must be in ``sink``'s file already (``sink.continued``); the rows it
+        holds go to the sink unless that file has them too."""
+        self.check_resume(checkpoint)
+        continued = getattr(sink, "continued", 0)
+        if checkpoint.streamed != continued:
+            raise CheckpointError(
+                f"the checkpoint's first {checkpoint.streamed} rows were streamed to the "
+                f"result file of its run, here {continued} rows are: resume into the output "
+                "folder of the run that wrote the checkpoint (its .partial file continues)"
+            )
+        for name, component in self.components.items():
+            slave, data = component.slave, checkpoint.states[name]
+            if component.version == 3:
+                slave.setFMUState(slave.deserializeFMUState(data))
+            else:
+                slave.setFMUstate(slave.deSerializeFMUstate(data))
+        plan.restore_rows(checkpoint.rows, len(checkpoint.times))
+        plan.times.extend(checkpoint.times)
+        plan.let_go = checkpoint.streamed
+        plan.last_time = checkpoint.time
+        plan.handed = len(checkpoint.times) if checkpoint.streamed else 0
+        result.rows = checkpoint.index + 1
+        result.meta["resumed_from"] = {"index": checkpoint.index, "time": checkpoint.time}
+        return checkpoint.index
+
     def _feeds(self, name: str, skip: Any = ()) -> list[Any]:
         """(get from source, set on ``name``) pairs for the connected inputs of ``name``."""
         feeds = []
@@ -732,8 +914,55 @@ class Simulation:
 
 # --- the stepping loop: FMI calls bound once, buffers allocated once -----------------------
 
-# ctypes element type and array('...') code of each FMI type the loop moves.
-_CTYPES = {"Real": (fmi2Real, "d"), "Integer": (fmi2Integer, "i"), "Boolean": (fmi2Boolean, "i")}
+_TERMINATE = 100  # what an FMI 3.0 step adapter returns when the FMU asks to end the run
+
+
+def _counted(function: Any) -> Callable:
+    """An FMI 3.0 get or set as the loop calls FMI 2.0's: nValues = nValueReferences (the
+    master moves scalars only)."""
+
+    def call(instance: Any, references: Any, count: int, buffer: Any, _function=function) -> Any:
+        return _function(instance, references, count, buffer, count)
+
+    return call
+
+
+class _Fmi3Step:
+    """fmi3DoStep as the loop calls fmi2DoStep, ``(instance, t, h, flag) -> status``; a
+    step that asks to end the simulation (terminateSimulation) returns _TERMINATE, and
+    ``last`` holds the FMU's last successful time."""
+
+    def __init__(self, function: Any) -> None:
+        self.function = function
+        self.event, self.terminate, self.early = fmi3Boolean(), fmi3Boolean(), fmi3Boolean()
+        self.last = fmi3Float64()
+        self.outputs = (byref(self.event), byref(self.terminate), byref(self.early))
+        self.time = byref(self.last)
+
+    def __call__(self, instance: Any, start: float, size: float, flag: int) -> int:
+        status = self.function(instance, start, size, flag, *self.outputs, self.time)
+        return _TERMINATE if status <= _WARNING and self.terminate.value else status
+
+
+def _termination(component: _Component, do_step: Any) -> Callable:
+    """``ended(status) -> time or None``: after a step that did not succeed, the time at
+    which the FMU asked to end the simulation, or None when it did not ask (FMI 2.0:
+    fmi2Discard and fmi2GetBooleanStatus(fmi2Terminated); FMI 3.0: terminateSimulation)."""
+    if component.version == 3:
+        return lambda status: do_step.last.value if status == _TERMINATE else None
+    slave = component.slave
+
+    def ended(status: int) -> float | None:
+        if status != 2:  # fmi2Discard
+            return None
+        try:
+            if slave.getBooleanStatus(fmi2Terminated):
+                return float(slave.getRealStatus(fmi2LastSuccessfulTime))
+        except FMICallException:
+            pass  # an FMU that cannot tell: no request to end
+        return None
+
+    return ended
 
 
 class _InstantiationFailed(Exception):
@@ -760,6 +989,14 @@ class _NoStop:
 
 
 _NEVER = _NoStop()
+
+
+class _Ended(Exception):
+    """Component ``component`` asked to end the simulation at ``time`` (s)."""
+
+    def __init__(self, component: str, time: float) -> None:
+        super().__init__(component, time)
+        self.component, self.time = component, time
 
 
 class _CallFailed(Exception):
@@ -814,8 +1051,11 @@ class _Call:
     def __init__(
         self, component: Any, verb: str, fmi_type: Any, references: Any, buffer: Any, timer: Any
     ) -> None:
-        name = f"fmi2{verb}{fmi_type}"
+        version = component.version
+        name = f"fmi{version}{verb}{called_type(version, fmi_type)}"
         function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
+        if version == 3:
+            function = _counted(function)
         self.function = timer.wrap(function) if timer else function
         self.instance = component.slave.component
         self.references = (fmi2ValueReference * len(references))(*references)
@@ -853,7 +1093,7 @@ class _Outputs:
             if variable not in variables:
                 variables.append(variable)
             self.positions[full_name] = variables.index(variable)
-        ctype, code = _CTYPES[fmi_type]
+        ctype, code = element(component.version, fmi_type)
         self.call = _Call(
             component,
             "Get",
@@ -862,7 +1102,7 @@ class _Outputs:
             (ctype * len(variables))(),
             timer,
         )
-        self.rows = array(code)  # row-major: one row per communication point
+        self.rows = array(code or "B")  # row-major, one row per point (String: never recorded)
         self.raw = memoryview(self.call.buffer).cast("B")  # the buffer's bytes, viewed once
 
     def view(self, key: Any, size: Any) -> Any:
@@ -894,6 +1134,7 @@ class _StepPlan:
         self.times = array("d")  # the recorded rows' times not yet let go (keep: all)
         self.handed = 0  # of them, rows already given to the sink
         self.let_go = 0  # rows given to the sink and dropped (keep False)
+        self.last_time = math.nan  # s, the time of the last row let go
         self.last_drain = clock.perf_counter()
         components = simulation.components
         self.jacobi = simulation.scene.coupling == "jacobi"
@@ -920,18 +1161,20 @@ class _StepPlan:
             for key in list(groups) + [k for k in recorded if k not in groups]
         }
         self.recorders = [self.outputs[key] for key in recorded]
+        self.recorder_keys = [f"{name}|{fmi_type}" for name, fmi_type in recorded]
+        self.versions = {name: component.version for name, component in components.items()}
         # each recorded name's (recorder, position in its rows) in the recorded order
         self.layout = [
             (self.outputs[(component.name, variable.type)], full_name)
             for full_name, component, variable in simulation.recorded
         ]
-        self.steps = []  # (name, doStep, instance, [input sets], [output reads])
+        self.steps = []  # (name, doStep, instance, [input sets], [output reads], ended)
         for name in simulation.order:
             sets = [
                 _Call(
                     components[name],
                     "Set",
-                    key[2],
+                    inputs[0].type,  # the target's own type name (Real: Float64 in FMI 3.0)
                     [v.valueReference for v in inputs],
                     self.outputs[key[1:]].view(key, len(inputs)),
                     timer,
@@ -940,10 +1183,20 @@ class _StepPlan:
                 if key[0] == name
             ]
             reads = [outputs.call for (owner, _), outputs in self.outputs.items() if owner == name]
-            slave = components[name].slave
-            do_step = slave.dll.fmi2DoStep
+            component = components[name]
+            slave = component.slave
+            do_step = (
+                _Fmi3Step(slave.dll.fmi3DoStep) if component.version == 3 else slave.dll.fmi2DoStep
+            )
             self.steps.append(
-                (name, timer.wrap(do_step) if timer else do_step, slave.component, sets, reads)
+                (
+                    name,
+                    timer.wrap(do_step) if timer else do_step,
+                    slave.component,
+                    sets,
+                    reads,
+                    _termination(component, do_step),
+                )
             )
 
     @staticmethod
@@ -961,18 +1214,43 @@ class _StepPlan:
             cls._call(call, time)
             call.sent = raw.tobytes()
 
-    def start(self, result: Result, time: float) -> None:
-        """Read every needed output after initialisation and record the first row."""
-        for _, _, _, _, reads in self.steps:
+    def start(self, result: Result, time: float, record: bool = True) -> None:
+        """Read every needed output after initialisation (or a restored checkpoint) and
+        record the first row (unless ``record`` is False: the checkpoint brought it)."""
+        for _, _, _, _, reads, _ in self.steps:
             for read in reads:
                 self._call(read, time)
-        self._record(result, time)
+        if record:
+            self._record(result, time)
+
+    def recorded_rows(self) -> dict[str, tuple[str, bytes]]:
+        """Every recorder's rows so far: key -> (array typecode, bytes) (a checkpoint)."""
+        return {
+            key: (recorder.rows.typecode, recorder.rows.tobytes())
+            for key, recorder in zip(self.recorder_keys, self.recorders)
+        }
+
+    def restore_rows(self, rows: dict[str, tuple[str, bytes]], count: int) -> None:
+        """Put back the ``count`` rows of a checkpoint (CheckpointError when they are not
+        this run's)."""
+        if set(rows) != set(self.recorder_keys):
+            raise CheckpointError("the checkpoint recorded other variables than this run does")
+        for key, recorder in zip(self.recorder_keys, self.recorders):
+            typecode, data = rows[key]
+            size = count * recorder.call.count * recorder.rows.itemsize
+            if typecode != recorder.rows.typecode or len(data) != size:
+                raise CheckpointError(f"the checkpoint's rows of {key} are not {count} rows")
+            recorder.rows.frombytes(data)
 
     def _record(self, result: Result, time: float) -> None:
         for recorder in self.recorders:
             recorder.rows.frombytes(recorder.raw)
         self.times.append(time)
         result.rows = self.let_go + len(self.times)
+
+    def recorded(self) -> int:
+        """The rows recorded so far, let go or not."""
+        return self.let_go + len(self.times)
 
     def drain(self, result: Result) -> None:
         """Give the rows recorded since the last drain to the sink (each column as an
@@ -1000,16 +1278,29 @@ class _StepPlan:
             self.handed = rows
             return
         self.let_go += rows
+        if rows:
+            self.last_time = self.times[rows - 1]
         del self.times[:rows]
         for recorder in self.recorders:
             del recorder.rows[: rows * recorder.call.count]
         self.handed = 0
 
-    def run(self, result: Result, scene: Scene, stop: InterruptGuard | _NoStop = _NEVER) -> None:
+    def run(
+        self,
+        result: Result,
+        scene: Scene,
+        stop: InterruptGuard | _NoStop = _NEVER,
+        first: int = 1,
+        on_point: Callable[[int], None] | None = None,
+    ) -> None:
         """Step from start_time to stop_time, recording after every communication step
         (each time point computed as it comes: scene.time, no list of them); before each
         step, stop with _Stopped if ``stop`` has been requested; with a sink, drain every
-        CHUNK_ROWS rows or FLUSH_SECONDS."""
+        CHUNK_ROWS rows or FLUSH_SECONDS. A component that asks to end the simulation ends
+        the run after its outputs are read: the last row is at the time it reached
+        (_Ended; the caller's final drain hands it to the sink). ``first``: the index of the
+        first communication point to step to (a resumed run: the one after its checkpoint);
+        ``on_point(index)``: called after each row is recorded (checkpoints)."""
         put_changed, jacobi = self._set, self.jacobi
         time_of, last_index = scene.time, scene.steps
         draining, now = self.sink is not None, clock.perf_counter
@@ -1022,29 +1313,30 @@ class _StepPlan:
                 instance,
                 sets,
                 [(r.function, r.instance, r.references, r.count, r.buffer, r) for r in reads],
+                ended,
             )
-            for name, do_step, instance, sets, reads in self.steps
+            for name, do_step, instance, sets, reads, ended in self.steps
         ]
         rows = [(recorder.rows.frombytes, recorder.raw) for recorder in self.recorders]
         append_time, times = self.times.append, self.times
-        end = time_of(0)
-        for index in range(1, last_index + 1):
+        end = time_of(first - 1)
+        for index in range(first, last_index + 1):
             start = end
             if stop.requested:
                 raise _Stopped(start)
             end = time_of(index)
             size = end - start
             if jacobi:  # every input from the previous point's outputs, then every step
-                for _, _, _, sets, _ in steps:
+                for _, _, _, sets, _, _ in steps:
                     for put in sets:
                         put_changed(put, start)
-            for name, do_step, instance, sets, reads in steps:
+            for name, do_step, instance, sets, reads, ended in steps:
                 if sets and not jacobi:
                     for put in sets:
                         put_changed(put, start)
                 status = do_step(instance, start, size, fmi2True)
                 if status > _WARNING:
-                    raise _CallFailed(name, start, "fmi2DoStep", status)
+                    self._end(name, start, status, ended(status), reads, result)
                 for function, owner, references, count, buffer, read in reads:
                     status = function(owner, references, count, buffer)
                     if status > _WARNING:
@@ -1056,7 +1348,22 @@ class _StepPlan:
                 len(times) - self.handed >= CHUNK_ROWS or now() - self.last_drain >= FLUSH_SECONDS
             ):
                 self.drain(result)
+            if on_point is not None:
+                on_point(index)
         result.rows = self.let_go + len(times)
+
+    def _end(
+        self, name: str, start: float, status: int, time: float | None, reads: Any, result: Result
+    ) -> None:
+        """After component ``name``'s step from ``start`` returned ``status``: _CallFailed,
+        or, when it asked to end the simulation at ``time``, its outputs read, the last row
+        recorded at ``time`` and _Ended."""
+        if time is None:
+            raise _CallFailed(name, start, f"fmi{self.versions[name]}DoStep", status)
+        for *_, read in reads:
+            self._call(read, time)
+        self._record(result, time)
+        raise _Ended(name, time)
 
     def collect(self, result: Result) -> None:
         """Copy the recorded rows into result.times and result.columns (also after a
@@ -1086,13 +1393,7 @@ def parameter_values(
         applied = {}
         for variable in component.variables.values():
             if variable.causality == "parameter":
-                start = variable.start
-                if variable.type == "Real":
-                    start = float(start)
-                elif variable.type == "Integer":
-                    start = int(start)
-                elif variable.type == "Boolean":
-                    start = start in (True, "true", "1")
+                start = start_value(variable)
                 applied[variable.name] = component.spec.parameters.get(
                     variable.name, True if variable.name in component.spec.effects else start
                 )

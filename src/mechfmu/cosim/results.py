@@ -18,10 +18,12 @@ import hashlib
 import importlib
 import io
 import json
+import math
 import os
 import platform
 import secrets
 import sys
+from array import array
 from importlib import metadata
 
 from .text import plot_text
@@ -281,6 +283,21 @@ class PlotSample:
         self.times: list[float] = []
         self.columns: list[list[float]] = []
 
+    def state(self) -> dict[str, Any]:
+        """What restore needs (a checkpoint's; at most PLOT_POINTS rows)."""
+        return {
+            "stride": self.stride,
+            "seen": self.seen,
+            "times": self.times,
+            "columns": self.columns,
+        }
+
+    def restore(self, state: dict[str, Any]) -> None:
+        """Continue from ``state`` (of state())."""
+        self.stride, self.seen = int(state["stride"]), int(state["seen"])
+        self.times = [float(time) for time in state["times"]]
+        self.columns = [[float(value) for value in kept] for kept in state["columns"]]
+
     def add(self, times: Any, columns: list[Any]) -> None:
         """Take the rows of a chunk (``times`` s, ``columns`` in the recorded order)."""
         first = (-self.seen) % self.stride  # the chunk's first row on the stride
@@ -346,34 +363,129 @@ class StreamedResult:
     JSON is renamed into place first, then the data file to ``<scene>.csv``
     (``.parquet``); a failed one keeps the ``.partial`` name and gets ``.partial.json``.
     The PNG plots PlotSample's rows. Memory: one chunk (or row group) and the sample.
+
+    ``resume``: the ``position()`` a checkpoint took of an earlier stream of this scene
+    into ``out_dir``: its ``.partial`` file is continued (``continued`` rows are in it
+    already): a CSV is checked against the size and SHA-256 it had then and cut back to
+    them; a Parquet file (readable once its run closed it: stopped or failed, not killed)
+    has its first rows copied into the new one.
     """
 
-    def __init__(self, out_dir: Path, name: str, fmt: str = "csv") -> None:
+    def __init__(
+        self, out_dir: Path, name: str, fmt: str = "csv", resume: dict[str, Any] | None = None
+    ) -> None:
         if fmt not in FORMATS:
             raise ValueError(f"format {fmt!r}: must be one of {', '.join(FORMATS)}")
         if fmt == "parquet":
             _pyarrow()  # missing: said before anything is written
         self.out_dir, self.name, self.format = Path(out_dir), name, fmt
         self.path = inside(self.out_dir, f"{name}.partial.{fmt}")
+        self.sample = PlotSample()
+        self.continued = 0  # rows of an earlier stream this one continues (resume)
+        self.earlier: Any = None  # Parquet: the earlier stream's file, copied in begin
+        self.last_time = math.nan  # s, of the last row written
+        if resume is not None:
+            self._check_resume(resume)
         for kind in RESULT_FILES:  # an older failed run's files describe another stream
             if kind != fmt:
                 _unlink(inside(self.out_dir, f"{name}.partial.{kind}"))
         try:
-            self.handle = open(self.path, "wb")
+            self.handle = open(self.path, "r+b" if resume and fmt == "csv" else "wb")
         except OSError as error:
             raise OutputError(f"cannot write {self.path}: {error.strerror or error}") from None
         self.counted: Any = (
             ChecksumWriter(self.handle) if fmt == "csv" else _CountingFile(self.handle)
         )
-        self.sample = PlotSample()
+        if resume is not None and fmt == "csv":
+            self._continue_csv(resume)
         self.names: list[str] = []
         self.parquet: Any = None  # pyarrow's ParquetWriter
         self.pending: list[list[Any]] = []  # Parquet: rows waiting for their row group
         self.finished = False
 
+    def position(self) -> dict[str, Any]:
+        """Where the stream stands (every row handed over is in the file, or, Parquet,
+        in its pending row group): what a checkpoint keeps to continue it (``resume``)."""
+        position = {
+            "format": self.format,
+            "file": self.path.name,
+            "rows": self.sample.seen,
+            "time": self.last_time,
+            "sample": self.sample.state(),
+        }
+        if self.format == "csv":
+            position.update(self.counted.seal())
+        return position
+
+    def _refuse(self, why: str) -> Exception:
+        from .checkpoint import CheckpointError  # checkpoint.py is the stream's client
+
+        return CheckpointError(
+            f"cannot continue the result file of the checkpoint's run: {self.path} {why}"
+        )
+
+    def _check_resume(self, resume: dict[str, Any]) -> None:
+        """Refuse a position of another format or file; Parquet: move the earlier file
+        aside (its rows are copied by begin)."""
+        if resume.get("format") != self.format or resume.get("file") != self.path.name:
+            raise self._refuse(
+                f"is not it: the checkpoint's rows are in {resume.get('file')!r} "
+                f"({resume.get('format')}); resume with --format {resume.get('format')}"
+            )
+        if not self.path.exists():
+            complete = inside(self.out_dir, f"{self.name}.{self.format}")
+            raise self._refuse(
+                f"is missing: the run went on and completed ({complete} is its result)"
+                if complete.exists()
+                else "is missing: resume into the output folder of the run that wrote the "
+                "checkpoint"
+            )
+        self.continued = int(resume["rows"])
+        if self.format == "parquet":
+            earlier = inside(self.out_dir, f"{self.name}.resumed.parquet")
+            os.replace(self.path, earlier)
+            try:
+                self.earlier = importlib.import_module("pyarrow.parquet").ParquetFile(earlier)
+                enough = self.earlier.metadata.num_rows >= self.continued
+            except Exception as error:  # pyarrow's errors: ArrowInvalid, OSError, ...
+                os.replace(earlier, self.path)
+                raise self._refuse(
+                    f"cannot be read ({error}): a run killed before it closed its Parquet "
+                    "file leaves none to continue (CSV is continued after any stop)"
+                ) from None
+            if not enough:
+                os.replace(earlier, self.path)
+                raise self._refuse(f"has fewer than the checkpoint's {self.continued} rows")
+            self.last_time = float(resume["time"])
+
+    def _continue_csv(self, resume: dict[str, Any]) -> None:
+        """The CSV as it was at the checkpoint (size and SHA-256 checked), cut back to it;
+        the checksum and the plot's sample go on from there."""
+        size = int(resume["csv_bytes"])
+        digest, left = hashlib.sha256(), size
+        while left > 0:
+            block = self.handle.read(min(left, 1 << 20))
+            if not block:
+                break
+            digest.update(block)
+            left -= len(block)
+        if left or digest.hexdigest() != resume["csv_sha256"]:
+            self.handle.close()
+            raise self._refuse(
+                f"does not begin with the {size} bytes the checkpoint's run had written "
+                "(changed, or written by another run since)"
+            )
+        self.handle.truncate(size)
+        self.handle.seek(size)
+        self.counted.digest, self.counted.size = digest, size
+        self.sample.restore(resume["sample"])
+        self.last_time = float(resume["time"])
+
     def begin(self, names: list[str]) -> None:
         """The recorded columns, in order: the CSV's header (or the Parquet schema)."""
         self.names = list(names)
+        if self.format == "csv" and self.continued:
+            return  # the header is in the part continued
         if self.format == "csv":
             header = io.StringIO()
             csv.writer(header, lineterminator="\n").writerow(["time", *self.names])
@@ -387,10 +499,35 @@ class StreamedResult:
                 self.counted, self.schema
             )
             self.pending = [[] for _ in range(len(self.names) + 1)]
+            if self.earlier is not None:
+                self._copy_earlier()
+
+    def _copy_earlier(self) -> None:
+        """Parquet resume: the earlier file's first ``continued`` rows, row group by row
+        group, into this one (their last time checked against the checkpoint's)."""
+        expected, left = self.last_time, self.continued
+        if self.earlier.schema_arrow.names != ["time", *self.names]:
+            raise self._refuse("records other columns than this run")
+        for batch in self.earlier.iter_batches(batch_size=PARQUET_ROW_GROUP):
+            if left <= 0:
+                break
+            columns = [array("d", values.to_pylist()[:left]) for values in batch.columns]
+            left -= len(columns[0])
+            self.rows(columns[0], columns[1:])
+        self.earlier.close()
+        self.earlier = None
+        _unlink(inside(self.out_dir, f"{self.name}.resumed.parquet"))
+        if self.last_time != expected:
+            raise self._refuse(
+                f"holds a row at {self.last_time!r} s where the checkpoint's last was at "
+                f"{expected!r} s"
+            )
 
     def rows(self, times: Any, columns: list[Any]) -> None:
         """Write a chunk of rows (``times`` in s; ``columns`` in the order of begin)."""
         self.sample.add(times, columns)
+        if len(times):
+            self.last_time = float(times[-1])
         if self.format == "csv":
             text = io.StringIO()
             writer = csv.writer(text, lineterminator="\n")
@@ -443,6 +580,10 @@ class StreamedResult:
                 self._guarded(self.parquet.close)
         finally:
             self.handle.close()
+            if self.earlier is not None:  # stopped before begin copied it: put it back,
+                self.earlier.close()  # the checkpoint can still continue it
+                self.earlier = None
+                os.replace(inside(self.out_dir, f"{self.name}.resumed.parquet"), self.path)
 
     def abandon(self) -> None:
         """Close the stream of a run that ended without finish (an error that is not the
@@ -451,7 +592,7 @@ class StreamedResult:
         if self.finished:
             return
         self.close()
-        if self.sample.seen == 0:
+        if self.sample.seen == 0 and not self.continued:
             _unlink(self.path)
 
     def finish(self, result: Result, meta: dict[str, Any], plot: bool = True) -> dict[str, Path]:

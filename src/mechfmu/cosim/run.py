@@ -13,6 +13,8 @@ import os
 from contextlib import nullcontext
 
 from . import limits
+from .checkpoint import Checkpoints
+from .checkpoint import load as load_checkpoint
 from .files import OutputError, output_folder
 from .interrupt import InterruptGuard, signal_name
 from .locate import scene_fmu_folder
@@ -173,6 +175,8 @@ def run_scene(
     plot: bool = True,
     guard: InterruptGuard | None = None,
     parameters: dict[str, Any] | None = None,
+    checkpoints: Checkpoints | None = None,
+    resume: Path | None = None,
     fmt: str = "csv",
     max_output: int | None = None,
     keep: bool | None = None,
@@ -196,15 +200,26 @@ def run_scene(
     as '<scene>.partial.csv' (and .json, .png; the JSON says ``interrupted`` and the
     signal) and the SimulationError (SimulationInterrupted) is re-raised with ``paths`` and
     ``moved_aside`` set (and ``output_error`` if the partial files could not be written).
+
+    ``checkpoints``: write checkpoints of the run (cosim/checkpoint.py); ``resume``: the path
+    of a checkpoint of this scene to continue from (checked before anything runs: a
+    CheckpointError, a SceneError, names what does not match). A checkpoint of a run that
+    let its rows go to its file continues that file: ``out_dir`` must be that run's, and
+    ``fmt`` its format; the resumed run's files equal an uninterrupted run's.
     """
     with nullcontext(guard) if guard is not None else InterruptGuard() as guard:
         if not isinstance(scene, Scene):
             scene = load_scene(scene)
         simulation = prepare(scene, fmu_dir, parameters)
-        check_output_size(scene, len(simulation.recorded), fmt, max_output)
+        check_output_size(simulation.scene, len(simulation.recorded), fmt, max_output)
+        if checkpoints is not None:
+            simulation.check_checkpoints()
+        checkpoint = load_checkpoint(resume) if resume is not None else None
+        if checkpoint is not None:
+            simulation.check_resume(checkpoint)
         out_dir = output_folder(out_dir)
         if keep is None:
-            keep = scene.steps + 1 <= IN_MEMORY_ROWS
+            keep = simulation.scene.steps + 1 <= IN_MEMORY_ROWS
         setup = {
             "parameters": dict(parameters or {}),
             "components": parameter_values(simulation),
@@ -213,9 +228,18 @@ def run_scene(
             "pruned": simulation.pruned,
             "lagged_connections": [str(c) for c in simulation.lagged],
         }
-        stream = StreamedResult(out_dir, scene.name, fmt)
+        # a checkpoint that let rows go continues their file (the others start a new one)
+        stream = StreamedResult(
+            out_dir, scene.name, fmt, resume=checkpoint.stream if checkpoint else None
+        )
         try:
-            result = simulation.run(stop=guard, sink=stream, keep=keep)
+            result = simulation.run(
+                stop=guard,
+                checkpoints=checkpoints,
+                resume=checkpoint,
+                sink=stream,
+                keep=keep,
+            )
         except SimulationError as error:
             interrupted = isinstance(error, SimulationInterrupted)
             error.moved_aside = move_aside_complete(scene.name, out_dir)

@@ -5,8 +5,8 @@ A scene file looks like::
     name = "gear_retraction"            # optional, defaults to the file name
     description = "..."
     start_time = 0.0                    # s, optional
-    stop_time = 3.0                     # s
-    step = 0.01                         # s, communication step
+    stop_time = 3.0                     # s   (all three times optional: what the scene does
+    step = 0.01                         # s    not give comes from the FMUs' DefaultExperiment)
     connections = ["actuator.piston_extension -> gear.piston_extension"]
     record = ["gear.gear_angle"]        # optional, defaults to every output
     reference = "reference/gear_retraction.csv"   # optional, relative to the scene file
@@ -31,6 +31,7 @@ reference CSVs in REFERENCE_DIR); ``find_file`` turns a name such as ``gear_retr
 into one of them, from any working directory.
 """
 
+import math
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -96,6 +97,9 @@ class Scene:
     reference: Path | None = None
     coupling: str = "gauss_seidel"
     check: Check | None = None  # the [check] table: tolerances against its reference
+    # the times the file does not give (NaN here until the master takes them from the FMUs'
+    # DefaultExperiment: cosim/experiment.py)
+    missing_times: tuple[str, ...] = ()
 
     @property
     def steps(self) -> int:
@@ -125,6 +129,7 @@ _SCENE_KEYS = {
 # end); jacobi gives every component the outputs at the step's start (all in parallel).
 COUPLINGS = ("gauss_seidel", "jacobi")
 _COMPONENT_KEYS = {"fmu", "parameters", "inputs", "effects"}
+TIME_KEYS = ("start_time", "stop_time", "step")
 
 
 def _number(data: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
@@ -216,12 +221,22 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
     path = Path(path)
     where = str(path)
     refuse_unknown_keys(data, _SCENE_KEYS, where)
-    start_time, stop_time, step = check_times(
-        where,
-        _number(data, "start_time", where, 0.0),
-        _number(data, "stop_time", where),
-        _number(data, "step", where),
-    )
+    # A scene with a stop time and a step starts at its start_time or 0 s; one without either
+    # takes every time it leaves out from its FMUs (cosim/experiment.py).
+    missing = tuple(key for key in TIME_KEYS if key not in data)
+    if missing == ("start_time",):
+        missing, data = (), {**data, "start_time": 0.0}
+    if missing:
+        start_time, stop_time, step = (
+            math.nan if key in missing else _number(data, key, where) for key in TIME_KEYS
+        )
+    else:
+        start_time, stop_time, step = check_times(
+            where,
+            _number(data, "start_time", where),
+            _number(data, "stop_time", where),
+            _number(data, "step", where),
+        )
     components = {}
     raw_components = data.get("components")
     if not isinstance(raw_components, dict) or not raw_components:
@@ -286,6 +301,7 @@ def parse_scene(data: dict[str, Any], path: Path) -> Scene:
         coupling=coupling,
         reference=(path.parent / reference).resolve() if reference else None,
         check=parse_check(data["check"], where, SceneError) if "check" in data else None,
+        missing_times=missing,
     )
 
 

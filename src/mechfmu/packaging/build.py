@@ -17,6 +17,9 @@ binary, and the build says so. ``embed_python`` adds the build interpreter's own
 """
 
 from typing import Any
+from collections.abc import Iterator
+import contextlib
+import hashlib
 import importlib
 import importlib.util
 import io
@@ -29,6 +32,7 @@ import sys
 import sysconfig
 import tempfile
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 
 # Imported here, before any FMU runs in this process: an FMU run by fmpy puts its resources/
@@ -38,6 +42,9 @@ from pythonfmu import FmuBuilder as Fmi2Builder
 from pythonfmu3 import FmuBuilder as Fmi3Builder
 
 from .binary_patch import patch_exit_finaliser
+from .boundary import table_source
+from .closure import runtime_closure
+from .describe import described, self_description
 from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
 
@@ -45,7 +52,8 @@ RUNTIME_ROOT = Path(__file__).resolve().parents[1] / "runtime"  # the FMU runtim
 LOADER_DIR = Path(__file__).resolve().parent / "c_loader"
 LOADER_RUNTIME_SOURCE = LOADER_DIR / "python_runtime.c"  # finds and starts libpython
 PYTHONFMU_SUFFIX = ".pythonfmu.so"  # pythonfmu's library, next to the loader <Name>.so
-LOADER_FLAGS = ("-shared", "-fPIC", "-O2", "-Wall", "-Wextra", "-fvisibility=hidden")
+LOADER_FLAGS = ("-fPIC", "-O2", "-Wall", "-Wextra", "-fvisibility=hidden", "-pthread")
+LOADER_LIBRARIES = ("-shared", "-ldl", "-pthread")
 FMI_VERSIONS = (2, 3)
 # binaries/<folder> of the Linux x86-64 binary, per FMI version
 PLATFORM_FOLDER = {2: "linux64", 3: "x86_64-linux"}
@@ -83,11 +91,46 @@ def _c_string(text: str):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> Any:
-    """Compile the C loader for FMI ``fmi_version`` into ``folder``/loader<version>.so; return
-    (path or None, message).
+@dataclass(frozen=True)
+class Loader:
+    """The C loader of one FMI version, compiled to objects once per build; ``link`` makes
+    each FMU's binary from them and the table of that FMU's variables (boundary.py)."""
 
-    The compiler is $CC (may carry arguments) or ``cc``. On any failure the path is None and
+    objects: tuple[Path, ...]
+    compiler: tuple[str, ...]
+    headers: Path
+    message: str
+
+    def link(self, description: bytes, folder: Path) -> Path:
+        """The loader for the FMU whose modelDescription.xml is ``description``, linked in
+        ``folder``; RuntimeError with the compiler's output when it fails."""
+        folder.mkdir(parents=True, exist_ok=True)
+        table = folder / "model_table.c"
+        table.write_text(table_source(description))
+        target = folder / "loader.so"
+        command = [
+            *self.compiler,
+            *LOADER_FLAGS,
+            f"-I{self.headers}",
+            f"-I{LOADER_DIR}",
+            str(table),
+            *map(str, self.objects),
+            "-o",
+            str(target),
+            *LOADER_LIBRARIES,
+        ]
+        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+        if done.returncode != 0 or not target.is_file():
+            detail = " ".join((done.stderr or done.stdout).split())[:400]
+            raise RuntimeError(f"linking the C loader failed (exit {done.returncode}): {detail}")
+        return target
+
+
+def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> Any:
+    """Compile the C loader for FMI ``fmi_version`` into objects in ``folder``; return
+    (Loader or None, message).
+
+    The compiler is $CC (may carry arguments) or ``cc``. On any failure the Loader is None and
     the message says why; the caller then ships pythonfmu's plain binary. ``runtime`` is
     (soname, libdir, major.minor) of the libpython to look for first; default python_runtime().
     """
@@ -103,34 +146,45 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
     soname, libdir, version = runtime or python_runtime()
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    target = folder / f"loader{fmi_version}.so"
-    command = [
-        *argv,
-        *LOADER_FLAGS,
-        f"-I{headers}",
+    definitions = [
         f"-DPYTHON_SONAME={_c_string(soname)}",
         f"-DPYTHON_LIBDIR={_c_string(libdir)}",
         f"-DPYTHON_VERSION={_c_string(version)}",
-        str(LOADER_RUNTIME_SOURCE),
-        str(LOADER_DIR / f"fmi{fmi_version}.c"),
-        "-o",
-        str(target),
-        "-ldl",
     ]
-    try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
-    except (OSError, subprocess.SubprocessError) as error:
-        return None, f"C compiler {compiler!r} could not run: {error}"
-    if done.returncode != 0 or not target.is_file():
-        detail = " ".join((done.stderr or done.stdout).split())[:400]
-        return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
+    objects, warnings = [], []
+    for source in (
+        LOADER_RUNTIME_SOURCE,
+        LOADER_DIR / "boundary.c",
+        LOADER_DIR / f"fmi{fmi_version}.c",
+    ):
+        target = folder / f"{source.stem}.o"
+        command = [
+            *argv,
+            "-c",
+            *LOADER_FLAGS,
+            f"-I{headers}",
+            *definitions,
+            str(source),
+            "-o",
+            str(target),
+        ]
+        try:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+        except (OSError, subprocess.SubprocessError) as error:
+            return None, f"C compiler {compiler!r} could not run: {error}"
+        if done.returncode != 0 or not target.is_file():
+            detail = " ".join((done.stderr or done.stdout).split())[:400]
+            return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
+        objects.append(target)
+        warnings.append(" ".join(done.stderr.split()))
     where = f" (first looked for in {libdir})" if libdir else ""
-    warnings = " ".join(done.stderr.split())[:400]
-    return target, (
+    warned = " ".join(w for w in warnings if w)[:400]
+    message = (
         f"compiled with {compiler} for FMI {fmi_version}.0, Python {version} first: "
         f"{soname}{where}, then any 3.x >= 3.10"
-        + (f"; compiler warnings: {warnings}" if warnings else "")
+        + (f"; compiler warnings: {warned}" if warned else "")
     )
+    return Loader(tuple(objects), tuple(argv), headers, message), message
 
 
 def runtime_package(name: str, fmi_version: Any = 2) -> Any:
@@ -155,12 +209,23 @@ def _entry_module(fmu_name: Any, fmi_version: Any):
     )
 
 
-def _stage_runtime(target: Any, fmi_version: Any) -> None:
-    """Copy the FMU runtime (mechfmu.runtime) into the package folder ``target``, bound to
-    pythonfmu (FMI 2.0) or pythonfmu3 (FMI 3.0)."""
-    shutil.copytree(RUNTIME_ROOT, target, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+def _stage_runtime(target: Any, fmi_version: Any, module: str) -> None:
+    """Copy the part of the FMU runtime (mechfmu.runtime) that ``module`` imports (its import
+    closure, closure.py) into the package folder ``target``, bound to pythonfmu (FMI 2.0) or
+    pythonfmu3 (FMI 3.0)."""
+    for relative in runtime_closure(RUNTIME_ROOT, module, f"fmi{fmi_version}"):
+        (target / relative).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(RUNTIME_ROOT / relative, target / relative)
     if fmi_version == 3:
         (target / "fmi" / "binding.py").write_text(FMI3_BINDING)
+
+
+def _variant_tag(starts: dict[str, Any] | None) -> str:
+    """The suffix of the module names of an FMU built with other start values ('' for none):
+    a digest of those values."""
+    if not starts:
+        return ""
+    return "_" + hashlib.sha256(repr(sorted(starts.items())).encode()).hexdigest()[:10]
 
 
 def null_name(name: str) -> str:
@@ -168,8 +233,15 @@ def null_name(name: str) -> str:
     return f"{name}Null"
 
 
-def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any = 2):
-    """Source of the FMU's entry module: the model's class, or its null subclass."""
+def _entry_script(
+    name: str,
+    fmu_name: Any,
+    inner_module: Any,
+    fmi_version: Any = 2,
+    starts: dict[str, Any] | None = None,
+) -> str:
+    """Source of the FMU's entry module: the model's class, or a subclass: the null variant,
+    or the model with other start values (``starts``: variable name -> value)."""
     # pythonfmu's loader (findClass) re-runs this file at every instantiation, with locals of
     # its own, then releases one reference to the module namespace that it only borrowed. The
     # run it makes therefore takes one reference that nothing ever releases: held in a Python
@@ -189,41 +261,69 @@ def _entry_script(name: str, fmu_name: Any, inner_module: Any, fmi_version: Any 
         "        sys.__dict__.setdefault('_mechfmu_kept_namespaces', []).append(globals())\n"
     )
     null_step = "    def do_step(self, current_time, step_size):\n        return True\n"
+    body = ""
+    if starts:
+        package = inner_module.split(".", 1)[0]
+        header += f"from {package}.fmi.declarations import with_starts  # noqa: E402\n"
+        body += f"    VARIABLES = with_starts(model_module.{name}.VARIABLES, {starts!r})\n"
+    if fmu_name != name:
+        body += null_step
+    what = (
+        "with a do_step that does nothing (benchmark baseline)"
+        if fmu_name != name
+        else "with the start values of a scene"
+        if starts
+        else "as an FMI 3.0 slave"
+    )
     if fmi_version == 3:
         # pythonfmu3 finds the class by a regular expression on its line, which must name
         # Fmi3Slave among the bases (it is already one of the model's, through the binding).
-        docstring = (
-            f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n'
-            if fmu_name != name
-            else f'    """{name} as an FMI 3.0 slave."""\n'
-        )
         return header + (
             "from pythonfmu3 import Fmi3Slave  # noqa: E402\n"
             f"import {inner_module} as model_module  # noqa: E402\n\n\n"
             f"class {fmu_name}(model_module.{name}, Fmi3Slave):\n"
-            + docstring
-            + (null_step if fmu_name != name else "")
+            f'    """{name} {what}."""\n\n' + body
         )
-    if fmu_name == name:
+    if not body:
         return header + f"from {inner_module} import {name}  # noqa: E402,F401\n"
-    # The null variant: the model's module, not its class, enters the namespace, so the
-    # loader finds exactly one slave class here (the subclass).
+    # A variant: the model's module, not its class, enters the namespace, so the loader
+    # finds exactly one slave class here (the subclass).
     return header + (
         f"import {inner_module} as model_module  # noqa: E402\n\n\n"
         f"class {fmu_name}(model_module.{name}):\n"
-        f'    """{name} with a do_step that does nothing (benchmark baseline)."""\n\n' + null_step
+        f'    """{name} {what}."""\n\n' + body
     )
 
 
+@contextlib.contextmanager
+def _own_modules(package: str) -> Iterator[None]:
+    """While the builders import the staged runtime ``package``: without the modules of that
+    name that an FMU loaded into this process left in sys.modules (another build of the same
+    model, whose code would be taken instead); they are put back afterwards."""
+    loaded = {
+        name: module
+        for name, module in sys.modules.items()
+        if name == package or name.startswith(package + ".")
+    }
+    for name in loaded:
+        del sys.modules[name]
+    try:
+        yield
+    finally:
+        for name in [n for n in sys.modules if n == package or n.startswith(package + ".")]:
+            del sys.modules[name]
+        sys.modules.update(loaded)
+
+
 def _builder(fmi_version: Any):
-    """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags."""
+    """pythonfmu's (FMI 2.0) or pythonfmu3's (FMI 3.0) FmuBuilder and its capability flags.
+    FMU states serialise through runtime/fmi/state.py (bit-exact JSON), framed and checked by
+    the C loader."""
     if fmi_version == 2:
-        return Fmi2Builder, {"canGetAndSetFMUstate": True}
-    # FMU states are not serialised (as in FMI 2.0): an integrator's state holds Python
-    # objects that pythonfmu3's JSON serialisation cannot write.
+        return Fmi2Builder, {"canGetAndSetFMUstate": True, "canSerializeFMUstate": True}
     return Fmi3Builder, {
         "canGetAndSetFMUState": True,
-        "canSerializeFMUState": False,
+        "canSerializeFMUState": True,
         "canHandleVariableCommunicationStepSize": True,
     }
 
@@ -236,6 +336,8 @@ def build_model(
     loader: Any = None,
     fmi_version: Any = 2,
     embed: Any = None,
+    starts: dict[str, Any] | None = None,
+    experiment: dict[str, float] | None = None,
 ) -> Any:
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
@@ -245,6 +347,9 @@ def build_model(
 
     ``loader`` is compile_loader's (path or None, message) for ``fmi_version``; None compiles
     it here. ``embed`` is an embed.EmbeddedPython: the FMU then carries that Python runtime.
+    ``starts``: start values (variable name -> value) that replace the declared ones, e.g.
+    the parameters and fixed inputs of a scene (the FMUs of ``mechfmu export-cross-check``);
+    ``experiment``: DefaultExperiment attributes in place of the reference scene's.
     """
     if fmi_version not in FMI_VERSIONS:
         raise ValueError(f"FMI version {fmi_version!r} is not one of {FMI_VERSIONS}")
@@ -253,71 +358,103 @@ def build_model(
     fmu_name = null_name(name) if null else name
     folder = staging / f"{fmu_name}_fmi{fmi_version}"
     folder.mkdir()
-    package = folder / runtime_package(fmu_name, fmi_version)
-    _stage_runtime(package, fmi_version)
+    # a variant with other start values gets module names of its own: a process that loads
+    # it next to the plain FMU (both of model ``name``) must not mix their modules
+    tag = _variant_tag(starts)
+    package = folder / (runtime_package(fmu_name, fmi_version) + tag)
+    _stage_runtime(package, fmi_version, module)
     inner_module = module.replace("mechfmu.runtime.", f"{package.name}.", 1)
-    script = folder / f"{_entry_module(fmu_name, fmi_version)}.py"
-    script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version))
+    script = folder / f"{_entry_module(fmu_name, fmi_version)}{tag}.py"
+    script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version, starts))
     builder, options = _builder(fmi_version)
-    built = builder.build_FMU(
-        script,
-        dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
-        project_files=[package],
-        **options,
-    )
+    with _own_modules(package.name):
+        built = builder.build_FMU(
+            script,
+            dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
+            project_files=[package],
+            **options,
+        )
     if loader is None:
         loader = compile_loader(staging / f"loader_{fmu_name}", fmi_version=fmi_version)
     extra = embed.files_for(built, staging / f"embed_{fmu_name}_fmi{fmi_version}") if embed else {}
+    linking = staging / f"link_{fmu_name}_fmi{fmi_version}"
     # atomic: a reader never sees a half-written FMU
     return atomic_write(
-        Path(out_dir) / f"{fmu_name}.fmu", _rewrite_fmu(built, fmu_name, loader, fmi_version, extra)
+        Path(out_dir) / f"{fmu_name}.fmu",
+        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking, name, experiment),
     )
 
 
-def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any):
-    """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
-    binary_patch; pythonfmu3's library has other code there and is left as built) and, when
-    the loader was compiled, moved to <name>.pythonfmu.so with the loader as <name>.so.
-    ``extra`` maps further member names to their bytes (the embedded Python). pythonfmu3's
-    C++ sources are left out: they cannot rebuild this FMU's binary (the loader)."""
-    member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
-    loader_path, loader_message = loader
+def _members(fmu: Any, fmi_version: int) -> dict[str, tuple[zipfile.ZipInfo, bytes]]:
+    """The members the FMU keeps, by name: pythonfmu3's C++ sources are left out (they cannot
+    rebuild this FMU's binary, the loader), and so are the binaries of every platform but
+    this one (pythonfmu's builders add Windows DLLs that nothing here has ever run)."""
+    own = f"binaries/{PLATFORM_FOLDER[fmi_version]}/"
     with zipfile.ZipFile(fmu) as archive:
-        entries = [
-            (info, archive.read(info))
+        return {
+            info.filename: (info, archive.read(info))
             for info in archive.infolist()
             if not info.filename.startswith("sources/")
-        ]
-    if member not in {info.filename for info, _ in entries}:
+            and (not info.filename.startswith("binaries/") or info.filename.startswith(own))
+        }
+
+
+def _rewrite_fmu(
+    fmu: Any,
+    name: str,
+    loader: Any,
+    fmi_version: Any,
+    extra: Any,
+    linking: Path,
+    model: str | None = None,
+    experiment: dict[str, float] | None = None,
+) -> bytes:
+    """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
+    binary_patch; pythonfmu3's library has other code there and is left as built) and, when
+    the loader was compiled, moved to <name>.pythonfmu.so with the loader, linked with the
+    table of this FMU's variables, as <name>.so. ``extra`` maps further member names to their
+    bytes (the embedded Python). ``model``: the registry's model the FMU is made of, whose
+    documentation, picture, version and default experiment it then carries (describe.py)."""
+    member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
+    compiled, loader_message = loader
+    members = _members(fmu, fmi_version)
+    if member not in members:
         raise RuntimeError(f"{fmu} has no {member}: not a pythonfmu FMU?")
+    if model is not None:
+        info, description = members["modelDescription.xml"]
+        members["modelDescription.xml"] = (info, described(description, model, experiment))
+        described_members = self_description(model, fmi_version, linking / "docs")
+    else:
+        described_members = {}
+    info, data = members[member]
+    if fmi_version == 2:
+        data, message = patch_exit_finaliser(data)
+        print(f"{name}: {message}")
+    members[member] = (info, data)
+    if compiled is not None:
+        inner = zipfile.ZipInfo(member[: -len(".so")] + PYTHONFMU_SUFFIX, info.date_time)
+        inner.external_attr = info.external_attr
+        members[inner.filename] = (inner, data)
+        description = members["modelDescription.xml"][1]
+        members[member] = (info, compiled.link(description, linking).read_bytes())
+    for filename, content in {**extra, **described_members}.items():
+        entry = zipfile.ZipInfo(filename, (2020, 1, 1, 0, 0, 0))
+        entry.external_attr = (
+            0o755 << 16 if filename.endswith(".so") or ".so." in filename else 0o644 << 16
+        )
+        # the stdlib zip stays uncompressed inside (zipimport reads it without zlib, which
+        # is itself an extension module); the FMU's own deflate compresses it
+        members[filename] = (entry, content)
     patched_fmu = io.BytesIO()
     with zipfile.ZipFile(patched_fmu, "w", zipfile.ZIP_DEFLATED) as archive:
-        for info, data in entries:
-            info.compress_type = zipfile.ZIP_DEFLATED
-            if info.filename == member:
-                if fmi_version == 2:
-                    data, message = patch_exit_finaliser(data)
-                    print(f"{name}: {message}")
-                if loader_path is not None:
-                    inner = zipfile.ZipInfo(
-                        member[: -len(".so")] + PYTHONFMU_SUFFIX, info.date_time
-                    )
-                    inner.external_attr = info.external_attr
-                    archive.writestr(inner, data, zipfile.ZIP_DEFLATED)
-                    data = Path(loader_path).read_bytes()
-            archive.writestr(info, data)
-        for filename, data in extra.items():
-            entry = zipfile.ZipInfo(filename, (2020, 1, 1, 0, 0, 0))
-            entry.external_attr = (
-                0o755 << 16 if filename.endswith(".so") or ".so." in filename else 0o644 << 16
-            )
-            # the stdlib zip stays uncompressed inside (zipimport reads it without zlib, which
-            # is itself an extension module); the FMU's own deflate compresses it
-            archive.writestr(entry, data, zipfile.ZIP_DEFLATED)
-    if loader_path is not None:
+        for entry, content in members.values():
+            entry.compress_type = zipfile.ZIP_DEFLATED
+            archive.writestr(entry, content)
+    if compiled is not None:
         print(
-            f"{name}: C loader as {member} (loads libpython itself in hosts without Python), "
-            f"pythonfmu's library as {pythonfmu_library_name(name)}"
+            f"{name}: C loader as {member} (loads libpython itself in hosts without Python, "
+            f"checks every call at the FMI boundary), pythonfmu's library as "
+            f"{pythonfmu_library_name(name)}"
         )
     else:
         print(
@@ -327,7 +464,7 @@ def _rewrite_fmu(fmu: Any, name: str, loader: Any, fmi_version: Any, extra: Any)
     if extra:
         print(
             f"{name}: embedded Python runtime, {len(extra)} files, "
-            f"{sum(len(data) for data in extra.values()) / 1e6:.1f} MB before compression"
+            f"{sum(len(content) for content in extra.values()) / 1e6:.1f} MB before compression"
         )
     return patched_fmu.getvalue()
 

@@ -15,7 +15,13 @@ plausible (a random walk from the start value), sometimes at or past a bound, so
 NaN, +-inf, 1e300, zero or negative step sizes, garbage strings.
 
 Checked after every call (``Finding`` when violated):
-- no crash, no hang (the parent's time limit), no fmi2Error/fmi2Fatal: only OK or Discard;
+- no crash, no hang (the parent's time limit), never fmi2Fatal;
+- fmi2ExitInitializationMode answers OK, or fmi2Error with an error message (invalid
+  parameters: the sequence ends there, refused at initialisation);
+- a step with an illegal step size (zero, negative, not finite; the standard requires > 0)
+  answers fmi2Error with an error message; restoring the FMU state saved before it (the
+  standard's way out of the error state) gives back the outputs of before, and the sequence
+  goes on; any other step answers OK or Discard;
 - after an OK step every Real output is finite (no silent NaN);
 - after a Discard the FMU logged an error message, and its outputs are unchanged;
 - rolling back to a saved FMU state and repeating the steps gives identical outputs.
@@ -244,7 +250,11 @@ class Fuzzed:
     def errors_logged(self) -> Any:
         return sum(1 for m in self.logbook.messages if m["status"] in ("error", "fatal"))
 
-    def start(self, plan: Any) -> None:
+    def start(self, plan: Any) -> bool:
+        """Initialise for ``plan``; False when fmi2ExitInitializationMode refused its
+        parameters (fmi2Error with an error message)."""
+        from fmpy.fmi1 import FMICallException
+
         if not self.fresh:
             self.slave.reset()
         self.fresh = False
@@ -252,13 +262,50 @@ class Fuzzed:
         self.slave.enterInitializationMode()
         self.set(plan["parameters"])
         self.set(plan["inputs"])
-        self.slave.exitInitializationMode()
+        errors_before = self.errors_logged()
+        try:
+            self.slave.exitInitializationMode()
+        except FMICallException as error:
+            if error.status != 3 or self.errors_logged() == errors_before:
+                raise Finding(
+                    f"exitInitializationMode returned status {error.status} ({error}); last "
+                    f"log: {self.logbook.last_problem(self.instance)}"
+                ) from None
+            return False
+        return True
+
+    def refused_step(self, time_now: Any, size: Any) -> None:
+        """A step with an illegal step size: fmi2Error with an error message, then the state
+        saved before it restored (outputs as before)."""
+        from fmpy.fmi1 import FMICallException
+
+        state, outputs_before = self.slave.getFMUstate(), self.read_outputs()
+        errors_before = self.errors_logged()
+        try:
+            self.slave.doStep(currentCommunicationPoint=time_now, communicationStepSize=size)
+        except FMICallException as error:
+            if error.status != 3 or self.errors_logged() == errors_before:
+                raise Finding(
+                    f"doStep(t = {time_now!r}, h = {size!r}) returned status {error.status}, "
+                    "not fmi2Error with an error message"
+                ) from None
+        else:
+            raise Finding(f"doStep(t = {time_now!r}, h = {size!r}) accepted an illegal step size")
+        finally:
+            self.slave.setFMUstate(state)
+            self.slave.freeFMUstate(state)
+        if self.read_outputs() != outputs_before:
+            raise Finding("restoring the state saved before a refused step changed the outputs")
 
     def step(self, time_now: Any, size: Any, inputs: Any) -> Any:
-        """Set inputs and step; True (OK) or False (Discard with an error logged)."""
+        """Set inputs and step; True (OK), False (Discard with an error logged) or None (an
+        illegal step size, refused with fmi2Error)."""
         from fmpy.fmi1 import FMICallException
 
         self.set(inputs)
+        if not (math.isfinite(size) and size > 0.0):
+            self.refused_step(time_now, size)
+            return None
         errors_before, outputs_before = self.errors_logged(), self.read_outputs()
         try:
             self.slave.doStep(currentCommunicationPoint=time_now, communicationStepSize=size)
@@ -296,16 +343,21 @@ class Fuzzed:
         return ok
 
     def run(self, plan: Any) -> Any:
-        """Run one sequence; return (ok steps, discarded steps)."""
-        self.start(plan)
+        """Run one sequence; return (ok steps, discarded steps, refused steps); None when
+        its parameters were refused at initialisation."""
+        if not self.start(plan):
+            return None
         first_message = len(self.logbook.messages)
-        now, done, discarded, saved = 0.0, 0, 0, None
+        now, done, discarded, refused, saved = 0.0, 0, 0, 0, None
         for index, (size, inputs) in enumerate(plan["steps"]):
             if index == plan["rollback"]:
                 saved = (self.slave.getFMUstate(), now, index, self.read_outputs())
-            if self.step(now, size, inputs):
+            outcome = self.step(now, size, inputs)
+            if outcome:
                 now += size
                 done += 1
+            elif outcome is None:
+                refused += 1
             else:
                 discarded += 1
         if saved is not None:
@@ -314,7 +366,7 @@ class Fuzzed:
             except Finding:
                 if not self._timed_out(first_message):
                     raise
-        return done, discarded
+        return done, discarded, refused
 
     def _timed_out(self, first_message: Any):
         """Whether a step of this sequence (or of its repeat) hit its wall-clock bound: then
@@ -342,7 +394,6 @@ class Fuzzed:
         import shutil
 
         try:
-            self.slave.terminate()
             self.slave.freeInstance()
         finally:
             shutil.rmtree(self.folder, ignore_errors=True)
@@ -352,24 +403,36 @@ def child(
     path: Any, model_name: str, sequences: int, seed: int, progress: Any, only: Any = None
 ) -> Any:
     """Fuzz one FMU in this process; append a JSON line per event to ``progress``."""
+    from fmpy.fmi1 import FMICallException
+
     fuzzed = Fuzzed(path)
     variables = declarations(model_name, fuzzed.description)
     indices = [only] if only is not None else range(sequences)
-    totals: dict[str, Any] = {"sequences": 0, "steps_ok": 0, "steps_discarded": 0, "findings": []}
+    totals: dict[str, Any] = {
+        "sequences": 0,
+        "refused_at_initialisation": 0,
+        "steps_ok": 0,
+        "steps_discarded": 0,
+        "steps_refused": 0,
+        "findings": [],
+    }
     started = time.perf_counter()
     with open(progress, "a", buffering=1) as log:
         for index in indices:
             log.write(json.dumps({"sequence": index}) + "\n")  # so a crash names it
             plan = plan_sequence(sequence_rng(seed, model_name, index), variables)
             try:
-                done, discarded = fuzzed.run(plan)
-            except Finding as finding:
+                counts = fuzzed.run(plan)
+            except (Finding, FMICallException) as finding:  # the latter: after a finding
                 totals["findings"].append({"sequence": index, "message": str(finding)})
                 fuzzed.fresh = False
                 continue
             totals["sequences"] += 1
-            totals["steps_ok"] += done
-            totals["steps_discarded"] += discarded
+            if counts is None:
+                totals["refused_at_initialisation"] += 1
+                continue
+            for key, count in zip(("steps_ok", "steps_discarded", "steps_refused"), counts):
+                totals[key] += count
         fuzzed.close()
         totals["seconds"] = time.perf_counter() - started
         log.write(json.dumps({"done": totals}) + "\n")
@@ -484,9 +547,11 @@ def command(args: Any) -> Any:
             print(f"FAIL {result['failure']}")
         else:
             print(
-                f"ok   {result['model']}: {result['sequences']} sequences, "
+                f"ok   {result['model']}: {result['sequences']} sequences "
+                f"({result['refused_at_initialisation']} refused at initialisation), "
                 f"{result['steps_ok']} steps ok, {result['steps_discarded']} discarded "
-                f"with an error message, {result['seconds']:.1f} s"
+                f"with an error message, {result['steps_refused']} illegal step sizes "
+                f"refused with fmi2Error, {result['seconds']:.1f} s"
             )
     return 1 if failed else 0
 

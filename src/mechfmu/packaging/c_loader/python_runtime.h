@@ -31,16 +31,4 @@ int loader_missing_functions(const char *library_kind);
  * (hosts instantiate in turn). */
 int loader_ready(int *state, int (*resolve)(void *library));
 
-/* Defines ``function``, exported as ``export``, returning ``status``: it calls
- * ``real.name`` (the resolved function of pythonfmu's library) with ``args`` when the
- * library is loaded (``load_state`` 1) and has it, and returns ``error`` otherwise (there
- * can be no instance then: the instantiation returned NULL). Each FMI version's file
- * defines its own ``real`` and ``load_state``. */
-#define LOADER_FORWARD(export, status, function, error, name, params, args) \
-    export status function params \
-    { \
-        if (load_state != 1 || !real.name) return error; \
-        return real.name args; \
-    }
-
 #endif

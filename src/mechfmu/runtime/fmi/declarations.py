@@ -100,6 +100,30 @@ class Variable:
         self.depends, self.values, self.nominal = tuple(depends), values, nominal
 
 
+def with_starts(variables: tuple[Variable, ...], starts: dict[str, Value]) -> tuple[Variable, ...]:
+    """``variables`` with the start values ``starts`` (name -> value, of the variable's own
+    type) in place of the declared ones (an FMU built with a scene's settings)."""
+    unknown = set(starts) - {v.name for v in variables}
+    if unknown:
+        raise ValueError(f"no variable {', '.join(sorted(unknown))} to give a start value")
+    return tuple(
+        Variable(
+            v.name,
+            v.kind,
+            v.causality,
+            v.kind(starts[v.name]) if v.name in starts else v.start,
+            v.description,
+            v.unit,
+            v.min,
+            v.max,
+            v.depends,
+            v.values,
+            v.nominal,
+        )
+        for v in variables
+    )
+
+
 def parameter(
     name: str,
     start: Value,

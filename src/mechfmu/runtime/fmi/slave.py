@@ -23,6 +23,7 @@ from operator import itemgetter
 from ..errors import MechanismError, require_finite
 from . import geometry
 from .binding import Binding
+from .state import INVALID, decode, encode
 from .declarations import (  # noqa: F401  (the names models declare their variables with)
     EFFECT_PREFIX,
     INTEGRATORS,
@@ -161,9 +162,7 @@ class MechSlave(Binding):
         self.stale = False
         values_before = dict(self.values)
         try:
-            self.check_parameters()
-            drawn = geometry.install(self)  # the geometry effect's outputs, only when on
-            self._watch_live_outputs(drawn)
+            self._build()
             self.outputs_at_start(self.start_time)
             self._check_outputs(values_before)
             return None
@@ -172,6 +171,14 @@ class MechSlave(Binding):
                 if variable.causality == "output":
                     self.values[variable.name] = variable.start
             return self._describe(error, self.start_time)
+
+    def _build(self) -> None:
+        """What the parameters define: checked and built (check_parameters; raises
+        MechanismError), the geometry effect's outputs installed when it is on, the per-step
+        output check narrowed to what the enabled effects change."""
+        self.check_parameters()
+        drawn = geometry.install(self)  # the geometry effect's outputs, only when on
+        self._watch_live_outputs(drawn)
 
     def _watch_live_outputs(self, drawn: bool) -> None:
         """Check at every step only the outputs the enabled effects can change: with an
@@ -326,16 +333,67 @@ class MechSlave(Binding):
             "values": dict(self.values),
             "internal": internal,
             "initialized": self.initialized,
+            "initializing": self.initializing,
             "start_time": self.start_time,
             "time_reached": self.time_reached,
             "pending_error": self.pending_error,
         }
 
     def _set_fmu_state(self, state: dict[str, Any]) -> None:
-        self.values.update(state["values"])  # in place: the registered getters hold this dict
+        problem = self._state_problem(state)
+        if problem is not None:  # reported as fmi2Error / fmi3Error by the C loader
+            self.log(f"{self.instance_name}: {problem}; the instance is unchanged", Status.error)
+            return
+        values = state["values"]
+        rebuild = state["internal"] is not None and (
+            not self.initialized
+            or any(
+                values[v.name] != self.values[v.name]
+                for v in self.VARIABLES
+                if v.causality == "parameter"
+            )
+        )
+        self.values.update(values)  # in place: the registered getters hold this dict
+        if rebuild:
+            # A state taken by another instance (another process): build what the parameters
+            # define (integrator, mechanism, effects) before the internal state is put back.
+            try:
+                self._build()
+            except Exception as error:  # never raised into C++ (see the module docstring)
+                self.log(self._describe(error, state["time_reached"]), Status.error)
         if state["internal"] is not None:
             self.restore_internal_state(state["internal"])
         self.initialized = state["initialized"]
+        self.initializing = state.get("initializing", False)
+        self.stale = True
         self.start_time = state["start_time"]
         self.time_reached = state["time_reached"]
         self.pending_error = state["pending_error"]
+
+    def _state_problem(self, state: Any) -> str | None:
+        """Why ``state`` is no FMU state of this model (None when it is one)."""
+        if not isinstance(state, dict):
+            return f"an FMU state must be a dict, not {type(state).__name__}"
+        if INVALID in state:
+            return str(state[INVALID])
+        missing = {"values", "internal", "initialized", "start_time", "time_reached"} - set(state)
+        if missing or "pending_error" not in state:
+            return f"the FMU state lacks {', '.join(sorted(missing)) or 'pending_error'}"
+        values = state["values"]
+        if not isinstance(values, dict) or set(values) != set(self.declared):
+            return "the FMU state's variables are not this model's"
+        for name, value in values.items():
+            kind = self.declared[name].kind
+            if type(value) is not kind and not (kind is float and type(value) is int):
+                return f"the FMU state gives {name} a {type(value).__name__}, not a {kind.__name__}"
+        return None
+
+    # pythonfmu calls these on the slave class to serialise and deserialise an FMU state
+    # (fmi2SerializeFMUstate, fmi3SerializeFMUState ...): state.py's bit-exact JSON.
+    @classmethod
+    def _fmu_state_to_bytes(cls, state: dict[str, Any]) -> bytes:
+        return encode(cls.__name__, state)
+
+    @classmethod
+    def _fmu_state_from_bytes(cls, data: bytes) -> Any:
+        return decode(cls.__name__, data)

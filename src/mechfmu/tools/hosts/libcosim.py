@@ -50,6 +50,7 @@ from typing import Any
 from typing import TYPE_CHECKING
 import math
 import os
+import shutil
 from numbers import Integral, Real
 
 import numpy as np
@@ -152,6 +153,49 @@ def _checked(name: str, kind: CosimVariableType, value: float) -> float:
     if kind == "STRING" and isinstance(value, str):
         return value
     raise TypeError(f"{name} is {kind.capitalize()}, got {type(value).__name__} {value!r}")
+
+
+def initialisation_problem(
+    fmu_path: Path, values: dict[str, Any], instance: str = "fmu"
+) -> str | None:
+    """The FMU's own message when it refuses to leave initialisation with ``values``
+    (parameters and initial inputs by name), or None when it accepts them.
+
+    libcosim 0.0.6 ends the whole process when an FMU answers fmi2Error in
+    fmi2ExitInitializationMode (its initialisation thread throws a cosim::error nobody
+    catches: "terminate called after throwing ..."), as our FMUs do for invalid parameters;
+    run_libcosim therefore asks the FMU through fmpy first.
+    """
+    from fmpy import extract, read_model_description
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave
+
+    from ...cosim.master import LogBook, accessor
+
+    description = read_model_description(str(fmu_path))
+    variables = {v.name: v for v in description.modelVariables}
+    logbook = LogBook()
+    slave = FMU2Slave(
+        guid=description.guid,
+        unzipDirectory=extract(str(fmu_path)),
+        modelIdentifier=description.coSimulation.modelIdentifier,
+        instanceName=instance,
+    )
+    slave.instantiate(callbacks=logbook.callbacks, loggingOn=True)
+    try:
+        slave.setupExperiment(startTime=0.0)
+        slave.enterInitializationMode()
+        for name, value in values.items():
+            if name in variables:
+                variable = variables[name]
+                accessor(slave, variable.type, "set")([variable.valueReference], [value])
+        slave.exitInitializationMode()
+        return None
+    except FMICallException as error:
+        return f"{logbook.last_problem(instance)} [{error}]"
+    finally:
+        slave.freeInstance()
+        shutil.rmtree(slave.unzipDirectory, ignore_errors=True)
 
 
 def run_libcosim(
@@ -322,6 +366,18 @@ def run_libcosim(
             times, values = None, None
         return LibcosimError(message, steps_done * step_ns / NANOSECONDS_PER_SECOND, times, values)
 
+    initial = {
+        **parameters,
+        **{name: value(0.0) if callable(value) else value for name, value in inputs.items()},
+    }
+    problem = initialisation_problem(fmu_path, initial, instance)
+    if problem is not None:
+        raise LibcosimError(
+            f"libcosim: initialisation refused at t = 0.0 s: {problem} (found before "
+            "libcosim ran: libcosim 0.0.6 ends the process when an FMU refuses to leave "
+            "initialisation)",
+            0.0,
+        )
     try:
         if not varying:
             if not execution.simulate_until(count * step_ns):
