@@ -232,12 +232,12 @@ class MechSlave(Binding):
         variable and the internal state), so a host can retry it, shorter or with other
         inputs, or roll back with fmi2SetFMUstate.
         """
-        values = self.values
+        values, integrator = self.values, self.integrator
         if (
             self.pending_error is None
             and self.initialized
             and 0.0 < step_size < math.inf
-            and self.integrator is None
+            and (integrator is None or _same_time(current_time, self.time_reached))
             and math.isfinite(sum(self._inputs_of(values)))
         ):
             # The usual step, with the checks of _checked_step passed in one test each (a
@@ -245,6 +245,8 @@ class MechSlave(Binding):
             values_before = values.copy()
             internal_before = self.step_state() if self.step_saves_state else None
             try:
+                if integrator is not None:
+                    integrator.start_clock(values["max_wall_time"])
                 self.update(current_time + step_size, step_size)
                 if not math.isfinite(sum(self._outputs_of(values))):
                     self._check_outputs(values_before)

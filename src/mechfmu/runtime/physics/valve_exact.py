@@ -376,11 +376,15 @@ def _exact_segment(
 
     def watched(s: float, xs: float, vs: float, depth: float, depth_rate: float) -> tuple:
         """(s, watched functions' values, (x, d), (x', d')) at s for the state there."""
+        # each switch function the smaller of its two branches (min() written out: this
+        # runs at every sample; the same value, the first branch on a tie)
         spring = kc * depth
+        damped = spring + cc * depth_rate
         seat = -ks * xs
+        seat_damped = seat - cs * vs
         g = (
-            min(spring, spring + cc * depth_rate),
-            min(seat, seat - cs * vs),
+            damped if damped < spring else spring,
+            seat_damped if seat_damped < seat else seat,
             depth,
             xs - limit,
             xs,
@@ -389,7 +393,8 @@ def _exact_segment(
 
     def values(s: float) -> tuple:
         """watched() at s (local time, s) of the closed form."""
-        return watched(s, *state(s))
+        xs, vs, depth, depth_rate = state(s)
+        return watched(s, xs, vs, depth, depth_rate)
 
     def slope(point: tuple, k: int) -> float:
         """The rate of watched function k at a point of ``values`` (of the branch of a
@@ -559,7 +564,12 @@ def _first_crossing(
         latest = values(tau)
         evaluations += 1
         g = latest[1]
-        now = [k for k in crossing if roots.crosses(old[k], g[k], directions[k])]
+        now = [
+            k
+            for k in crossing
+            if (old[k] > 0.0 and g[k] <= 0.0 and directions[k] < 0)
+            or (old[k] < 0.0 and g[k] >= 0.0 and directions[k] > 0)
+        ]  # roots.crosses written out, as in _exact_segment
         if now:
             high, crossing = latest, now
         else:

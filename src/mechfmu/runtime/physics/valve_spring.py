@@ -66,6 +66,7 @@ than the lumped contact stiffness.
 
 import math
 from collections import namedtuple
+from functools import lru_cache
 
 from ..errors import (
     MechanismError,
@@ -372,6 +373,7 @@ def drive_at(drive: "StepDrive | CamshaftStepDrive", t: float) -> tuple[float, f
 _SEGMENT_NAMES = ("rise", "high dwell", "return", "low dwell")
 
 
+@lru_cache(maxsize=16)  # a function of the profile alone (a tuple); asked at every piece
 def _segment_starts(profile: "cam_laws.CamProfile") -> tuple[float, float, float, float]:
     """Local camshaft angles (rad from rise_start) where rise, high dwell, return and low
     dwell start."""
