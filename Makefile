@@ -53,13 +53,16 @@ run: $(FMUS)/.built
 	@$(PY) sims/run_gear.py
 	@echo "mechfmu and python of $(VENV) in this shell: source $(VENV)/bin/activate"
 
-# Everything: the lint gate, then every test layer (unit, fmu, hosts, slow).
+# Everything: the lint gate, then every test layer (unit, fmu, hosts, slow), the test files
+# shared among TEST_WORKERS processes (pytest-xdist; auto: one per CPU; 0: one process).
+TEST_WORKERS ?= auto
+PARALLEL = -n $(TEST_WORKERS) --dist loadfile
 test: lint $(FMUS)/.built
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(PARALLEL)
 
 # The quick layers while working (under a minute): unit tests and the FMU tests that are not slow.
 test-fast: $(FMUS)/.built
-	$(PY) -m pytest -q -m "(unit or fmu) and not slow"
+	$(PY) -m pytest -q $(PARALLEL) -m "(unit or fmu) and not slow"
 
 # The gate: ruff (errors and annotations on every public function), ruff's formatting, mypy
 # (configured in pyproject.toml).
@@ -103,9 +106,9 @@ PORTABLE_TESTS := tests/test_physics_cam_valve.py tests/test_cam_geometry.py tes
 	tests/test_sweep_references.py tests/test_portable.py tests/test_tolerances.py
 test-portable: $(FMUS)/.built
 	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx512)" $(PY) -m pytest -q \
-		-p no:cacheprovider $(PORTABLE_TESTS)
+		-p no:cacheprovider $(PARALLEL) $(PORTABLE_TESTS)
 	NPY_DISABLE_CPU_FEATURES="$$($(PY) tests/portable.py avx2)" $(PY) -m pytest -q \
-		-p no:cacheprovider $(PORTABLE_TESTS)
+		-p no:cacheprovider $(PARALLEL) $(PORTABLE_TESTS)
 
 # The fast numeric layer on the other CPythons that pyenv provides (OTHER_PYTHONS: versions
 # under `pyenv root`/versions), each in its own .venv-X.Y and fmus-X.Y.
@@ -131,7 +134,7 @@ test-other-python:
 
 # (helper of test-other-python) the TESTS files with PYTHON's venv and FMUs
 test-subset: $(FMUS)/.built
-	$(PY) -m pytest -q -p no:cacheprovider $(TESTS)
+	$(PY) -m pytest -q -p no:cacheprovider $(PARALLEL) $(TESTS)
 
 references: $(VENV)/.installed
 	$(VENV)/bin/mechfmu references --out src/mechfmu/scenes/reference \
@@ -194,6 +197,8 @@ FUZZ_SECONDS ?= 600
 fuzz-inputs: $(FMUS)/.built
 	MECHFMU_FUZZ_EXAMPLES=50 $(PY) -m pytest -q -p no:cacheprovider tests/test_input_fuzz.py
 	MECHFMU_PAIR_KILLS=1000 $(PY) -m pytest -q -p no:cacheprovider tests/test_result_pairs.py
+	MECHFMU_FUZZ_SEQUENCES=1000 MECHFMU_INTERRUPTS=100 $(PY) -m pytest -q -p no:cacheprovider \
+		tests/test_robustness.py tests/test_interrupts.py
 	@if $(PY) -c 'import atheris' 2>/dev/null; then \
 		mkdir -p out/fuzz-inputs/corpus && \
 		$(PY) tests/atheris_inputs.py -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096 \

@@ -1,5 +1,6 @@
 """Shared fixtures: the built FMUs and small helpers to run scenes written inline."""
 
+import fcntl
 import os
 from pathlib import Path
 
@@ -30,21 +31,32 @@ def fmu_dir():
         return FMU_DIR
 
 
+def _built_once(tmp_path_factory, name, **options):
+    """``build_all(folder, **options)`` into a folder every pytest-xdist worker of this run
+    shares: the first worker to ask builds (under a lock), the others wait and reuse it."""
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # the workers' base folders sit side by side in the run's own
+    folder = root / name
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (folder / ".built").is_file():
+            build_all(folder, **options)
+            (folder / ".built").touch()
+    return folder
+
+
 @pytest.fixture(scope="session")
 def fmu3_dir(tmp_path_factory):
     """Every model as an FMI 3.0 FMU (mechfmu build --fmi-version 3), built for this run."""
-    folder = tmp_path_factory.mktemp("fmi3")
-    build_all(folder, fmi_version=3)
-    return folder
+    return _built_once(tmp_path_factory, "fmi3", fmi_version=3)
 
 
 @pytest.fixture(scope="session")
 def embedded_dir(tmp_path_factory):
     """Every model as an FMI 2.0 FMU with its own Python runtime (mechfmu build
     --embed-python), built for this run."""
-    folder = tmp_path_factory.mktemp("embedded")
-    build_all(folder, embed_python=True)
-    return folder
+    return _built_once(tmp_path_factory, "embedded", embed_python=True)
 
 
 # The test layers (markers registered in pyproject.toml; `make test-fast` runs

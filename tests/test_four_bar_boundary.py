@@ -160,7 +160,7 @@ def assembles(lengths, angle):
 
 @settings(
     derandomize=True,
-    max_examples=300,
+    max_examples=150,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
 )
@@ -241,7 +241,7 @@ def test_a_jump_over_a_range_without_assembly_is_refused_by_both(
 
 @settings(
     derandomize=True,
-    max_examples=400,
+    max_examples=200,
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
 )

@@ -18,6 +18,8 @@ from mechfmu.cosim.scene import SCENE_DIR as SCENES
 
 ROOT = Path(__file__).resolve().parents[1]
 EXIT_CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
+# interrupted runs of the random-times test (make fuzz-inputs: 100)
+INTERRUPTS = int(os.environ.get("MECHFMU_INTERRUPTS", "30"))
 
 
 def valve_scene(folder, stop_time):
@@ -156,10 +158,10 @@ def _judge(outcome):
     return problems
 
 
-def test_a_hundred_interrupts_at_random_times_never_crash(fmu_dir, tmp_path):
+def test_interrupts_at_random_times_never_crash(fmu_dir, tmp_path):
     """SIGINT or SIGTERM at a random time of a short run (start-up, unpacking, instantiation,
-    stepping, writing), 100 times, two runs at a time: never a crash (the issue saw rc 139
-    in most runs), never an unpacked FMU left behind or a CSV without its JSON, and every
+    stepping, writing), INTERRUPTS times, two runs at a time: never a crash (the issue saw rc
+    139 in most runs), never an unpacked FMU left behind or a CSV without its JSON, and every
     signal mechfmu takes ends in exit 130 / 143 with its files marked."""
     scene = valve_scene(tmp_path, 0.005)
     durations = []
@@ -177,7 +179,7 @@ def test_a_hundred_interrupts_at_random_times_never_crash(fmu_dir, tmp_path):
     generator = random.Random(20261125)
     plans = [
         (generator.uniform(0.0, span), generator.choice([signal.SIGINT, signal.SIGTERM]))
-        for _ in range(100)
+        for _ in range(INTERRUPTS)
     ]
     with ThreadPoolExecutor(max_workers=2) as pool:
         outcomes = list(
@@ -193,4 +195,4 @@ def test_a_hundred_interrupts_at_random_times_never_crash(fmu_dir, tmp_path):
     ]
     assert problems == []
     taken = sum(o["code"] in EXIT_CODES.values() for o in outcomes)
-    assert taken >= 40, [o["code"] for o in outcomes]
+    assert taken >= 0.4 * INTERRUPTS, [o["code"] for o in outcomes]
