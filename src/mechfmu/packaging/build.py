@@ -42,7 +42,7 @@ from pythonfmu import FmuBuilder as Fmi2Builder
 from pythonfmu3 import FmuBuilder as Fmi3Builder
 
 from .binary_patch import patch_exit_finaliser
-from .boundary import table_source
+from .boundary import c_string, table_source
 from .closure import runtime_closure
 from .describe import described, self_description
 from ..cosim.files import atomic_write
@@ -85,10 +85,6 @@ def python_runtime() -> Any:
     if ".so" not in soname:  # a Python linked statically: name the standard shared library
         soname = f"libpython{version}{sysconfig.get_config_var('ABIFLAGS') or ''}.so.1.0"
     return soname, sysconfig.get_config_var("LIBDIR") or "", version
-
-
-def _c_string(text: str):
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 @dataclass(frozen=True)
@@ -147,9 +143,9 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     definitions = [
-        f"-DPYTHON_SONAME={_c_string(soname)}",
-        f"-DPYTHON_LIBDIR={_c_string(libdir)}",
-        f"-DPYTHON_VERSION={_c_string(version)}",
+        f"-DPYTHON_SONAME={c_string(soname)}",
+        f"-DPYTHON_LIBDIR={c_string(libdir)}",
+        f"-DPYTHON_VERSION={c_string(version)}",
     ]
     objects, warnings = [], []
     for source in (
