@@ -54,6 +54,8 @@ LOADER_RUNTIME_SOURCE = LOADER_DIR / "python_runtime.c"  # finds and starts libp
 PYTHONFMU_SUFFIX = ".pythonfmu.so"  # pythonfmu's library, next to the loader <Name>.so
 LOADER_FLAGS = ("-fPIC", "-O2", "-Wall", "-Wextra", "-fvisibility=hidden", "-pthread")
 LOADER_LIBRARIES = ("-shared", "-ldl", "-pthread")
+COMPILER_TIMEOUT = 120  # s for one compiler run (a loader source, or the link: seconds)
+COMPILER_QUOTE = 400  # characters of the compiler's output a build message quotes
 FMI_VERSIONS = (2, 3)
 # binaries/<folder> of the Linux x86-64 binary, per FMI version
 PLATFORM_FOLDER = {2: "linux64", 3: "x86_64-linux"}
@@ -115,11 +117,20 @@ class Loader:
             str(target),
             *LOADER_LIBRARIES,
         ]
-        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
-        if done.returncode != 0 or not target.is_file():
-            detail = " ".join((done.stderr or done.stdout).split())[:400]
-            raise RuntimeError(f"linking the C loader failed (exit {done.returncode}): {detail}")
+        done = subprocess.run(command, capture_output=True, text=True, timeout=COMPILER_TIMEOUT)
+        failure = _compiler_failure(done, target)
+        if failure:
+            raise RuntimeError(f"linking the C loader failed {failure}")
         return target
+
+
+def _compiler_failure(done: "subprocess.CompletedProcess[str]", target: Path) -> str | None:
+    """Why the compiler run ``done`` wrote no ``target`` (its exit status and the start of its
+    output, on one line), or None when it wrote it."""
+    if done.returncode == 0 and target.is_file():
+        return None
+    detail = " ".join((done.stderr or done.stdout).split())[:COMPILER_QUOTE]
+    return f"(exit {done.returncode}): {detail}"
 
 
 def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> Any:
@@ -165,16 +176,16 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
             str(target),
         ]
         try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+            done = subprocess.run(command, capture_output=True, text=True, timeout=COMPILER_TIMEOUT)
         except (OSError, subprocess.SubprocessError) as error:
             return None, f"C compiler {compiler!r} could not run: {error}"
-        if done.returncode != 0 or not target.is_file():
-            detail = " ".join((done.stderr or done.stdout).split())[:400]
-            return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
+        failure = _compiler_failure(done, target)
+        if failure:
+            return None, f"C compiler {compiler!r} failed {failure}"
         objects.append(target)
         warnings.append(" ".join(done.stderr.split()))
     where = f" (first looked for in {libdir})" if libdir else ""
-    warned = " ".join(w for w in warnings if w)[:400]
+    warned = " ".join(w for w in warnings if w)[:COMPILER_QUOTE]
     message = (
         f"compiled with {compiler} for FMI {fmi_version}.0, Python {version} first: "
         f"{soname}{where}, then any 3.x >= 3.10"
