@@ -430,7 +430,7 @@ def _rewrite_fmu(
     if model is not None:
         info, description = members["modelDescription.xml"]
         members["modelDescription.xml"] = (info, described(description, model, experiment))
-        described_members = self_description(model, fmi_version, linking / "docs")
+        described_members = self_description(model, fmi_version)
     else:
         described_members = {}
     info, data = members[member]
