@@ -43,6 +43,17 @@ from .declarations import (  # noqa: F401  (the names models declare their varia
 from collections.abc import Callable, Sequence
 from typing import Any
 
+# The keys of an FMU state (MechSlave._get_fmu_state), each required to set one back.
+_STATE_KEYS = (
+    "values",
+    "internal",
+    "initialized",
+    "initializing",
+    "start_time",
+    "time_reached",
+    "pending_error",
+)
+
 
 def _tuple_getter(names: Sequence[str]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
     """A function of a dict returning the tuple of its values under ``names``."""
@@ -364,7 +375,7 @@ class MechSlave(Binding):
         if state["internal"] is not None:
             self.restore_internal_state(state["internal"])
         self.initialized = state["initialized"]
-        self.initializing = state.get("initializing", False)
+        self.initializing = state["initializing"]
         self.stale = True
         self.start_time = state["start_time"]
         self.time_reached = state["time_reached"]
@@ -376,9 +387,9 @@ class MechSlave(Binding):
             return f"an FMU state must be a dict, not {type(state).__name__}"
         if INVALID in state:
             return str(state[INVALID])
-        missing = {"values", "internal", "initialized", "start_time", "time_reached"} - set(state)
-        if missing or "pending_error" not in state:
-            return f"the FMU state lacks {', '.join(sorted(missing)) or 'pending_error'}"
+        missing = set(_STATE_KEYS) - set(state)
+        if missing:
+            return f"the FMU state lacks {', '.join(sorted(missing))}"
         values = state["values"]
         if not isinstance(values, dict) or set(values) != set(self.declared):
             return "the FMU state's variables are not this model's"
