@@ -13,7 +13,8 @@
 
 /* ---- Variables ---- */
 
-const char *mf_type_name(int type)
+/* The name of a type in the FMI version's own words (Real or Float64, Integer or Int32...). */
+static const char *type_name(int type)
 {
     static const char *const fmi2[] = {"(none)", "Float32", "Real", "Int8", "UInt8", "Int16",
                                        "UInt16", "Integer", "UInt32", "Int64", "UInt64",
@@ -93,9 +94,9 @@ int mf_check_references(const char *function, const unsigned refs[], size_t n, i
             snprintf(why, MF_WHY_SIZE,
                      "%s: %s (value reference %u) is of type %s, not %s: use fmi%dGet%s or "
                      "fmi%dSet%s",
-                     function, variable->name, reference, mf_type_name(variable->type),
-                     mf_type_name(type), MF_MODEL.fmi_version, mf_type_name(variable->type),
-                     MF_MODEL.fmi_version, mf_type_name(variable->type));
+                     function, variable->name, reference, type_name(variable->type),
+                     type_name(type), MF_MODEL.fmi_version, type_name(variable->type),
+                     MF_MODEL.fmi_version, type_name(variable->type));
             return 0;
         }
         if (phase >= 0 && (refusal = set_refusal(variable, phase)) != NULL) {
@@ -166,7 +167,8 @@ int mf_registered(const void *instance)
 
 /* ---- FMU states ---- */
 
-struct mf_state *mf_state_new(struct mf_state **list, void *real, int machine, double time)
+/* A new record at the head of ``list``, or NULL when out of memory. */
+static struct mf_state *state_new(struct mf_state **list, void *real, int machine, double time)
 {
     struct mf_state *state = calloc(1, sizeof *state);
     if (!state) return NULL;
@@ -178,7 +180,8 @@ struct mf_state *mf_state_new(struct mf_state **list, void *real, int machine, d
     return state;
 }
 
-struct mf_state *mf_state_find(struct mf_state *list, const void *state)
+/* The record of ``list`` that is ``state``, or NULL. */
+static struct mf_state *state_find(struct mf_state *list, const void *state)
 {
     for (; list; list = list->next) {
         if (list == state) return list;
@@ -206,7 +209,7 @@ static const char *getter_names(void)
 struct mf_state *mf_state_known(struct mf_state *list, const void *state, const char *function,
                                 char why[MF_WHY_SIZE])
 {
-    struct mf_state *record = mf_state_find(list, state);
+    struct mf_state *record = state_find(list, state);
     if (!record) {
         snprintf(why, MF_WHY_SIZE,
                  "%s: %p is no FMU state of this instance (never returned by %s, or freed)",
@@ -240,7 +243,7 @@ int mf_state_keep(struct mf_state **list, struct mf_state *reuse, void **slot, v
         record->time = time;
         return 1;
     }
-    record = mf_state_new(list, real, machine, time);
+    record = state_new(list, real, machine, time);
     if (!record) {
         release(context, &real);
         return 0;
