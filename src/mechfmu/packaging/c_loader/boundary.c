@@ -256,6 +256,17 @@ int mf_state_keep(struct mf_state **list, struct mf_state *reuse, void **slot, v
 
 static const unsigned char MAGIC[8] = {'M', 'E', 'C', 'H', 'F', 'M', 'U', 'S'};
 
+/* Where each field of the header starts (the table in boundary.h). */
+enum {
+    AT_FORMAT = 8,
+    AT_FMI_VERSION = 12,
+    AT_MACHINE = 16,
+    AT_TOKEN_LENGTH = 20,
+    AT_TIME = 24,
+    AT_PAYLOAD_LENGTH = 32,
+    AT_CHECKSUM = 40
+};
+
 static void put32(unsigned char *out, uint32_t value)
 {
     int i;
@@ -284,19 +295,24 @@ static uint64_t get64(const unsigned char *in)
     return value;
 }
 
+/* FNV-1a, 64 bits (Fowler, Noll, Vo): its offset basis and prime. */
+#define FNV_OFFSET_BASIS 0xcbf29ce484222325ULL
+#define FNV_PRIME 0x100000001b3ULL
+
 static uint64_t fnv1a(uint64_t hash, const unsigned char *bytes, size_t size)
 {
     size_t i;
     for (i = 0; i < size; i++) {
         hash ^= bytes[i];
-        hash *= 0x100000001b3ULL;
+        hash *= FNV_PRIME;
     }
     return hash;
 }
 
 static uint64_t frame_checksum(const unsigned char *frame, size_t body)
 {
-    uint64_t hash = fnv1a(0xcbf29ce484222325ULL, frame + 8, 32);
+    /* the header's fields from the format to the checksum, then the token and payload */
+    uint64_t hash = fnv1a(FNV_OFFSET_BASIS, frame + AT_FORMAT, AT_CHECKSUM - AT_FORMAT);
     return fnv1a(hash, frame + MF_FRAME_HEADER, body);
 }
 
@@ -315,15 +331,15 @@ void mf_frame_write(unsigned char *frame, size_t payload_size, int machine, doub
     size_t token = strlen(MF_MODEL.token);
     uint64_t bits;
     memcpy(frame, MAGIC, sizeof MAGIC);
-    put32(frame + 8, MF_FRAME_FORMAT);
-    put32(frame + 12, (uint32_t)MF_MODEL.fmi_version);
-    put32(frame + 16, (uint32_t)machine);
-    put32(frame + 20, (uint32_t)token);
+    put32(frame + AT_FORMAT, MF_FRAME_FORMAT);
+    put32(frame + AT_FMI_VERSION, (uint32_t)MF_MODEL.fmi_version);
+    put32(frame + AT_MACHINE, (uint32_t)machine);
+    put32(frame + AT_TOKEN_LENGTH, (uint32_t)token);
     memcpy(&bits, &time, sizeof bits);
-    put64(frame + 24, bits);
-    put64(frame + 32, (uint64_t)payload_size);
+    put64(frame + AT_TIME, bits);
+    put64(frame + AT_PAYLOAD_LENGTH, (uint64_t)payload_size);
     memcpy(frame + MF_FRAME_HEADER, MF_MODEL.token, token);
-    put64(frame + 40, frame_checksum(frame, token + payload_size));
+    put64(frame + AT_CHECKSUM, frame_checksum(frame, token + payload_size));
 }
 
 int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char **payload,
@@ -348,20 +364,20 @@ int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char *
                  "was not written by a mechfmu FMU");
         return 0;
     }
-    if (get32(frame + 8) != MF_FRAME_FORMAT) {
+    if (get32(frame + AT_FORMAT) != MF_FRAME_FORMAT) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state has format version %u; this FMU reads version %d",
-                 (unsigned)get32(frame + 8), MF_FRAME_FORMAT);
+                 (unsigned)get32(frame + AT_FORMAT), MF_FRAME_FORMAT);
         return 0;
     }
-    if (get32(frame + 12) != (uint32_t)MF_MODEL.fmi_version) {
+    if (get32(frame + AT_FMI_VERSION) != (uint32_t)MF_MODEL.fmi_version) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state was written by an FMI %u.0 FMU; this one is FMI %d.0",
-                 (unsigned)get32(frame + 12), MF_MODEL.fmi_version);
+                 (unsigned)get32(frame + AT_FMI_VERSION), MF_MODEL.fmi_version);
         return 0;
     }
-    token = get32(frame + 20);
-    body = get64(frame + 32);
+    token = get32(frame + AT_TOKEN_LENGTH);
+    body = get64(frame + AT_PAYLOAD_LENGTH);
     if (token > size || body > size || MF_FRAME_HEADER + token + body != size) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state has %zu bytes, its header announces %llu: it is "
@@ -369,7 +385,7 @@ int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char *
                  size, (unsigned long long)(MF_FRAME_HEADER + token + body));
         return 0;
     }
-    if (get64(frame + 40) != frame_checksum(frame, (size_t)(token + body))) {
+    if (get64(frame + AT_CHECKSUM) != frame_checksum(frame, (size_t)(token + body))) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state's checksum does not match its bytes: it was changed "
                  "or damaged");
@@ -383,9 +399,9 @@ int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char *
                  (const char *)frame + MF_FRAME_HEADER, MF_MODEL.token);
         return 0;
     }
-    bits = get64(frame + 24);
+    bits = get64(frame + AT_TIME);
     memcpy(time, &bits, sizeof *time);
-    *machine = (int)get32(frame + 16);
+    *machine = (int)get32(frame + AT_MACHINE);
     *payload = frame + MF_FRAME_HEADER + token;
     *payload_size = (size_t)body;
     return 1;
