@@ -97,7 +97,6 @@ class Loader:
     objects: tuple[Path, ...]
     compiler: tuple[str, ...]
     headers: Path
-    message: str
 
     def link(self, description: bytes, folder: Path) -> Path:
         """The loader for the FMU whose modelDescription.xml is ``description``, linked in
@@ -191,7 +190,7 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
         f"{soname}{where}, then any 3.x >= 3.10"
         + (f"; compiler warnings: {warned}" if warned else "")
     )
-    return Loader(tuple(objects), tuple(argv), headers, message), message
+    return Loader(tuple(objects), tuple(argv), headers), message
 
 
 def runtime_package(name: str, fmi_version: Any = 2) -> Any:
