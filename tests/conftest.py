@@ -110,6 +110,7 @@ LAYERS = {
     "test_pytest_plugin.py": "fmu",
     "test_bench.py": "fmu",
     "test_binary_patch.py": "fmu",
+    "test_c_literals.py": "unit",
     "test_corrupt_fmus.py": "fmu",
     "test_coupling.py": "fmu",
     "test_four_bar_boundary.py": "fmu",

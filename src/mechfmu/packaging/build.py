@@ -42,7 +42,7 @@ from pythonfmu import FmuBuilder as Fmi2Builder
 from pythonfmu3 import FmuBuilder as Fmi3Builder
 
 from .binary_patch import patch_exit_finaliser
-from .boundary import table_source
+from .boundary import c_string, table_source
 from .closure import runtime_closure
 from .describe import described, self_description
 from ..cosim.files import atomic_write
@@ -54,6 +54,8 @@ LOADER_RUNTIME_SOURCE = LOADER_DIR / "python_runtime.c"  # finds and starts libp
 PYTHONFMU_SUFFIX = ".pythonfmu.so"  # pythonfmu's library, next to the loader <Name>.so
 LOADER_FLAGS = ("-fPIC", "-O2", "-Wall", "-Wextra", "-fvisibility=hidden", "-pthread")
 LOADER_LIBRARIES = ("-shared", "-ldl", "-pthread")
+COMPILER_TIMEOUT = 120  # s for one compiler run (a loader source, or the link: seconds)
+COMPILER_QUOTE = 400  # characters of the compiler's output a build message quotes
 FMI_VERSIONS = (2, 3)
 # binaries/<folder> of the Linux x86-64 binary, per FMI version
 PLATFORM_FOLDER = {2: "linux64", 3: "x86_64-linux"}
@@ -87,10 +89,6 @@ def python_runtime() -> Any:
     return soname, sysconfig.get_config_var("LIBDIR") or "", version
 
 
-def _c_string(text: str):
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
-
-
 @dataclass(frozen=True)
 class Loader:
     """The C loader of one FMI version, compiled to objects once per build; ``link`` makes
@@ -99,7 +97,6 @@ class Loader:
     objects: tuple[Path, ...]
     compiler: tuple[str, ...]
     headers: Path
-    message: str
 
     def link(self, description: bytes, folder: Path) -> Path:
         """The loader for the FMU whose modelDescription.xml is ``description``, linked in
@@ -119,11 +116,20 @@ class Loader:
             str(target),
             *LOADER_LIBRARIES,
         ]
-        done = subprocess.run(command, capture_output=True, text=True, timeout=120)
-        if done.returncode != 0 or not target.is_file():
-            detail = " ".join((done.stderr or done.stdout).split())[:400]
-            raise RuntimeError(f"linking the C loader failed (exit {done.returncode}): {detail}")
+        done = subprocess.run(command, capture_output=True, text=True, timeout=COMPILER_TIMEOUT)
+        failure = _compiler_failure(done, target)
+        if failure:
+            raise RuntimeError(f"linking the C loader failed {failure}")
         return target
+
+
+def _compiler_failure(done: "subprocess.CompletedProcess[str]", target: Path) -> str | None:
+    """Why the compiler run ``done`` wrote no ``target`` (its exit status and the start of its
+    output, on one line), or None when it wrote it."""
+    if done.returncode == 0 and target.is_file():
+        return None
+    detail = " ".join((done.stderr or done.stdout).split())[:COMPILER_QUOTE]
+    return f"(exit {done.returncode}): {detail}"
 
 
 def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> Any:
@@ -147,9 +153,9 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     definitions = [
-        f"-DPYTHON_SONAME={_c_string(soname)}",
-        f"-DPYTHON_LIBDIR={_c_string(libdir)}",
-        f"-DPYTHON_VERSION={_c_string(version)}",
+        f"-DPYTHON_SONAME={c_string(soname)}",
+        f"-DPYTHON_LIBDIR={c_string(libdir)}",
+        f"-DPYTHON_VERSION={c_string(version)}",
     ]
     objects, warnings = [], []
     for source in (
@@ -169,22 +175,22 @@ def compile_loader(folder: Any, runtime: Any = None, fmi_version: Any = 2) -> An
             str(target),
         ]
         try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=120)
+            done = subprocess.run(command, capture_output=True, text=True, timeout=COMPILER_TIMEOUT)
         except (OSError, subprocess.SubprocessError) as error:
             return None, f"C compiler {compiler!r} could not run: {error}"
-        if done.returncode != 0 or not target.is_file():
-            detail = " ".join((done.stderr or done.stdout).split())[:400]
-            return None, f"C compiler {compiler!r} failed (exit {done.returncode}): {detail}"
+        failure = _compiler_failure(done, target)
+        if failure:
+            return None, f"C compiler {compiler!r} failed {failure}"
         objects.append(target)
         warnings.append(" ".join(done.stderr.split()))
     where = f" (first looked for in {libdir})" if libdir else ""
-    warned = " ".join(w for w in warnings if w)[:400]
+    warned = " ".join(w for w in warnings if w)[:COMPILER_QUOTE]
     message = (
         f"compiled with {compiler} for FMI {fmi_version}.0, Python {version} first: "
         f"{soname}{where}, then any 3.x >= 3.10"
         + (f"; compiler warnings: {warned}" if warned else "")
     )
-    return Loader(tuple(objects), tuple(argv), headers, message), message
+    return Loader(tuple(objects), tuple(argv), headers), message
 
 
 def runtime_package(name: str, fmi_version: Any = 2) -> Any:
@@ -423,7 +429,7 @@ def _rewrite_fmu(
     if model is not None:
         info, description = members["modelDescription.xml"]
         members["modelDescription.xml"] = (info, described(description, model, experiment))
-        described_members = self_description(model, fmi_version, linking / "docs")
+        described_members = self_description(model, fmi_version)
     else:
         described_members = {}
     info, data = members[member]

@@ -11,6 +11,7 @@ import ast
 from pathlib import Path
 
 RUNTIME_PACKAGE = "mechfmu.runtime"
+_RUNTIME_PARTS = tuple(RUNTIME_PACKAGE.split("."))
 
 
 def _module_file(root: Path, parts: tuple[str, ...]) -> Path | None:
@@ -38,7 +39,7 @@ def _imported(root: Path, source: Path) -> set[tuple[str, ...]]:
     for node in ast.walk(ast.parse(source.read_text(), str(source))):
         if isinstance(node, ast.Import):
             found.update(
-                tuple(alias.name.split(".")[2:])
+                tuple(alias.name.split(".")[len(_RUNTIME_PARTS) :])
                 for alias in node.names
                 if alias.name.startswith(RUNTIME_PACKAGE + ".")
             )
@@ -50,8 +51,8 @@ def _imported(root: Path, source: Path) -> set[tuple[str, ...]]:
             if node.level - 1 > len(package):
                 continue
             module = package[: len(package) - (node.level - 1)] + named
-        elif named[:2] == tuple(RUNTIME_PACKAGE.split(".")):
-            module = named[2:]
+        elif named[: len(_RUNTIME_PARTS)] == _RUNTIME_PARTS:
+            module = named[len(_RUNTIME_PARTS) :]
         else:
             continue
         found.add(module)

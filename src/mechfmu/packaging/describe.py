@@ -17,16 +17,18 @@ The reference scenes' CSVs are the closed forms (``mechfmu references``), never 
 from __future__ import annotations
 
 import csv
+import functools
 import html
 import importlib
 import re
+import tempfile
 from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree
 
 from .. import __version__
 from ..cosim.results import write_plot
-from ..cosim.scene import SCENE_DIR, load_scene
+from ..cosim.scene import SCENE_DIR, Scene, load_scene
 from ..runtime.fmi.slave import MechSlave
 from ..runtime.models import MODELS
 
@@ -139,14 +141,20 @@ def described(description: bytes, name: str, experiment: dict[str, float] | None
 # --- pictures and documentation ---------------------------------------------------------------
 
 
+def _reference_table(scene_name: str) -> tuple[Scene, list[str], list[list[float]]]:
+    """(scene, header, rows) of a shipped scene and its reference CSV (the rows as floats:
+    time first, SI units)."""
+    scene = load_scene(SCENE_DIR / f"{scene_name}.toml")
+    assert scene.reference is not None, f"scene {scene_name} names no reference CSV"
+    with open(scene.reference, newline="") as handle:
+        rows = list(csv.reader(handle))
+    return scene, rows[0], [[float(x) for x in row] for row in rows[1:] if row]
+
+
 def _reference_columns(name: str) -> tuple[list[float], dict[str, list[float]], dict[str, str]]:
     """(times, columns, units) of the model's own outputs in its reference scene's CSV (every
     column when none is the model's)."""
-    scene = load_scene(SCENE_DIR / f"{REFERENCE_SCENES[name]}.toml")
-    assert scene.reference is not None, f"scene {scene.name} names no reference CSV"
-    with open(scene.reference, newline="") as handle:
-        rows = list(csv.reader(handle))
-    header, values = rows[0], [[float(x) for x in row] for row in rows[1:] if row]
+    scene, header, values = _reference_table(REFERENCE_SCENES[name])
     components = [c.name for c in scene.components.values() if Path(c.fmu).stem == name]
     wanted = [
         i for i, column in enumerate(header) if column.split(".", 1)[0] in components
@@ -237,11 +245,7 @@ def declared_units(scene: Any) -> dict:
 
 def _scene_plot(scene_name: str, folder: Path) -> bytes:
     """A PNG of a shipped scene's reference CSV, every column against time."""
-    scene = load_scene(SCENE_DIR / f"{scene_name}.toml")
-    assert scene.reference is not None, f"scene {scene_name} names no reference CSV"
-    with open(scene.reference, newline="") as handle:
-        rows = list(csv.reader(handle))
-    header, values = rows[0], [[float(x) for x in row] for row in rows[1:] if row]
+    scene, header, values = _reference_table(scene_name)
     columns = {column: [row[i] for row in values] for i, column in enumerate(header) if i}
     target = folder / f"{scene_name}.png"
     write_plot(
@@ -254,10 +258,18 @@ def _scene_plot(scene_name: str, folder: Path) -> bytes:
     return target.read_bytes()
 
 
-def self_description(name: str, fmi_version: int, folder: Path) -> dict[str, bytes]:
+def self_description(name: str, fmi_version: int) -> dict[str, bytes]:
     """Every member that makes ``name``'s FMU describe itself, by its name in the archive
     (the documentation and the picture; the model description is changed by ``described``)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    members = documentation(name, folder)
-    members[PICTURE[fmi_version]] = picture(name, folder)
-    return members
+    members, image = _rendered(name)
+    return {**members, PICTURE[fmi_version]: image}
+
+
+@functools.lru_cache(maxsize=None)
+def _rendered(name: str) -> tuple[dict[str, bytes], bytes]:
+    """(documentation members, picture) of model ``name``, rendered once per process: they
+    depend on the model alone, and drawing them costs about a second of CPU per model, paid
+    otherwise again by each FMI version, variant and build in one process (a test session
+    builds every model three times). Callers copy the dict."""
+    with tempfile.TemporaryDirectory(prefix="mechfmu_describe_") as folder:
+        return documentation(name, Path(folder)), picture(name, Path(folder))

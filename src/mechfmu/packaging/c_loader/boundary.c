@@ -13,7 +13,8 @@
 
 /* ---- Variables ---- */
 
-const char *mf_type_name(int type)
+/* The name of a type in the FMI version's own words (Real or Float64, Integer or Int32...). */
+static const char *type_name(int type)
 {
     static const char *const fmi2[] = {"(none)", "Float32", "Real", "Int8", "UInt8", "Int16",
                                        "UInt16", "Integer", "UInt32", "Int64", "UInt64",
@@ -93,9 +94,9 @@ int mf_check_references(const char *function, const unsigned refs[], size_t n, i
             snprintf(why, MF_WHY_SIZE,
                      "%s: %s (value reference %u) is of type %s, not %s: use fmi%dGet%s or "
                      "fmi%dSet%s",
-                     function, variable->name, reference, mf_type_name(variable->type),
-                     mf_type_name(type), MF_MODEL.fmi_version, mf_type_name(variable->type),
-                     MF_MODEL.fmi_version, mf_type_name(variable->type));
+                     function, variable->name, reference, type_name(variable->type),
+                     type_name(type), MF_MODEL.fmi_version, type_name(variable->type),
+                     MF_MODEL.fmi_version, type_name(variable->type));
             return 0;
         }
         if (phase >= 0 && (refusal = set_refusal(variable, phase)) != NULL) {
@@ -166,7 +167,8 @@ int mf_registered(const void *instance)
 
 /* ---- FMU states ---- */
 
-struct mf_state *mf_state_new(struct mf_state **list, void *real, int machine, double time)
+/* A new record at the head of ``list``, or NULL when out of memory. */
+static struct mf_state *state_new(struct mf_state **list, void *real, int machine, double time)
 {
     struct mf_state *state = calloc(1, sizeof *state);
     if (!state) return NULL;
@@ -178,7 +180,8 @@ struct mf_state *mf_state_new(struct mf_state **list, void *real, int machine, d
     return state;
 }
 
-struct mf_state *mf_state_find(struct mf_state *list, const void *state)
+/* The record of ``list`` that is ``state``, or NULL. */
+static struct mf_state *state_find(struct mf_state *list, const void *state)
 {
     for (; list; list = list->next) {
         if (list == state) return list;
@@ -206,7 +209,7 @@ static const char *getter_names(void)
 struct mf_state *mf_state_known(struct mf_state *list, const void *state, const char *function,
                                 char why[MF_WHY_SIZE])
 {
-    struct mf_state *record = mf_state_find(list, state);
+    struct mf_state *record = state_find(list, state);
     if (!record) {
         snprintf(why, MF_WHY_SIZE,
                  "%s: %p is no FMU state of this instance (never returned by %s, or freed)",
@@ -240,7 +243,7 @@ int mf_state_keep(struct mf_state **list, struct mf_state *reuse, void **slot, v
         record->time = time;
         return 1;
     }
-    record = mf_state_new(list, real, machine, time);
+    record = state_new(list, real, machine, time);
     if (!record) {
         release(context, &real);
         return 0;
@@ -252,6 +255,17 @@ int mf_state_keep(struct mf_state **list, struct mf_state *reuse, void **slot, v
 /* ---- Frames ---- */
 
 static const unsigned char MAGIC[8] = {'M', 'E', 'C', 'H', 'F', 'M', 'U', 'S'};
+
+/* Where each field of the header starts (the table in boundary.h). */
+enum {
+    AT_FORMAT = 8,
+    AT_FMI_VERSION = 12,
+    AT_MACHINE = 16,
+    AT_TOKEN_LENGTH = 20,
+    AT_TIME = 24,
+    AT_PAYLOAD_LENGTH = 32,
+    AT_CHECKSUM = 40
+};
 
 static void put32(unsigned char *out, uint32_t value)
 {
@@ -281,19 +295,24 @@ static uint64_t get64(const unsigned char *in)
     return value;
 }
 
+/* FNV-1a, 64 bits (Fowler, Noll, Vo): its offset basis and prime. */
+#define FNV_OFFSET_BASIS 0xcbf29ce484222325ULL
+#define FNV_PRIME 0x100000001b3ULL
+
 static uint64_t fnv1a(uint64_t hash, const unsigned char *bytes, size_t size)
 {
     size_t i;
     for (i = 0; i < size; i++) {
         hash ^= bytes[i];
-        hash *= 0x100000001b3ULL;
+        hash *= FNV_PRIME;
     }
     return hash;
 }
 
 static uint64_t frame_checksum(const unsigned char *frame, size_t body)
 {
-    uint64_t hash = fnv1a(0xcbf29ce484222325ULL, frame + 8, 32);
+    /* the header's fields from the format to the checksum, then the token and payload */
+    uint64_t hash = fnv1a(FNV_OFFSET_BASIS, frame + AT_FORMAT, AT_CHECKSUM - AT_FORMAT);
     return fnv1a(hash, frame + MF_FRAME_HEADER, body);
 }
 
@@ -312,15 +331,15 @@ void mf_frame_write(unsigned char *frame, size_t payload_size, int machine, doub
     size_t token = strlen(MF_MODEL.token);
     uint64_t bits;
     memcpy(frame, MAGIC, sizeof MAGIC);
-    put32(frame + 8, MF_FRAME_FORMAT);
-    put32(frame + 12, (uint32_t)MF_MODEL.fmi_version);
-    put32(frame + 16, (uint32_t)machine);
-    put32(frame + 20, (uint32_t)token);
+    put32(frame + AT_FORMAT, MF_FRAME_FORMAT);
+    put32(frame + AT_FMI_VERSION, (uint32_t)MF_MODEL.fmi_version);
+    put32(frame + AT_MACHINE, (uint32_t)machine);
+    put32(frame + AT_TOKEN_LENGTH, (uint32_t)token);
     memcpy(&bits, &time, sizeof bits);
-    put64(frame + 24, bits);
-    put64(frame + 32, (uint64_t)payload_size);
+    put64(frame + AT_TIME, bits);
+    put64(frame + AT_PAYLOAD_LENGTH, (uint64_t)payload_size);
     memcpy(frame + MF_FRAME_HEADER, MF_MODEL.token, token);
-    put64(frame + 40, frame_checksum(frame, token + payload_size));
+    put64(frame + AT_CHECKSUM, frame_checksum(frame, token + payload_size));
 }
 
 int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char **payload,
@@ -345,20 +364,20 @@ int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char *
                  "was not written by a mechfmu FMU");
         return 0;
     }
-    if (get32(frame + 8) != MF_FRAME_FORMAT) {
+    if (get32(frame + AT_FORMAT) != MF_FRAME_FORMAT) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state has format version %u; this FMU reads version %d",
-                 (unsigned)get32(frame + 8), MF_FRAME_FORMAT);
+                 (unsigned)get32(frame + AT_FORMAT), MF_FRAME_FORMAT);
         return 0;
     }
-    if (get32(frame + 12) != (uint32_t)MF_MODEL.fmi_version) {
+    if (get32(frame + AT_FMI_VERSION) != (uint32_t)MF_MODEL.fmi_version) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state was written by an FMI %u.0 FMU; this one is FMI %d.0",
-                 (unsigned)get32(frame + 12), MF_MODEL.fmi_version);
+                 (unsigned)get32(frame + AT_FMI_VERSION), MF_MODEL.fmi_version);
         return 0;
     }
-    token = get32(frame + 20);
-    body = get64(frame + 32);
+    token = get32(frame + AT_TOKEN_LENGTH);
+    body = get64(frame + AT_PAYLOAD_LENGTH);
     if (token > size || body > size || MF_FRAME_HEADER + token + body != size) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state has %zu bytes, its header announces %llu: it is "
@@ -366,7 +385,7 @@ int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char *
                  size, (unsigned long long)(MF_FRAME_HEADER + token + body));
         return 0;
     }
-    if (get64(frame + 40) != frame_checksum(frame, (size_t)(token + body))) {
+    if (get64(frame + AT_CHECKSUM) != frame_checksum(frame, (size_t)(token + body))) {
         snprintf(why, MF_WHY_SIZE,
                  "the serialized FMU state's checksum does not match its bytes: it was changed "
                  "or damaged");
@@ -380,9 +399,9 @@ int mf_frame_read(const unsigned char *frame, size_t size, const unsigned char *
                  (const char *)frame + MF_FRAME_HEADER, MF_MODEL.token);
         return 0;
     }
-    bits = get64(frame + 24);
+    bits = get64(frame + AT_TIME);
     memcpy(time, &bits, sizeof *time);
-    *machine = (int)get32(frame + 16);
+    *machine = (int)get32(frame + AT_MACHINE);
     *payload = frame + MF_FRAME_HEADER + token;
     *payload_size = (size_t)body;
     return 1;

@@ -78,9 +78,6 @@ enum mf_phase { MF_PHASE_INSTANTIATED, MF_PHASE_INITIALIZATION, MF_PHASE_STEP };
 int mf_check_references(const char *function, const unsigned refs[], size_t n, int type,
                         int phase, char why[MF_WHY_SIZE]);
 
-/* The name of a type in the FMI version's own words (Real or Float64, Integer or Int32...). */
-const char *mf_type_name(int type);
-
 /* 1 when ``category`` is one of the FMU's log categories. */
 int mf_known_category(const char *category);
 
@@ -99,8 +96,6 @@ struct mf_state {
     struct mf_state *next;
 };
 
-struct mf_state *mf_state_new(struct mf_state **list, void *real, int machine, double time);
-struct mf_state *mf_state_find(struct mf_state *list, const void *state);
 void mf_state_remove(struct mf_state **list, struct mf_state *state);
 
 /* The record of the FMU state ``state`` a host passes to ``function``, or NULL with ``why``

@@ -464,8 +464,9 @@ static int strings_ok(struct instance *instance, const char *function, const voi
     return 1;
 }
 
-#define VALUES_GET(T) (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2##T value[])
-#define VALUES_SET(T) \
+/* the parameter lists of fmi2Get<T> and fmi2Set<T>, named by the verb ACCESS pastes */
+#define VALUES_Get(T) (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, fmi2##T value[])
+#define VALUES_Set(T) \
     (fmi2Component c, const fmi2ValueReference vr[], size_t nvr, const fmi2##T value[])
 #define ACCESS(verb, T, TYPE, allowed, phase) \
     FMI2_Export fmi2Status fmi2##verb##T VALUES_##verb(T) \
@@ -486,8 +487,6 @@ static int strings_ok(struct instance *instance, const char *function, const voi
 #define GET_SET(T, TYPE) \
     ACCESS(Get, T, TYPE, READABLE, -1) \
     ACCESS(Set, T, TYPE, WRITABLE, set_phase(instance))
-#define VALUES_Get VALUES_GET
-#define VALUES_Set VALUES_SET
 GET_SET(Real, MF_FLOAT64)
 GET_SET(Integer, MF_INT32)
 GET_SET(Boolean, MF_BOOLEAN)

@@ -54,16 +54,15 @@ def is_geometry(variable: Variable) -> bool:
     return variable.causality == "output" and variable.description.startswith(GEOMETRY_PREFIX)
 
 
-def install(slave: Any) -> bool:
+def install(slave: Any) -> None:
     """After ``slave.check_parameters``: with the geometry effect on, make ``slave.update``
     and ``slave.outputs_at_start`` write the geometry outputs (``slave.geometry_points()``,
     a dict) after the model's own; with it off (or no such effect) leave both as the class
-    defines them. Called again when the parameters change (initialisation mode). Returns
-    whether the effect is on."""
+    defines them. Called again when the parameters change (initialisation mode)."""
     for name in ("update", "outputs_at_start"):
         slave.__dict__.pop(name, None)  # the class's own methods again
     if not slave.values.get(GEOMETRY):
-        return False
+        return
     model_update, model_start = slave.update, slave.outputs_at_start
     write, points = slave.values.update, slave.geometry_points
 
@@ -76,4 +75,3 @@ def install(slave: Any) -> bool:
         write(points())
 
     slave.update, slave.outputs_at_start = update, outputs_at_start
-    return True

@@ -43,6 +43,17 @@ from .declarations import (  # noqa: F401  (the names models declare their varia
 from collections.abc import Callable, Sequence
 from typing import Any
 
+# The keys of an FMU state (MechSlave._get_fmu_state), each required to set one back.
+_STATE_KEYS = (
+    "values",
+    "internal",
+    "initialized",
+    "initializing",
+    "start_time",
+    "time_reached",
+    "pending_error",
+)
+
 
 def _tuple_getter(names: Sequence[str]) -> Callable[[dict[str, Any]], tuple[Any, ...]]:
     """A function of a dict returning the tuple of its values under ``names``."""
@@ -103,10 +114,13 @@ class MechSlave(Binding):
         )
         self._inputs_of = _tuple_getter(self.real_inputs)
         self._outputs_of = _tuple_getter(self.real_outputs)
-        # the geometry effect's outputs (fmi/geometry.py), idle while it is off
-        self._geometry_outputs = frozenset(
-            name for name in self.real_outputs if geometry.is_geometry(self.declared[name])
-        )
+        # the outputs each effect idles while off: EFFECT_OUTPUTS and the geometry effect's
+        # (told apart by their description, fmi/geometry.py)
+        drawn = tuple(n for n in self.real_outputs if geometry.is_geometry(self.declared[n]))
+        self._effect_outputs = {
+            **self.EFFECT_OUTPUTS,
+            **({geometry.GEOMETRY: drawn} if drawn else {}),
+        }
         for variable in self.VARIABLES:
             self.register_declared(variable)
         self.finish_registration()
@@ -177,22 +191,20 @@ class MechSlave(Binding):
         MechanismError), the geometry effect's outputs installed when it is on, the per-step
         output check narrowed to what the enabled effects change."""
         self.check_parameters()
-        drawn = geometry.install(self)  # the geometry effect's outputs, only when on
-        self._watch_live_outputs(drawn)
+        geometry.install(self)  # the geometry effect's outputs, only when on
+        self._watch_live_outputs()
 
-    def _watch_live_outputs(self, drawn: bool) -> None:
+    def _watch_live_outputs(self) -> None:
         """Check at every step only the outputs the enabled effects can change: with an
-        effect off (EFFECT_OUTPUTS; the geometry effect unless ``drawn``) its outputs hold
-        their start values."""
+        effect off (EFFECT_OUTPUTS, the geometry effect) its outputs hold their start
+        values."""
         values = self.values
         idle = {
             name
-            for switch, names in self.EFFECT_OUTPUTS.items()
+            for switch, names in self._effect_outputs.items()
             if not values[switch]
             for name in names
         }
-        if not drawn:
-            idle |= self._geometry_outputs
         self._outputs_of = _tuple_getter(tuple(n for n in self.real_outputs if n not in idle))
 
     def refresh_initial_outputs(self) -> None:
@@ -364,7 +376,7 @@ class MechSlave(Binding):
         if state["internal"] is not None:
             self.restore_internal_state(state["internal"])
         self.initialized = state["initialized"]
-        self.initializing = state.get("initializing", False)
+        self.initializing = state["initializing"]
         self.stale = True
         self.start_time = state["start_time"]
         self.time_reached = state["time_reached"]
@@ -376,9 +388,9 @@ class MechSlave(Binding):
             return f"an FMU state must be a dict, not {type(state).__name__}"
         if INVALID in state:
             return str(state[INVALID])
-        missing = {"values", "internal", "initialized", "start_time", "time_reached"} - set(state)
-        if missing or "pending_error" not in state:
-            return f"the FMU state lacks {', '.join(sorted(missing)) or 'pending_error'}"
+        missing = set(_STATE_KEYS) - set(state)
+        if missing:
+            return f"the FMU state lacks {', '.join(sorted(missing))}"
         values = state["values"]
         if not isinstance(values, dict) or set(values) != set(self.declared):
             return "the FMU state's variables are not this model's"

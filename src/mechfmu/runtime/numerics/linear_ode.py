@@ -15,14 +15,12 @@ S = sinh(mu tau) / mu, mu = sqrt(-d2) (over-damped), and C = 1, S = tau at criti
 solution then has degree n + 1 (c > 0) or n + 2 (c = 0).
 
 Also here: Gauss-Legendre quadrature. Small pure functions used by the exact valve
-integrator (physics/valve_spring.py) and tested alone against numpy/scipy; the polynomial
+integrator (physics/valve_exact.py) and tested alone against numpy/scipy; the polynomial
 arithmetic is numerics/polynomials.py's.
 """
 
 import math
 from collections.abc import Callable
-
-from .polynomials import derivative, polynomial
 
 
 def particular_polynomial(
@@ -97,48 +95,6 @@ class Oscillator:
             e_bound = min(e_bound, math.hypot(e0, e_coefficient / w))
             rate_bound = min(rate_bound, math.hypot(rate0, rate_coefficient / w))
         return e_bound, rate_bound
-
-
-class Solution:
-    """x(tau), x'(tau) of m x'' + c x' + k x = g(tau) from x(0) = x0, x'(0) = v0."""
-
-    __slots__ = ("oscillator", "particular", "particular_rate", "e0", "rate0", "load")
-
-    def __init__(
-        self,
-        mass: float,
-        damping: float,
-        stiffness: float,
-        forcing: tuple[float, ...] | list[float],
-        x0: float,
-        v0: float,
-        oscillator: "Oscillator | None" = None,
-    ) -> None:
-        # ``oscillator``: Oscillator(mass, damping, stiffness) when the caller keeps one
-        self.oscillator = oscillator or Oscillator(mass, damping, stiffness)
-        self.load = tuple(g / mass for g in forcing)  # g / m, m/s^2 per s^j
-        self.particular = particular_polynomial(mass, damping, stiffness, forcing)
-        self.particular_rate = derivative(self.particular)
-        self.e0 = x0 - self.particular[0]
-        self.rate0 = v0 - self.particular_rate[0]
-
-    def at(self, tau: float) -> tuple[float, float]:
-        """(x m, x' m/s) at tau (s)."""
-        e, rate = self.oscillator.free(self.e0, self.rate0, tau)
-        return (
-            polynomial(self.particular, tau) + e,
-            polynomial(self.particular_rate, tau) + rate,
-        )
-
-    def free_bounds(self, span: float) -> tuple[float, float]:
-        """Bounds (m, m/s) on |e(tau)| and |e'(tau)| for tau in [0, span] (s):
-        Oscillator.free_bounds of this solution's free motion."""
-        return self.oscillator.free_bounds(self.e0, self.rate0, span)
-
-    def acceleration(self, tau: float, x: float, v: float) -> float:
-        """x'' (m/s^2) at tau where the state is (x m, v m/s): the equation itself."""
-        o = self.oscillator
-        return polynomial(self.load, tau) - 2.0 * o.sigma * v - o.w02 * x
 
 
 def exponential_integral(

@@ -93,10 +93,10 @@ def change_bounds(
 
 def _falling(j: int, order: int) -> int:
     """j (j - 1) ... (j - order + 1): the factor of u^(j - order) in d^order u^j / du^order."""
-    product = 1
+    factor = 1  # not "product": that is this module's polynomial product
     for i in range(order):
-        product *= j - i
-    return product
+        factor *= j - i
+    return factor
 
 
 @lru_cache(maxsize=None)

@@ -84,8 +84,8 @@ DEFAULT_SAMPLES = 720  # grid points per revolution of the design scan (then gol
 PHASE_TOLERANCE = 1e-9
 # FMU parameter names the messages use (the ValveTrain parameters a user sets)
 BASE, ROLLER, OFFSET, KIND = "cam_base_radius", "roller_radius", "follower_offset", "follower"
-CUSP, UNDERCUT, PRESSURE_ANGLE = "cusp", "undercut", "pressure_angle"  # DesignProblem kinds
-REFUSED = (CUSP, UNDERCUT)  # the kinds no cam can be made with (errors); the others are flags
+# DesignProblem kinds: require_design refuses a cusp and an undercut; the others are flags
+CUSP, UNDERCUT, PRESSURE_ANGLE = "cusp", "undercut", "pressure_angle"
 BOUND = "offset"  # Sizing.limit where only |e| < Rb (flat) or |e| < Rp, Rb > 0 (roller) binds
 
 Follower = namedtuple("Follower", "kind base_circle_radius roller_radius offset")

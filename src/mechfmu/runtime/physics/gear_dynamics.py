@@ -77,14 +77,6 @@ def bar_from_vertical(angle: float, geometry: "Geometry") -> float:
     return angle - geometry.down_angle + geometry.airframe_pitch
 
 
-def moment_arm(angle: Any, geometry: Any) -> Any:
-    """Piston moment arm d h sin(theta) / x (m) at a gear angle."""
-    x = kinematics.piston_motion(
-        angle, 0.0, 0.0, geometry.attachment_distance, geometry.pivot_height
-    ).extension
-    return geometry.attachment_distance * geometry.pivot_height * math.sin(angle) / x
-
-
 def gravity_moment(angle: Any, body: Any, geometry: Any, gravity: float = STANDARD_GRAVITY) -> Any:
     """Moment of gravity about B (N m), positive towards retraction."""
     return -gravity_lever(body) * gravity * math.sin(bar_from_vertical(angle, geometry))

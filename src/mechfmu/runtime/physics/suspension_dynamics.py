@@ -186,10 +186,6 @@ def road_at(inputs: Any, t: float) -> Any:
 # --- the system built from the enabled effects --------------------------------------------
 
 
-def state_size(model: Any) -> Any:
-    return 4 if model.effects.tyre else 2
-
-
 def build_rhs(model: "Model", inputs: StepInputs) -> Callable:
     """y' = rhs(t, y) for the enabled effects, composed once (module functions looked up now)."""
     spring, m = model.spring, model.mass
