@@ -55,26 +55,31 @@ def write_csv(path: Any, times: Any, columns: Any) -> Any:
     return atomic_write(path, csv_writer(times, columns))
 
 
-class ChecksumWriter:
-    """A text handle for csv.writer: what is written goes to ``sink`` (a binary handle) as
-    UTF-8, and its size in bytes and SHA-256 are kept as it goes (no second pass over a
-    file that may be large, or streamed)."""
+class _Counted:
+    """Bytes passed on to ``sink`` (a binary handle), their size and SHA-256 kept as they go
+    (no second pass over a file that may be large, or streamed)."""
 
     def __init__(self, sink: Any) -> None:
         self.sink = sink
         self.digest = hashlib.sha256()
         self.size = 0
 
-    def write(self, text: str) -> int:
-        data = text.encode("utf-8")
+    def _take(self, data: bytes) -> None:
         self.sink.write(data)
         self.digest.update(data)
         self.size += len(data)
-        return len(text)
 
     def seal(self) -> dict[str, Any]:
-        """What the JSON records of the CSV written so far: csv_bytes and csv_sha256."""
+        """What the JSON records of the data written so far: csv_bytes and csv_sha256."""
         return {"csv_bytes": self.size, "csv_sha256": self.digest.hexdigest()}
+
+
+class ChecksumWriter(_Counted):
+    """A text handle for csv.writer: what is written goes to ``sink`` as UTF-8, counted."""
+
+    def write(self, text: str) -> int:
+        self._take(text.encode("utf-8"))
+        return len(text)
 
 
 def new_run_id() -> str:
@@ -91,10 +96,16 @@ def sealed_pair(
     sink = io.BytesIO()
     handle = ChecksumWriter(sink)
     write_csv_text(handle)
+    return {json_path: json_text(sealed_meta(meta, handle)), csv_path: sink.getvalue()}
+
+
+def sealed_meta(meta: dict[str, Any], counted: _Counted) -> dict[str, Any]:
+    """``meta`` with the pair's keys: its ``run_id`` (kept when ``meta`` has one, else new)
+    and the size and SHA-256 of the data ``counted`` wrote."""
     sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
     sealed["run_id"] = meta.get("run_id") or new_run_id()
-    sealed.update(handle.seal())
-    return {json_path: json_text(sealed), csv_path: sink.getvalue()}
+    sealed.update(counted.seal())
+    return sealed
 
 
 PAIR_KEYS = ("run_id", "csv_bytes", "csv_sha256")
@@ -313,19 +324,14 @@ class PlotSample:
             self.columns = [kept[::2] for kept in self.columns]
 
 
-class _CountingFile:
+class CountingFile(_Counted):
     """A binary sink for pyarrow's ParquetWriter that keeps the size and SHA-256 of what is
     written (ChecksumWriter's, for bytes)."""
 
     closed = False
 
-    def __init__(self, sink: Any) -> None:
-        self.sink, self.digest, self.size = sink, hashlib.sha256(), 0
-
     def write(self, data: bytes) -> int:
-        self.sink.write(data)
-        self.digest.update(data)
-        self.size += len(data)
+        self._take(data)
         return len(data)
 
     def flush(self) -> None:
@@ -336,9 +342,6 @@ class _CountingFile:
 
     def close(self) -> None:
         self.closed = True
-
-    def seal(self) -> dict[str, Any]:
-        return {"csv_bytes": self.size, "csv_sha256": self.digest.hexdigest()}
 
 
 def _pyarrow() -> Any:
@@ -394,7 +397,7 @@ class StreamedResult:
         except OSError as error:
             raise OutputError(f"cannot write {self.path}: {error.strerror or error}") from None
         self.counted: Any = (
-            ChecksumWriter(self.handle) if fmt == "csv" else _CountingFile(self.handle)
+            ChecksumWriter(self.handle) if fmt == "csv" else CountingFile(self.handle)
         )
         if resume is not None and fmt == "csv":
             self._continue_csv(resume)
@@ -603,10 +606,7 @@ class StreamedResult:
         data = inside(self.out_dir, f"{stem}.{self.format}")
         paths = {self.format: data, "json": inside(self.out_dir, f"{stem}.json")}
         png = inside(self.out_dir, f"{stem}.png")
-        sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
-        sealed["run_id"] = meta.get("run_id") or new_run_id()
-        sealed["format"] = self.format
-        sealed.update(self.counted.seal())
+        sealed = sealed_meta({**meta, "format": self.format}, self.counted)
         _unlink(png)  # an older run's plot must not stand beside this run's pair
         for kind in FORMATS:  # nor an older run's data file of the other format
             if kind != self.format:
