@@ -40,7 +40,7 @@ class OutputError(RuntimeError):
     """An output file or folder that cannot be written; the message names it and the cause."""
 
 
-def _cause(error: OSError | PermissionError) -> str:
+def error_cause(error: OSError) -> str:
     """'[Errno 28] No space left on device' without the file name OSError appends."""
     if isinstance(error, OSError) and error.strerror:
         return f"[Errno {error.errno}] {error.strerror}" if error.errno else error.strerror
@@ -78,13 +78,13 @@ def output_folder(folder: Path | str) -> Path:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise OutputError(f"output folder {folder} cannot be created: {_cause(error)}") from None
+        raise OutputError(f"output folder {folder} cannot be created: {error_cause(error)}") from None
     probe = folder / temporary_name("mechfmu-probe")
     try:
         os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
         os.unlink(probe)
     except OSError as error:
-        raise OutputError(f"output folder {folder} is not writable: {_cause(error)}") from None
+        raise OutputError(f"output folder {folder} is not writable: {error_cause(error)}") from None
     remove_stale_temporaries(folder)
     return folder
 
@@ -204,12 +204,12 @@ def atomic_write_all(contents: Any) -> list[Path]:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 written.append(_write_temporary(path, data))
             except OSError as error:
-                raise OutputError(f"cannot write {path}: {_cause(error)}") from None
+                raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
         for path, temporary in zip(paths, written):
             try:
                 os.replace(temporary, path)
             except OSError as error:
-                raise OutputError(f"cannot write {path}: {_cause(error)}") from None
+                raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
     finally:
         for temporary in written:
             if os.path.lexists(temporary):
@@ -244,6 +244,6 @@ def move_aside(paths: list[Path], marker: str = "previous") -> list[Any]:
             try:
                 os.replace(path, target)
             except OSError as error:
-                raise OutputError(f"cannot move {path} aside: {_cause(error)}") from None
+                raise OutputError(f"cannot move {path} aside: {error_cause(error)}") from None
             moved.append(target)
     return moved

@@ -27,7 +27,7 @@ from array import array
 from importlib import metadata
 
 from .text import plot_text
-from .files import OutputError, atomic_write, atomic_write_all, inside, move_aside, save_figure
+from .files import OutputError, atomic_write, error_cause, atomic_write_all, inside, move_aside, save_figure
 from pathlib import Path
 from typing import Any
 from collections.abc import Callable
@@ -242,7 +242,7 @@ def _unlink(path: Path) -> None:
     except FileNotFoundError:
         pass
     except OSError as error:
-        raise OutputError(f"cannot replace {path}: {error.strerror or error}") from None
+        raise OutputError(f"cannot replace {path}: {error_cause(error)}") from None
 
 
 def write_result(result: Result, out_dir: Path, plot: bool = True) -> dict[str, Path]:
@@ -395,7 +395,7 @@ class StreamedResult:
         try:
             self.handle = open(self.path, "r+b" if resume and fmt == "csv" else "wb")
         except OSError as error:
-            raise OutputError(f"cannot write {self.path}: {error.strerror or error}") from None
+            raise OutputError(f"cannot write {self.path}: {error_cause(error)}") from None
         self.counted: Any = (
             ChecksumWriter(self.handle) if fmt == "csv" else CountingFile(self.handle)
         )
@@ -571,7 +571,7 @@ class StreamedResult:
         try:
             action()
         except OSError as error:
-            raise OutputError(f"cannot write {self.path}: {error.strerror or error}") from None
+            raise OutputError(f"cannot write {self.path}: {error_cause(error)}") from None
 
     def close(self) -> None:
         """Finish the data file (Parquet: the last row group and the footer) and close it."""
@@ -616,7 +616,7 @@ class StreamedResult:
             try:
                 os.replace(self.path, data)
             except OSError as error:
-                raise OutputError(f"cannot write {data}: {error.strerror or error}") from None
+                raise OutputError(f"cannot write {data}: {error_cause(error)}") from None
         if plot and self.sample.times:
             paths["png"] = write_plot(
                 png,
