@@ -171,7 +171,6 @@ def parse_link(text: str) -> Link:
 # --- points ------------------------------------------------------------------------------------
 
 
-MAX_POINTS = 1_000_000  # points of a sweep unless --max-points says more
 POINT_CHUNK = 4096  # points made at a time (a sweep of any size holds one chunk)
 LHS_WHOLE = 1 << 20  # Latin hypercubes up to this size: scipy's, made whole (8 MB per dimension)
 
@@ -1026,7 +1025,7 @@ def run_sweep(
     resume: bool = False,
     retries: int = DEFAULT_RETRIES,
     guard: InterruptGuard | None = None,
-    max_points: int = MAX_POINTS,
+    max_points: int = limits.MAX_SWEEP_POINTS,
     result_format: str = "csv",
 ) -> dict[str, Any]:
     """Run the sweep; returns the summary dict written to sweep.json.
@@ -1520,7 +1519,7 @@ def command(args: Namespace) -> int:
                 resume=args.resume,
                 guard=guard,
                 retries=DEFAULT_RETRIES if args.retries is None else args.retries,
-                max_points=MAX_POINTS if args.max_points is None else args.max_points,
+                max_points=args.max_points,
                 result_format=args.format,
             )
         except (SweepError, SceneError, OutputError) as error:
