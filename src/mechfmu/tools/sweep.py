@@ -1081,7 +1081,6 @@ def run_sweep(
             raise SweepError(f"--method {method!r}: expected lhs or random")
         method_name = method
     else:
-        _grid_counts(varies)
         method_name = "grid"
     too_many = size_problem(varies, samples, max_points)
     if too_many:
