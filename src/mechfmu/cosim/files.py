@@ -78,7 +78,9 @@ def output_folder(folder: Path | str) -> Path:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise OutputError(f"output folder {folder} cannot be created: {error_cause(error)}") from None
+        raise OutputError(
+            f"output folder {folder} cannot be created: {error_cause(error)}"
+        ) from None
     probe = folder / temporary_name("mechfmu-probe")
     try:
         os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))

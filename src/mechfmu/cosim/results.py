@@ -27,7 +27,15 @@ from array import array
 from importlib import metadata
 
 from .text import plot_text
-from .files import OutputError, atomic_write, error_cause, atomic_write_all, inside, move_aside, save_figure
+from .files import (
+    OutputError,
+    atomic_write,
+    error_cause,
+    atomic_write_all,
+    inside,
+    move_aside,
+    save_figure,
+)
 from pathlib import Path
 from typing import Any
 from collections.abc import Callable
