@@ -24,7 +24,7 @@ from mechfmu.runtime.physics import cam_geometry, cam_laws
 from mechfmu.runtime.physics.four_bar import COURSEWORK_CRANK_ANGLE, COURSEWORK_FOUR_BAR, INCH
 from mechfmu.runtime.physics.valve_train import DEFAULT_VALVE_GEOMETRY
 from mechfmu.runtime.models.shaft_drives import CamshaftDrive
-from mechfmu.packaging.describe import model_class
+from mechfmu.tools.scene_references import model_defaults
 from mechfmu.references import landing_gear as lg
 from mechfmu.references import linkages
 from mechfmu.references import suspension as sp
@@ -68,21 +68,6 @@ def _g(value: Any, digits: Any = 6):
 def _f(value: Any, decimals: Any):
     text = f"{value:.{decimals}f}"
     return text[1:] if text.startswith("-") and float(text) == 0.0 else text
-
-
-def _scene_value(scene: Any, component: str, name: str) -> Any:
-    """The value of parameter ``name`` of ``component`` in ``scene``: the scene's, else the
-    start value its model declares."""
-    spec = scene.components[component]
-    if name in spec.parameters:
-        return spec.parameters[name]
-    return _declared_start(Path(spec.fmu).stem, name)
-
-
-def _declared_start(model: str, name: str) -> Any:
-    """The start value the model ``model`` declares for its variable ``name``."""
-    declared: Any = model_class(model)
-    return next(v.start for v in declared.VARIABLES if v.name == name)
 
 
 def _below(value: Any, bound: Any, unit: str) -> str:
@@ -523,9 +508,9 @@ def _cam_section():
         f"and {_f(float(motion['valve_velocity']), 4)} at 7 mm.",
         "",
     ]
+    defaults = model_defaults("ValveTrain")
     mass, stiffness, preload = (
-        _declared_start("ValveTrain", name)
-        for name in ("valve_mass", "spring_stiffness", "spring_preload")
+        defaults[name] for name in ("valve_mass", "spring_stiffness", "spring_preload")
     )
     angle = np.linspace(0.0, 2.0 * np.pi, 200_001)
     rows = []
@@ -617,11 +602,14 @@ def _cam_geometry_section():
     lobe = load_scene(find_file("valve_train"))
     single = reference(lobe)
     torque = camshaft.fluctuation(single["valve.camshaft_torque"])
-    law, mass, stiffness, preload = (
-        _scene_value(lobe, "valve", name)
-        for name in ("cam_law", "valve_mass", "spring_stiffness", "spring_preload")
+    valve, drive = (
+        {**model_defaults(Path(spec.fmu).stem), **spec.parameters}
+        for spec in (lobe.components["valve"], lobe.components["camshaft"])
     )
-    speed = CamshaftDrive.RATIO * _scene_value(lobe, "camshaft", "speed")
+    law, mass, stiffness, preload = (
+        valve[name] for name in ("cam_law", "valve_mass", "spring_stiffness", "spring_preload")
+    )
+    speed = CamshaftDrive.RATIO * drive["speed"]
     out += [
         "### The torque the camshaft needs",
         "",
