@@ -158,9 +158,11 @@ def _pairs(
                 f"result {result} is a folder but reference {reference} is a file "
                 f"(give two folders, two files, or a file and a folder)"
             )
-        # a file against its namesake in a folder (a Parquet result against the CSV)
-        namesake = _results(reference).get(Path(result.name).with_suffix(".csv").as_posix())
-        return [(result.name, result, namesake)], None
+        # a file against its namesake in a folder (a Parquet result against the CSV): the
+        # two names _results would give that key, looked up without walking the folder
+        key = reference / Path(result.name).with_suffix(".csv")
+        found = [path for path in (key, key.with_suffix(".parquet")) if path.is_file()]
+        return [(result.name, result, found[0] if found else None)], None
     if not result.is_dir():
         return [(result.name, result, reference)], None
     found, wanted = _results(result), _results(reference)
