@@ -20,6 +20,7 @@ left alone.
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
+import contextlib
 import hashlib
 import io
 import os
@@ -28,7 +29,7 @@ import secrets
 import socket
 from pathlib import Path
 from typing import Any
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from matplotlib.figure import Figure
@@ -222,6 +223,25 @@ def atomic_write_all(contents: Any) -> list[Path]:
 def atomic_write(path: str | Path, content: bytes | str | Callable[[Any], None]) -> Path:
     """Write one file atomically (see atomic_write_all); returns its path."""
     return atomic_write_all({path: content})[0]
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """For a writer that streams to a file name of its own (pyarrow, ffmpeg): a temporary
+    path beside ``path`` (temporary_name), renamed over ``path`` when the block ends
+    without an error and removed otherwise, so a reader sees the old file or the new one
+    (OutputError naming the file when the rename fails)."""
+    path = Path(path)
+    temporary = path.with_name(temporary_name(path.name))
+    try:
+        yield temporary
+        try:
+            os.replace(temporary, path)
+        except OSError as error:
+            raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
+    finally:
+        if os.path.lexists(temporary):
+            os.unlink(temporary)
 
 
 def figure_bytes(figure: Figure, **options: Any) -> bytes:

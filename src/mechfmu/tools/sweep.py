@@ -1327,7 +1327,7 @@ def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -
         import pyarrow.parquet
     except ImportError:
         raise SweepError("--format parquet needs pyarrow: pip install 'mechfmu[parquet]'") from None
-    from ..cosim.files import temporary_name
+    from ..cosim.files import atomic_path
 
     header = read_sweep_table_header(csv_path)
     kinds = {
@@ -1343,8 +1343,7 @@ def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -
             for name, kind in kinds.items()
         ]
     )
-    temporary = parquet_path.with_name(temporary_name(parquet_path.name))
-    try:
+    with atomic_path(parquet_path) as temporary:
         with pyarrow.parquet.ParquetWriter(temporary, schema) as writer:
             for part in pandas.read_csv(
                 csv_path,
@@ -1357,10 +1356,6 @@ def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -
                 chunksize=rows,
             ):
                 writer.write_table(pyarrow.Table.from_pandas(part, schema, preserve_index=False))
-        os.replace(temporary, parquet_path)
-    finally:
-        if temporary.exists():
-            temporary.unlink()
     return parquet_path
 
 
