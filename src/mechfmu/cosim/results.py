@@ -352,7 +352,7 @@ class CountingFile(_Counted):
         self.closed = True
 
 
-def _pyarrow() -> Any:
+def require_pyarrow() -> Any:
     """pyarrow (the extra ``parquet``), or OutputError saying how to install it."""
     try:
         return importlib.import_module("pyarrow")
@@ -388,7 +388,7 @@ class StreamedResult:
         if fmt not in FORMATS:
             raise ValueError(f"format {fmt!r}: must be one of {', '.join(FORMATS)}")
         if fmt == "parquet":
-            _pyarrow()  # missing: said before anything is written
+            require_pyarrow()  # missing: said before anything is written
         self.out_dir, self.name, self.format = Path(out_dir), name, fmt
         self.path = inside(self.out_dir, f"{name}.partial.{fmt}")
         self.sample = PlotSample()
@@ -502,7 +502,7 @@ class StreamedResult:
             csv.writer(header, lineterminator="\n").writerow(["time", *self.names])
             self._write(header.getvalue())
         else:
-            pyarrow = _pyarrow()
+            pyarrow = require_pyarrow()
             self.schema = pyarrow.schema(
                 [(column, pyarrow.float64()) for column in ["time", *self.names]]
             )
@@ -559,7 +559,7 @@ class StreamedResult:
             self._row_group()
 
     def _row_group(self) -> None:
-        pyarrow = _pyarrow()
+        pyarrow = require_pyarrow()
         if self.pending and self.pending[0]:
             table = pyarrow.table(
                 [pyarrow.array(values, pyarrow.float64()) for values in self.pending],

@@ -39,6 +39,7 @@ import dataclasses
 import hashlib
 import io
 import json
+import importlib
 import math
 import multiprocessing.util
 import os
@@ -61,7 +62,7 @@ from scipy.stats import qmc
 
 from ..cosim import limits
 from ..cosim.files import atomic_write, inside, save_figure
-from ..cosim.results import write_json
+from ..cosim.results import FORMATS, require_pyarrow, write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
 from .parallel import LocalPool
 from .progress import Progress
@@ -1071,8 +1072,10 @@ def run_sweep(
     if samples is None and seed is not None:
         raise SweepError("--seed needs --samples")
     at_least("--max-points", max_points, 1)
-    if result_format not in ("csv", "parquet"):
+    if result_format not in FORMATS:
         raise SweepError(f"--format {result_format!r}: expected csv or parquet")
+    if result_format == "parquet":
+        require_pyarrow()  # missing: said before any point runs, not when the sweep ends
     if samples is not None:
         at_least("--samples", samples, 1)
         if seed is not None:
@@ -1320,14 +1323,12 @@ def read_sweep_table(path: Path | str, missing: float | None = math.nan) -> pand
 def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -> Path:
     """sweep.csv as a Parquet file (pyarrow), ``rows`` rows at a time, written atomically:
     ``index`` int64, ``error`` and ``worker`` strings (null when empty), every other column
-    float64 (NaN for a failed point's metrics). Returns its path; SweepError without
-    pyarrow."""
-    try:
-        import pyarrow
-        import pyarrow.parquet
-    except ImportError:
-        raise SweepError("--format parquet needs pyarrow: pip install 'mechfmu[parquet]'") from None
+    float64 (NaN for a failed point's metrics). Returns its path; OutputError without
+    pyarrow (results.require_pyarrow: run_sweep says so before any point runs)."""
     from ..cosim.files import atomic_path
+
+    pyarrow = require_pyarrow()
+    parquet = importlib.import_module("pyarrow.parquet")
 
     header = read_sweep_table_header(csv_path)
     kinds = {
@@ -1344,7 +1345,7 @@ def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -
         ]
     )
     with atomic_path(parquet_path) as temporary:
-        with pyarrow.parquet.ParquetWriter(temporary, schema) as writer:
+        with parquet.ParquetWriter(temporary, schema) as writer:
             for part in pandas.read_csv(
                 csv_path,
                 dtype=kinds,
