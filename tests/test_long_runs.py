@@ -79,8 +79,8 @@ def test_the_streamed_csv_is_the_csv_of_the_rows_in_memory(
 
 def test_a_streamed_runs_check_reports_the_kept_runs_worst_deviations(fmu_dir, tmp_path):
     """run --check of a run that kept no rows takes each column's worst deviation from the
-    comparison (the file read once): the same lines as a run that kept them."""
-    scene = load_scene(SCENE_DIR / "valve_train.toml")
+    comparison (the file read once): the same lines as a run that kept them (gear_retraction)."""
+    scene = load_scene(SCENE_DIR / "gear_retraction.toml")
     reports = {}
     for keep in (True, False):
         result, paths = run_scene(scene, tmp_path / str(keep), fmu_dir, plot=False, keep=keep)
