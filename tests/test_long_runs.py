@@ -17,6 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from mechfmu.check import run_report
 from mechfmu.cli import main as cli
 from mechfmu.cosim import master, results
 from mechfmu.cosim.run import check_output_size, output_estimate, run_scene
@@ -74,6 +75,20 @@ def test_the_streamed_csv_is_the_csv_of_the_rows_in_memory(
         assert result.times == [] and all(values == [] for values in result.columns.values())
     frame = read_result(paths["csv"])
     assert len(frame) == 13 and frame["valve.float_events"].iloc[-1] == 3.0
+
+
+def test_a_streamed_runs_check_reports_the_kept_runs_worst_deviations(fmu_dir, tmp_path):
+    """run --check of a run that kept no rows takes each column's worst deviation from the
+    comparison (the file read once): the same lines as a run that kept them (gear_retraction)."""
+    scene = load_scene(SCENE_DIR / "gear_retraction.toml")
+    reports = {}
+    for keep in (True, False):
+        result, paths = run_scene(scene, tmp_path / str(keep), fmu_dir, plot=False, keep=keep)
+        lines, comparison = run_report(result, paths, scene.reference)
+        assert comparison is not None and comparison.ok
+        reports[keep] = [line for line in lines if line.startswith("    ")]
+        assert len(reports[keep]) == len(comparison.summary) > 0  # a line per column compared
+    assert reports[False] == reports[True]
 
 
 def test_parquet_holds_the_same_columns_and_values(fmu_dir, tmp_path):

@@ -20,6 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mechfmu.cli import main as cli_main
+from mechfmu.cosim.files import OutputError
 from mechfmu.cosim.interrupt import InterruptGuard
 from mechfmu.tools import sweep
 from test_sweep import FMU_DIR, ROOT, metric, write_scene
@@ -197,6 +198,23 @@ def test_an_absurd_sweep_is_refused_in_one_line_before_anything_runs(tmp_path, c
             fmu_dir=FMU_DIR,
             progress=False,
         )
+
+
+def test_parquet_without_pyarrow_is_refused_before_any_point_runs(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow raises ImportError
+    out = tmp_path / "out"
+    with pytest.raises(OutputError, match=r"needs pyarrow: pip install 'mechfmu\[parquet\]'"):
+        sweep.run_sweep(
+            write_scene(tmp_path, stop=0.2),
+            [sweep.parse_vary("suspension.spring_stiffness=8000:12000:3")],
+            [metric("max:suspension.deflection")],
+            out,
+            jobs=1,
+            fmu_dir=FMU_DIR,
+            progress=False,
+            result_format="parquet",
+        )
+    assert not (out / "sweep.csv").exists()
 
 
 def test_a_sweep_written_as_parquet_reads_back_as_its_csv(tmp_path):

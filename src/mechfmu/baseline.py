@@ -20,7 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from .comparison import compare
-from .cosim.files import OutputError, atomic_write_all
+from .cosim.files import OutputError, atomic_write_all, error_cause
 
 
 class BaselineError(ValueError):
@@ -146,7 +146,7 @@ def update_baselines(
                     if victim.exists():
                         os.unlink(victim)
                 except OSError as error:
-                    raise OutputError(f"cannot remove {victim}: {error.strerror}") from None
+                    raise OutputError(f"cannot remove {victim}: {error_cause(error)}") from None
     return sorted(changes, key=lambda change: change.name)
 
 

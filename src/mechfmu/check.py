@@ -158,9 +158,11 @@ def _pairs(
                 f"result {result} is a folder but reference {reference} is a file "
                 f"(give two folders, two files, or a file and a folder)"
             )
-        # a file against its namesake in a folder (a Parquet result against the CSV)
-        namesake = _results(reference).get(Path(result.name).with_suffix(".csv").as_posix())
-        return [(result.name, result, namesake)], None
+        # a file against its namesake in a folder (a Parquet result against the CSV): the
+        # two names _results would give that key, looked up without walking the folder
+        key = reference / Path(result.name).with_suffix(".csv")
+        namesakes = [path for path in (key, key.with_suffix(".parquet")) if path.is_file()]
+        return [(result.name, result, namesakes[0] if namesakes else None)], None
     if not result.is_dir():
         return [(result.name, result, reference)], None
     found, wanted = _results(result), _results(reference)
@@ -263,19 +265,20 @@ def worst_deviations(result: Any, reference_path: Any) -> Any:
     return rows
 
 
-def _rows_of(path: Path, units: dict[str, str]) -> Any:
-    """The rows of a result file as worst_deviations reads a Result (times, columns, units):
-    for a run whose rows went to the file alone (result.kept False)."""
-    from types import SimpleNamespace
-
-    from .io import read_result
-
-    frame = read_result(path)
-    return SimpleNamespace(
-        times=frame.index.to_numpy(dtype=float),
-        columns={name: frame[name].to_numpy(dtype=float) for name in frame.columns},
-        units=units,
-    )
+def compared_deviations(comparison: Comparison, units: dict[str, str]) -> Any:
+    """worst_deviations' rows from a Comparison's summary (its max_abs, max_abs_time and
+    max_rel): for a run whose rows went to its file alone (result.kept False), so that the
+    file is read once, block by block, by the comparison."""
+    return [
+        (
+            str(name),
+            float(row["max_abs"]),
+            units.get(str(name)) or "",
+            float(row["max_abs_time"]),
+            float(row["max_rel"]),
+        )
+        for name, row in comparison.summary.iterrows()
+    ]
 
 
 def run_report(
@@ -308,14 +311,17 @@ def run_report(
             f"column's peak |value|):"
         )
         data = paths.get("csv") or paths["parquet"]
-        for name, difference, unit, time, fraction in worst_deviations(
-            result if result.kept else _rows_of(data, result.units), reference
-        ):
+        comparison = compare(data, reference, rtol, atol)
+        deviations = (
+            worst_deviations(result, reference)
+            if result.kept
+            else compared_deviations(comparison, result.units)
+        )
+        for name, difference, unit, time, fraction in deviations:
             lines.append(
                 f"    {name:34s} {difference:.2e} {unit:6s} at t = {time:.5g} s "
                 f"({fraction:.1e} of peak)"
             )
-        comparison = compare(data, reference, rtol, atol)
         lines.append(f"  against the {label} ({comparison.tolerance_text()}): {comparison}")
     lines += [f"  {kind}: {path}" for kind, path in paths.items()]
     return lines, comparison

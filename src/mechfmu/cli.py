@@ -998,9 +998,10 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
     sweep.add_argument(
         "--max-points",
         type=int,
-        default=None,
+        default=limits.MAX_SWEEP_POINTS,
         metavar="N",
-        help="refuse a sweep of more than N points before anything runs (default: 1000000)",
+        help="refuse a sweep of more than N points before anything runs (default: "
+        f"{limits.MAX_SWEEP_POINTS})",
     )
     sweep.add_argument(
         "--format",
@@ -1157,8 +1158,10 @@ def _run_verb(verbs: argparse._SubParsersAction) -> None:
         metavar="SIZE",
         type=_byte_size,
         default=None,
-        help="run even if the result is estimated larger than this, in bytes (500M, 10G; "
-        "default: 2G, a run over it is refused before its first step)",
+        help="run even if the result is estimated larger than this, in bytes (500M, 10G, "
+        f"4Gi; default: {limits.MAX_RUN_OUTPUT_BYTES // limits.GIB}Gi "
+        f"= {limits.MAX_RUN_OUTPUT_BYTES} bytes, a run over it is refused before its first "
+        "step)",
     )
     run.set_defaults(func=_run)
 

@@ -15,7 +15,6 @@ they apply.
 
 from __future__ import annotations
 
-import hashlib
 import io
 import math
 from collections.abc import Iterable, Iterator
@@ -27,7 +26,7 @@ import numpy
 import pandas
 
 from .cosim.files import atomic_write_all, remove_stale_temporaries
-from .cosim.results import PAIR_KEYS, csv_writer, json_text, new_run_id, sealed_pair
+from .cosim.results import CountingFile, csv_writer, json_text, sealed_meta, sealed_pair
 from .cosim.tables import ResultFileError, read_profile_table
 from .result_blocks import (
     BLOCK_BYTES,
@@ -177,14 +176,10 @@ def parquet_pair(path: Path, frame: pandas.DataFrame, meta: dict[str, Any]) -> d
     arrays = {"time": frame.index.to_numpy(dtype=float)}
     arrays.update({str(name): frame[name].to_numpy(dtype=float) for name in frame.columns})
     sink = io.BytesIO()
-    pyarrow.parquet.write_table(pyarrow.table(arrays), sink)
-    data = sink.getvalue()
-    sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
-    sealed["run_id"] = meta.get("run_id") or new_run_id()
-    sealed["format"] = "parquet"
-    sealed["csv_bytes"] = len(data)
-    sealed["csv_sha256"] = hashlib.sha256(data).hexdigest()
-    return {companion_json(path): json_text(sealed), path: data}
+    counted = CountingFile(sink)
+    pyarrow.parquet.write_table(pyarrow.table(arrays), counted)
+    sealed = sealed_meta({**meta, "format": "parquet"}, counted)
+    return {companion_json(path): json_text(sealed), path: sink.getvalue()}
 
 
 def read_table(

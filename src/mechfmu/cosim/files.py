@@ -20,6 +20,7 @@ left alone.
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
+import contextlib
 import hashlib
 import io
 import os
@@ -28,7 +29,7 @@ import secrets
 import socket
 from pathlib import Path
 from typing import Any
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from matplotlib.figure import Figure
@@ -40,7 +41,7 @@ class OutputError(RuntimeError):
     """An output file or folder that cannot be written; the message names it and the cause."""
 
 
-def _cause(error: OSError | PermissionError) -> str:
+def error_cause(error: OSError) -> str:
     """'[Errno 28] No space left on device' without the file name OSError appends."""
     if isinstance(error, OSError) and error.strerror:
         return f"[Errno {error.errno}] {error.strerror}" if error.errno else error.strerror
@@ -78,13 +79,15 @@ def output_folder(folder: Path | str) -> Path:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as error:
-        raise OutputError(f"output folder {folder} cannot be created: {_cause(error)}") from None
+        raise OutputError(
+            f"output folder {folder} cannot be created: {error_cause(error)}"
+        ) from None
     probe = folder / temporary_name("mechfmu-probe")
     try:
         os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
         os.unlink(probe)
     except OSError as error:
-        raise OutputError(f"output folder {folder} is not writable: {_cause(error)}") from None
+        raise OutputError(f"output folder {folder} is not writable: {error_cause(error)}") from None
     remove_stale_temporaries(folder)
     return folder
 
@@ -204,12 +207,12 @@ def atomic_write_all(contents: Any) -> list[Path]:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 written.append(_write_temporary(path, data))
             except OSError as error:
-                raise OutputError(f"cannot write {path}: {_cause(error)}") from None
+                raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
         for path, temporary in zip(paths, written):
             try:
                 os.replace(temporary, path)
             except OSError as error:
-                raise OutputError(f"cannot write {path}: {_cause(error)}") from None
+                raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
     finally:
         for temporary in written:
             if os.path.lexists(temporary):
@@ -220,6 +223,25 @@ def atomic_write_all(contents: Any) -> list[Path]:
 def atomic_write(path: str | Path, content: bytes | str | Callable[[Any], None]) -> Path:
     """Write one file atomically (see atomic_write_all); returns its path."""
     return atomic_write_all({path: content})[0]
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """For a writer that streams to a file name of its own (pyarrow, ffmpeg): a temporary
+    path beside ``path`` (temporary_name), renamed over ``path`` when the block ends
+    without an error and removed otherwise, so a reader sees the old file or the new one
+    (OutputError naming the file when the rename fails)."""
+    path = Path(path)
+    temporary = path.with_name(temporary_name(path.name))
+    try:
+        yield temporary
+        try:
+            os.replace(temporary, path)
+        except OSError as error:
+            raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
+    finally:
+        if os.path.lexists(temporary):
+            os.unlink(temporary)
 
 
 def figure_bytes(figure: Figure, **options: Any) -> bytes:
@@ -244,6 +266,6 @@ def move_aside(paths: list[Path], marker: str = "previous") -> list[Any]:
             try:
                 os.replace(path, target)
             except OSError as error:
-                raise OutputError(f"cannot move {path} aside: {_cause(error)}") from None
+                raise OutputError(f"cannot move {path} aside: {error_cause(error)}") from None
             moved.append(target)
     return moved

@@ -36,6 +36,7 @@ MAX_STRING_CHARACTERS = 64 * KIB  # a string value given to a component (a path,
 MAX_STEPS = 10**9  # communication steps of a scene (whatever the output: days of stepping)
 # output a run may write unless told otherwise (mechfmu run --max-output; run_scene max_output)
 MAX_RUN_OUTPUT_BYTES = 2 * GIB
+MAX_SWEEP_POINTS = 1_000_000  # points of a sweep unless told more (mechfmu sweep --max-points)
 
 # --- CSV tables ---------------------------------------------------------------------------
 MAX_CSV_BYTES = 2 * GIB  # a result or reference CSV (or Parquet file)

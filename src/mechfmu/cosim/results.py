@@ -27,7 +27,15 @@ from array import array
 from importlib import metadata
 
 from .text import plot_text
-from .files import OutputError, atomic_write, atomic_write_all, inside, move_aside, save_figure
+from .files import (
+    OutputError,
+    atomic_write,
+    error_cause,
+    atomic_write_all,
+    inside,
+    move_aside,
+    save_figure,
+)
 from pathlib import Path
 from typing import Any
 from collections.abc import Callable
@@ -55,26 +63,31 @@ def write_csv(path: Any, times: Any, columns: Any) -> Any:
     return atomic_write(path, csv_writer(times, columns))
 
 
-class ChecksumWriter:
-    """A text handle for csv.writer: what is written goes to ``sink`` (a binary handle) as
-    UTF-8, and its size in bytes and SHA-256 are kept as it goes (no second pass over a
-    file that may be large, or streamed)."""
+class _Counted:
+    """Bytes passed on to ``sink`` (a binary handle), their size and SHA-256 kept as they go
+    (no second pass over a file that may be large, or streamed)."""
 
     def __init__(self, sink: Any) -> None:
         self.sink = sink
         self.digest = hashlib.sha256()
         self.size = 0
 
-    def write(self, text: str) -> int:
-        data = text.encode("utf-8")
+    def _take(self, data: bytes) -> None:
         self.sink.write(data)
         self.digest.update(data)
         self.size += len(data)
-        return len(text)
 
     def seal(self) -> dict[str, Any]:
-        """What the JSON records of the CSV written so far: csv_bytes and csv_sha256."""
+        """What the JSON records of the data written so far: csv_bytes and csv_sha256."""
         return {"csv_bytes": self.size, "csv_sha256": self.digest.hexdigest()}
+
+
+class ChecksumWriter(_Counted):
+    """A text handle for csv.writer: what is written goes to ``sink`` as UTF-8, counted."""
+
+    def write(self, text: str) -> int:
+        self._take(text.encode("utf-8"))
+        return len(text)
 
 
 def new_run_id() -> str:
@@ -91,10 +104,16 @@ def sealed_pair(
     sink = io.BytesIO()
     handle = ChecksumWriter(sink)
     write_csv_text(handle)
+    return {json_path: json_text(sealed_meta(meta, handle)), csv_path: sink.getvalue()}
+
+
+def sealed_meta(meta: dict[str, Any], counted: _Counted) -> dict[str, Any]:
+    """``meta`` with the pair's keys: its ``run_id`` (kept when ``meta`` has one, else new)
+    and the size and SHA-256 of the data ``counted`` wrote."""
     sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
     sealed["run_id"] = meta.get("run_id") or new_run_id()
-    sealed.update(handle.seal())
-    return {json_path: json_text(sealed), csv_path: sink.getvalue()}
+    sealed.update(counted.seal())
+    return sealed
 
 
 PAIR_KEYS = ("run_id", "csv_bytes", "csv_sha256")
@@ -231,7 +250,7 @@ def _unlink(path: Path) -> None:
     except FileNotFoundError:
         pass
     except OSError as error:
-        raise OutputError(f"cannot replace {path}: {error.strerror or error}") from None
+        raise OutputError(f"cannot replace {path}: {error_cause(error)}") from None
 
 
 def write_result(result: Result, out_dir: Path, plot: bool = True) -> dict[str, Path]:
@@ -313,19 +332,14 @@ class PlotSample:
             self.columns = [kept[::2] for kept in self.columns]
 
 
-class _CountingFile:
+class CountingFile(_Counted):
     """A binary sink for pyarrow's ParquetWriter that keeps the size and SHA-256 of what is
     written (ChecksumWriter's, for bytes)."""
 
     closed = False
 
-    def __init__(self, sink: Any) -> None:
-        self.sink, self.digest, self.size = sink, hashlib.sha256(), 0
-
     def write(self, data: bytes) -> int:
-        self.sink.write(data)
-        self.digest.update(data)
-        self.size += len(data)
+        self._take(data)
         return len(data)
 
     def flush(self) -> None:
@@ -337,11 +351,8 @@ class _CountingFile:
     def close(self) -> None:
         self.closed = True
 
-    def seal(self) -> dict[str, Any]:
-        return {"csv_bytes": self.size, "csv_sha256": self.digest.hexdigest()}
 
-
-def _pyarrow() -> Any:
+def require_pyarrow() -> Any:
     """pyarrow (the extra ``parquet``), or OutputError saying how to install it."""
     try:
         return importlib.import_module("pyarrow")
@@ -377,7 +388,7 @@ class StreamedResult:
         if fmt not in FORMATS:
             raise ValueError(f"format {fmt!r}: must be one of {', '.join(FORMATS)}")
         if fmt == "parquet":
-            _pyarrow()  # missing: said before anything is written
+            require_pyarrow()  # missing: said before anything is written
         self.out_dir, self.name, self.format = Path(out_dir), name, fmt
         self.path = inside(self.out_dir, f"{name}.partial.{fmt}")
         self.sample = PlotSample()
@@ -392,9 +403,9 @@ class StreamedResult:
         try:
             self.handle = open(self.path, "r+b" if resume and fmt == "csv" else "wb")
         except OSError as error:
-            raise OutputError(f"cannot write {self.path}: {error.strerror or error}") from None
+            raise OutputError(f"cannot write {self.path}: {error_cause(error)}") from None
         self.counted: Any = (
-            ChecksumWriter(self.handle) if fmt == "csv" else _CountingFile(self.handle)
+            ChecksumWriter(self.handle) if fmt == "csv" else CountingFile(self.handle)
         )
         if resume is not None and fmt == "csv":
             self._continue_csv(resume)
@@ -491,7 +502,7 @@ class StreamedResult:
             csv.writer(header, lineterminator="\n").writerow(["time", *self.names])
             self._write(header.getvalue())
         else:
-            pyarrow = _pyarrow()
+            pyarrow = require_pyarrow()
             self.schema = pyarrow.schema(
                 [(column, pyarrow.float64()) for column in ["time", *self.names]]
             )
@@ -548,7 +559,7 @@ class StreamedResult:
             self._row_group()
 
     def _row_group(self) -> None:
-        pyarrow = _pyarrow()
+        pyarrow = require_pyarrow()
         if self.pending and self.pending[0]:
             table = pyarrow.table(
                 [pyarrow.array(values, pyarrow.float64()) for values in self.pending],
@@ -568,7 +579,7 @@ class StreamedResult:
         try:
             action()
         except OSError as error:
-            raise OutputError(f"cannot write {self.path}: {error.strerror or error}") from None
+            raise OutputError(f"cannot write {self.path}: {error_cause(error)}") from None
 
     def close(self) -> None:
         """Finish the data file (Parquet: the last row group and the footer) and close it."""
@@ -603,10 +614,7 @@ class StreamedResult:
         data = inside(self.out_dir, f"{stem}.{self.format}")
         paths = {self.format: data, "json": inside(self.out_dir, f"{stem}.json")}
         png = inside(self.out_dir, f"{stem}.png")
-        sealed = {key: value for key, value in meta.items() if key not in PAIR_KEYS}
-        sealed["run_id"] = meta.get("run_id") or new_run_id()
-        sealed["format"] = self.format
-        sealed.update(self.counted.seal())
+        sealed = sealed_meta({**meta, "format": self.format}, self.counted)
         _unlink(png)  # an older run's plot must not stand beside this run's pair
         for kind in FORMATS:  # nor an older run's data file of the other format
             if kind != self.format:
@@ -616,7 +624,7 @@ class StreamedResult:
             try:
                 os.replace(self.path, data)
             except OSError as error:
-                raise OutputError(f"cannot write {data}: {error.strerror or error}") from None
+                raise OutputError(f"cannot write {data}: {error_cause(error)}") from None
         if plot and self.sample.times:
             paths["png"] = write_plot(
                 png,

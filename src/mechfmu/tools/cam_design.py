@@ -28,6 +28,7 @@ from ..cosim.scene import Scene, SceneError
 from ..runtime.models.valve_train import cam_setup
 from ..runtime.physics import cam_geometry
 from ..runtime.physics import valve_train as vt
+from .animate.cam import diagram_at
 from .scene_references import model_defaults
 
 MODEL = "ValveTrain"
@@ -100,17 +101,6 @@ def cam_setup_of(
     return CamSetup(chosen, component, values, geometry, profile, follower, pieces)
 
 
-def _motion(pieces: tuple[cam_geometry.Piece, ...], angle: float) -> tuple[float, float, float]:
-    """The diagram's (s, s1, s2) at camshaft ``angle`` (rad), segments closed on the left
-    as the cam law's."""
-    for piece in reversed(pieces):
-        offset = math.fmod(angle - piece.start, 2.0 * math.pi)
-        offset += 2.0 * math.pi if offset < 0.0 else 0.0
-        if offset < piece.span:
-            return piece.motion(offset / piece.span)
-    return pieces[0].motion(0.0)  # rounding just before the first piece's start
-
-
 def cam_profile(
     scene: SceneLike,
     parameters: Mapping[str, Any] | None = None,
@@ -142,7 +132,7 @@ def cam_profile(
     rows = []
     for index in range(points):
         angle = 2.0 * math.pi * index / points
-        s, s1, s2 = _motion(setup.pieces, angle)
+        s, s1, s2 = diagram_at(setup.pieces, angle)
         point = cam_geometry.cam_point(setup.follower, angle, s, s1, s2)
         rows.append(
             (

@@ -24,10 +24,9 @@ DefaultExperiment gives that step to the importing tool.
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import io
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +35,7 @@ from fmpy import read_model_description
 from .. import __version__
 from ..cosim.files import atomic_write
 from ..cosim.master import Simulation
+from ..cosim.results import csv_writer
 from ..cosim.scene import SCENE_DIR, ComponentSpec, Scene, load_scene
 from ..cosim.variables import start_value
 from .scene_references import REFERENCES, sample_times
@@ -58,17 +58,10 @@ def component_of(scene: Scene, model: str) -> ComponentSpec | None:
     return next((spec for spec in scene.components.values() if Path(spec.fmu).stem == model), None)
 
 
-def _csv_text(header: list[str], rows: list[Any]) -> str:
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(header)
-    writer.writerows([repr(float(x)) for x in row] for row in rows)
-    return buffer.getvalue()
-
-
-def _table(columns: dict[str, Any]) -> str:
-    """CSV text of ``columns`` (first: time; floats exact)."""
-    return _csv_text(list(columns), list(zip(*columns.values())))
+def _table(columns: dict[str, Any]) -> Callable[[Any], None]:
+    """The CSV of ``columns`` ('time' and the signals; floats exact) for atomic_write: the
+    result CSV's writer (cosim.results.csv_writer)."""
+    return csv_writer(columns["time"], {n: v for n, v in columns.items() if n != "time"})
 
 
 def export_scene(scene: Scene) -> Scene:
@@ -83,11 +76,12 @@ def export_scene(scene: Scene) -> Scene:
 
 
 def input_columns(
-    scene: Scene, component: ComponentSpec, fmu: Path, fmu_dir: Path | None
+    scene: Scene, component: ComponentSpec, variables: list[Any], fmu_dir: Path | None
 ) -> dict[str, list[float]] | None:
-    """Every input of the FMU ``fmu`` over the exported grid, as mechfmu's master feeds it in
-    the scene (a fixed input: its value throughout); None for a model without inputs."""
-    inputs = [v for v in read_model_description(str(fmu)).modelVariables if v.causality == "input"]
+    """Every input among the FMU's ``variables`` (its model description's) over the exported
+    grid, as mechfmu's master feeds it in the scene (a fixed input: its value throughout);
+    None for a model without inputs."""
+    inputs = [v for v in variables if v.causality == "input"]
     if not inputs:
         return None
     fed = {
@@ -105,10 +99,15 @@ def input_columns(
 
 
 def reference_columns(
-    scene: Scene, component: ComponentSpec, fmu: Path, inputs: dict[str, list[float]] | None
+    scene: Scene,
+    component: ComponentSpec,
+    fmu: Path,
+    variables: list[Any],
+    inputs: dict[str, list[float]] | None,
 ) -> tuple[dict[str, list[float]], list[str]]:
-    """(every numeric output of the FMU over the exported grid, the outputs that have no
-    closed form): the scene's reference computed again on that grid (tools/scene_references:
+    """(every numeric output of the FMU ``fmu`` (among its model description's ``variables``)
+    over the exported grid, the outputs that have no closed form): the scene's reference
+    computed again on that grid (tools/scene_references:
     numpy closed forms and scipy integrations, never an FMU run); where it has no column for
     an output (solver diagnostics such as iteration counts, residuals, work counters; a few
     energies), the exported FMU's own values, run by fmpy as a cross-check tool runs it (with
@@ -119,11 +118,7 @@ def reference_columns(
     fine = export_scene(scene)
     closed = REFERENCES[scene.name](fine)
     times = list(sample_times(fine))
-    outputs = [
-        v.name
-        for v in read_model_description(str(fmu)).modelVariables
-        if v.causality == "output" and v.type != "String"
-    ]
+    outputs = [v.name for v in variables if v.causality == "output" and v.type != "String"]
     prefix = f"{component.name}."
     own = [name for name in outputs if prefix + name not in closed]
     values: dict[str, Any] = {}
@@ -215,8 +210,9 @@ def export_model(
         starts=starts_of(component),
         experiment={"stepSize": step},
     )
-    inputs = input_columns(scene, component, fmu, fmu_dir)
-    reference, own = reference_columns(scene, component, fmu, inputs)
+    variables = read_model_description(str(fmu)).modelVariables  # read once for both
+    inputs = input_columns(scene, component, variables, fmu_dir)
+    reference, own = reference_columns(scene, component, fmu, variables, inputs)
     atomic_write(folder / f"{model}_ref.csv", _table(reference))
     if inputs is not None:
         atomic_write(folder / f"{model}_in.csv", _table(inputs))

@@ -39,6 +39,7 @@ import dataclasses
 import hashlib
 import io
 import json
+import importlib
 import math
 import multiprocessing.util
 import os
@@ -61,7 +62,7 @@ from scipy.stats import qmc
 
 from ..cosim import limits
 from ..cosim.files import atomic_write, inside, save_figure
-from ..cosim.results import write_json
+from ..cosim.results import FORMATS, require_pyarrow, write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
 from .parallel import LocalPool
 from .progress import Progress
@@ -171,7 +172,6 @@ def parse_link(text: str) -> Link:
 # --- points ------------------------------------------------------------------------------------
 
 
-MAX_POINTS = 1_000_000  # points of a sweep unless --max-points says more
 POINT_CHUNK = 4096  # points made at a time (a sweep of any size holds one chunk)
 LHS_WHOLE = 1 << 20  # Latin hypercubes up to this size: scipy's, made whole (8 MB per dimension)
 
@@ -1026,7 +1026,7 @@ def run_sweep(
     resume: bool = False,
     retries: int = DEFAULT_RETRIES,
     guard: InterruptGuard | None = None,
-    max_points: int = MAX_POINTS,
+    max_points: int = limits.MAX_SWEEP_POINTS,
     result_format: str = "csv",
 ) -> dict[str, Any]:
     """Run the sweep; returns the summary dict written to sweep.json.
@@ -1072,8 +1072,10 @@ def run_sweep(
     if samples is None and seed is not None:
         raise SweepError("--seed needs --samples")
     at_least("--max-points", max_points, 1)
-    if result_format not in ("csv", "parquet"):
+    if result_format not in FORMATS:
         raise SweepError(f"--format {result_format!r}: expected csv or parquet")
+    if result_format == "parquet":
+        require_pyarrow()  # missing: said before any point runs, not when the sweep ends
     if samples is not None:
         at_least("--samples", samples, 1)
         if seed is not None:
@@ -1082,7 +1084,6 @@ def run_sweep(
             raise SweepError(f"--method {method!r}: expected lhs or random")
         method_name = method
     else:
-        _grid_counts(varies)
         method_name = "grid"
     too_many = size_problem(varies, samples, max_points)
     if too_many:
@@ -1322,14 +1323,12 @@ def read_sweep_table(path: Path | str, missing: float | None = math.nan) -> pand
 def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -> Path:
     """sweep.csv as a Parquet file (pyarrow), ``rows`` rows at a time, written atomically:
     ``index`` int64, ``error`` and ``worker`` strings (null when empty), every other column
-    float64 (NaN for a failed point's metrics). Returns its path; SweepError without
-    pyarrow."""
-    try:
-        import pyarrow
-        import pyarrow.parquet
-    except ImportError:
-        raise SweepError("--format parquet needs pyarrow: pip install 'mechfmu[parquet]'") from None
-    from ..cosim.files import temporary_name
+    float64 (NaN for a failed point's metrics). Returns its path; OutputError without
+    pyarrow (results.require_pyarrow: run_sweep says so before any point runs)."""
+    from ..cosim.files import atomic_path
+
+    pyarrow = require_pyarrow()
+    parquet = importlib.import_module("pyarrow.parquet")
 
     header = read_sweep_table_header(csv_path)
     kinds = {
@@ -1345,9 +1344,8 @@ def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -
             for name, kind in kinds.items()
         ]
     )
-    temporary = parquet_path.with_name(temporary_name(parquet_path.name))
-    try:
-        with pyarrow.parquet.ParquetWriter(temporary, schema) as writer:
+    with atomic_path(parquet_path) as temporary:
+        with parquet.ParquetWriter(temporary, schema) as writer:
             for part in pandas.read_csv(
                 csv_path,
                 dtype=kinds,
@@ -1359,10 +1357,6 @@ def write_sweep_parquet(csv_path: Path, parquet_path: Path, rows: int = 65536) -
                 chunksize=rows,
             ):
                 writer.write_table(pyarrow.Table.from_pandas(part, schema, preserve_index=False))
-        os.replace(temporary, parquet_path)
-    finally:
-        if temporary.exists():
-            temporary.unlink()
     return parquet_path
 
 
@@ -1520,7 +1514,7 @@ def command(args: Namespace) -> int:
                 resume=args.resume,
                 guard=guard,
                 retries=DEFAULT_RETRIES if args.retries is None else args.retries,
-                max_points=MAX_POINTS if args.max_points is None else args.max_points,
+                max_points=args.max_points,
                 result_format=args.format,
             )
         except (SweepError, SceneError, OutputError) as error:

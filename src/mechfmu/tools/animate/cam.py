@@ -13,6 +13,7 @@ is drawn as its envelope is, folded: cam_geometry's design checks say where.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
@@ -39,19 +40,21 @@ class Cam(NamedTuple):
     face_contact: np.ndarray
 
 
-def _motion(pieces: tuple[cam_geometry.Piece, ...], angle: float) -> tuple[float, float, float]:
-    """(s m, s1 m/rad, s2 m/rad^2) of the displacement diagram at the camshaft ``angle``
-    (rad): the piece that holds it (each closed on the left)."""
-    for piece in pieces:
-        phase = (angle - piece.start) % TAU
-        if phase < piece.span:
-            return piece.motion(phase / piece.span)
-    return pieces[-1].motion(1.0)  # a rounding past the last piece's end: its end
+def diagram_at(pieces: tuple[cam_geometry.Piece, ...], angle: float) -> tuple[float, float, float]:
+    """(s m, s1 m/rad, s2 m/rad^2) of the displacement diagram ``pieces`` at the camshaft
+    ``angle`` (rad): the piece that holds it, each closed on the left as the cam law's (the
+    drawing's and mechfmu cam-profile's)."""
+    for piece in reversed(pieces):
+        offset = math.fmod(angle - piece.start, TAU)
+        offset += TAU if offset < 0.0 else 0.0
+        if offset < piece.span:
+            return piece.motion(offset / piece.span)
+    return pieces[0].motion(0.0)  # rounding just before the first piece's start
 
 
 def point_at(cam: Cam, angle: float) -> cam_geometry.CamPoint:
     """cam_geometry.cam_point of ``cam`` at the camshaft ``angle`` (rad)."""
-    return cam_geometry.cam_point(cam.follower, angle, *_motion(cam.pieces, angle))
+    return cam_geometry.cam_point(cam.follower, angle, *diagram_at(cam.pieces, angle))
 
 
 def cam_of(parameters: Mapping[str, Any]) -> Cam | None:

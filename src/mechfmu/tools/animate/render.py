@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas
 
-from ...cosim.files import atomic_write
+from ...cosim.files import atomic_path, atomic_write
 from .columns import AnimationError
 from .drawings import Drawing, extent
 from .frames import Schedule
@@ -295,29 +295,27 @@ class Animation:
                 "writing MP4 needs imageio-ffmpeg, which is optional: pip install "
                 "'mechfmu[video]' (GIF and HTML need only matplotlib and pillow)"
             ) from None
-        temporary = path.with_name(f".{path.name}.partial.mp4")
-        writer = None
-        try:
-            for _, image in self.images():
-                if writer is None:
-                    height, width = image.shape[:2]
-                    writer = imageio_ffmpeg.write_frames(
-                        str(temporary),
-                        (width, height),
-                        fps=self.fps,
-                        codec="libx264",
-                        macro_block_size=2,
-                        ffmpeg_log_level="error",
-                    )
-                    writer.send(None)
-                writer.send(np.ascontiguousarray(image).tobytes())
-        finally:
-            if writer is not None:
-                writer.close()
-        try:
-            return atomic_write(path, temporary.read_bytes())
-        finally:
-            temporary.unlink(missing_ok=True)
+        with atomic_path(path) as temporary:  # ffmpeg writes it; renamed when complete
+            writer = None
+            try:
+                for _, image in self.images():
+                    if writer is None:
+                        height, width = image.shape[:2]
+                        writer = imageio_ffmpeg.write_frames(
+                            str(temporary),
+                            (width, height),
+                            fps=self.fps,
+                            codec="libx264",
+                            macro_block_size=2,
+                            ffmpeg_log_level="error",
+                            output_params=["-f", "mp4"],  # the temporary name ends in .tmp
+                        )
+                        writer.send(None)
+                    writer.send(np.ascontiguousarray(image).tobytes())
+            finally:
+                if writer is not None:
+                    writer.close()
+        return path
 
     def save(self, path: str | Path) -> Path:
         """Write the animation to ``path``: .gif, .mp4 (needs imageio-ffmpeg) or .html (a

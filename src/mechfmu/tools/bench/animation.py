@@ -12,7 +12,7 @@ import tempfile
 from pathlib import Path
 
 from ...api import simulate
-from ..animate import animate, with_geometry
+from ..animate import DEFAULT_WIDTH, animate, with_geometry
 from .gear import load_named_scene, with_stop_time
 from .report import Row, Target
 from .timing import now_with_children, side_by_side_medians
@@ -56,7 +56,8 @@ def measure(scene_dir: str, fmu_dir: str, repeats: int, seconds: float, fps: flo
             "s",
             repeats,
             TARGET,
-            notes=f"{frames[suffix]} frames, 720 px wide, drawn and written (the run not timed)",
+            notes=f"{frames[suffix]} frames, {DEFAULT_WIDTH} px wide, drawn and written "
+            "(the run not timed)",
         )
         for suffix in formats
     ]

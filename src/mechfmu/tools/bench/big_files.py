@@ -1,8 +1,9 @@
 """Benchmark: big result files and big sweeps in bounded memory (issue 33).
 
-- ``mechfmu check`` of a pair of result CSVs of 20 MB, 200 MB and 2 GB (``--quick``: 2 and
-  20 MB): peak resident memory of the checking process and its throughput, MB of one file
-  per CPU second (the pair is read, hashed and compared: twice that many bytes pass). Each
+- ``mechfmu check`` of a pair of result CSVs of 20 MB, 200 MB and 2 GB (``--quick``: 1 and
+  5 MB; Settings.big_file_sizes_mb): peak resident memory of the checking process and its
+  throughput, MB of one file per CPU second (the pair is read, hashed and compared: twice
+  that many bytes pass). Each
   check runs in a child process (peak_mb: VmHWM); the files are
   generated into a temporary folder (6 columns of full-precision numbers and a time column,
   the reference a hard link to the result). The issue's targets: under 500 MB resident and

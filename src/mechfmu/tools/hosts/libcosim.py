@@ -166,10 +166,11 @@ def initialisation_problem(
     catches: "terminate called after throwing ..."), as our FMUs do for invalid parameters;
     run_libcosim therefore asks the FMU through fmpy first.
     """
-    from fmpy import extract, read_model_description
+    from fmpy import read_model_description
     from fmpy.fmi1 import FMICallException
     from fmpy.fmi2 import FMU2Slave
 
+    from ...cosim.fmu_file import unpack
     from ...cosim.master import LogBook, accessor
 
     description = read_model_description(str(fmu_path))
@@ -177,7 +178,7 @@ def initialisation_problem(
     logbook = LogBook()
     slave = FMU2Slave(
         guid=description.guid,
-        unzipDirectory=extract(str(fmu_path)),
+        unzipDirectory=str(unpack(fmu_path)),
         modelIdentifier=description.coSimulation.modelIdentifier,
         instanceName=instance,
     )

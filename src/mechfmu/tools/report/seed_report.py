@@ -8,6 +8,7 @@ the coursework's own stated results, which appear only in columns or sentences l
 """
 
 import numpy as np
+from pathlib import Path
 from typing import Any
 
 from mechfmu.cosim.files import atomic_write
@@ -22,6 +23,8 @@ from mechfmu.runtime.physics.suspension import (
 from mechfmu.runtime.physics import cam_geometry, cam_laws
 from mechfmu.runtime.physics.four_bar import COURSEWORK_CRANK_ANGLE, COURSEWORK_FOUR_BAR, INCH
 from mechfmu.runtime.physics.valve_train import DEFAULT_VALVE_GEOMETRY
+from mechfmu.runtime.models.shaft_drives import CamshaftDrive
+from mechfmu.tools.scene_references import model_defaults
 from mechfmu.references import landing_gear as lg
 from mechfmu.references import linkages
 from mechfmu.references import suspension as sp
@@ -505,7 +508,10 @@ def _cam_section():
         f"and {_f(float(motion['valve_velocity']), 4)} at 7 mm.",
         "",
     ]
-    mass, stiffness, preload = 0.1, 50e3, 300.0
+    defaults = model_defaults("ValveTrain")
+    mass, stiffness, preload = (
+        defaults[name] for name in ("valve_mass", "spring_stiffness", "spring_preload")
+    )
     angle = np.linspace(0.0, 2.0 * np.pi, 200_001)
     rows = []
     for law in cam_laws.CAM_LAWS:
@@ -593,14 +599,23 @@ def _cam_geometry_section():
         "",
     ]
     scene = load_scene(find_file("camshaft_inline_four"))
-    single = reference("valve_train")
+    lobe = load_scene(find_file("valve_train"))
+    single = reference(lobe)
     torque = camshaft.fluctuation(single["valve.camshaft_torque"])
-    speed = 0.5 * scene.components["camshaft"].parameters["speed"]
+    valve, drive = (
+        {**model_defaults(Path(spec.fmu).stem), **spec.parameters}
+        for spec in (lobe.components["valve"], lobe.components["camshaft"])
+    )
+    law, mass, stiffness, preload = (
+        valve[name] for name in ("cam_law", "valve_mass", "spring_stiffness", "spring_preload")
+    )
+    speed = CamshaftDrive.RATIO * drive["speed"]
     out += [
         "### The torque the camshaft needs",
         "",
-        f"One lobe (the valve_train scene: 3-4-5 cam, 0.1 kg valve, 50 kN/m spring, 300 N "
-        f"preload, camshaft at {_f(speed, 1)} rad/s): the torque F dL/dtheta swings "
+        f"One lobe (the valve_train scene: {law} cam, {_g(mass)} kg valve, "
+        f"{_g(stiffness / 1e3)} kN/m spring, {_g(preload)} N preload, camshaft at "
+        f"{_f(speed, 1)} rad/s): the torque F dL/dtheta swings "
         f"{_f(torque['peak_to_peak'], 3)} N.m peak to peak (RMS {_f(torque['rms'], 3)} N.m); "
         f"over a revolution its mean is {torque['mean']:.1e} N.m: the spring and the valve's "
         f"inertia give back on the return what the rise took (computed from the rocker's "
