@@ -4,6 +4,7 @@ number wherever it falls; memory that does not grow with the file (peak resident
 child process, measured)."""
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import textwrap
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from mechfmu.check import check_paths
@@ -231,6 +232,143 @@ def test_check_memory_does_not_grow_with_the_file(tmp_path):
     code, big_peak = _peak_kib(big, twin, 1 << 20)
     assert code == 0
     assert (big_peak - small_peak) / 1024 < 30, (small_peak, big_peak)
+
+
+# --- exact numbers, passing blocks, files over the whole-read limit --------------------------
+
+
+def _spellings(value, digits, style):
+    """``value`` written the ways a CSV may hold it: Python's repr, %e / %g / %f with
+    ``digits`` digits (up to 25: more than a double holds, so the text is not a double's
+    shortest form and must be rounded correctly)."""
+    return {
+        "repr": repr(value),
+        "e": f"{value:.{digits}e}",
+        "g": f"{value:.{digits}g}",
+        "f": f"{value:.{digits}f}",
+    }[style]
+
+
+@settings(
+    max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    values=st.lists(
+        st.tuples(
+            st.floats(allow_nan=False, allow_infinity=False, width=64),
+            st.integers(1, 25),
+            st.sampled_from(["repr", "e", "g", "f"]),
+        ),
+        min_size=1,
+        max_size=60,
+    ),
+    block=st.integers(1, 300),
+)
+def test_numbers_read_back_as_python_float_reads_their_text(tmp_path, values, block):
+    """Every number of a result CSV is the double Python's float() makes of its text, to the
+    bit, whatever the spelling and the blocks (pandas' converter, not a faster inexact
+    one): a check's verdict never hinges on the parser's rounding."""
+    texts = [_spellings(value, digits, style) for value, digits, style in values]
+    texts = [text for text in texts if math.isfinite(float(text))]  # 1.8e+308 is not
+    assume(texts)
+    path = tmp_path / "r.csv"
+    path.write_text("time,a.x\n" + "".join(f"{i},{text}\n" for i, text in enumerate(texts)))
+    expected = np.array([float(text) for text in texts])
+    read = read_result(path, block_bytes=block)["a.x"].to_numpy()
+    assert read.view(np.int64).tolist() == expected.view(np.int64).tolist()
+    streamed = pd.concat(list(iter_result(path, block_bytes=block)))["a.x"].to_numpy()
+    assert streamed.view(np.int64).tolist() == expected.view(np.int64).tolist()
+
+
+@settings(
+    max_examples=15, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    rows=st.integers(1, 300),
+    block=st.integers(40, 4000),
+    fail_at=st.one_of(st.none(), st.integers(0, 299)),
+)
+def test_blocks_that_pass_whole_give_the_figures_the_per_column_route_gives(
+    tmp_path, seed, rows, block, fail_at
+):
+    """A long check's blocks mostly pass at every sample; they are taken in at once (one
+    pass over the block): the summary (worst ratio, largest deviation and the first times
+    they are reached, counts) is the one the whole arrays give, with a failing sample
+    somewhere or none, per-column tolerances and zero deviations mixed in."""
+    rng = np.random.default_rng(seed)
+    times = np.arange(rows) * 1e-2
+    reference = {name: rng.normal(size=rows) * 10.0 ** rng.integers(-3, 3) for name in "xyz"}
+    result = {}
+    for name, values in reference.items():
+        noise = rng.choice([0.0, 0.0, 1e-12, 3e-10], size=rows) * np.abs(values)
+        result[name] = values + noise * rng.choice([-1.0, 1.0], size=rows)
+    if fail_at is not None and fail_at < rows:
+        result["y"][fail_at] += 1e-3 + abs(result["y"][fail_at])
+    reference_frame, result_frame = frame(times, reference), frame(times, result)
+    write_result(reference_frame, tmp_path / "r.csv")
+    write_result(result_frame, tmp_path / "x.csv")
+    options = {"rtol": 1e-9, "atol": 0.0, "tolerances": {"z": (5e-10, 1e-300)}}
+    whole = compare(result_frame, reference_frame, **options)
+    same(compare(tmp_path / "x.csv", tmp_path / "r.csv", block_bytes=block, **options), whole)
+    assert whole.passed == (fail_at is None or fail_at >= rows)
+
+
+def test_a_file_over_the_whole_read_limit_is_checked_by_blocks(tmp_path, monkeypatch):
+    """A file over limits.MAX_CSV_BYTES (lowered here to 10 kB) is refused by read_result,
+    which keeps its numbers, but checked and iterated by blocks (memory flat in its size:
+    a run may write more with --max-output); the plot of a failing column, which reads the
+    files whole, is then a line of the report saying why, not a traceback."""
+    from mechfmu.cosim import limits
+    from mechfmu.tools.report.checks import write_report
+
+    times = np.arange(2000) * 1e-3
+    reference = write_result(frame(times, {"a.x": np.sin(times)}), tmp_path / "r.csv")
+    result = write_result(frame(times, {"a.x": np.sin(times) + 1e-3}), tmp_path / "x.csv")
+    assert reference.stat().st_size > 20_000
+    monkeypatch.setattr(limits, "MAX_CSV_BYTES", 10_000)
+    with pytest.raises(ResultFileError, match=r"r.csv: is \d+ bytes, more than the limit of"):
+        read_result(reference)
+    assert sum(len(part) for part in iter_result(reference, block_bytes=4096)) == 2000
+    run = check_paths(result, reference, block_bytes=4096)
+    assert run.exit_code == 1
+    assert run.files[0].comparison.failures.iloc[0]["time"] == 0.0
+    assert run.files[0].comparison.samples == 2000
+    index = write_report(run, tmp_path / "report")
+    assert "plot of a.x not written: " in index.read_text()
+    assert check_paths(reference, reference, block_bytes=4096).exit_code == 0
+
+
+FAULTS = textwrap.dedent(
+    """
+    import resource, sys
+    from mechfmu.check import check_paths
+    def faults():
+        before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+        assert check_paths(sys.argv[1], sys.argv[2]).exit_code == 0
+        return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+    faults()  # the first blocks' memory is faulted in once
+    print(faults())
+    """
+)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's allocator")
+def test_a_checks_blocks_reuse_the_memory_of_the_blocks_before(tmp_path):
+    """Checking a 10 MB pair a second time faults in fewer than 2500 pages (10 MB of fresh
+    memory): each block's arrays take the memory the previous block's freed (with glibc's
+    default thresholds, about 10 000 faults: every block's arrays mapped afresh)."""
+    big = _big_result(tmp_path / "big.csv", 10)
+    twin = tmp_path / "twin.csv"
+    os.link(big, twin)
+    out = subprocess.run(
+        [sys.executable, "-c", FAULTS, str(big), str(twin)],
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**os.environ, "OMP_NUM_THREADS": "1"},
+    ).stdout
+    assert int(out.split()[-1]) < 2500
 
 
 # --- Parquet results -------------------------------------------------------------------------

@@ -592,7 +592,8 @@ class _FileSource:
     def __init__(self, path: str | PathLike, block_bytes: int | None) -> None:
         from .result_blocks import BLOCK_BYTES, open_result
 
-        self.source = open_result(path, block_bytes or BLOCK_BYTES)
+        # one block at a time: a file of any size (the plots, read whole, keep the limit)
+        self.source = open_result(path, block_bytes or BLOCK_BYTES, max_bytes=None)
         self.columns = self.source.columns
         self.attrs = self.source.attrs
         self.path = path
@@ -838,6 +839,21 @@ class _Stats:
             self.failing += count
         return failing
 
+    def add_passing(
+        self, times: np.ndarray, deviation: np.ndarray, ratio: np.ndarray, worst: int, largest: int
+    ) -> None:
+        """Take in one block of samples that all pass (finite, within their band): what
+        ``add`` takes from them, given their deviations and ratios and the rows ``worst``
+        and ``largest`` where the ratio and the deviation first reach their maxima."""
+        if not times.size:
+            return
+        self.samples += times.size
+        if ratio[worst] > self.ratio:
+            self.ratio, self.worst_time = float(ratio[worst]), float(times[worst])
+        self.any_finite = True
+        if deviation[largest] > self.max_abs:
+            self.max_abs, self.max_abs_time = float(deviation[largest]), float(times[largest])
+
     def row(self, name: str, peak: float, rtol: float, atol: float) -> dict[str, Any]:
         """The summary row (compare's columns)."""
         max_abs = self.max_abs if self.any_finite else math.nan
@@ -871,6 +887,22 @@ def _pointwise(
         | (np.isnan(values) & np.isnan(expected))
     )
     return expected, expected - allowed, expected + allowed, allowed, deviation, passing
+
+
+def _passing_block(
+    values: np.ndarray, expected: np.ndarray, rtol: np.ndarray, atol: np.ndarray
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(deviation, deviation / allowed) of rows x columns ``values`` against ``expected``
+    (``rtol``, ``atol``: one per column) when every sample is finite and within its band
+    (what ``_pointwise`` computes, elementwise the same operations, in one pass over the
+    block instead of one per column: the common case of a long check); else None."""
+    deviation = np.abs(values - expected)
+    allowed = atol + rtol * np.abs(expected)
+    if not (deviation <= allowed).all() or not np.isfinite(expected).all():
+        return None
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(deviation > 0, deviation / allowed, 0.0)
+    return deviation, ratio
 
 
 def _tube(
@@ -916,6 +948,11 @@ class _Engine:
             name: _tolerance(name, settings.rtol, settings.atol, settings.tolerances)
             for name in self.shared
         }
+        # (rtol, atol) of the shared columns as arrays, for a block at once
+        self.bands = (
+            np.array([self.tolerance[name][0] for name in self.shared], dtype=float),
+            np.array([self.tolerance[name][1] for name in self.shared], dtype=float),
+        )
 
     def _structure_rows(self) -> list[dict[str, Any]]:
         result, reference, settings = self.result, self.reference, self.settings
@@ -946,6 +983,8 @@ class _Engine:
             ref_times, ref_values = ref.cover(times[0], times[-1])
         else:
             ref_times, ref_values = ref.take(times.size)
+            if not self.keep and self._all_pass(times, values[:, positions], ref_values):
+                return
         for k, (name, position) in enumerate(zip(self.shared, positions)):
             rtol, atol = self.tolerance[name]
             column = values[:, position]
@@ -960,6 +999,23 @@ class _Engine:
             failing = self.stats[name].add(times, column, nearest, allowed, deviation, passing)
             if self.keep:
                 self.kept[name].append((times, column, nearest, lower, upper, allowed, failing))
+
+    def _all_pass(self, times: np.ndarray, values: np.ndarray, expected: np.ndarray) -> bool:
+        """Same grid, pointwise: when every sample of the block passes, take the block into
+        the columns' figures at once and say True; else False (nothing taken: the per
+        column route follows and names what fails)."""
+        if values.shape != expected.shape:
+            return False
+        passing = _passing_block(values, expected, *self.bands)
+        if passing is None:
+            return False
+        deviation, ratio = passing
+        worst, largest = ratio.argmax(axis=0), deviation.argmax(axis=0)
+        for k, name in enumerate(self.shared):
+            self.stats[name].add_passing(
+                times, deviation[:, k], ratio[:, k], int(worst[k]), int(largest[k])
+            )
+        return True
 
     def run(self) -> Comparison:
         """Walk the result's blocks once; the Comparison."""

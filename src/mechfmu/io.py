@@ -25,6 +25,7 @@ from typing import Any
 import numpy
 import pandas
 
+from .cosim import limits
 from .cosim.files import atomic_write_all, remove_stale_temporaries
 from .cosim.results import CountingFile, csv_writer, json_text, sealed_meta, sealed_pair
 from .cosim.tables import ResultFileError, read_profile_table
@@ -64,15 +65,16 @@ def read_result(path: StrPath, *, block_bytes: int = BLOCK_BYTES) -> pandas.Data
 
     The file is read ``block_bytes`` of text at a time (mechfmu.result_blocks): the memory it
     takes is the numbers' (8 bytes per value, twice while the blocks are joined) plus one
-    block, whatever the file's size.
+    block, so a file over limits.MAX_CSV_BYTES (2 GiB) is refused (iter_result and
+    ``mechfmu check`` read any size).
 
     Raises ResultFileError (a ValueError) naming the file, and the line and column, for a
-    missing or empty file, a first column that is not ``time``, an unnamed or repeated
+    missing, empty or too large file, a first column that is not ``time``, an unnamed or repeated
     column, no data rows, a line with more or fewer values than the header (a cut last
     line), text or NaN or infinity where a number belongs, a blank line, or a time that does
     not increase; and for a malformed JSON beside it.
     """
-    source = open_result(path, block_bytes)
+    source = open_result(path, block_bytes, limits.MAX_CSV_BYTES)
     values = read_values(source)
     frame = pandas.DataFrame(
         values[:, 1:], columns=source.columns, index=pandas.Index(values[:, 0], name="time")
@@ -84,10 +86,10 @@ def read_result(path: StrPath, *, block_bytes: int = BLOCK_BYTES) -> pandas.Data
 def iter_result(path: StrPath, *, block_bytes: int = BLOCK_BYTES) -> Iterator[pandas.DataFrame]:
     """The result at ``path`` (CSV or ``.parquet``) as DataFrames of consecutive rows, about
     ``block_bytes`` of the file each, indexed by time like read_result's (each with its
-    attrs): a file of any size in the memory of one block. Raises ResultFileError as
-    read_result does, when the block holding the problem is reached (the rows before it
-    have been given)."""
-    source = open_result(path, block_bytes)
+    attrs): a file of any size (no limits.MAX_CSV_BYTES) in the memory of one block.
+    Raises ResultFileError as read_result does, when the block holding the problem is
+    reached (the rows before it have been given)."""
+    source = open_result(path, block_bytes, max_bytes=None)
     for _, values in source.blocks():
         frame = pandas.DataFrame(
             values[:, 1:], columns=source.columns, index=pandas.Index(values[:, 0], name="time")

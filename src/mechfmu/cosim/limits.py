@@ -39,7 +39,7 @@ MAX_RUN_OUTPUT_BYTES = 2 * GIB
 MAX_SWEEP_POINTS = 1_000_000  # points of a sweep unless told more (mechfmu sweep --max-points)
 
 # --- CSV tables ---------------------------------------------------------------------------
-MAX_CSV_BYTES = 2 * GIB  # a result or reference CSV (or Parquet file)
+MAX_CSV_BYTES = 2 * GIB  # a result or reference CSV (or Parquet file) read whole (read_result)
 MAX_TABLE_BYTES = 256 * MIB  # a profile table a component reads (LoadProfile, RoadProfile)
 MAX_COLUMNS = 10_000  # columns of a CSV
 MAX_COLUMN_NAME = 1000  # characters of a column name
@@ -125,10 +125,11 @@ LIMITS = (
         "the json module recurses per level; ours: 4",
     ),
     Limit(
-        "result, reference CSV",
+        "result, reference CSV or Parquet file",
         "size",
-        _size(MAX_CSV_BYTES),
-        "check reads it by blocks of 1 MiB; read_result keeps its numbers (8 bytes each)",
+        _size(MAX_CSV_BYTES) + " read whole; no limit read by blocks",
+        "read_result and the plots of a check keep its numbers (8 bytes each); check and "
+        "iter_result read 2 MiB at a time, in the same memory at any size",
     ),
     Limit(
         "profile table (table_file)",
@@ -182,9 +183,10 @@ LIMITS = (
 # --- files --------------------------------------------------------------------------------
 
 
-def file_problem(path: Path | str, max_bytes: int) -> str | None:
-    """Why ``path`` cannot be read as a file of at most ``max_bytes``, or None: missing, a
-    directory, not a regular file (a FIFO or a device would block or never end), too large."""
+def file_problem(path: Path | str, max_bytes: int | None) -> str | None:
+    """Why ``path`` cannot be read as a file of at most ``max_bytes`` (None: of any size), or
+    None: missing, a directory, not a regular file (a FIFO or a device would block or never
+    end), too large."""
     try:
         status = os.stat(path)
     except FileNotFoundError:
@@ -195,7 +197,7 @@ def file_problem(path: Path | str, max_bytes: int) -> str | None:
         return "is a directory, not a file"
     if not stat.S_ISREG(status.st_mode):
         return "is not a regular file (a FIFO, a socket or a device)"
-    if status.st_size > max_bytes:
+    if max_bytes is not None and status.st_size > max_bytes:
         return f"is {status.st_size} bytes, more than the limit of {_size(max_bytes)}"
     return None
 

@@ -26,8 +26,8 @@ class ResultFileError(ValueError):
     and what is wrong (with the line and column where they apply)."""
 
 
-def check_file(path: Path, max_bytes: int, kind: str) -> None:
-    """ResultFileError unless ``path`` is a regular file of at most ``max_bytes``
+def check_file(path: Path, max_bytes: int | None, kind: str) -> None:
+    """ResultFileError unless ``path`` is a regular file of at most ``max_bytes`` (None: any)
     (mechfmu.cosim.limits.file_problem); ``kind`` names what a directory is not."""
     problem = limits.file_problem(path, max_bytes)
     if problem:

@@ -3,7 +3,8 @@
 - ``mechfmu check`` of a pair of result CSVs of 20 MB, 200 MB and 2 GB (``--quick``: 1 and
   5 MB; Settings.big_file_sizes_mb): peak resident memory of the checking process and its
   throughput, MB of one file per CPU second (the pair is read, hashed and compared: twice
-  that many bytes pass). Each
+  that many bytes pass; the machine's load average beside it: a busy machine stretches CPU
+  time by up to 30 %). Each
   check runs in a child process (peak_mb: VmHWM); the files are
   generated into a temporary folder (6 columns of full-precision numbers and a time column,
   the reference a hard link to the result). The issue's targets: under 500 MB resident and
@@ -197,7 +198,10 @@ def _check_rows(folder: Path, size_mb: int, label: str, method: str = "") -> lis
             "MB/s",
             1,
             target=SPEED_TARGET if big else None,
-            notes=f"one file's MB per CPU s ({found['cpu_s']:.2f} CPU s; both files read)",
+            notes=(
+                f"one file's MB per CPU s ({found['cpu_s']:.2f} CPU s; both files read); "
+                f"load {os.getloadavg()[0]:.1f} (CPU time too grows on a busy machine)"
+            ),
         ),
     ]
 

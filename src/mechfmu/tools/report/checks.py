@@ -28,6 +28,7 @@ from pathlib import Path
 
 from ...check import CheckRun, FileCheck
 from ...cosim.files import OutputError, atomic_write, output_folder
+from ...cosim.tables import ResultFileError
 from ...cosim.text import one_line
 
 
@@ -127,7 +128,7 @@ def _plot(check: FileCheck, column: str, folder: Path) -> str:
         buffer = io.BytesIO()
         check.comparison.plot(column).savefig(buffer, format="png", dpi=90)
         atomic_write(folder / name, buffer.getvalue())
-    except OutputError as error:
+    except (OutputError, ResultFileError) as error:  # a plot reads the files whole (2 GiB)
         return f'<p class="fail">plot of {_text(column)} not written: {_text(error)}</p>'
     return f'<p><img src="{html.escape(name)}" alt="{_text(column)}"></p>'
 
