@@ -120,15 +120,15 @@ def valve_profile(repeats: int, lines: int = 30) -> str:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--repeats", type=int, default=20, help="timed runs per scene, median (default: 20)"
-    )
-    parser.add_argument(
-        "--fmu-dir", help="folder of the built FMUs (default: found as by every command)"
+        "--repeats", type=int, default=20, help="timed runs per scene (default: 20)"
     )
     parser.add_argument(
         "--profile",
         action="store_true",
         help="also profile the valve alone in-process (default: off)",
+    )
+    parser.add_argument(
+        "--fmu-dir", help="folder of the built FMUs (default: found as by every command)"
     )
     args = parser.parse_args()
     folder = fmu_folder(["ValveSpring", "ValveTrain", "CamshaftDrive"], args.fmu_dir)
