@@ -51,6 +51,11 @@ def test_fmi_call_timer_measures_a_part_of_the_loop(fmu_dir):
     assert "fmi_call_time_s" not in plain.meta
     assert 0.0 < timed.meta["fmi_call_time_s"] < timed.meta["loop_time_s"]
     assert timed.meta["loop_time_s"] < timed.meta["wall_time_s"]
+    # by call: every component's doStep and its reads, adding up to the total
+    calls = timed.meta["fmi_call_times_s"]
+    assert {f"{name}.fmi2DoStep" for name in scene.components} <= set(calls)
+    assert all(name.split(".")[0] in scene.components for name in calls)
+    assert sum(calls.values()) == pytest.approx(timed.meta["fmi_call_time_s"], rel=1e-9)
     for name in columns:  # timing changes nothing in the results
         assert np.array_equal(columns[name], timed_columns[name])
 

@@ -643,7 +643,8 @@ class Simulation:
         """Run the scene; return a Result or raise SimulationError with the partial Result.
 
         ``time_fmi_calls``: also measure the time spent inside the FMI calls of the stepping
-        loop (``meta['fmi_call_time_s']``, next to ``meta['loop_time_s']``); the timers add
+        loop (``meta['fmi_call_time_s']``, next to ``meta['loop_time_s']``; by call,
+        ``meta['fmi_call_times_s']``: "component.fmi2DoStep" -> s); the timers add
         a little to the loop, so benchmarks time it separately.
         ``instances``: an Instances pool to take the FMU instances from and give them back
         to, reset, for the next run (many short runs: a sweep worker); by default the FMUs
@@ -720,6 +721,7 @@ class Simulation:
                 result.meta["loop_cpu_time_s"] = clock.process_time() - loop_cpu_started
                 if timer is not None:
                     result.meta["fmi_call_time_s"] = timer.total
+                    result.meta["fmi_call_times_s"] = dict(timer.by_call)
         except _Ended as ended:
             message = logbook.last_message(ended.component)
             result.meta["ended_by"] = {
@@ -1016,12 +1018,18 @@ class CallTimer:
 
     def __init__(self) -> None:
         self.total = 0.0
+        self.by_call: dict[str, float] = {}  # label ("component.fmi2DoStep") -> s
 
-    def wrap(self, function: Any) -> Any:
+    def wrap(self, function: Any, label: str | None = None) -> Any:
+        """``function`` timed into ``total`` and, with a ``label``, into ``by_call[label]``."""
+
         def timed(*arguments: Any, _function=function, _clock=clock.perf_counter):
             begin = _clock()
             status = _function(*arguments)
-            self.total += _clock() - begin
+            spent = _clock() - begin
+            self.total += spent
+            if label is not None:
+                self.by_call[label] = self.by_call.get(label, 0.0) + spent
             return status
 
         # A ctypes caller may read these from the function it looked up (fmpy's _call does).
@@ -1056,7 +1064,7 @@ class _Call:
         function = getattr(component.slave.dll, name)  # argtypes set by fmpy at load time
         if version == 3:
             function = _counted(function)
-        self.function = timer.wrap(function) if timer else function
+        self.function = timer.wrap(function, f"{component.name}.{name}") if timer else function
         self.instance = component.slave.component
         self.references = (fmi2ValueReference * len(references))(*references)
         self.count = len(references)
@@ -1191,7 +1199,9 @@ class _StepPlan:
             self.steps.append(
                 (
                     name,
-                    timer.wrap(do_step) if timer else do_step,
+                    timer.wrap(do_step, f"{name}.fmi{component.version}DoStep")
+                    if timer
+                    else do_step,
                     slave.component,
                     sets,
                     reads,
