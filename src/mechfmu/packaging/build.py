@@ -44,7 +44,7 @@ from pythonfmu3 import FmuBuilder as Fmi3Builder
 from .binary_patch import patch_exit_finaliser
 from .boundary import c_string, table_source
 from .closure import runtime_closure
-from .describe import described, self_description
+from .describe import described, null_description, self_description
 from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
 
@@ -387,7 +387,7 @@ def build_model(
     # atomic: a reader never sees a half-written FMU
     return atomic_write(
         Path(out_dir) / f"{fmu_name}.fmu",
-        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking, name, experiment),
+        _rewrite_fmu(built, fmu_name, loader, fmi_version, extra, linking, name, experiment, null),
     )
 
 
@@ -414,13 +414,16 @@ def _rewrite_fmu(
     linking: Path,
     model: str | None = None,
     experiment: dict[str, float] | None = None,
+    null: bool = False,
 ) -> bytes:
     """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
     binary_patch; pythonfmu3's library has other code there and is left as built) and, when
     the loader was compiled, moved to <name>.pythonfmu.so with the loader, linked with the
     table of this FMU's variables, as <name>.so. ``extra`` maps further member names to their
     bytes (the embedded Python). ``model``: the registry's model the FMU is made of, whose
-    documentation, picture, version and default experiment it then carries (describe.py)."""
+    documentation, picture, version and default experiment it then carries (describe.py);
+    ``null``: the FMU is its null variant, whose page says so (no reference plots: its outputs
+    never move)."""
     member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
     compiled, loader_message = loader
     members = _members(fmu, fmi_version)
@@ -429,7 +432,9 @@ def _rewrite_fmu(
     if model is not None:
         info, description = members["modelDescription.xml"]
         members["modelDescription.xml"] = (info, described(description, model, experiment))
-        described_members = self_description(model, fmi_version)
+        described_members = (
+            null_description(model) if null else self_description(model, fmi_version)
+        )
     else:
         described_members = {}
     info, data = members[member]

@@ -258,6 +258,20 @@ def _scene_plot(scene_name: str, folder: Path) -> bytes:
     return target.read_bytes()
 
 
+def null_description(name: str) -> dict[str, bytes]:
+    """The documentation of ``name``'s null variant (the model-cost benchmark's baseline):
+    one page saying what it is."""
+    title = html.escape(f"{name}Null")
+    text = (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f"<title>{title}</title>\n</head>\n<body>\n<h1>{title}</h1>\n"
+        f"<p>The null variant of {html.escape(name)}: the same variables, parameters and "
+        "initialisation, and a step that does nothing (the baseline of mechfmu's model-cost "
+        f"benchmark).</p>\n<p><small>mechfmu {__version__}</small></p>\n</body>\n</html>\n"
+    )
+    return {"documentation/index.html": text.encode("utf-8")}
+
+
 def self_description(name: str, fmi_version: int) -> dict[str, bytes]:
     """Every member that makes ``name``'s FMU describe itself, by its name in the archive
     (the documentation and the picture; the model description is changed by ``described``)."""
