@@ -58,13 +58,11 @@ def declarations(model_name: str, description: Any = None) -> dict[str, Variable
     """What to vary, by variable name: the model's Variable declarations
     (mechfmu.runtime.fmi.slave.Variable) for one of our models, else the same fields read from
     ``description`` (an fmpy ModelDescription): any FMU can be fuzzed."""
-    import importlib
-
+    from ..packaging.describe import model_class
     from ..runtime.models import MODELS
 
     if model_name in MODELS:
-        cls = getattr(importlib.import_module(MODELS[model_name]), model_name)
-        return {v.name: v for v in cls.VARIABLES}
+        return {v.name: v for v in model_class(model_name).VARIABLES}
     from ..runtime.fmi.slave import Variable
 
     kinds = {"Real": float, "Integer": int, "Boolean": bool, "String": str}

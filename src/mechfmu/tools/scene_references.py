@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import Any
 from typing import TYPE_CHECKING
-import importlib
 from pathlib import Path
 
 import numpy as np
@@ -19,8 +18,7 @@ from ..cosim.files import atomic_write_all
 from ..cosim.results import csv_writer, json_text, write_csv
 from ..io import read_profile_table
 from ..cosim.scene import find_file, load_scene
-from ..runtime.models import MODELS
-from .docs import declared_units
+from .docs import declared_units, model_class
 from ..references import (
     cam_geometry,
     drives,
@@ -41,10 +39,13 @@ if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from numpy import ndarray
 
 
-def start_values(model: str, causality: str | None = None) -> dict[str, float]:
+def start_values(model: str, causality: str | None = None) -> dict[str, Any]:
     """Start values declared by a model (its FMU's), of every variable or of one causality."""
-    cls = getattr(importlib.import_module(MODELS[model]), model)
-    return {v.name: v.start for v in cls.VARIABLES if causality is None or v.causality == causality}
+    return {
+        v.name: v.start
+        for v in model_class(model).VARIABLES
+        if causality is None or v.causality == causality
+    }
 
 
 def model_defaults(model: str) -> dict[str, float]:

@@ -20,7 +20,6 @@ The 1.3x target leaves a model 0.3x its null's step for everything in ``do_step`
 from __future__ import annotations
 
 import argparse
-import importlib
 import statistics
 import time
 import timeit
@@ -30,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ...runtime.models import MODELS
+from ...packaging.describe import model_class
 from ...runtime.physics import landing_gear as gear
 from ...runtime.physics import profiles, road
 from . import model_cost, timing
@@ -86,7 +85,7 @@ def _physics(model: Any, label: str, at: float) -> Callable[[], Any] | None:
 
 def measure_case(case: model_cost.ModelCase, number: int = 20000) -> Floor:
     """In-process times of ``case`` a third into its motion (us per call)."""
-    cls = getattr(importlib.import_module(MODELS[case.model]), case.model)
+    cls = model_class(case.model)
     model = cls(instance_name="floor")
     model.values.update(case.parameters)
     model.enter_initialization_mode()
@@ -104,7 +103,7 @@ def measure_case(case: model_cost.ModelCase, number: int = 20000) -> Floor:
     update = _per_call(lambda: model.update(start + step, step), number)
     physics = _physics(model, case.label, start + step)
     physics_us = None if physics is None else _per_call(physics, number)
-    model.update = lambda time, step_size: None  # the shared path alone
+    model.update = lambda time, step_size: None  # type: ignore[method-assign]  # the shared path alone
     shared = _per_call(lambda: model.do_step(start, step), number)
     return Floor(case.label, do_step, shared, update, physics_us)
 
