@@ -119,10 +119,11 @@ def hermite_nodes(step: float, motions: list[tuple[float, float, float]]) -> tup
             (target[2] - rate2) * step * step,
         )
     coefficients = list(base) + [0.0] * (3 * nodes - len(base))
-    scale = 1.0
-    for j, row in enumerate(rows):
+    # the correction and its two rates vanish at tau = 0: its rows 0 .. 2 are zero
+    scale = 1.0 / step / step / step  # step^-j, divided as the rows go
+    for j in range(3, len(rows)):
         total = 0.0
-        for weight, misfit in zip(row, misfits):
+        for weight, misfit in zip(rows[j], misfits):
             total += weight * misfit
         coefficients[j] += total * scale
         scale /= step

@@ -478,12 +478,12 @@ def _exact_segment(
                 pending.append(values(turn))
                 continue
         old, g = previous[1], current[1]
-        crossing = [
-            k
-            for k in range(5)
-            if (old[k] > 0.0 and g[k] <= 0.0 and directions[k] < 0)
-            or (old[k] < 0.0 and g[k] >= 0.0 and directions[k] > 0)
-        ]  # roots.crosses written out (five functions at every sample)
+        crossing = []  # roots.crosses written out (five functions at every sample; a loop,
+        for k in range(5):  # not a list comprehension: no call per sample)
+            if (old[k] > 0.0 and g[k] <= 0.0 and directions[k] < 0) or (
+                old[k] < 0.0 and g[k] >= 0.0 and directions[k] > 0
+            ):
+                crossing.append(k)
         if crossing:
             point, fired, evaluations = _first_crossing(
                 values, slope, previous, current, crossing, directions, tolerance

@@ -568,26 +568,90 @@ def _chain_rates(
     return omega, alpha, driven_rate, driven_acceleration
 
 
+@lru_cache(maxsize=16)  # a function of the geometry alone (a tuple of floats)
+def _forward_bounds(g: "ValveGeometry") -> tuple[float, float, float, float, float]:
+    """What motion_from_tappet checks its input against, worked out once per geometry:
+    (lowest, highest tappet lift in m as rocker_from_tappet accepts it, with its rounding
+    slack; lowest, highest rocker angle in rad as valve_from_rocker accepts it; the
+    valve link's dead-centre tolerance in m)."""
+    low, high = tappet_lift_range(g)
+    slack = 2 * SINGULAR_ULPS * _EPS * (g.rocker_pivot_y + g.pushrod_length + g.tappet_arm)
+    angle_low, angle_high = rocker_angle_range(g)
+    return low - slack, high + slack, angle_low, angle_high, _singular_tolerance(
+        g.valve_link_length
+    )
+
+
 def motion_from_tappet(
     g: "ValveGeometry", y3_closed: float, lift: float, velocity: float, acceleration: float
 ) -> "ValveTrainMotion":
     """``forward`` without the input checks, for callers that checked the drive and hold
-    ``y3_closed`` (m, rest_position(g)[1]): float_speed and ValveSpring's camshaft drive call
-    it many times."""
+    ``y3_closed`` (m, rest_position(g)[1]): float_speed, ValveTrain and ValveSpring's
+    camshaft drive call it many times (several times per step).
+
+    The same arithmetic as rocker_from_tappet, valve_from_rocker, _tappet_vectors,
+    _valve_vectors and _chain_rates (the results agree to the bit), written out in one
+    function with cos(phi) and sin(phi) evaluated once: the range and dead-centre tests are
+    comparisons against _forward_bounds, and a tappet lift that fails one goes to
+    _refuse_forward, which raises the error those functions raise."""
+    a, b, arm_t, side_1 = g.rocker_pivot_x, g.rocker_pivot_y, g.tappet_arm, g.pushrod_length
+    arm_v, c, side_3 = g.valve_arm, g.valve_axis_x, g.valve_link_length
+    lift_low, lift_high, angle_low, angle_high, link_tolerance = _forward_bounds(g)
+    if not lift_low <= lift <= lift_high:  # also NaN
+        _refuse_forward(g, lift)
+    # tappet side: phi from the pushrod foot at y1 (rocker_from_tappet, _phi_from_y1)
     y1 = g.cam_base_radius + lift
-    phi = rocker_from_tappet(g, lift)
-    y3 = valve_from_rocker(g, phi)
-    omega, alpha, y3_rate, y3_accel = _chain_rates(
-        _tappet_vectors(g, phi, y1),
-        _valve_vectors(g, phi, y3),
-        velocity,
-        acceleration,
-        lambda: f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined",
-        lambda: f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined",
-    )
+    w = b - y1
+    distance = math.hypot(a, w)
+    f1, f2, f3, perimeter = _triangle_factors(side_1, arm_t, distance)
+    if min(f1, f2, f3) <= _singular_tolerance(perimeter):
+        _refuse_forward(g, lift)
+    k = ((distance - side_1) * (distance + side_1) + arm_t * arm_t) / (2.0 * arm_t)
+    phi = math.atan2(w, a) - math.atan2(math.sqrt(max(f1 * f2 * f3 * perimeter, 0.0)) / (
+        2.0 * arm_t
+    ), k)
+    if not angle_low <= phi <= angle_high:
+        _refuse_forward(g, lift)
+    cos_phi, sin_phi = math.cos(phi), math.sin(phi)
+    # valve side: the link foot y3 (valve_from_rocker, _y3_from_phi)
+    dx = c - (a + arm_v * cos_phi)
+    if min(side_3 - dx, side_3 + dx) <= link_tolerance:
+        _refuse_forward(g, lift)
+    y3 = b + arm_v * sin_phi - math.sqrt(max((side_3 - dx) * (side_3 + dx), 0.0))
+    # rates (_chain_rates): the rocker's from the pushrod foot's, the link foot's from the
+    # rocker's; e = T - P with T' = phi' t1, g = V - Q with V' = phi' v1
+    e_x, e_y = a - arm_t * cos_phi, b - arm_t * sin_phi - y1
+    t1_x, t1_y = arm_t * sin_phi, -arm_t * cos_phi
+    e_t1 = e_x * t1_x + e_y * t1_y
+    if e_t1 == 0.0:
+        raise SingularConfiguration(
+            f"tappet_lift = {lift!r} m: pushrod and tappet arm in line, rates undefined"
+        )
+    omega = e_y * velocity / e_t1
+    rel_x, rel_y = omega * t1_x, omega * t1_y - velocity
+    e_t2 = e_x * (arm_t * cos_phi) + e_y * (arm_t * sin_phi)
+    alpha = (e_y * acceleration - omega * omega * e_t2 - (rel_x * rel_x + rel_y * rel_y)) / e_t1
+    g_x, g_y = a + arm_v * cos_phi - c, b + arm_v * sin_phi - y3
+    if g_y == 0.0:
+        raise SingularConfiguration(
+            f"tappet_lift = {lift!r} m: valve link horizontal, valve rates undefined"
+        )
+    v1_x, v1_y = -arm_v * sin_phi, arm_v * cos_phi
+    g_v1 = g_x * v1_x + g_y * v1_y
+    y3_rate = omega * g_v1 / g_y
+    rel_x, rel_y = omega * v1_x, omega * v1_y - y3_rate
+    g_v2 = g_x * (-arm_v * cos_phi) + g_y * (-arm_v * sin_phi)
+    y3_accel = (alpha * g_v1 + omega * omega * g_v2 + (rel_x * rel_x + rel_y * rel_y)) / g_y
     return ValveTrainMotion(
         lift, velocity, acceleration, phi, omega, alpha, y3_closed - y3, -y3_rate, -y3_accel
     )
+
+
+def _refuse_forward(g: "ValveGeometry", lift: float) -> None:
+    """Raise the error of rocker_from_tappet or valve_from_rocker for a tappet lift (m)
+    that motion_from_tappet's comparisons refused (RangeError or SingularConfiguration)."""
+    valve_from_rocker(g, rocker_from_tappet(g, lift))
+    raise AssertionError(f"tappet_lift = {lift!r} m: motion_from_tappet refused what both accept")
 
 
 def forward(
