@@ -21,6 +21,7 @@ arithmetic is numerics/polynomials.py's.
 
 import math
 from collections.abc import Callable
+from functools import lru_cache
 
 
 def particular_polynomial(
@@ -32,9 +33,10 @@ def particular_polynomial(
     n = len(forcing)
     if stiffness != 0.0:
         p = [0.0] * (n + 2)
+        rate_factors, acceleration_factors = _particular_factors(mass, damping, n)
         for j in range(n - 1, -1, -1):
             p[j] = (
-                forcing[j] - damping * (j + 1) * p[j + 1] - mass * (j + 2) * (j + 1) * p[j + 2]
+                forcing[j] - rate_factors[j] * p[j + 1] - acceleration_factors[j] * p[j + 2]
             ) / stiffness
         return tuple(p[:n])
     if damping != 0.0:  # q = x_p': m q' + c q = g, then x_p = integral of q from 0
@@ -43,6 +45,19 @@ def particular_polynomial(
             q[j] = (forcing[j] - mass * (j + 1) * q[j + 1]) / damping
         return (0.0, *(q[j] / (j + 1) for j in range(n)))
     return (0.0, 0.0, *(forcing[j] / (mass * (j + 1) * (j + 2)) for j in range(n)))
+
+
+@lru_cache(maxsize=64)  # per oscillator and degree: the exact valve asks at every piece
+def _particular_factors(
+    mass: float, damping: float, n: int
+) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """(c (j + 1) in N.s/m, m (j + 2) (j + 1) in kg) for j = 0 .. n - 1: the weights of
+    x_p's coefficients j + 1 and j + 2 in particular_polynomial's recurrence (the same
+    products, in the same order)."""
+    return (
+        tuple(damping * (j + 1) for j in range(n)),
+        tuple(mass * (j + 2) * (j + 1) for j in range(n)),
+    )
 
 
 class Oscillator:

@@ -99,6 +99,23 @@ def mode_oscillator(p: Parameters, engaged: Engaged) -> tuple[float, float, Any]
     return damping, stiffness, linear_ode.Oscillator(p.mass, damping, stiffness)
 
 
+@lru_cache(maxsize=64)
+def mode_force_law(p: Parameters, engaged: Engaged) -> tuple[float, ...]:
+    """The valve's acceleration from its state in mode ``engaged``, for
+    ModeSegment.curvature: (k_c N/m, c_c N.s/m, k_s N/m, c_s N.s/m of the contacts engaged,
+    0 for the others; F0 N, k N/m, m kg)."""
+    contact, seat = engaged
+    return (
+        p.contact_stiffness if contact else 0.0,
+        p.contact_damping if contact else 0.0,
+        p.seat_stiffness if seat else 0.0,
+        p.seat_damping if seat else 0.0,
+        p.spring_preload,
+        p.spring_stiffness,
+        p.mass,
+    )
+
+
 def mode_forcing(p: Parameters, engaged: Engaged, rocker: tuple[float, ...]) -> tuple[float, ...]:
     """Coefficients of f(tau) (N per s^j) in mode ``engaged`` with the rocker end at
     L(tau) = sum rocker[j] tau^j (m): -F0, plus k_c (L - lash) + c_c L' with the contact."""
@@ -149,18 +166,7 @@ class ForcedMotion:
         self.pairs = tuple(zip(reversed(padded), reversed(gap)))  # for ModeSegment.state
         self.gap_reversed = tuple(reversed(gap))
         self.moving = any(rocker[1:])  # L' not identically 0: the contact can do work
-        # the acceleration from the state: (k_c, c_c, k_s, c_s of the contacts engaged, F0,
-        # k, m), for ModeSegment.curvature
-        contact, seat = engaged
-        self.force_law = (
-            p.contact_stiffness if contact else 0.0,
-            p.contact_damping if contact else 0.0,
-            p.seat_stiffness if seat else 0.0,
-            p.seat_damping if seat else 0.0,
-            p.spring_preload,
-            p.spring_stiffness,
-            p.mass,
-        )
+        self.force_law = mode_force_law(p, engaged)
         self._rocker_rate2: tuple | None = None
         self._work: tuple | None = None
 
