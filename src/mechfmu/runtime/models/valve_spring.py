@@ -384,7 +384,7 @@ class ValveSpring(IntegratingSlave):
             else (_INPUTS, _UNITS)
         )
         return tuple(
-            require_finite(name, self.values[name], unit) for name, unit in zip(names, units)
+            [require_finite(name, self.values[name], unit) for name, unit in zip(names, units)]
         )
 
     def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:

@@ -68,7 +68,7 @@ def product(
 
 def antiderivative(coefficients: tuple[float, ...] | list[float]) -> tuple[float, ...]:
     """Coefficients of the integral of p from 0 (its value at 0 is 0)."""
-    return (0.0, *(a / (j + 1) for j, a in enumerate(coefficients)))
+    return (0.0, *[a / (j + 1) for j, a in enumerate(coefficients)])
 
 
 def change_bounds(

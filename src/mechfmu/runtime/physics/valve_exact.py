@@ -267,10 +267,15 @@ class ModeSegment:
         """(x'', d'') (m/s^2) at local time s where the state is (x m, v m/s, d m, d' m/s):
         the forces of the mode, (k_c d + c_c d' - k_s x - c_s v - F0 - k x) / m with the
         contacts engaged, and L'' - x''."""
-        kc, cc, ks, cs, preload, k, mass = self.forced.force_law
-        acceleration = (kc * depth + cc * depth_rate - ks * x - cs * v - preload - k * x) / mass
+        acceleration = self.acceleration(x, v, depth, depth_rate)
         rocker_rate2 = polynomials.polynomial(self.forced.rocker_rate2(), self.tau0 + s)
         return acceleration, rocker_rate2 - acceleration
+
+    def acceleration(self, x: float, v: float, depth: float, depth_rate: float) -> float:
+        """x'' (m/s^2) where the state is (x m, v m/s, d m, d' m/s): curvature's first part,
+        without L''."""
+        kc, cc, ks, cs, preload, k, mass = self.forced.force_law
+        return (kc * depth + cc * depth_rate - ks * x - cs * v - preload - k * x) / mass
 
 
 # --- the step: pieces of the drive, segments of one mode, events ---------------------------
@@ -570,12 +575,12 @@ def _first_crossing(
         latest = values(tau)
         evaluations += 1
         g = latest[1]
-        now = [
-            k
-            for k in crossing
-            if (old[k] > 0.0 and g[k] <= 0.0 and directions[k] < 0)
-            or (old[k] < 0.0 and g[k] >= 0.0 and directions[k] > 0)
-        ]  # roots.crosses written out, as in _exact_segment
+        now = []  # roots.crosses written out, as in _exact_segment
+        for k in crossing:
+            if (old[k] > 0.0 and g[k] <= 0.0 and directions[k] < 0) or (
+                old[k] < 0.0 and g[k] >= 0.0 and directions[k] > 0
+            ):
+                now.append(k)
         if now:
             high, crossing = latest, now
         else:
@@ -705,8 +710,12 @@ def _turning_point(
             continue
         (x_a, d_a), (v_a, d_rate_a) = previous[2], previous[3]
         (x_b, d_b), (v_b, d_rate_b) = current[2], current[3]
-        c_a = mode.curvature(a, x_a, v_a, d_a, d_rate_a)[j]
-        c_b = mode.curvature(b, x_b, v_b, d_b, d_rate_b)[j]
+        if j == 0:  # x'' alone: no polynomial
+            c_a = mode.acceleration(x_a, v_a, d_a, d_rate_a)
+            c_b = mode.acceleration(x_b, v_b, d_b, d_rate_b)
+        else:
+            c_a = mode.curvature(a, x_a, v_a, d_a, d_rate_a)[1]
+            c_b = mode.curvature(b, x_b, v_b, d_b, d_rate_b)[1]
         excursion = max(
             r_a * r_a / (2.0 * abs(c_a)) if c_a != 0.0 else math.inf,
             r_b * r_b / (2.0 * abs(c_b)) if c_b != 0.0 else math.inf,

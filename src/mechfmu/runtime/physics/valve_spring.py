@@ -433,6 +433,7 @@ class CamshaftStepDrive:
         "t0",
         "angle",
         "known",
+        "held",
         "current",
         "end",
         "span",
@@ -455,6 +456,9 @@ class CamshaftStepDrive:
             {cam_laws.reduce_angle(profile.rise_start + a) for a in _segment_starts(profile)}
         )
         self.known: dict[tuple, tuple[float, float, float]] = {}
+        # (camshaft motion, its segment, (L, L', L'')) last asked for without a segment: the
+        # held inputs, asked for several times a step (resume, publish, valve_lift_rate)
+        self.held: tuple = (None, 0, None)
         self.set_step(0.0, 0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 
     def set_step(self, t0: float, t1: float, start: Triple, end: Triple) -> None:
@@ -481,9 +485,15 @@ class CamshaftStepDrive:
     def motion(self, shaft: tuple[float, float, float], index: int | None = None) -> tuple:
         """(L m, L' m/s, L'' m/s^2) for the camshaft motion ``shaft``, on segment ``index``
         (None: the segment the angle lies in, as ValveTrain). Remembered for the last few
-        calls (a piece's end is the next piece's start; on the dwells L is constant)."""
+        calls (a piece's end is the next piece's start; on the dwells L is constant), and
+        for the same tuple ``shaft`` asked for again without a segment."""
         if index is None:
+            if shaft is self.held[0]:
+                return self.held[2]
             index = segment_index(self.profile, shaft[0])
+            motion = self.motion(shaft, index)
+            self.held = (shaft, index, motion)
+            return motion
         key = (index,) if index in (1, 3) else (index, *shaft)
         known = self.known.get(key)
         if known is not None:
@@ -513,7 +523,7 @@ class CamshaftStepDrive:
         form uses there: what turns the contact force into the camshaft torque. L' / speed
         where the camshaft turns (its motion is known: the outputs were just published
         with it), 0 on a dwell."""
-        index = segment_index(self.profile, shaft[0])
+        index = self.held[1] if shaft is self.held[0] else segment_index(self.profile, shaft[0])
         if index in (1, 3):
             return 0.0
         if shaft[1] != 0.0:
@@ -537,12 +547,14 @@ class CamshaftStepDrive:
         if tau0 >= 0.0 and span > 0.0:  # the angles' range bounded first (most steps: none)
             first = polynomials.polynomial(self.angle, tau0)
             down, up = polynomials.change_bounds(self.angle, tau0, tau0 + span)
-            if up - down < MAX_REVOLUTIONS * cam_laws.TAU and not any(
-                math.ceil((first + down - boundary) / cam_laws.TAU)
-                <= math.floor((first + up - boundary) / cam_laws.TAU)
-                for boundary in self.boundaries
-            ):
-                return []
+            if up - down < MAX_REVOLUTIONS * cam_laws.TAU:
+                for boundary in self.boundaries:  # a loop, not any(): runs at every step
+                    if math.ceil((first + down - boundary) / cam_laws.TAU) <= math.floor(
+                        (first + up - boundary) / cam_laws.TAU
+                    ):
+                        break  # a boundary may lie in the range: sampled below
+                else:
+                    return []
         taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
         angles = [polynomials.polynomial(self.angle, tau) for tau in taus]
         turned = (max(angles) - min(angles)) / cam_laws.TAU
@@ -676,7 +688,7 @@ def resume(
     step starts from the inputs given for its start, not from the last step's
     extrapolation), which may engage or release a contact without a crossing to see."""
     values = switches(p, rocker_lift, rocker_velocity, lift, velocity)
-    return Engaged(*(value > 0.0 if value != 0.0 else mode for value, mode in zip(values, engaged)))
+    return Engaged(*[value > 0.0 if value != 0.0 else mode for value, mode in zip(values, engaged)])
 
 
 def engaged_forces(
