@@ -435,8 +435,10 @@ def _exact_segment(
             f"fastest motion (rate {oscillator.rate:.6g} 1/s), more than "
             f"{MAX_PERIODS}: reduce max_substep"
         )
-    samples = max(2, math.ceil(periods * SAMPLES_PER_PERIOD))
-    tolerance = EVENT_TOLERANCE * max(1.0, abs(tau1))
+    samples = math.ceil(periods * SAMPLES_PER_PERIOD)
+    if samples < 2:  # max(2, ...) and max(1.0, |tau1|) without calls: once per segment
+        samples = 2
+    tolerance = EVENT_TOLERANCE * (tau1 if tau1 > 1.0 else 1.0)  # tau1 > tau0 >= 0
     if start is not None:
         previous = (0.0, *start[1:])
     elif tau0 == 0.0:  # a piece's start: e = e0 and the polynomials' first coefficients
@@ -571,7 +573,10 @@ def _first_crossing(
                     last_step = math.inf
         if not a < tau < b:  # also NaN
             tau = a + 0.5 * width
-        tau = min(max(tau, a + margin), b - margin)
+        if tau < a + margin:  # min(max(tau, a + margin), b - margin) without two calls
+            tau = a + margin
+        if b - margin < tau:
+            tau = b - margin
         latest = values(tau)
         evaluations += 1
         g = latest[1]
@@ -751,9 +756,15 @@ def _contact_work(p: Parameters, mode: ModeSegment, span: float) -> float:
     tau0 = mode.tau0
     tau1 = tau0 + span
     polynomial = polynomials.polynomial
-    smooth = polynomial(antiderivative, tau1) - polynomial(antiderivative, tau0)
+    # at a piece's start (most segments) the polynomials' values are their constant terms
+    start, start_integral = (
+        (antiderivative[0], integral[0])
+        if tau0 == 0.0
+        else (polynomial(antiderivative, tau0), polynomial(integral, tau0))
+    )
+    smooth = polynomial(antiderivative, tau1) - start
     amplitude = complex(mode.e0, -mode.e_coefficient / mode.root) * factor
-    free = cmath.exp(rate * span) * polynomial(integral, tau1) - polynomial(integral, tau0)
+    free = cmath.exp(rate * span) * polynomial(integral, tau1) - start_integral
     return smooth - (amplitude * free).real
 
 

@@ -604,20 +604,25 @@ def motion_from_tappet(
     w = b - y1
     distance = math.hypot(a, w)
     f1, f2, f3, perimeter = _triangle_factors(side_1, arm_t, distance)
-    if min(f1, f2, f3) <= _singular_tolerance(perimeter):
+    tolerance = _singular_tolerance(perimeter)
+    if f1 <= tolerance or f2 <= tolerance or f3 <= tolerance:  # min() <= without a call
         _refuse_forward(g, lift)
     k = ((distance - side_1) * (distance + side_1) + arm_t * arm_t) / (2.0 * arm_t)
-    phi = math.atan2(w, a) - math.atan2(math.sqrt(max(f1 * f2 * f3 * perimeter, 0.0)) / (
-        2.0 * arm_t
-    ), k)
+    square = f1 * f2 * f3 * perimeter
+    if square < 0.0:  # max(square, 0.0)
+        square = 0.0
+    phi = math.atan2(w, a) - math.atan2(math.sqrt(square) / (2.0 * arm_t), k)
     if not angle_low <= phi <= angle_high:
         _refuse_forward(g, lift)
     cos_phi, sin_phi = math.cos(phi), math.sin(phi)
     # valve side: the link foot y3 (valve_from_rocker, _y3_from_phi)
     dx = c - (a + arm_v * cos_phi)
-    if min(side_3 - dx, side_3 + dx) <= link_tolerance:
+    if side_3 - dx <= link_tolerance or side_3 + dx <= link_tolerance:
         _refuse_forward(g, lift)
-    y3 = b + arm_v * sin_phi - math.sqrt(max((side_3 - dx) * (side_3 + dx), 0.0))
+    square = (side_3 - dx) * (side_3 + dx)
+    if square < 0.0:
+        square = 0.0
+    y3 = b + arm_v * sin_phi - math.sqrt(square)
     # rates (_chain_rates): the rocker's from the pushrod foot's, the link foot's from the
     # rocker's; e = T - P with T' = phi' t1, g = V - Q with V' = phi' v1
     e_x, e_y = a - arm_t * cos_phi, b - arm_t * sin_phi - y1
