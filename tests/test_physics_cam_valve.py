@@ -605,6 +605,47 @@ def test_forward_inverse_round_trip():
             assert back[k] == pytest.approx(m[k], rel=1e-12, abs=1e-14)
 
 
+def _composed_forward(g, lift, velocity, acceleration):
+    """forward's chain through the checked pieces motion_from_tappet writes out."""
+    phi = vt.rocker_from_tappet(g, lift)
+    y3 = vt.valve_from_rocker(g, phi)
+    y1 = g.cam_base_radius + lift
+    omega, alpha, y3_rate, y3_accel = vt._chain_rates(
+        vt._tappet_vectors(g, phi, y1),
+        vt._valve_vectors(g, phi, y3),
+        velocity,
+        acceleration,
+        lambda: "pushrod and tappet arm in line",
+        lambda: "valve link horizontal",
+    )
+    closed = vt.rest_position(g)[1]
+    return (phi, omega, alpha, closed - y3, -y3_rate, -y3_accel)
+
+
+@PROPERTY
+@given(
+    fraction=st.floats(-0.1, 1.1),
+    velocity=st.floats(-10.0, 10.0),
+    acceleration=st.floats(-1e5, 1e5),
+)
+def test_motion_from_tappet_is_the_checked_chain_to_the_bit(fraction, velocity, acceleration):
+    """The written-out chain gives the checked functions' results bit for bit inside the
+    tappet range, and their error (type and message) outside it or at a dead centre."""
+    low, high = vt.tappet_lift_range(G)
+    lift = low + (high - low) * fraction
+    closed = vt.rest_position(G)[1]
+    try:
+        want = _composed_forward(G, lift, velocity, acceleration)
+    except (RangeError, SingularConfiguration) as error:
+        with pytest.raises(type(error)) as info:
+            vt.motion_from_tappet(G, closed, lift, velocity, acceleration)
+        assert str(info.value) == str(error)
+        return
+    got = vt.motion_from_tappet(G, closed, lift, velocity, acceleration)
+    assert got[:3] == (lift, velocity, acceleration)
+    assert got[3:] == want
+
+
 def test_non_finite_rates_are_refused():
     for args, name in [
         ((0.001, math.nan, 0.0), "tappet_velocity"),
