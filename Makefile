@@ -25,7 +25,7 @@ else
 logged = @{ $(2); } > $(1) 2>&1 || { cat $(1); echo "make: failed; the whole output is in $(1)"; exit 1; }
 endif
 
-.PHONY: run test test-fast lint fmus references report study work-precision bench sweeps \
+.PHONY: run test test-fast properties lint fmus references report study work-precision bench sweeps \
 	docs clean lock test-latest test-portable test-other-python test-subset tolerances \
 	boundary cross-check fuzz-inputs
 
@@ -59,6 +59,11 @@ TEST_WORKERS ?= auto
 PARALLEL = -n $(TEST_WORKERS) --dist loadfile
 test: lint $(FMUS)/.built
 	$(PY) -m pytest -q $(PARALLEL)
+
+# The property tests (hypothesis) with new random examples instead of the suite's fixed ones.
+properties: $(FMUS)/.built
+	MECHFMU_HYPOTHESIS=explore $(PY) -m pytest -q -p no:cacheprovider $(PARALLEL) \
+		$$(grep -l "@given" tests/test_*.py)
 
 # The quick layers while working (under a minute): unit tests and the FMU tests that are not slow.
 test-fast: $(FMUS)/.built

@@ -5,6 +5,7 @@ import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from mechfmu.cosim.locate import fmu_folder
 from mechfmu.cosim.scene import REFERENCE_DIR, SCENE_DIR, SWEEP_DIR, SceneError
@@ -16,6 +17,12 @@ FMU_DIR = Path(os.environ.get("MECHFMU_FMU_DIR") or ROOT / "fmus")  # make sets 
 SCENES = SCENE_DIR  # the shipped scenes (package data)
 REFERENCES = REFERENCE_DIR
 SWEEPS = SWEEP_DIR
+
+# The property tests draw the same examples on every run and machine (a CI run must not turn
+# red because a new random draw found a case); `make properties` draws new ones.
+settings.register_profile("reproducible", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(os.environ.get("MECHFMU_HYPOTHESIS", "reproducible"))
 
 
 @pytest.fixture(scope="session")
