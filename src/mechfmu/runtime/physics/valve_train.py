@@ -577,8 +577,12 @@ def _forward_bounds(g: "ValveGeometry") -> tuple[float, float, float, float, flo
     low, high = tappet_lift_range(g)
     slack = 2 * SINGULAR_ULPS * _EPS * (g.rocker_pivot_y + g.pushrod_length + g.tappet_arm)
     angle_low, angle_high = rocker_angle_range(g)
-    return low - slack, high + slack, angle_low, angle_high, _singular_tolerance(
-        g.valve_link_length
+    return (
+        low - slack,
+        high + slack,
+        angle_low,
+        angle_high,
+        _singular_tolerance(g.valve_link_length),
     )
 
 
