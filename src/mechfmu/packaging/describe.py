@@ -78,6 +78,9 @@ def _start(variable: Any) -> str:
     return f"`{str(variable.start).lower() if variable.kind is bool else variable.start}`"
 
 
+INDEX = "documentation/index.html"  # the page an FMU shows (FMI 2.0 and 3.0)
+
+
 def model_class(name: str) -> type[MechSlave]:
     """The slave class of the FMU ``name`` (a key of the model registry)."""
     try:
@@ -217,16 +220,7 @@ def documentation(name: str, folder: Path) -> dict[str, bytes]:
     # links into the docs site do not resolve inside an FMU: keep their text
     text = re.sub(r"(?<!!)\[([^\]]+)\]\((?!https?:)[^)]*\)", r"\1", text)
     body = _markdown_to_html(text)
-    index = (
-        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-        f"<title>{html.escape(name)}</title>\n"
-        "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
-        "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:2px 6px;"
-        "font-size:90%}img{max-width:100%}code{background:#f4f4f4}</style>\n"
-        f"</head>\n<body>\n{body}\n<p><small>mechfmu {__version__}</small></p>\n"
-        "</body>\n</html>\n"
-    )
-    members["documentation/index.html"] = index.encode("utf-8")
+    members[INDEX] = _html_page(name, body)
     return members
 
 
@@ -261,15 +255,26 @@ def _scene_plot(scene_name: str, folder: Path) -> bytes:
 def null_description(name: str) -> dict[str, bytes]:
     """The documentation of ``name``'s null variant (the model-cost benchmark's baseline):
     one page saying what it is."""
-    title = html.escape(f"{name}Null")
-    text = (
-        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-        f"<title>{title}</title>\n</head>\n<body>\n<h1>{title}</h1>\n"
-        f"<p>The null variant of {html.escape(name)}: the same variables, parameters and "
-        "initialisation, and a step that does nothing (the baseline of mechfmu's model-cost "
-        f"benchmark).</p>\n<p><small>mechfmu {__version__}</small></p>\n</body>\n</html>\n"
+    body = (
+        f"<h1>{html.escape(name)}Null</h1>\n<p>The null variant of {html.escape(name)}: the same "
+        "variables, parameters and initialisation, and a step that does nothing (the baseline "
+        "of mechfmu's model-cost benchmark).</p>"
     )
-    return {"documentation/index.html": text.encode("utf-8")}
+    return {INDEX: _html_page(f"{name}Null", body)}
+
+
+def _html_page(title: str, body: str) -> bytes:
+    """The FMU's documentation/index.html around ``body`` (HTML), UTF-8."""
+    page = (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f"<title>{html.escape(title)}</title>\n"
+        "<style>body{font-family:sans-serif;max-width:60em;margin:2em auto;line-height:1.4}"
+        "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:2px 6px;"
+        "font-size:90%}img{max-width:100%}code{background:#f4f4f4}</style>\n"
+        f"</head>\n<body>\n{body}\n<p><small>mechfmu {__version__}</small></p>\n"
+        "</body>\n</html>\n"
+    )
+    return page.encode("utf-8")
 
 
 def self_description(name: str, fmi_version: int) -> dict[str, bytes]:
