@@ -198,8 +198,9 @@ def check_paths(
     tolerances, the ``check`` of the JSON beside it, else the defaults). A reference file without a result is a
     "missing file" failure; a result without a reference is listed but not compared; a file
     that cannot be read is a "malformed file" failure naming the line and column. Each pair
-    is read block by block (``block_bytes`` of text at a time, default 1 MiB): the memory
-    it takes does not grow with the files' size."""
+    is read block by block (``block_bytes`` of text at a time, default
+    result_blocks.BLOCK_BYTES, 2 MiB): the memory it takes does not grow with the files'
+    size."""
     from .io import ResultFileError
 
     options = {

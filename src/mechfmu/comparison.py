@@ -523,7 +523,8 @@ def compare(
             times instead of requiring the same time grid (the first and last times must
             still agree).
         ignore_extra: columns of the result that the reference lacks are not failures.
-        block_bytes: the text read at a time from a file (default 1 MiB).
+        block_bytes: the text read at a time from a file (default: result_blocks.BLOCK_BYTES,
+            2 MiB).
 
     Returns:
         A Comparison: ``passed``; ``failures`` with columns ``column, time, value,
