@@ -377,7 +377,7 @@ def test_smallest_roller_base_circle_meets_its_limit_with_equality(offset, limit
         (("roller", 0.015, 0.0), "roller_radius", "(0, inf)"),
         (("flat_faced", 0.015, 0.0, 0.015), "follower_offset", "(-0.015, 0.015)"),
         (("roller", 0.015, 0.005, -0.021), "follower_offset", "(-0.02, 0.02)"),
-        (("flat_faced", math.nan), "cam_base_radius", "(-inf, inf)"),
+        (("flat_faced", math.nan), "cam_base_radius", "(0, inf)"),
     ],
 )
 def test_bad_follower_names_the_value_and_the_limit(arguments, name, valid):

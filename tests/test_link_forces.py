@@ -334,7 +334,7 @@ def test_negative_or_nan_mass_and_inertia_are_one_clear_error(mass, inertia, nam
     with pytest.raises(RangeError) as caught:
         link_forces.mass_layout("crank", mass, 0.01, 0.0, inertia)
     assert caught.value.name == name
-    assert "[0, inf)" in str(caught.value) or "must be finite" in str(caught.value)
+    assert "valid range [0, inf)" in str(caught.value)
 
 
 def test_forces_near_a_toggle_are_reported_as_unbounded_with_the_configuration():

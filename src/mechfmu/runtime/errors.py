@@ -60,20 +60,21 @@ class SnapThrough(MechanismError):
     """The load passed the limit load and the caller asked not to continue past it."""
 
 
-def require_finite(name: str, value: float, unit: str = "") -> float:
-    """Return ``value`` as float or raise RangeError for NaN, +-inf or non-numbers."""
+def require_finite(name: str, value: float, unit: str = "", valid: str = "(-inf, inf)") -> float:
+    """Return ``value`` as float or raise RangeError for NaN, +-inf or non-numbers; ``valid``
+    is the range the message names (the parameter's own, where the caller checks one)."""
     try:
         number = float(value)
     except (TypeError, ValueError):
-        raise RangeError(name, value, "(-inf, inf)", unit, "not a number") from None
+        raise RangeError(name, value, valid, unit, "not a number") from None
     if not math.isfinite(number):
-        raise RangeError(name, number, "(-inf, inf)", unit, "must be finite")
+        raise RangeError(name, number, valid, unit, "must be finite")
     return number
 
 
 def require_positive(name: str, value: float, unit: str = "") -> float:
     """Return ``value`` as float or raise RangeError unless it is finite and > 0."""
-    number = require_finite(name, value, unit)
+    number = require_finite(name, value, unit, "(0, inf)")
     if number <= 0.0:
         raise RangeError(name, number, "(0, inf)", unit, "must be positive")
     return number
@@ -82,7 +83,7 @@ def require_positive(name: str, value: float, unit: str = "") -> float:
 def require_above(name: str, value: float, low: float, unit: str = "", why: str = "") -> float:
     """Return ``value`` as float or raise RangeError (with ``why``) unless it is finite and
     above ``low``."""
-    number = require_finite(name, value, unit)
+    number = require_finite(name, value, unit, f"({low!r}, inf)")
     if not number > low:
         raise RangeError(name, number, f"({low!r}, inf)", unit, why)
     return number
@@ -100,10 +101,10 @@ def require_between(
 ) -> float:
     """Return ``value`` as float or raise RangeError (with ``why``) unless
     low <(=) value <(=) high."""
-    number = require_finite(name, value, unit)
+    valid = f"{'(' if low_open else '['}{low!r}, {high!r}{')' if high_open else ']'}"
+    number = require_finite(name, value, unit, valid)
     below = number <= low if low_open else number < low
     above = number >= high if high_open else number > high
     if below or above:
-        valid = f"{'(' if low_open else '['}{low!r}, {high!r}{')' if high_open else ']'}"
         raise RangeError(name, number, valid, unit, why)
     return number

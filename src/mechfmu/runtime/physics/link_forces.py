@@ -61,7 +61,7 @@ def mass_layout(link: str, mass: float, com_x: float, com_y: float, inertia: flo
     mass (kg m^2) finite and not negative, the centre of mass (m, body frame) finite. The
     RangeError names the parameter, ``<link>_mass`` or ``<link>_inertia``."""
     for name, value, unit in ((f"{link}_mass", mass, "kg"), (f"{link}_inertia", inertia, "kg.m2")):
-        if require_finite(name, value, unit) < 0.0:
+        if require_finite(name, value, unit, "[0, inf)") < 0.0:
             raise RangeError(
                 name, value, "[0, inf)", unit, "a mass or moment of inertia cannot be negative"
             )
