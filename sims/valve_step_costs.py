@@ -8,6 +8,11 @@ the loop's median CPU time per simulated s (the figure of ``mechfmu bench --only
 for 0.25). The rest of the loop (the master's own Python) is the row "master". See
 docs/dynamics.md, "Dynamic scenes against real time".
 
+With --floor it also runs each scene with ValveSpring's null twin in its place (the same
+variables, a doStep that returns at once; built into a temporary folder): the loop's CPU
+time without the valve's own computation, the floor of the three FMUs' boundary and the
+master, which no work inside the valve can lower.
+
 With --profile it also runs the valve alone in-process (ValveSpring driven by the scene's
 camshaft motion, no FMU) under cProfile and prints its top functions by cumulative time:
 where the valve's own step goes (cProfile's overhead inflates the small functions). The first
@@ -16,18 +21,24 @@ line of each table also gives the valve alone's CPU time per simulated s, withou
 
 import argparse
 import cProfile
+import dataclasses
 import io
 import pstats
+import shutil
 import statistics
+import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 from mechfmu.cosim.locate import fmu_folder
 from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import SCENE_DIR, load_scene
 from mechfmu.runtime.models.shaft_drives import CamshaftDrive
 from mechfmu.runtime.models.valve_spring import ValveSpring
+from mechfmu.packaging.build import null_name
 from mechfmu.runtime.physics.profiles import rotation
+from mechfmu.tools.bench.model_cost import build_null_models
 
 SCENES = ("valve_train_dynamic", "valve_float_dynamic")
 
@@ -105,6 +116,43 @@ def valve_alone_cpu(name: str, repeats: int) -> float:
     return statistics.median(times) / (scene.stop_time - scene.start_time)
 
 
+def loop_cpu(scene, fmu_dir: str, repeats: int) -> tuple[float, float]:
+    """(first, median) CPU time per simulated s of ``scene``'s stepping loop over ``repeats``
+    runs of one Simulation (the first pays for the FMUs' caches that later runs reuse)."""
+    simulation = Simulation(scene, fmu_dir)
+    times = [simulation.run().meta["loop_cpu_time_s"] for _ in range(repeats)]
+    span = scene.stop_time - scene.start_time
+    return times[0] / span, statistics.median(times) / span
+
+
+def floor_table(fmu_dir: str, repeats: int) -> str:
+    """Markdown table: each scene's loop CPU s per simulated s as shipped and with
+    ValveSpring's null twin in its place (first run and median of ``repeats``)."""
+    lines = [
+        "| scene | as shipped: first, median | null valve: first, median |",
+        "|---|---:|---:|",
+    ]
+    with tempfile.TemporaryDirectory() as folder:
+        for fmu in Path(fmu_dir).glob("*.fmu"):
+            shutil.copy(fmu, folder)
+        build_null_models(["ValveSpring"], Path(folder))
+        for name in SCENES:
+            scene = load_scene(SCENE_DIR / f"{name}.toml")
+            components = {
+                key: dataclasses.replace(spec, fmu=null_name(spec.fmu))
+                if spec.fmu == "ValveSpring"
+                else spec
+                for key, spec in scene.components.items()
+            }
+            floor = dataclasses.replace(scene, components=components)
+            shipped = loop_cpu(scene, folder, repeats)
+            null = loop_cpu(floor, folder, repeats)
+            lines.append(
+                f"| {name} | {shipped[0]:.3f}, {shipped[1]:.3f} | {null[0]:.3f}, {null[1]:.3f} |"
+            )
+    return "\n".join(lines)
+
+
 def valve_profile(repeats: int, lines: int = 30) -> str:
     """cProfile's top ``lines`` functions (cumulative) of valve_alone's steps over both
     scenes, ``repeats`` times each (the set-up not profiled)."""
@@ -128,10 +176,17 @@ if __name__ == "__main__":
         help="also profile the valve alone in-process (default: off)",
     )
     parser.add_argument(
+        "--floor",
+        action="store_true",
+        help="also run each scene with ValveSpring's null twin in its place (default: off)",
+    )
+    parser.add_argument(
         "--fmu-dir", help="folder of the built FMUs (default: found as by every command)"
     )
     args = parser.parse_args()
     folder = fmu_folder(["ValveSpring", "ValveTrain", "CamshaftDrive"], args.fmu_dir)
     print("\n\n".join(call_costs(name, folder, args.repeats) for name in SCENES))
+    if args.floor:
+        print("\n" + floor_table(folder, args.repeats))
     if args.profile:
         print(valve_profile(args.repeats))

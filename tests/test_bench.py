@@ -344,3 +344,32 @@ def test_effects_script_runs_the_effects_benchmark(fmu_dir):
     )
     assert done.returncode == 0, done.stderr
     assert "| effects | kinematic / dynamic |" in done.stdout
+
+
+def test_valve_costs_script_measures_the_floor_under_the_valve(fmu_dir):
+    # sims/valve_step_costs.py --floor: each valve scene as shipped and with ValveSpring's
+    # null twin in its place; the twin's loop leaves out the valve's own computation
+    done = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "sims" / "valve_step_costs.py"),
+            "--fmu-dir",
+            str(fmu_dir),
+            "--repeats",
+            "2",
+            "--floor",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert done.returncode == 0, done.stderr
+    rows = {}
+    for line in done.stdout.splitlines():
+        cells = [cell.strip() for cell in line.strip("|").split("|")]
+        if len(cells) == 3 and cells[0].startswith("valve_") and "," in cells[1]:
+            rows[cells[0]] = [float(x) for x in (*cells[1].split(","), *cells[2].split(","))]
+    assert set(rows) == {"valve_train_dynamic", "valve_float_dynamic"}
+    for shipped_first, shipped, null_first, null in rows.values():
+        assert 0.0 < null < shipped and 0.0 < null_first < shipped_first
+    assert "| valve.fmi2DoStep |" in done.stdout
