@@ -62,6 +62,23 @@ def test_a_malformed_check_table_is_named_with_the_scene_and_the_key(tmp_path, t
         assert word in str(caught.value), str(caught.value)
 
 
+@given(
+    key=st.text(min_size=1, max_size=200).filter(
+        lambda k: k not in ("why", "rtol", "atol", "method", "time_tolerance", "columns")
+    )
+)
+def test_an_unknown_key_is_named_on_one_line_whatever_it_holds(key):
+    # a key read from a result's JSON sidecar may hold line breaks or be very long (found
+    # by make fuzz-inputs: "unknown key(s) t<newline>u" made a message of two lines)
+    with pytest.raises(ValueError) as caught:
+        parse_check({"why": WHY, key: 1.0}, "result.json")
+    message = str(caught.value)
+    assert "\n" not in message and len(message) < 300
+    assert message.startswith("result.json: [check]: unknown key(s) ")
+    named = message.split("unknown key(s) ", 1)[1].split("; allowed:", 1)[0]
+    assert named == key or named == repr(key) or "characters)..." in named
+
+
 tolerances = st.floats(min_value=0.0, max_value=1.0, allow_nan=False)
 column_checks = st.builds(
     ColumnCheck,
