@@ -227,3 +227,59 @@ def test_sims_runner_help_names_the_script():
         timeout=60,
     )
     assert done.returncode == 0 and done.stdout.startswith("usage: run_sweeps.py [-h]")
+
+
+LONG = "a" * 300  # a file name over the file system's 255 bytes: os.stat raises ENAMETOOLONG
+
+
+@pytest.mark.parametrize(
+    "arguments, first",
+    [
+        (["run", LONG], "scene error: scene file "),
+        (["run", f"{LONG}/x.toml"], "scene error: scene file "),
+        (["sweep", LONG], "sweep error: scene file "),
+        (["check", LONG, LONG], "check error: result "),
+        (["check", "RESULT", f"{LONG}.csv"], "check error: reference "),
+        (["run", "gear_retraction", "--out", LONG], "output error: output folder "),
+        (["baseline", "update", LONG, "baselines"], "baseline error: results "),
+        (["baseline", "update", "RESULT", LONG], "baseline error: baselines "),
+    ],
+)
+def test_a_path_too_long_for_the_file_system_is_one_line_naming_it(
+    tmp_path, capsys, arguments, first
+):
+    # found by make fuzz-inputs (a scene's component named with hundreds of characters):
+    # pathlib's exists() and is_file() raise OSError for such a name, which came out as a
+    # traceback
+    result = tmp_path / "r.csv"
+    result.write_text("time,x\n0,1\n")
+    status = cli([str(result) if word == "RESULT" else word for word in arguments])
+    err = capsys.readouterr().err
+    assert status == 2 and err.startswith(first) and err.count("\n") == 1, err
+    assert "File name too long" in err and "...(" in err and "Traceback" not in err
+
+
+def test_a_component_named_beyond_a_file_name_is_a_scene_error(fmu_dir, tmp_path, capsys):
+    scene = tmp_path / "long.toml"
+    scene.write_text(
+        f'stop_time = 1.0\nstep = 0.5\n[components.a]\nfmu = "PistonActuator{"9" * 300}"\n'
+    )
+    assert cli(["run", str(scene), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("scene error: scene long: FMU(s) 'PistonActuator999") and "...(" in err
+    assert cli(["run", str(scene), "--fmu-dir", str(fmu_dir), "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("scene error: component 'a': FMU file ") and "File name too long" in err
+    with pytest.raises(SceneError, match="cannot be read: File name too long"):
+        mechfmu.simulate(scene, fmu_dir=fmu_dir)
+
+
+def test_an_os_error_no_verb_expected_is_one_line_with_status_1(monkeypatch, capsys):
+    def refused(args):
+        raise PermissionError(13, "Permission denied", "/" + "b" * 400)
+
+    monkeypatch.setattr("mechfmu.cli._scenes", refused)
+    assert cli(["scenes"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("mechfmu scenes: error: Permission denied: '/bbb") and "...(" in err
+    assert err.count("\n") == 1

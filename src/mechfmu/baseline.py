@@ -20,6 +20,7 @@ from pathlib import Path
 import pandas as pd
 
 from .comparison import compare
+from .cosim import limits
 from .cosim.files import OutputError, atomic_write_all, error_cause
 
 
@@ -89,9 +90,16 @@ def update_baselines(
     from .io import ResultFileError, read_result
 
     results, baselines = Path(results), Path(baselines)
-    if not results.exists():
-        raise BaselineError(f"results {results} do not exist")
-    if baselines.exists() and not baselines.is_dir():
+    problem = limits.path_problem(results)
+    if problem is not None:
+        raise BaselineError(
+            f"results {limits.path_text(results)} "
+            + ("do not exist" if problem == "does not exist" else problem)
+        )
+    problem = limits.path_problem(baselines)
+    if problem not in (None, "does not exist"):
+        raise BaselineError(f"baselines {limits.path_text(baselines)} {problem}")
+    if problem is None and not baselines.is_dir():
         raise BaselineError(f"baselines {baselines} is not a folder")
     found = _csv_files(results) if results.is_dir() else {results.name: results}
     if not found:

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .comparison import Comparison, Tolerance
+from .cosim import limits
 from .comparison import compare as compare_frames
 
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
@@ -150,8 +151,9 @@ def _pairs(
     """(relative name, result file, reference file) for every CSV (or Parquet) file,
     matched by relative path; and an error when the arguments cannot be compared at all."""
     for path, what in ((result, "result"), (reference, "reference")):
-        if not path.exists():
-            return [], f"{what} {path} does not exist"
+        problem = limits.path_problem(path)
+        if problem is not None:
+            return [], f"{what} {limits.path_text(path)} {problem}"
     if result.is_dir() != reference.is_dir():
         if result.is_dir():
             return [], (

@@ -1420,7 +1420,22 @@ def main(argv: list[str] | None = None, script: str | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except OSError as error:
+        # the verbs name the paths they are given; this catches a path the operating system
+        # refuses where no verb expected it (a name too long, a folder not searchable): one
+        # line, never a traceback
+        print(f"mechfmu {args.verb}: error: {_os_error_text(error)}", file=sys.stderr)
+        return 1
     return status
+
+
+def _os_error_text(error: OSError) -> str:
+    """An OSError in one line: its cause, and the path it names (shortened when long)."""
+    from .cosim.limits import path_text
+
+    cause = error.strerror or str(error)
+    named = [path_text(name) for name in (error.filename, error.filename2) if name is not None]
+    return f"{cause}: {' -> '.join(named)}" if named else one_line(cause)
 
 
 def script_main(script: Any, *verb: Any) -> None:

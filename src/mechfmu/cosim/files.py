@@ -31,6 +31,8 @@ from pathlib import Path
 from typing import Any
 from collections.abc import Callable, Iterator
 
+from . import limits
+
 if TYPE_CHECKING:  # annotations only (from __future__ import annotations)
     from matplotlib.figure import Figure
 
@@ -74,7 +76,10 @@ def output_folder(folder: Path | str) -> Path:
     Call it before any work whose results go there, so a bad --out costs nothing.
     """
     folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
+    problem = limits.path_problem(folder)
+    if problem not in (None, "does not exist"):  # a name too long, a parent not searchable
+        raise OutputError(f"output folder {limits.path_text(folder)} {problem}")
+    if problem is None and not folder.is_dir():
         raise OutputError(f"output folder {folder} is not a directory")
     try:
         folder.mkdir(parents=True, exist_ok=True)

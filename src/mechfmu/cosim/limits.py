@@ -183,6 +183,34 @@ LIMITS = (
 # --- files --------------------------------------------------------------------------------
 
 
+NOT_FOUND = "file not found"  # file_problem's answer for a path that does not exist
+
+
+def path_text(path: Path | str, size: int = 200) -> str:
+    """``path`` for a message: as it is, or shortened (its middle left out) when longer than
+    ``size`` characters or holding a line break (a name from a hostile scene file)."""
+    text = str(path)
+    return text if len(text) <= size and text.isprintable() else shortened(text, size)
+
+
+def path_problem(path: Path | str) -> str | None:
+    """Why ``path`` names nothing usable, or None when it names something (a file or a
+    folder): "does not exist", or "cannot be read: <cause>" for what Path.exists raises
+    (a name too long for the file system, a parent that cannot be searched, a NUL)."""
+    try:
+        os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return "does not exist"
+    except (OSError, ValueError) as error:  # ValueError: a NUL in the path
+        return f"cannot be read: {getattr(error, 'strerror', None) or error}"
+    return None
+
+
+def exists(path: Path | str) -> bool:
+    """Whether ``path`` names something: Path.exists without its OSError (path_problem)."""
+    return path_problem(path) is None
+
+
 def file_problem(path: Path | str, max_bytes: int | None) -> str | None:
     """Why ``path`` cannot be read as a file of at most ``max_bytes`` (None: of any size), or
     None: missing, a directory, not a regular file (a FIFO or a device would block or never
@@ -190,7 +218,7 @@ def file_problem(path: Path | str, max_bytes: int | None) -> str | None:
     try:
         status = os.stat(path)
     except FileNotFoundError:
-        return "file not found"
+        return NOT_FOUND
     except (OSError, ValueError) as error:  # ValueError: a NUL in the path
         return f"cannot be read: {getattr(error, 'strerror', None) or error}"
     if stat.S_ISDIR(status.st_mode):

@@ -24,6 +24,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from .. import __version__
+from . import limits
 from .scene import PACKAGE_ROOT, Scene, SceneError
 
 # the source checkout of an editable install (src/mechfmu -> the repository), or None
@@ -68,10 +69,11 @@ def fmu_folder(
     if fmu_dir is not None and str(fmu_dir) != "":
         return folders[0][1]
     for _, folder in folders:
-        if all((folder / f"{model}.fmu").is_file() for model in models):
+        # file_problem, not is_file(): a name too long for the file system raises OSError
+        if all(limits.file_problem(folder / f"{model}.fmu", None) is None for model in models):
             return folder
     tried = "; ".join(f"{label}: {folder}" for label, folder in folders)
-    needed = ", ".join(f"{model}.fmu" for model in models)
+    needed = ", ".join(limits.path_text(f"{model}.fmu", 80) for model in models)
     raise SceneError(
         f"{what + ': ' if what else ''}FMU(s) {needed} not found in any of the folders "
         f"searched ({tried}); build them with 'mechfmu build' (into the user cache) or "

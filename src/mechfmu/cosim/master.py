@@ -47,6 +47,7 @@ from .experiment import resolved_times
 from .fmu_file import FmuError, checked_description, unpack
 from .text import joined_lines
 from .interrupt import signal_name
+from . import limits
 from .locate import scene_fmu_folder
 from .scene import SceneError, split_name
 from .variables import called_type, connectable, element, movable, recordable, scene_value
@@ -134,9 +135,12 @@ def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
             candidate = scene.path.parent / candidate
     else:
         candidate = Path(fmu_dir) / f"{spec.fmu}.fmu"
-    if not candidate.is_file():
+    # file_problem, not is_file(): a name too long for the file system raises OSError there
+    problem = limits.file_problem(candidate, None)
+    if problem is not None:
         raise SceneError(
-            f"component {spec.name!r}: FMU file {candidate} not found; build the "
+            f"component {spec.name!r}: FMU file {limits.path_text(candidate)} "
+            f"{'not found' if problem == limits.NOT_FOUND else problem}; build the "
             f"FMUs with 'mechfmu build' (or 'make fmus')"
         )
     return candidate

@@ -80,7 +80,7 @@ def choose_scene(
             f"{type(scene).__name__}"
         )
     path = find_file(str(scene))
-    if not path.exists() and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
+    if not limits.exists(path) and Path(str(scene)).suffix != ".toml" and "/" not in str(scene):
         shipped = sorted(p.stem for p in SCENE_DIR.glob("*.toml"))
         raise SceneError(
             f"no shipped scene named {str(scene)!r} and no such file; shipped "

@@ -320,10 +320,13 @@ def find_file(text: str, folders: tuple = (SCENE_DIR,)) -> Path:
     of reading it says where it was looked for.
     """
     path = Path(text)
-    if path.exists() or path.suffix == ".toml":
+    if limits.exists(path) or path.suffix == ".toml":
         return path
     candidates = [Path(folder) / f"{text}.toml" for folder in folders]
-    return next((candidate for candidate in candidates if candidate.is_file()), candidates[0])
+    return next(
+        (candidate for candidate in candidates if limits.file_problem(candidate, None) is None),
+        candidates[0],
+    )
 
 
 def read_toml(
@@ -335,9 +338,9 @@ def read_toml(
     problem, in one line."""
     text, problem = limits.read_text(path, limits.MAX_TOML_BYTES)
     if text is None:
-        if problem == "file not found":
-            raise error(f"{what} {path} not found")
-        raise error(f"{what} {path}: {problem}")
+        if problem == limits.NOT_FOUND:
+            raise error(f"{what} {limits.path_text(path)} not found")
+        raise error(f"{what} {limits.path_text(path)}: {problem}")
     problem = limits.scan_problem(text, limits.MAX_TOML_DEPTH, "toml")
     if problem:
         raise error(f"{path}: {problem}")
