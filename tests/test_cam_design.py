@@ -11,6 +11,7 @@ import pytest
 import mechfmu
 from mechfmu.cli import main as cli
 from mechfmu.cli import parse_assignments
+from cli_process import run_mechfmu
 from mechfmu.cosim.scene import SceneError
 from mechfmu.runtime.errors import CamDesignError, RangeError
 from mechfmu.runtime.physics import cam_geometry as cg
@@ -177,3 +178,18 @@ def test_parse_assignments_reads_toml_values_else_strings():
         parse_assignments(["valve.lift"])
     with pytest.raises(ValueError, match="expected component.parameter=value"):
         parse_assignments(["=3"])
+
+
+@pytest.mark.parametrize("points", [15, 1_000_001, 10**8, 64.0, True])
+def test_profile_points_outside_their_range_are_refused_before_any_work(points):
+    # 1e8 points ran for minutes and filled the memory before this limit (about 4 us and
+    # 96 bytes a point)
+    with pytest.raises(ValueError, match=r"must be an integer from 16 to 1000000"):
+        mechfmu.cam_profile("valve_train", points=points)
+
+
+def test_the_command_refuses_absurd_profile_points_in_one_line(tmp_path):
+    done = run_mechfmu("cam-profile", "valve_train", "--points", "100000000", "--out", tmp_path)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert done.stderr.startswith("cam error: points = 100000000 must be an integer from 16")
+    assert not list(tmp_path.iterdir())

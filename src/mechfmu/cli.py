@@ -771,7 +771,7 @@ def _cam_verbs(verbs: argparse._SubParsersAction) -> None:
         "--points",
         type=int,
         default=3600,
-        help="profile points per revolution (default: 3600, every 0.1 degree)",
+        help="profile points per revolution, 16 to 1000000 (default: 3600, every 0.1 degree)",
     )
     profile.add_argument("--out", default="out", help="output folder (default: out)")
     profile.set_defaults(func=_cam_profile)
