@@ -283,3 +283,9 @@ def test_an_os_error_no_verb_expected_is_one_line_with_status_1(monkeypatch, cap
     err = capsys.readouterr().err
     assert err.startswith("mechfmu scenes: error: Permission denied: '/bbb") and "...(" in err
     assert err.count("\n") == 1
+
+
+def test_study_refuses_more_workers_than_four_per_core(capsys):
+    assert cli(["study", "--workers", "100000"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("study error: --workers = 100000 is more than 4 local worker")

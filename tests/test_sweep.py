@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from mechfmu.tools import sweep
+from mechfmu.tools.parallel import MAX_WORKERS_PER_CORE
 from mechfmu.cli import main as cli_main
 from mechfmu.cosim.master import Simulation
 from mechfmu.cosim.scene import REFERENCE_DIR, load_scene
@@ -605,6 +606,38 @@ def test_only_stop_time_and_step_are_overridden(tmp_path):
             progress=False,
             overrides={"coupling": "jacobi"},
         )
+
+
+@needs_fmus
+def test_more_local_workers_than_four_per_core_are_refused_before_anything(tmp_path):
+    # --jobs 100000 forked worker processes until the machine stalled (a pool forks them all)
+    too_many = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1) + 1
+    with pytest.raises(sweep.SweepError) as caught:
+        sweep.run_sweep(
+            write_scene(tmp_path),
+            [sweep.parse_vary("suspension.mass=1:2:2")],
+            [metric("max:suspension.deflection")],
+            tmp_path / "out",
+            jobs=too_many,
+            fmu_dir=FMU_DIR,
+            progress=False,
+        )
+    assert str(caught.value).startswith(f"--jobs = {too_many} is more than 4 local worker")
+    assert not (tmp_path / "out").exists()
+
+
+@needs_fmus
+def test_no_more_workers_start_than_there_are_points(tmp_path):
+    summary = sweep.run_sweep(
+        write_scene(tmp_path, stop=0.2),
+        [sweep.parse_vary("suspension.mass=1:2:1")],
+        [metric("max:suspension.deflection")],
+        tmp_path / "out",
+        jobs=min(4, MAX_WORKERS_PER_CORE * (os.cpu_count() or 1)),
+        fmu_dir=FMU_DIR,
+        progress=False,
+    )
+    assert summary["jobs"] == 1 and summary["where"] == "local, 1 process(es)"
 
 
 # --- one instance per worker, reset between points --------------------------------------------

@@ -615,8 +615,13 @@ def _cam_size(args: argparse.Namespace) -> int:
 
 def _study(args: argparse.Namespace):
     from .runtime.models import MODELS
+    from .tools.parallel import workers_problem
     from .tools.study import command
 
+    problem = workers_problem("--workers", args.workers)
+    if problem:
+        print(f"study error: {problem}", file=sys.stderr)
+        return 2
     if not args.work_precision and not _fmu_folder(args, MODELS, "study"):
         return 2
     return command(args)
@@ -822,7 +827,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         "--workers",
         type=_at_least_one,
         default=min(2, os.cpu_count() or 1),
-        help="parallel processes (default: 2 or the cores there are)",
+        help="parallel processes, at most 4 per core (default: 2 or the cores there are)",
     )
     study.add_argument(
         "--out", default="data/study", metavar="DIR", help="output folder (default: data/study)"
@@ -977,7 +982,7 @@ def _measurement_verbs(verbs: argparse._SubParsersAction) -> None:
         "--jobs",
         type=int,
         default=os.cpu_count() or 1,
-        help="parallel processes (default: the number of cores)",
+        help="parallel processes, at most 4 per core (default: the number of cores)",
     )
     sweep.add_argument(
         "--scheduler",

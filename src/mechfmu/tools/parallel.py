@@ -43,6 +43,24 @@ def settle_threads(count: int | None, timeout: float = 1.0) -> None:
         time.sleep(0.001)
 
 
+MAX_WORKERS_PER_CORE = 4  # local worker processes per core a command may ask for
+
+
+def workers_problem(option: str, workers: int) -> str | None:
+    """The one line refusing ``workers`` local worker processes (``option`` names where they
+    were asked for), or None: more than MAX_WORKERS_PER_CORE per core of this machine would
+    only share the cores, each process loading the FMUs (a pool forks them all at once:
+    --jobs 100000 forked until the machine stalled)."""
+    cores = os.cpu_count() or 1
+    if workers <= MAX_WORKERS_PER_CORE * cores:
+        return None
+    return (
+        f"{option} = {workers} is more than {MAX_WORKERS_PER_CORE} local worker processes per "
+        f"core (this machine has {cores}: at most {MAX_WORKERS_PER_CORE * cores}); each is a "
+        f"process that loads the FMUs, and more than the cores only share them: lower {option}"
+    )
+
+
 class LocalPool:
     """Worker processes on this machine running ``task``, reading the FMUs in place.
 

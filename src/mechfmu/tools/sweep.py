@@ -64,7 +64,7 @@ from ..cosim import limits
 from ..cosim.files import atomic_write, inside, save_figure
 from ..cosim.results import FORMATS, require_pyarrow, write_json
 from ..cosim.scene import SCENE_DIR, SWEEP_DIR, find_file, read_toml, refuse_unknown_keys
-from .parallel import LocalPool
+from .parallel import LocalPool, workers_problem
 from .progress import Progress
 from argparse import Namespace
 
@@ -1068,6 +1068,9 @@ def run_sweep(
     if not metrics:
         raise SweepError("give at least one metric (--metrics)")
     jobs = at_least("--jobs", os.cpu_count() or 1 if jobs is None else jobs, 1)
+    too_many_workers = workers_problem("--jobs", jobs) if scheduler is None else None
+    if too_many_workers:
+        raise SweepError(too_many_workers)
     retries = at_least("--retries", retries, 0)
     if samples is None and seed is not None:
         raise SweepError("--seed needs --samples")
@@ -1156,7 +1159,9 @@ def run_sweep(
         "command": sys.argv,
     }
     kept = _resumed_rows(csv_path, json_path, summary, header) if resume else []
-    runner = DaskCluster(scheduler) if scheduler else LocalPool(jobs, run_point, _worker_init)
+    # no more local workers than points to run: a pool forks all its workers at once
+    workers = max(1, min(jobs, count - len(kept)))
+    runner = DaskCluster(scheduler) if scheduler else LocalPool(workers, run_point, _worker_init)
     summary.update(jobs=runner.workers, where=runner.where, resumed=len(kept), done=len(kept))
     finished = {int(line[0]) for line in kept}
 
