@@ -13,6 +13,7 @@ Property tests draw cam laws and geometries at random.
 """
 
 import math
+import sys
 
 import numpy as np
 import pytest
@@ -464,3 +465,36 @@ def test_mean_torque_over_a_revolution_is_zero(law):
     peak = max(abs(torque(a)) for a in np.linspace(0.0, TAU, 2001))
     assert abs(work) <= 1e-10 * peak * TAU
     assert peak > 1.0  # N.m: a real load, not a zero
+
+
+@pytest.mark.parametrize("roller", [1e-300, 1e-30, 1e-9])
+def test_a_vanishing_roller_sizes_the_cam_as_a_knife_edge_would(roller):
+    # roller_radius 1e-300 m raised ZeroDivisionError (a trial prime circle of 1e-300 m, whose
+    # curvature's r^3 underflowed) and, once finite, "no base circle up to 1e40 m" (the search
+    # grew from 1e-300 m by 1.25 a step): the sizing must not depend on how small the roller is
+    pieces = cg.law_pieces(DEFAULT)
+    sizing = cg.smallest_base_circle("roller", pieces, roller)
+    knife = cg.smallest_base_circle("roller", pieces, 1e-6)
+    assert sizing.limit == knife.limit == "pressure_angle"
+    assert sizing.base_circle_radius + roller == pytest.approx(
+        knife.base_circle_radius + 1e-6, rel=1e-9
+    )
+
+
+@given(
+    scale=st.sampled_from([1e-300, 1e-150, 1e-9, 1.0, 1e150, 1e300]),
+    lift=st.floats(-0.5, 0.5),
+    rate=st.floats(-1.0, 1.0),
+    rate2=st.floats(-1.0, 1.0),
+)
+def test_pitch_curvature_is_finite_and_scales_as_one_over_length(scale, lift, rate, rate2):
+    # every length (Rb, Rf, s, ds/dtheta, d2s/dtheta2) times scale: the curvature (1/m) over
+    # scale, at any scale where that is a float (r^3 leaves the floats at 1e-300 and 1e300 m)
+    unit = cg.pitch_curvature(cg.check_follower("roller", 1.0, 1.0), lift, rate, rate2)
+    follower = cg.check_follower("roller", scale, scale)
+    curvature = cg.pitch_curvature(follower, lift * scale, rate * scale, rate2 * scale)
+    assert math.isfinite(curvature)
+    if abs(unit) / scale < sys.float_info.max / 2:
+        assert curvature == pytest.approx(unit / scale, rel=1e-9, abs=1e-300 / scale)
+    else:
+        assert curvature == math.copysign(sys.float_info.max, unit)

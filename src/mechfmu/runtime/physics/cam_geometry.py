@@ -140,7 +140,13 @@ def trace_height(follower: "Follower") -> float:
         return follower.base_circle_radius
     prime = follower.base_circle_radius + follower.roller_radius
     e = follower.offset
-    return math.sqrt((prime - e) * (prime + e))
+    product = (prime - e) * (prime + e)
+    if 1e-290 < product < 1e290:
+        return math.sqrt(product)
+    return math.sqrt(prime - e) * math.sqrt(prime + e)  # the product would under/overflow
+
+
+SEARCH_START = 1e-3  # m: smallest_base_circle's search grows the prime circle from here at least
 
 
 def pitch_curvature(follower: "Follower", s: float, s1: float, s2: float) -> float:
@@ -148,7 +154,19 @@ def pitch_curvature(follower: "Follower", s: float, s1: float, s2: float) -> flo
     finite everywhere (the radius of curvature is its inverse)."""
     h = trace_height(follower) + s
     c = s1 - follower.offset
-    return (h * (h - s2) + c * (2.0 * s1 - follower.offset)) / (h * h + c * c) ** 1.5
+    squared = h * h + c * c
+    if 1e-200 < squared < 1e200:  # r^3 a float (a power that overflows raises)
+        return (h * (h - s2) + c * (2.0 * s1 - follower.offset)) / squared**1.5
+    # the trace point's distance r = |(h, c)| is so small (or large) that r^3 leaves the
+    # floats (a trial prime circle of 1e-300 m in smallest_base_circle): the same curvature
+    # scaled by r, at most the largest float
+    r = math.hypot(h, c)
+    if r == 0.0:
+        return sys.float_info.max  # the trace point on the camshaft's axis: unbounded
+    curvature = ((h / r) * ((h - s2) / r) + (c / r) * ((2.0 * s1 - follower.offset) / r)) / r
+    if math.isnan(curvature):
+        return sys.float_info.max
+    return max(-sys.float_info.max, min(sys.float_info.max, curvature))
 
 
 def _radius(curvature: float) -> float:
@@ -452,7 +470,7 @@ def smallest_base_circle(
     if kind not in FOLLOWERS:
         raise MechanismError(f"{KIND} = {kind!r} is not one of {', '.join(FOLLOWERS)}")
     e = require_finite(OFFSET, offset, "m")
-    required = require_finite("min_radius_of_curvature", min_radius_of_curvature, "m")
+    required = require_finite("min_radius_of_curvature", min_radius_of_curvature, "m", "[0, inf)")
     if required < 0.0:
         raise RangeError("min_radius_of_curvature", required, "[0, inf)", "m")
     if kind == "flat_faced":
@@ -481,12 +499,19 @@ def smallest_base_circle(
 
     bound = max(abs(e), roller) * (1.0 + 1e-12)  # Rp > |e| and Rb = Rp - Rf > 0
     low = high = bound
-    for _ in range(400):
-        if excess(high)[0] <= 0.0:
-            break
-        low, high = high, high * 1.25
-    else:
-        raise MechanismError("smallest_base_circle: no base circle up to 1e40 m is feasible")
+    if excess(bound)[0] > 0.0:
+        # grown from a millimetre at least: a bound of 1e-300 m (a roller that small) would
+        # take thousands of steps of 1.25 to reach a real cam's size
+        high = max(bound * 1.25, SEARCH_START)
+        for _ in range(400):
+            if excess(high)[0] <= 0.0:
+                break
+            low, high = high, high * 1.25
+        else:
+            raise MechanismError(
+                f"smallest_base_circle: no prime circle up to {high:.3g} m is feasible "
+                f"(roller_radius {roller!r} m, follower_offset {e!r} m)"
+            )
     while high - low > 1e-13 * high:
         middle = 0.5 * (low + high)
         if excess(middle)[0] <= 0.0:
