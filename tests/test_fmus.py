@@ -245,6 +245,11 @@ def test_dead_centre_is_reported_as_singular(fmu_dir):
         ("PistonActuator", {"profile": "jerky"}, ["profile = 'jerky'", "constant_speed"]),
         ("LoadProfile", {"shape": "ramp", "duration": 0.0}, ["duration = 0.0"]),
         ("LoadProfile", {"shape": "table", "table_file": "/nonexistent.csv"}, ["/nonexistent.csv"]),
+        # the integrator's settings, also where the configuration integrates nothing (the
+        # kinematic gear, the suspension without its dynamics effect): they were ignored
+        ("LandingGear", {"integrator": "x"}, ["integrator = 'x' is not a known method"]),
+        ("LandingGear", {"max_substep": 0.0}, ["max_substep = 0.0"]),
+        ("Suspension", {"rtol": -1.0}, ["rtol = -1.0"]),
     ],
 )
 def test_invalid_parameters_are_refused_at_initialisation(fmu_dir, model, parameters, words):

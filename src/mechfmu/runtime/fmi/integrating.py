@@ -78,11 +78,13 @@ class IntegratingSlave(MechSlave):
     # --- MechSlave contract -----------------------------------------------------------------
     def check_parameters(self) -> None:
         self.integrator = None
-        if self.set_up():
-            v = self.values
-            self.integrator = make_integrator(
-                v["integrator"], v["rtol"], v["atol"], v["max_substep"]
-            )
+        integrates = self.set_up()
+        v = self.values
+        # checked whether or not this configuration integrates: a wrong method or tolerance
+        # is refused now, not ignored until a scene switches the dynamics on
+        integrator = make_integrator(v["integrator"], v["rtol"], v["atol"], v["max_substep"])
+        if integrates:
+            self.integrator = integrator
 
     def outputs_at_start(self, time: float) -> None:
         if self.integrator is None:
