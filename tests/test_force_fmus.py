@@ -235,3 +235,25 @@ def test_valve_train_cam_torque_ties_to_the_camshaft_torque(fmu_dir, solver):
     assert np.max(np.abs(heavy[:, 0] - heavy[:, 1])) > 1e-3 * scale  # the links' inertia
     assert abs(np.mean(heavy[:, 0])) < 1e-6 * scale  # zero work over a revolution
     assert np.all(heavy[:, 2] > 0.0)  # the cam always pushes (no float at 80 rad/s)
+
+
+@pytest.mark.parametrize(
+    "scene, parameter, value, words",
+    [
+        ("four_bar_crank_rocker", "linkage.crank_mass", -1.0, "crank_mass = -1.0 kg"),
+        ("four_bar_crank_rocker", "linkage.rocker_inertia", math.nan, "rocker_inertia = nan"),
+        ("four_bar_crank_rocker", "linkage.gravity_acceleration", -9.81, "[0, inf) m/s2"),
+        ("four_bar_crank_rocker", "linkage.coupler_point_along", math.inf, "coupler_point_along"),
+        ("slider_crank_offset", "slider.counterweight_radius", -0.01, "counterweight_radius"),
+        ("slider_crank_offset", "slider.slider_mass", -0.5, "slider_mass = -0.5 kg"),
+        ("valve_train", "valve.rocker_mass", -1.0, "rocker_mass = -1.0 kg"),
+    ],
+)
+def test_a_bad_parameter_of_the_forces_effect_is_refused_with_the_effect_off(
+    fmu_dir, scene, parameter, value, words
+):
+    # these scenes run the kinematics only: a negative mass was accepted, unused, until a
+    # scene switched the forces on
+    with pytest.raises(SimulationError) as caught:
+        mechfmu.simulate(scene, parameters={parameter: value}, fmu_dir=fmu_dir)
+    assert words in str(caught.value) and "fmi2ExitInitializationMode" in str(caught.value)

@@ -188,7 +188,9 @@ def crank_drive_outputs(depends: tuple[str, ...]) -> tuple[Variable, ...]:
 
 def gravity_setting(values: dict) -> tuple[float, float]:
     """Gravity (m/s^2, ground axes) from the gravity effect and its parameters: (0, 0) when
-    off. MechanismError for gravity without the forces effect (it would change nothing)."""
+    off. MechanismError for gravity without the forces effect (it would change nothing).
+    The magnitude and direction are checked (RangeError) with the effect off too."""
+    vector = gravity_vector(values["gravity_acceleration"], values["gravity_direction"])
     if not values["gravity"]:
         return (0.0, 0.0)
     if not values[FORCES]:
@@ -196,7 +198,7 @@ def gravity_setting(values: dict) -> tuple[float, float]:
             "the gravity effect needs the forces effect: gravity acts on the links only in "
             "the force analysis (list both effects, or neither)"
         )
-    return gravity_vector(values["gravity_acceleration"], values["gravity_direction"])
+    return vector
 
 
 def coupler_point(values: dict) -> tuple[float, float]:

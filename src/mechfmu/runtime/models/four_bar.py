@@ -149,16 +149,13 @@ class FourBar(LinkageSlave):
     def force_analysis(self) -> "lf.FourBarForces | None":
         """The forces effect's analysis from the parameters, or None with the effect off."""
         v = self.values
+        # every parameter of the effect checked with it off too: a negative mass is refused
         gravity = fv.gravity_setting(v)
+        layouts = [fv.link_layout(v, link) for link in _LINKS]
+        point = fv.coupler_point(v)
         if not v[fv.FORCES]:
             return None
-        return lf.FourBarForces(
-            self.lengths,
-            [fv.link_layout(v, link) for link in _LINKS],
-            gravity,
-            fv.coupler_point(v),
-            v["singularity_threshold"],
-        )
+        return lf.FourBarForces(self.lengths, layouts, gravity, point, v["singularity_threshold"])
 
     def closed_form(self, time: float) -> dict[str, float]:
         # lengths and circuit validated in check_geometry, the inputs finite (do_step)

@@ -138,9 +138,8 @@ class SliderCrank(LinkageSlave):
     def force_analysis(self) -> "lf.SliderCrankForces | None":
         """The forces effect's analysis from the parameters, or None with the effect off."""
         v = self.values
+        # every parameter of the effect checked with it off too: a negative mass is refused
         gravity = fv.gravity_setting(v)
-        if not v[fv.FORCES]:
-            return None
         counterweight = link_forces.mass_layout(
             "counterweight", v["counterweight_mass"], 0.0, 0.0, 0.0
         ).mass
@@ -149,12 +148,15 @@ class SliderCrank(LinkageSlave):
             raise RangeError("counterweight_radius", radius, "[0, inf)", "m", "a distance")
         crank = link_forces.with_point_mass(fv.link_layout(v, "crank"), counterweight, -radius, 0.0)
         slider = link_forces.mass_layout("slider", v["slider_mass"], 0.0, 0.0, 0.0)
+        coupler, point = fv.link_layout(v, "coupler"), fv.coupler_point(v)
+        if not v[fv.FORCES]:
+            return None
         return lf.SliderCrankForces(
             self.geometry,
             int(v["circuit"]),
-            [crank, fv.link_layout(v, "coupler"), slider],
+            [crank, coupler, slider],
             gravity,
-            fv.coupler_point(v),
+            point,
             v["singularity_threshold"],
         )
 

@@ -436,23 +436,20 @@ class ValveTrain(LinkageSlave):
     def force_analysis(self) -> "valve_forces.ValveTrainForces | None":
         """The forces effect's analysis from the parameters, or None with the effect off."""
         v = self.values
+        # every parameter of the effect checked with it off too: a negative mass is refused
         gravity = fv.gravity_setting(v)
+        valve_mass = mass_layout("valve", v["valve_mass"], 0.0, 0.0, 0.0).mass
+        pushrod = valve_forces.pushrod_frame(fv.link_layout(v, "pushrod"))
+        rocker = fv.link_layout(v, "rocker")
         if not v[fv.FORCES]:
             return None
         spring = None
         if v["valve_spring"]:
             spring = valve_forces.ValveSpringLoad(
-                mass_layout("valve", v["valve_mass"], 0.0, 0.0, 0.0).mass,
-                v["spring_stiffness"],
-                v["spring_preload"],
+                valve_mass, v["spring_stiffness"], v["spring_preload"]
             )
         return valve_forces.ValveTrainForces(
-            self.geometry,
-            valve_forces.pushrod_frame(fv.link_layout(v, "pushrod")),
-            fv.link_layout(v, "rocker"),
-            spring,
-            gravity,
-            v["singularity_threshold"],
+            self.geometry, pushrod, rocker, spring, gravity, v["singularity_threshold"]
         )
 
     def _design_cam(self) -> None:

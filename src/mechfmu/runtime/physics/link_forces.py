@@ -301,7 +301,7 @@ def force_keys(prefix: str) -> tuple[str, str, str]:
 def gravity_vector(acceleration: float, direction: float) -> tuple[float, float]:
     """Gravity (m/s^2, ground axes) of magnitude ``acceleration`` pointing at ``direction``
     (rad from +x; -pi/2 is down)."""
-    g = require_finite("gravity_acceleration", acceleration, "m/s2")
+    g = require_finite("gravity_acceleration", acceleration, "m/s2", "[0, inf)")
     if g < 0.0:
         raise RangeError("gravity_acceleration", g, "[0, inf)", "m/s2", "a magnitude")
     angle = require_finite("gravity_direction", direction, "rad")
