@@ -531,3 +531,27 @@ def test_the_camshaft_drive_under_dopri5_meets_scipy_too():
         assert abs(row["valve_lift"] - reference["valve_lift"][i]) < 1e-10
         assert row["seat_impacts"] == round(reference["seat_impacts"][i])
     assert rows[-1]["seat_impacts"] == 6
+
+
+@pytest.mark.parametrize("name, value", [("rtol", -1.0), ("atol", math.nan)])
+def test_the_exact_integrator_refuses_a_bad_tolerance_it_does_not_use(fmu_dir, name, value):
+    # the exact solution needs no tolerance, but -1 was accepted where every other
+    # integrator refuses it
+    fmu = Driven(fmu_dir / "ValveSpring.fmu", parameters={"integrator": "exact", name: value})
+    try:
+        assert fmu.init_error is not None and f"{name} = {value!r} is outside" in fmu.init_error
+    finally:
+        fmu.close()
+
+
+@pytest.mark.parametrize("value", [0.0, -1.0, math.nan])
+def test_the_exact_integrator_names_an_invalid_wall_clock_bound(fmu_dir, value):
+    # it took -1 s as a bound already passed ("raise max_wall_time")
+    fmu = Driven(
+        fmu_dir / "ValveSpring.fmu", parameters={"integrator": "exact", "max_wall_time": value}
+    )
+    try:
+        message = fmu.step(0.001)
+        assert f"max_wall_time = {value!r} s is outside the valid range (0, inf] s" in message
+    finally:
+        fmu.close()

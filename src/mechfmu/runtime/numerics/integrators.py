@@ -226,8 +226,8 @@ class Integrator:
     def __init__(
         self, rtol: float = 1e-8, atol: float = 1e-10, max_substep: float = math.inf
     ) -> None:
-        self.rtol = _check_tolerance("rtol", rtol)
-        self.atol = _check_tolerance("atol", atol)
+        self.rtol = check_tolerance("rtol", rtol)
+        self.atol = check_tolerance("atol", atol)
         if (
             isinstance(max_substep, bool)
             or not isinstance(max_substep, (int, float))
@@ -268,17 +268,7 @@ class Integrator:
     def start_clock(self, seconds: float) -> None:
         """Bound the wall-clock time from now until the next start_clock to ``seconds``
         (inf: no bound). A call that passes it raises IntegrationError: never a hang."""
-        if (
-            isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0.0
-        ):  # also rejects NaN
-            raise RangeError(
-                "max_wall_time",
-                seconds,
-                "(0, inf]",
-                "s",
-                "the wall-clock bound of a communication step must be positive",
-            )
-        self.time_limit = float(seconds)
+        self.time_limit = check_wall_time(seconds)
         self.deadline = time.monotonic() + seconds if math.isfinite(seconds) else None
 
     # --- the one public operation -----------------------------------------------------------
@@ -573,7 +563,23 @@ def _is_terminal(event: Event) -> bool:
     return getattr(event, "terminal", True)
 
 
-def _check_tolerance(name: str, value: float) -> float:
+def check_wall_time(seconds: float) -> float:
+    """``seconds`` (max_wall_time, s) as a float, or RangeError unless in (0, inf]."""
+    if (
+        isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not seconds > 0.0
+    ):  # also rejects NaN
+        raise RangeError(
+            "max_wall_time",
+            seconds,
+            "(0, inf]",
+            "s",
+            "the wall-clock bound of a communication step must be positive",
+        )
+    return float(seconds)
+
+
+def check_tolerance(name: str, value: float) -> float:
+    """``value`` as a float, or RangeError naming ``name`` unless finite and >= 0."""
     if (
         isinstance(value, bool)
         or not isinstance(value, (int, float))
@@ -1173,7 +1179,7 @@ def make_integrator(
             f"integrator = {method!r} is not a known method; choose one of " + ", ".join(METHODS)
         )
     if method in ("dopri5", "radau"):
-        rtol_value = _check_tolerance("rtol", rtol)
+        rtol_value = check_tolerance("rtol", rtol)
         if rtol_value < 100 * _EPS:
             raise RangeError(
                 "rtol",

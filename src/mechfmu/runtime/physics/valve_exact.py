@@ -29,7 +29,7 @@ from typing import Any
 
 from ..errors import IntegrationError, RangeError
 from ..numerics import linear_ode, polynomials, roots
-from ..numerics.integrators import EVENT_TOLERANCE, Stats
+from ..numerics.integrators import EVENT_TOLERANCE, Stats, check_wall_time
 from ..numerics.stepping import MAX_EVENTS_PER_STEP
 from .valve_spring import OPENING, SWITCH_EVENTS, TRAVEL_LIMIT, Engaged, Parameters
 
@@ -78,7 +78,9 @@ class ExactIntegrator:
             setattr(self.stats, name, value)
 
     def start_clock(self, seconds: float) -> None:
-        """Bound the wall-clock time of the coming step to ``seconds`` (inf: none)."""
+        """Bound the wall-clock time of the coming step to ``seconds`` (inf: none; RangeError
+        unless in (0, inf], as the other integrators)."""
+        seconds = check_wall_time(seconds)
         self.deadline = _time.monotonic() + seconds if math.isfinite(seconds) else None
 
 
