@@ -20,7 +20,7 @@ The base class
 import math
 from operator import itemgetter
 
-from ..errors import MechanismError, require_finite
+from ..errors import MechanismError, RangeError, require_finite
 from . import geometry
 from .binding import Binding
 from .state import INVALID, decode, encode
@@ -108,6 +108,9 @@ class MechSlave(Binding):
         self.real_outputs = tuple(
             v.name for v in self.VARIABLES if v.causality == "output" and v.kind is float
         )
+        self.real_parameters = tuple(
+            v.name for v in self.VARIABLES if v.causality == "parameter" and v.kind is float
+        )
         # whether do_step saves the internal state (a model without one has nothing to save)
         self.step_saves_state = (
             self.STEP_CHANGES_STATE and type(self).internal_state is not MechSlave.internal_state
@@ -189,7 +192,18 @@ class MechSlave(Binding):
     def _build(self) -> None:
         """What the parameters define: checked and built (check_parameters; raises
         MechanismError), the geometry effect's outputs installed when it is on, the per-step
-        output check narrowed to what the enabled effects change."""
+        output check narrowed to what the enabled effects change. A Real parameter that is
+        NaN is refused first, whether or not this configuration uses it (the kinematic gear's
+        dynamics parameters, say): NaN is never a value."""
+        for name in self.real_parameters:
+            if math.isnan(self.values[name]):
+                raise RangeError(
+                    name,
+                    self.values[name],
+                    "(-inf, inf)",
+                    self.declared[name].unit or "",
+                    "not a number: every Real parameter needs one, used or not",
+                )
         self.check_parameters()
         geometry.install(self)  # the geometry effect's outputs, only when on
         self._watch_live_outputs()
