@@ -193,17 +193,23 @@ def path_text(path: Path | str, size: int = 200) -> str:
     return text if len(text) <= size and text.isprintable() else shortened(text, size)
 
 
+def _stat(path: Path | str) -> tuple[os.stat_result | None, str | None]:
+    """(os.stat of ``path``, None), or (None, NOT_FOUND or "cannot be read: <cause>"): what
+    Path.exists and is_file raise instead (a name too long for the file system, a parent
+    that cannot be searched, a NUL in the path) as a problem to name."""
+    try:
+        return os.stat(path), None
+    except FileNotFoundError:
+        return None, NOT_FOUND
+    except (OSError, ValueError) as error:  # ValueError: a NUL in the path
+        return None, f"cannot be read: {getattr(error, 'strerror', None) or error}"
+
+
 def path_problem(path: Path | str) -> str | None:
     """Why ``path`` names nothing usable, or None when it names something (a file or a
-    folder): "does not exist", or "cannot be read: <cause>" for what Path.exists raises
-    (a name too long for the file system, a parent that cannot be searched, a NUL)."""
-    try:
-        os.stat(path)
-    except (FileNotFoundError, NotADirectoryError):
-        return "does not exist"
-    except (OSError, ValueError) as error:  # ValueError: a NUL in the path
-        return f"cannot be read: {getattr(error, 'strerror', None) or error}"
-    return None
+    folder): "does not exist", or "cannot be read: <cause>" (_stat)."""
+    problem = _stat(path)[1]
+    return "does not exist" if problem == NOT_FOUND else problem
 
 
 def exists(path: Path | str) -> bool:
@@ -215,12 +221,9 @@ def file_problem(path: Path | str, max_bytes: int | None) -> str | None:
     """Why ``path`` cannot be read as a file of at most ``max_bytes`` (None: of any size), or
     None: missing, a directory, not a regular file (a FIFO or a device would block or never
     end), too large."""
-    try:
-        status = os.stat(path)
-    except FileNotFoundError:
-        return NOT_FOUND
-    except (OSError, ValueError) as error:  # ValueError: a NUL in the path
-        return f"cannot be read: {getattr(error, 'strerror', None) or error}"
+    status, problem = _stat(path)
+    if status is None:
+        return problem
     if stat.S_ISDIR(status.st_mode):
         return "is a directory, not a file"
     if not stat.S_ISREG(status.st_mode):
