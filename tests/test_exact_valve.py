@@ -544,7 +544,7 @@ def test_the_exact_integrator_refuses_a_bad_tolerance_it_does_not_use(fmu_dir, n
         fmu.close()
 
 
-@pytest.mark.parametrize("value", [0.0, -1.0, math.nan])
+@pytest.mark.parametrize("value", [0.0, -1.0])  # NaN: refused at initialisation, as any
 def test_the_exact_integrator_names_an_invalid_wall_clock_bound(fmu_dir, value):
     # it took -1 s as a bound already passed ("raise max_wall_time")
     fmu = Driven(

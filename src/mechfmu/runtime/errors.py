@@ -21,7 +21,7 @@ class RangeError(MechanismError):
         self.value = value
         self.valid = valid
         self.unit = unit
-        suffix = f" {unit}" if unit else ""
+        suffix = f" {unit}" if unit and unit != "1" else ""  # "1": dimensionless (FMI's)
         text = f"{name} = {value!r}{suffix} is outside the valid range {valid}{suffix}"
         if why:
             text += f" ({why})"
