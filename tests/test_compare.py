@@ -359,3 +359,18 @@ def test_plot_shows_reference_result_band_and_the_first_failure():
         assert len(shown) == 51 and shown[25] == pytest.approx(first)
     passing = mechfmu.compare(reference, reference).plot()
     assert len([axis for axis in passing.axes if axis.get_title(loc="left")]) == 3
+
+
+@pytest.mark.parametrize("empty", ["result", "reference", "both"])
+def test_a_table_without_rows_is_refused_not_a_vacuous_match(empty):
+    # compare(DataFrame(), DataFrame()) said "match: 0 column(s), 0 sample(s)": a regression
+    # check that compares nothing passed (a result file with only its header is malformed)
+    table = pd.DataFrame({"x": [1.0, 2.0]}, index=pd.Index([0.0, 1.0], name="time"))
+    none = table.iloc[:0]
+    result, reference = {
+        "result": (none, table),
+        "reference": (table, none),
+        "both": (pd.DataFrame(), pd.DataFrame()),
+    }[empty]
+    with pytest.raises(ValueError, match="has no rows: nothing to compare"):
+        mechfmu.compare(result, reference)

@@ -119,6 +119,10 @@ def _frame(data: Any, what: str) -> pd.DataFrame:
         raise ValueError(f"the {what} must hold numbers only: {error}") from None
     if not np.isfinite(times).all() or (np.diff(times) <= 0).any():
         raise ValueError(f"the {what}'s times must be finite and increase strictly")
+    if not len(frame):
+        # as a result file with only its header is malformed: an empty table never matches
+        # by default (a regression check that compares nothing must not pass)
+        raise ValueError(f"the {what} has no rows: nothing to compare")
     frame.attrs.update(data.attrs)
     return frame
 
@@ -538,7 +542,7 @@ def compare(
 
     Raises:
         ValueError: an unknown method, a negative tolerance, a DataFrame that is not a
-            result; mechfmu.io.ResultFileError for a malformed file.
+            result or has no rows; mechfmu.io.ResultFileError for a malformed file.
     """
     if method is not None and method not in ("pointwise", "tube"):
         raise ValueError(f"method must be 'pointwise' or 'tube', got {method!r}")
