@@ -243,6 +243,7 @@ LONG = "a" * 300  # a file name over the file system's 255 bytes: os.stat raises
         (["run", "gear_retraction", "--out", LONG], "output error: output folder "),
         (["baseline", "update", LONG, "baselines"], "baseline error: results "),
         (["baseline", "update", "RESULT", LONG], "baseline error: baselines "),
+        (["export-ssp", "gear_retraction", f"{LONG}.ssp"], "output error: cannot write "),
     ],
 )
 def test_a_path_too_long_for_the_file_system_is_one_line_naming_it(
@@ -256,7 +257,8 @@ def test_a_path_too_long_for_the_file_system_is_one_line_naming_it(
     status = cli([str(result) if word == "RESULT" else word for word in arguments])
     err = capsys.readouterr().err
     assert status == 2 and err.startswith(first) and err.count("\n") == 1, err
-    assert "File name too long" in err and "...(" in err and "Traceback" not in err
+    assert "File name too long" in err and "Traceback" not in err
+    assert "...(" in err or arguments[0] == "export-ssp"  # its OutputError names the path
 
 
 def test_a_component_named_beyond_a_file_name_is_a_scene_error(fmu_dir, tmp_path, capsys):
@@ -289,3 +291,17 @@ def test_study_refuses_more_workers_than_four_per_core(capsys):
     assert cli(["study", "--workers", "100000"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("study error: --workers = 100000 is more than 4 local worker")
+
+
+@pytest.mark.parametrize("option", ["--rtol", "--atol", "--time-tolerance"])
+@pytest.mark.parametrize("value", ["inf", "nan", "-1"])
+def test_check_refuses_a_tolerance_that_is_not_finite_and_non_negative(
+    tmp_path, capsys, option, value
+):
+    # --atol inf passed the command's check and raised a ValueError traceback in compare
+    result = tmp_path / "r.csv"
+    result.write_text("time,x\n0,1\n")
+    extra = ["--method", "tube"] if option == "--time-tolerance" else []
+    assert cli(["check", str(result), str(result), option, value, *extra]) == 2
+    err = capsys.readouterr().err
+    assert err == f"check error: {option} must be a finite number >= 0, got {float(value)!r}\n"

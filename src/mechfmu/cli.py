@@ -10,6 +10,7 @@ from __future__ import annotations
 from typing import Any
 from typing import TYPE_CHECKING
 import argparse
+import math
 import os
 import sys
 import tempfile
@@ -374,12 +375,13 @@ def _example(args: Any):
 
 
 def _export_ssp(args: argparse.Namespace) -> int:
+    from .cosim.files import OutputError
     from .cosim.scene import SceneError, find_file
     from .tools.ssp import export_ssp, summary
 
     try:
         path = export_ssp(find_file(args.scene), args.out, args.fmu_dir)
-    except SceneError as error:
+    except (SceneError, OutputError) as error:
         return _scene_failure(error)
     print(f"wrote {path}: {summary(path)}")
     return 0
@@ -419,8 +421,8 @@ def _check(args: Any) -> int:
             ("--atol", args.atol),
             ("--time-tolerance", args.time_tolerance),
         ):
-            if value is not None and not value >= 0:
-                raise ValueError(f"{name} must be >= 0, got {value!r}")
+            if value is not None and not 0 <= value < math.inf:
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if args.time_tolerance is not None and args.method != "tube":
             raise ValueError("--time-tolerance is the tube's: give --method tube with it")
     except ValueError as error:
