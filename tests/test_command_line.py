@@ -244,6 +244,7 @@ LONG = "a" * 300  # a file name over the file system's 255 bytes: os.stat raises
         (["baseline", "update", LONG, "baselines"], "baseline error: results "),
         (["baseline", "update", "RESULT", LONG], "baseline error: baselines "),
         (["export-ssp", "gear_retraction", f"{LONG}.ssp"], "output error: cannot write "),
+        (["example", "gear", "--out", LONG], "output error: output folder "),
     ],
 )
 def test_a_path_too_long_for_the_file_system_is_one_line_naming_it(

@@ -364,13 +364,14 @@ EXAMPLES = {
 
 
 def _example(args: Any):
+    from .cosim.files import OutputError
     from .cosim.master import SimulationError
     from .cosim.scene import SceneError
     from .tools import examples
 
     try:
         return getattr(examples, args.example)(args)
-    except (SceneError, SimulationError) as error:
+    except (SceneError, SimulationError, OutputError) as error:
         return _scene_failure(error)
 
 
