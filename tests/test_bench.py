@@ -7,12 +7,11 @@ import csv
 import io
 import json
 import math
-import subprocess
-import sys
 
 import pytest
 
-from conftest import ROOT, SCENES, SWEEPS
+from cli_process import run_script
+from conftest import SCENES, SWEEPS
 from mechfmu.cli import main as cli
 from mechfmu.tools.bench import dynamic_scenes, growth, model_cost
 from mechfmu.tools.bench.report import CSV_COLUMNS, RATIO_UNIT, Row, ratio_parts
@@ -329,19 +328,7 @@ def test_missing_fmus_stop_with_the_build_command(tmp_path, capsys):
 
 
 def test_effects_script_runs_the_effects_benchmark(fmu_dir):
-    done = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "sims" / "bench_effects.py"),
-            "--fmu-dir",
-            str(fmu_dir),
-            "--repeats",
-            "1",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    done = run_script("bench_effects.py", "--fmu-dir", fmu_dir, "--repeats", "1", timeout=120)
     assert done.returncode == 0, done.stderr
     assert "| effects | kinematic / dynamic |" in done.stdout
 
@@ -349,20 +336,7 @@ def test_effects_script_runs_the_effects_benchmark(fmu_dir):
 def test_valve_costs_script_measures_the_floor_under_the_valve(fmu_dir):
     # sims/valve_step_costs.py --floor: each valve scene as shipped and with ValveSpring's
     # null twin in its place; the twin's loop leaves out the valve's own computation
-    done = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "sims" / "valve_step_costs.py"),
-            "--fmu-dir",
-            str(fmu_dir),
-            "--repeats",
-            "2",
-            "--floor",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    done = run_script("valve_step_costs.py", "--fmu-dir", fmu_dir, "--repeats", "2", "--floor")
     assert done.returncode == 0, done.stderr
     rows = {}
     for line in done.stdout.splitlines():

@@ -18,7 +18,7 @@ from mechfmu.cosim.scene import Connection, SceneError, load_scene, parse_scene,
 from mechfmu.cosim.tolerances import parse_check
 from mechfmu.tools.scene_references import INTEGRATED, REFERENCES as GENERATED, generate
 from mechfmu.tools.tolerances import MARGIN
-from cli_process import run_mechfmu
+from cli_process import run_mechfmu, run_script
 
 
 def gear_scene(**changes):
@@ -349,19 +349,7 @@ def test_package_data_ships_every_scene_sweep_and_reference():
     ],
 )
 def test_runner_scripts(fmu_dir, tmp_path, script, expected):
-    done = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "sims" / script),
-            "--out",
-            str(tmp_path),
-            "--fmu-dir",
-            str(fmu_dir),
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    done = run_script(script, "--out", tmp_path, "--fmu-dir", fmu_dir)
     assert done.returncode == 0, done.stdout + done.stderr
     assert expected in done.stdout
     assert any(tmp_path.glob("*.png"))

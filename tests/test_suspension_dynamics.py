@@ -489,23 +489,10 @@ def test_profiles_table_reader_is_shared(tmp_path):
 
 
 def test_runner_script(fmu_dir, tmp_path):
-    import subprocess
-    import sys
-    from conftest import ROOT
+    from cli_process import run_script
 
-    done = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "sims" / "run_suspension_dynamics.py"),
-            "--out",
-            str(tmp_path),
-            "--fmu-dir",
-            str(fmu_dir),
-            "--no-plot",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
+    done = run_script(
+        "run_suspension_dynamics.py", "--out", tmp_path, "--fmu-dir", fmu_dir, "--no-plot"
     )
     assert done.returncode == 0, done.stdout + done.stderr
     assert done.stdout.count("match: ") == 2 and "MISMATCH" not in done.stdout

@@ -93,12 +93,12 @@ def update_baselines(
     problem = limits.path_problem(results)
     if problem is not None:
         raise BaselineError(
-            f"results {limits.path_text(results)} "
+            f"results {limits.message_text(results)} "
             + ("do not exist" if problem == "does not exist" else problem)
         )
     problem = limits.path_problem(baselines)
     if problem not in (None, "does not exist"):
-        raise BaselineError(f"baselines {limits.path_text(baselines)} {problem}")
+        raise BaselineError(f"baselines {limits.message_text(baselines)} {problem}")
     if problem is None and not baselines.is_dir():
         raise BaselineError(f"baselines {baselines} is not a folder")
     found = _csv_files(results) if results.is_dir() else {results.name: results}

@@ -153,7 +153,7 @@ def _pairs(
     for path, what in ((result, "result"), (reference, "reference")):
         problem = limits.path_problem(path)
         if problem is not None:
-            return [], f"{what} {limits.path_text(path)} {problem}"
+            return [], f"{what} {limits.message_text(path)} {problem}"
     if result.is_dir() != reference.is_dir():
         if result.is_dir():
             return [], (

@@ -1439,10 +1439,10 @@ def main(argv: list[str] | None = None, script: str | None = None) -> int:
 
 def _os_error_text(error: OSError) -> str:
     """An OSError in one line: its cause, and the path it names (shortened when long)."""
-    from .cosim.limits import path_text
+    from .cosim.limits import message_text
 
     cause = error.strerror or str(error)
-    named = [path_text(name) for name in (error.filename, error.filename2) if name is not None]
+    named = [message_text(name) for name in (error.filename, error.filename2) if name is not None]
     return f"{cause}: {' -> '.join(named)}" if named else one_line(cause)
 
 

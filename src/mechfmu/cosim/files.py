@@ -78,7 +78,7 @@ def output_folder(folder: Path | str) -> Path:
     folder = Path(folder)
     problem = limits.path_problem(folder)
     if problem not in (None, "does not exist"):  # a name too long, a parent not searchable
-        raise OutputError(f"output folder {limits.path_text(folder)} {problem}")
+        raise OutputError(f"output folder {limits.message_text(folder)} {problem}")
     if problem is None and not folder.is_dir():
         raise OutputError(f"output folder {folder} is not a directory")
     try:

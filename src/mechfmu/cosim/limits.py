@@ -186,10 +186,11 @@ LIMITS = (
 NOT_FOUND = "file not found"  # file_problem's answer for a path that does not exist
 
 
-def path_text(path: Path | str, size: int = 200) -> str:
-    """``path`` for a message: as it is, or shortened (its middle left out) when longer than
-    ``size`` characters or holding a line break (a name from a hostile scene file)."""
-    text = str(path)
+def message_text(text: Path | str, size: int = 200) -> str:
+    """A name from the user (a path, a key) for a one-line message: as it is, or its
+    shortened repr (the middle left out) when longer than ``size`` characters or not
+    printable (a line break in a hostile file's key)."""
+    text = str(text)
     return text if len(text) <= size and text.isprintable() else shortened(text, size)
 
 

@@ -73,7 +73,7 @@ def fmu_folder(
         if all(limits.file_problem(folder / f"{model}.fmu", None) is None for model in models):
             return folder
     tried = "; ".join(f"{label}: {folder}" for label, folder in folders)
-    needed = ", ".join(limits.path_text(f"{model}.fmu", 80) for model in models)
+    needed = ", ".join(limits.message_text(f"{model}.fmu", 80) for model in models)
     raise SceneError(
         f"{what + ': ' if what else ''}FMU(s) {needed} not found in any of the folders "
         f"searched ({tried}); build them with 'mechfmu build' (into the user cache) or "

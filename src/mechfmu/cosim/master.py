@@ -139,7 +139,7 @@ def resolve_fmu(spec: ComponentSpec, scene: Scene, fmu_dir: Path | str) -> Path:
     problem = limits.file_problem(candidate, None)
     if problem is not None:
         raise SceneError(
-            f"component {spec.name!r}: FMU file {limits.path_text(candidate)} "
+            f"component {spec.name!r}: FMU file {limits.message_text(candidate)} "
             f"{'not found' if problem == limits.NOT_FOUND else problem}; build the "
             f"FMUs with 'mechfmu build' (or 'make fmus')"
         )

@@ -339,8 +339,8 @@ def read_toml(
     text, problem = limits.read_text(path, limits.MAX_TOML_BYTES)
     if text is None:
         if problem == limits.NOT_FOUND:
-            raise error(f"{what} {limits.path_text(path)} not found")
-        raise error(f"{what} {limits.path_text(path)}: {problem}")
+            raise error(f"{what} {limits.message_text(path)} not found")
+        raise error(f"{what} {limits.message_text(path)}: {problem}")
     problem = limits.scan_problem(text, limits.MAX_TOML_DEPTH, "toml")
     if problem:
         raise error(f"{path}: {problem}")

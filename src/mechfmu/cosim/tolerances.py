@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from .limits import shortened
+from .limits import message_text
 from typing import Any
 
 DEFAULT_RTOL = 1e-9
@@ -127,16 +127,9 @@ def refuse_unknown(
     unknown = set(table) - set(allowed)
     if unknown:
         raise error(
-            f"{where}: unknown key(s) {', '.join(_key_text(key) for key in sorted(unknown))}; "
+            f"{where}: unknown key(s) {', '.join(message_text(key, 60) for key in sorted(unknown))}; "
             f"allowed: {', '.join(sorted(allowed))}"
         )
-
-
-def _key_text(key: str) -> str:
-    """A key as a message names it: as written when short and printable, else its shortened
-    repr (a key read from a JSON file may hold a line break or be megabytes long, and an
-    error message stays one line)."""
-    return key if key.isprintable() and len(key) <= 60 else shortened(key)
 
 
 def parse_check(table: Any, where: str, error: type[Exception] = ValueError) -> Check:
