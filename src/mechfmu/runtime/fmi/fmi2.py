@@ -6,13 +6,14 @@ InitialUnknowns. It relies on the MechSlave above it for ``values``, ``declared`
 ``VARIABLES``, ``_set`` and ``refresh_initial_outputs``.
 """
 
+from collections.abc import Callable
 from typing import Any
 from xml.etree.ElementTree import Element, SubElement
 
 from pythonfmu import Fmi2Causality, Fmi2Initial, Fmi2Slave, Fmi2Variability
 from pythonfmu import Boolean, Integer, Real, String
 
-from .declarations import describe, reading_initial_outputs, register_declared, unit_definitions
+from .declarations import describe, register_declared, unit_definitions
 from .declarations import Variable
 
 _FMI_TYPES = {float: Real, int: Integer, bool: Boolean, str: String}
@@ -27,10 +28,12 @@ class Fmi2Binding(Fmi2Slave):
         register_declared(self, variable, _VOCABULARY)
 
     def finish_registration(self) -> None:
-        """Tables for the per-step get and set of Reals: value reference -> name of every
-        Real, and of every Real input (what a host sets between steps)."""
+        """Tables for the per-step gets and sets: value reference -> name of every Real,
+        Integer and Boolean, and of every Real input (what a host sets between steps)."""
         reals = {vr: v.name for vr, v in self.vars.items() if isinstance(v, Real)}
         self._real_names = reals
+        self._integer_names = {vr: v.name for vr, v in self.vars.items() if isinstance(v, Integer)}
+        self._boolean_names = {vr: v.name for vr, v in self.vars.items() if isinstance(v, Boolean)}
         self._real_input_names = {
             vr: name for vr, name in reals.items() if self.declared[name].causality == "input"
         }
@@ -59,8 +62,33 @@ class Fmi2Binding(Fmi2Slave):
                 store[name] = float(value)
                 self.stale = True
 
-    get_integer = reading_initial_outputs(Fmi2Slave.get_integer)
-    get_boolean = reading_initial_outputs(Fmi2Slave.get_boolean)
+    def get_integer(self, vrs: list[int]) -> list[int]:
+        """fmi2GetInteger: as get_real, each value as int (as pythonfmu's: the C side reads
+        a C long)."""
+        return self._get_converted(vrs, self._integer_names, int, Fmi2Slave.get_integer)
+
+    def get_boolean(self, vrs: list[int]) -> list[bool]:
+        """fmi2GetBoolean: as get_real, each value as bool."""
+        return self._get_converted(vrs, self._boolean_names, bool, Fmi2Slave.get_boolean)
+
+    def _get_converted(
+        self,
+        vrs: list[int],
+        names: dict[int, str],
+        convert: Callable[[Any], Any],
+        own: Callable[[Any, list[int]], list[Any]],
+    ) -> list[Any]:
+        """The values of ``vrs`` (all in ``names``: value reference -> name) through
+        ``convert``, one dict look-up each (pythonfmu's ``own`` calls a getter closure per
+        variable and checks its type: 1 us of a 4-integer get); a reference not in
+        ``names`` gets ``own``'s answer (its TypeError)."""
+        if self.initializing and self.stale:
+            self.refresh_initial_outputs()
+        values = self.values
+        try:
+            return [convert(values[names[vr]]) for vr in vrs]
+        except KeyError:
+            return own(self, vrs)
 
     def to_xml(self, model_options: Any = dict()) -> Any:
         root = super().to_xml(model_options)
