@@ -360,3 +360,30 @@ def test_inverse_then_forward_returns_the_original_valve_motion(fmu_dir):
         assert closed - solution.q[valve] == pytest.approx(wanted.lift, abs=1e-15)
         assert -solution.qdot[valve] == pytest.approx(wanted.velocity, abs=1e-12)
         assert -solution.qddot[valve] == pytest.approx(wanted.acceleration, rel=1e-10, abs=1e-8)
+
+
+@pytest.mark.parametrize("effect", ["valve_spring", "cam_geometry"])
+def test_valve_train_effect_outputs_hold_their_start_values_only_while_the_effect_is_off(effect):
+    """The per-step output check leaves out what EFFECT_OUTPUTS lists for an effect that is
+    off: over a revolution those outputs keep their start values; on, they move."""
+    from mechfmu.runtime.models.valve_train import ValveTrain
+
+    starts = {v.name: v.start for v in ValveTrain.VARIABLES}
+    watched = ValveTrain.EFFECT_OUTPUTS[effect]
+    seen = {}
+    for on in (False, True):
+        model = ValveTrain(instance_name="vt")
+        model.values[effect] = on
+        if effect == "cam_geometry":  # a base circle without a cusp for the default cam
+            model.values["cam_base_radius"] = 0.03
+        model.setup_experiment(0.0)
+        model.enter_initialization_mode()
+        model.exit_initialization_mode()
+        assert model.pending_error is None
+        seen[on] = set()
+        for index in range(1, 73):
+            model.values.update(camshaft_angle=index * math.tau / 72, camshaft_speed=300.0)
+            assert model.do_step((index - 1) * 1e-3, 1e-3)
+            seen[on] |= {name for name in watched if model.values[name] != starts[name]}
+    assert seen[False] == set()
+    assert seen[True]

@@ -385,7 +385,18 @@ class ValveTrain(LinkageSlave):
         *valve_train_geometry_effect(),
         *FORCE_VARIABLES,
     )
-    EFFECT_OUTPUTS = {fv.FORCES: fv.outputs_of(FORCE_VARIABLES)}
+    # with valve_spring or cam_geometry off their outputs hold their start values (the
+    # figures over a revolution are -1 then, set so by check_geometry): not checked per step
+    EFFECT_OUTPUTS = {
+        fv.FORCES: fv.outputs_of(FORCE_VARIABLES),
+        "valve_spring": ("contact_force", "camshaft_torque", "float_camshaft_speed"),
+        "cam_geometry": (
+            *(name for name, _, _ in _CAM_OUTPUTS),
+            "min_radius_of_curvature",
+            "max_pressure_angle",
+            "face_width",
+        ),
+    }
 
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(**kwargs)
