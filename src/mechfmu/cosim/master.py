@@ -928,7 +928,10 @@ def _bare(function: Any) -> Any:
     returning a C int (the status): it passes ctypes objects built once as they are, where
     fmpy's declared argtypes convert every argument at every call (0.4 us of a 1.7 us
     fmi2GetReal, measured)."""
-    return ctypes.CFUNCTYPE(ctypes.c_int)(ctypes.cast(function, ctypes.c_void_p).value)
+    address = ctypes.cast(function, ctypes.c_void_p).value
+    if address is None:  # never for a function the FMU's library exports
+        raise FmuError(f"{function.__name__} is at a null address")
+    return ctypes.CFUNCTYPE(ctypes.c_int)(address)
 
 
 class _Fmi3Step:
