@@ -1,6 +1,8 @@
 """ValveSpring.fmu: the valve as a mass on its spring, driven by the rocker through a compliant
 contact and stopped by a compliant seat, integrated inside each communication step."""
 
+import math
+
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.declarations import motion_inputs, motion_units, only_with
 from ..fmi.geometry import geometry_effect
@@ -387,9 +389,18 @@ class ValveSpring(IntegratingSlave):
             if isinstance(self.drive, vs.CamshaftStepDrive)
             else (_INPUTS, _UNITS)
         )
-        return tuple(
-            [require_finite(name, self.values[name], unit) for name, unit in zip(names, units)]
-        )
+        v = self.values
+        lift, rate, acceleration = v[names[0]], v[names[1]], v[names[2]]
+        # the usual inputs, finite floats, in one test (a finite sum: none NaN or infinite;
+        # a sum that overflows is checked one by one below)
+        if (
+            type(lift) is float
+            and type(rate) is float
+            and type(acceleration) is float
+            and math.isfinite(lift + rate + acceleration)
+        ):
+            return lift, rate, acceleration
+        return tuple([require_finite(name, v[name], unit) for name, unit in zip(names, units)])
 
     def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
         """Integrate to ``time`` through the contact events; return (state, (the float,

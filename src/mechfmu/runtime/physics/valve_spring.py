@@ -558,16 +558,19 @@ class CamshaftStepDrive:
         cam law's segments (located to EVENT_TOLERANCE), found between BREAKPOINT_SAMPLES
         samples of the angle (monotone between them at any plausible speed)."""
         tau0, span = t0 - self.t0, t1 - t0
+        boundaries = self.boundaries
         if tau0 >= 0.0 and span > 0.0:  # the angles' range bounded first (most steps: none)
             first = polynomials.polynomial(self.angle, tau0)
             down, up = polynomials.change_bounds(self.angle, tau0, tau0 + span)
             if up - down < MAX_REVOLUTIONS * cam_laws.TAU:
-                for boundary in self.boundaries:  # a loop, not any(): runs at every step
-                    if math.ceil((first + down - boundary) / cam_laws.TAU) <= math.floor(
-                        (first + up - boundary) / cam_laws.TAU
-                    ):
-                        break  # a boundary may lie in the range: sampled below
-                else:
+                # the boundaries that may lie in the range, sought between the samples below
+                boundaries = [
+                    boundary
+                    for boundary in boundaries
+                    if math.ceil((first + down - boundary) / cam_laws.TAU)
+                    <= math.floor((first + up - boundary) / cam_laws.TAU)
+                ]
+                if not boundaries:
                     return []
         taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
         angles = [polynomials.polynomial(self.angle, tau) for tau in taus]
@@ -586,7 +589,7 @@ class CamshaftStepDrive:
         tolerance = EVENT_TOLERANCE * max(1.0, abs(t1))
         for i in range(BREAKPOINT_SAMPLES):
             low, high = sorted((angles[i], angles[i + 1]))
-            for boundary in self.boundaries:
+            for boundary in boundaries:
                 first = math.ceil((low - boundary) / cam_laws.TAU)
                 last = math.floor((high - boundary) / cam_laws.TAU)
                 for n in range(first, last + 1):
