@@ -66,7 +66,6 @@ than the lumped contact stiffness.
 
 import math
 from collections import namedtuple
-from functools import lru_cache
 
 from ..errors import (
     MechanismError,
@@ -373,7 +372,6 @@ def drive_at(drive: "StepDrive | CamshaftStepDrive", t: float) -> tuple[float, f
 _SEGMENT_NAMES = ("rise", "high dwell", "return", "low dwell")
 
 
-@lru_cache(maxsize=16)  # a function of the profile alone (a tuple); asked at every piece
 def _segment_starts(profile: "cam_laws.CamProfile") -> tuple[float, float, float, float]:
     """Local camshaft angles (rad from rise_start) where rise, high dwell, return and low
     dwell start."""
@@ -440,7 +438,7 @@ class CamshaftStepDrive:
         }
         # rad in [0, 2 pi): the camshaft angles where the cam law changes segment
         self.boundaries = sorted(
-            {cam_laws.reduce_angle(profile.rise_start + a) for a in _segment_starts(profile)}
+            {cam_laws.reduce_angle(profile.rise_start + a) for a in self.starts}
         )
         self.known: dict[tuple, tuple[float, float, float]] = {}
         # (camshaft motion, its segment, (L, L', L'')) last asked for without a segment: the
