@@ -448,6 +448,22 @@ def test_switch_free_after_never_hides_a_sign_change(contact, seat, x0, v0, lift
         assert np.array_equal(np.sign(watched(s)), signs), (s, free_after)
 
 
+_SIGNED = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.sampled_from([0.0, -0.0, 5e-324, -5e-324, 1e-200, -1e-200]),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(old=_SIGNED, new=_SIGNED, direction=st.sampled_from([-1, 0, 1]))
+def test_a_sample_skipped_by_the_sign_products_crosses_nothing(old, new, direction):
+    """_exact_segment skips a sample's crossing test where every watched function's product
+    of its old and new value is positive: then no function crossed in any direction
+    (roots.crosses), also for tiny values whose product underflows (0: not skipped)."""
+    if old * new > 0.0:
+        assert not roots.crosses(old, new, direction)
+
+
 # --- the FMU: state round trip and a bad value ---------------------------------------------
 
 

@@ -540,3 +540,104 @@ def test_rhs_is_the_force_laws_written_out(contact, seat, where, lift, velocity,
     f = vs.engaged_forces(p, L, rate, lift, velocity, modes.engaged)
     expected = [velocity, f.acceleration, f.contact * rate]
     assert vs.build_rhs(p, drive, modes)(t, y) == pytest.approx(expected, rel=1e-14, abs=1e-9)
+
+
+# --- the step's shortcuts agree with the long way -------------------------------------------
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.floats(1e-3, 1.0),
+    st.floats(0.0, 1e-4),
+    st.floats(-1e-4, 1.2e-2),
+    st.floats(-1e-4, 1.2e-2),
+    st.floats(-8.0, 8.0),
+    st.floats(-8.0, 8.0),
+)
+def test_energy_terms_and_switches_are_the_force_laws_in_one_pass(
+    mass, lash, rocker_lift, lift, rocker_velocity, velocity
+):
+    """energy_terms is kinetic_energy + elastic_energy and the sum of the terms' magnitudes;
+    switches is contact_switch and seat_switch at the penetration (the same operations: equal
+    to 1e-14 so a CPU's fused multiply-add cannot fail it)."""
+    p = vs.make_parameters(mass=mass, lash=lash)
+    total, scale = vs.energy_terms(p, rocker_lift, lift, velocity)
+    kinetic = vs.kinetic_energy(p, velocity)
+    depth = rocker_lift - lift - lash
+    terms = [
+        kinetic,
+        lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift),
+        0.5 * p.contact_stiffness * depth**2 if depth > 0.0 else 0.0,
+        0.5 * p.seat_stiffness * lift**2 if lift < 0.0 else 0.0,
+    ]
+    assert total == pytest.approx(kinetic + vs.elastic_energy(p, rocker_lift, lift), rel=1e-14)
+    assert total == pytest.approx(sum(terms), rel=1e-12, abs=1e-15)
+    assert scale == pytest.approx(sum(abs(term) for term in terms), rel=1e-14)
+    expected = (
+        vs.contact_switch(p, vs.penetration(p, rocker_lift, lift), rocker_velocity - velocity),
+        vs.seat_switch(p, lift, velocity),
+    )
+    assert vs.switches(p, rocker_lift, rocker_velocity, lift, velocity) == pytest.approx(
+        expected, rel=1e-14, abs=1e-9
+    )
+    gain, judged = vs.energy_gain(
+        p, rocker_lift, [lift, velocity, 0.5], rocker_lift, [lift, 0.0, 0.75]
+    )
+    assert gain == pytest.approx(vs.energy_terms(p, rocker_lift, lift, 0.0)[0] - total - 0.25)
+    assert judged == max(scale, vs.energy_terms(p, rocker_lift, lift, 0.0)[1], 0.25)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.sampled_from(cam_laws.CAM_LAWS),
+    st.floats(-10.0, 10.0),
+    st.floats(0.6, 1.6),
+    st.floats(0.0, 0.8),
+    st.floats(0.6, 1.6),
+    st.floats(-20.0, 20.0),
+    st.floats(-600.0, 600.0),
+    st.floats(-1e5, 1e5),
+)
+def test_the_camshaft_drives_closed_forms_are_valve_trains(
+    law, rise_start, rise, dwell, back, angle, speed, acceleration
+):
+    """CamshaftStepDrive's segment data, worked out once per cam, give ValveTrain's closed
+    forms (cam_laws.follower_motion, valve_train.forward) at any angle, speed and
+    acceleration of random cams: the segment the angle lies in and L, L', L''."""
+    profile = cam_laws.check_profile(law, 0.007, rise_start, rise, dwell, back)
+    drive = vs.CamshaftStepDrive(profile, vt.DEFAULT_VALVE_GEOMETRY)
+    local = cam_laws.reduce_angle(angle - rise_start)
+    starts = (0.0, rise, rise + dwell, rise + dwell + back)
+    assert drive.segment_index(angle) == max(i for i in range(4) if local >= starts[i])
+    theirs = vt.forward(
+        vt.DEFAULT_VALVE_GEOMETRY, *cam_laws.follower_motion(profile, angle, speed, acceleration)
+    )
+    ours = drive.motion((angle, speed, acceleration))
+    expected = (theirs.valve_lift, theirs.valve_velocity, theirs.valve_acceleration)
+    scales = (1e-2, 1e-2 * (abs(speed) + 1.0), 1e-2 * (speed * speed + abs(acceleration) + 1.0))
+    for a, b, scale in zip(ours, expected, scales):
+        assert abs(a - b) <= 1e-12 * scale
+
+
+@pytest.mark.parametrize("drive", ["rocker", "camshaft"])
+def test_read_inputs_takes_finite_floats_as_they_are_and_checks_the_rest(drive):
+    """The usual inputs (finite floats) are read in one test; integers become floats, and a
+    non-finite input is still refused by name, also where the finite three's sum overflows."""
+    model = ValveSpring(instance_name="valve")
+    model.values["drive"] = drive
+    model.set_up()
+    names = (
+        ("camshaft_angle", "camshaft_speed", "camshaft_acceleration")
+        if drive == "camshaft"
+        else ("rocker_lift", "rocker_velocity", "rocker_acceleration")
+    )
+    model.values.update(zip(names, (0.5, -2.0, 3.0)))
+    assert model.read_inputs() == (0.5, -2.0, 3.0)
+    model.values.update(zip(names, (1, 2, 3)))
+    inputs = model.read_inputs()
+    assert inputs == (1.0, 2.0, 3.0) and all(type(x) is float for x in inputs)
+    model.values.update(zip(names, (1e308, 1e308, 0.0)))
+    assert model.read_inputs() == (1e308, 1e308, 0.0)
+    model.values.update(zip(names, (0.0, math.nan, 0.0)))
+    with pytest.raises(RangeError, match=names[1]):
+        model.read_inputs()

@@ -124,6 +124,23 @@ class IntegratingSlave(MechSlave):
             )
         return saved
 
+    def step_state(self) -> tuple[Any, Any]:
+        """internal_state for do_step's undo, without its JSON form: (extra_state, None or
+        (a copy of the state, the held inputs tuple, the integrator's snapshot))."""
+        extra = self.extra_state()
+        if self.integrator is None or self.state is None:
+            return extra, None
+        return extra, (list(self.state), tuple(self.held_inputs), self.integrator.snapshot())
+
+    def restore_step_state(self, saved: tuple[Any, Any]) -> None:
+        """Inverse of step_state."""
+        extra, integrated = saved
+        self.restore_extra_state(extra)
+        if integrated is not None and self.integrator is not None:
+            state, self.held_inputs, snapshot = integrated
+            self.state = list(state)
+            self.integrator.restore(snapshot)
+
     def restore_internal_state(self, saved: dict[str, Any]) -> None:
         self.restore_extra_state(saved)
         if self.integrator is not None and "integrator" in saved:

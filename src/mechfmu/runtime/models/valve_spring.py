@@ -1,6 +1,8 @@
 """ValveSpring.fmu: the valve as a mass on its spring, driven by the rocker through a compliant
 contact and stopped by a compliant seat, integrated inside each communication step."""
 
+import math
+
 from ..fmi.integrating import IntegratingSlave
 from ..fmi.declarations import motion_inputs, motion_units, only_with
 from ..fmi.geometry import geometry_effect
@@ -387,9 +389,18 @@ class ValveSpring(IntegratingSlave):
             if isinstance(self.drive, vs.CamshaftStepDrive)
             else (_INPUTS, _UNITS)
         )
-        return tuple(
-            [require_finite(name, self.values[name], unit) for name, unit in zip(names, units)]
-        )
+        v = self.values
+        lift, rate, acceleration = v[names[0]], v[names[1]], v[names[2]]
+        # the usual inputs, finite floats, in one test (a finite sum: none NaN or infinite;
+        # a sum that overflows is checked one by one below)
+        if (
+            type(lift) is float
+            and type(rate) is float
+            and type(acceleration) is float
+            and math.isfinite(lift + rate + acceleration)
+        ):
+            return lift, rate, acceleration
+        return tuple([require_finite(name, v[name], unit) for name, unit in zip(names, units)])
 
     def advance(self, start: float, time: float, end_inputs: tuple[float, float, float]) -> tuple:
         """Integrate to ``time`` through the contact events; return (state, (the float,
@@ -399,26 +410,24 @@ class ValveSpring(IntegratingSlave):
         found = []
         phase = [self.phase]
 
-        def judge(t: float, y: Any, drive: Any = None):
-            drive = drive or vs.drive_at(self.drive, t)
+        def judge(t: float, y: Any, drive: tuple[float, float, float]):
             phase[0], new = vs.next_phase(p, phase[0], t, y[0], y[1], drive)
-            found.extend(new)
-            for happening in new:
-                if happening.kind == vs.FLOAT and self.values["stop_on_float"]:
-                    raise MechanismError(_float_message(happening))
+            if new:
+                found.extend(new)
+                for happening in new:
+                    if happening.kind == vs.FLOAT and self.values["stop_on_float"]:
+                        raise MechanismError(_float_message(happening))
 
         def on_event(event: Any, t: float, y: Any):
-            if event.name == vs.TRAVEL_LIMIT:
+            name, drive = event.name, self.drive.at(t)
+            if name == vs.TRAVEL_LIMIT:
                 floated = [h.time for h in found if h.kind == vs.FLOAT]
-                self._refuse_travel(
-                    t, y, vs.drive_at(self.drive, t), floated[-1] if floated else self.last_float
-                )
-            drive = vs.drive_at(self.drive, t)
-            if event.name in vs.SWITCH_EVENTS:
+                self._refuse_travel(t, y, drive, floated[-1] if floated else self.last_float)
+            if name in vs.SWITCH_EVENTS:
                 self.modes.engaged = vs.after_switch(
                     p,
                     self.modes.engaged,
-                    vs.SWITCH_EVENTS.index(event.name),
+                    vs.SWITCH_EVENTS.index(name),
                     drive[0],
                     drive[1],
                     y[0],
@@ -427,8 +436,10 @@ class ValveSpring(IntegratingSlave):
             judge(t, y, drive)
             return y
 
+        # the rocker end at the step's start: the drive's value there (the held inputs)
+        rocker0 = self.rocker(self.held_inputs)
         self.modes.engaged = vs.resume(
-            p, self.engaged, *self.rocker(self.held_inputs)[:2], *self.state[:2]
+            p, self.engaged, rocker0[0], rocker0[1], self.state[0], self.state[1]
         )
         if isinstance(self.integrator, valve_exact.ExactIntegrator):
             y = valve_exact.integrate_exact(
@@ -455,8 +466,9 @@ class ValveSpring(IntegratingSlave):
                     lambda: self.events[self.modes.engaged],
                     on_event,
                 )
-        judge(time, y)
-        created, peak = self._check_energy(start, self.state, time, y)
+        rocker1 = self.drive.at(time)
+        judge(time, y, rocker1)
+        created, peak = self._check_energy(start, self.state, time, y, rocker0[0], rocker1[0])
         return y, (found, phase[0], self.modes.engaged, created, peak)
 
     def commit(self, time: float, happened: tuple) -> None:
@@ -499,11 +511,18 @@ class ValveSpring(IntegratingSlave):
         )
 
     def _check_energy(
-        self, t0: float, y0: list[float], t1: float, y1: list[float]
+        self,
+        t0: float,
+        y0: list[float],
+        t1: float,
+        y1: list[float],
+        rocker0: float,
+        rocker1: float,
     ) -> tuple[float, float]:
-        """(energy created so far, largest energy in play) after a step, or IntegrationError
-        when the step or the run gained more energy than a passive valve can."""
-        gain, scale = vs.energy_gain(self.parameters, self.drive, t0, y0, t1, y1)
+        """(energy created so far, largest energy in play) after a step from y0 at t0 (s)
+        to y1 at t1, the rocker end at rocker0 and rocker1 (m), or IntegrationError when
+        the step or the run gained more energy than a passive valve can."""
+        gain, scale = vs.energy_gain(self.parameters, rocker0, y0, rocker1, y1)
         created = self.created + max(gain, 0.0)
         peak = max(self.peak_energy, scale)
         if gain > ENERGY_GROWTH * scale or created > ENERGY_GROWTH * peak:

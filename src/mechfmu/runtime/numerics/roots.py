@@ -43,7 +43,10 @@ def find_root(
             tau = b - w_b * width / denominator if denominator != 0.0 else a + 0.5 * width
             if not math.isfinite(tau):
                 tau = a + 0.5 * width
-        tau = min(max(tau, a + margin), b - margin)
+        if tau < a + margin:  # min(max(tau, a + margin), b - margin) without two calls
+            tau = a + margin
+        if b - margin < tau:
+            tau = b - margin
         g = function(tau)
         if g != 0.0 and (g > 0.0) == (g_a > 0.0):
             a, g_a, w_a = tau, g, g

@@ -49,6 +49,7 @@ GAUSS_6 = linear_ode.gauss_legendre(6)  # relative error about 1e-9 over 2 rad o
 ANALYTIC_TURNS = 4.0  # rad: w h of a drive piece from which the contact work is analytic
 
 Fired = namedtuple("Fired", "name")  # what integrate_exact passes to its handler
+FIRED = {name: Fired(name) for name in NAMES}  # made once: one per event would be a call
 
 
 class ExactIntegrator:
@@ -359,7 +360,7 @@ def integrate_exact(
                         f"(last at t = {t!r} s): chattering; reduce the step or soften "
                         f"the contact"
                     )
-                x, v, work = handle(Fired(name), t, [x, v, work])
+                x, v, work = handle(FIRED[name], t, [x, v, work])
                 if point[2][0] != x or point[3][0] != v:  # the handler moved the state
                     point = None
     return [x, v, work]
@@ -387,8 +388,10 @@ def _exact_segment(
     kc, cc, ks, cs = p.contact_stiffness, p.contact_damping, p.seat_stiffness, p.seat_damping
     limit = max_lift if max_lift is not None else math.inf
 
-    def watched(s: float, xs: float, vs: float, depth: float, depth_rate: float) -> tuple:
-        """(s, watched functions' values, (x, d), (x', d')) at s for the state there."""
+    def values(s: float, known: tuple | None = None) -> tuple:
+        """(s, watched functions' values, (x, d), (x', d')) at local time s (s) of the closed
+        form, or for the state ``known`` there (x, x', d, d'): one call per sample."""
+        xs, vs, depth, depth_rate = state(s) if known is None else known
         # each switch function the smaller of its two branches (min() written out: this
         # runs at every sample; the same value, the first branch on a tie)
         spring = kc * depth
@@ -403,11 +406,6 @@ def _exact_segment(
             xs,
         )
         return s, g, (xs, depth), (vs, depth_rate)
-
-    def values(s: float) -> tuple:
-        """watched() at s (local time, s) of the closed form."""
-        xs, vs, depth, depth_rate = state(s)
-        return watched(s, xs, vs, depth, depth_rate)
 
     def slope(point: tuple, k: int) -> float:
         """The rate of watched function k at a point of ``values`` (of the branch of a
@@ -445,8 +443,8 @@ def _exact_segment(
         previous = (0.0, *start[1:])
     elif tau0 == 0.0:  # a piece's start: e = e0 and the polynomials' first coefficients
         gap = forced.gap
-        previous = watched(
-            0.0, x, v, gap[0] - mode.e0, (gap[1] if len(gap) > 1 else 0.0) - mode.rate0
+        previous = values(
+            0.0, (x, v, gap[0] - mode.e0, (gap[1] if len(gap) > 1 else 0.0) - mode.rate0)
         )
     else:
         previous = values(0.0)
@@ -493,8 +491,17 @@ def _exact_segment(
                 pending.append(values(turn))
                 continue
         old, g = previous[1], current[1]
-        crossing = []  # roots.crosses written out (five functions at every sample; a loop,
-        for k in range(5):  # not a list comprehension: no call per sample)
+        if (  # no function changed sign (most samples): nothing crossed, whatever directions
+            old[0] * g[0] > 0.0
+            and old[1] * g[1] > 0.0
+            and old[2] * g[2] > 0.0
+            and old[3] * g[3] > 0.0
+            and old[4] * g[4] > 0.0
+        ):
+            previous = current
+            continue
+        crossing = []  # roots.crosses written out (five functions; a loop, not a list
+        for k in range(5):  # comprehension: no call)
             if (old[k] > 0.0 and g[k] <= 0.0 and directions[k] < 0) or (
                 old[k] < 0.0 and g[k] >= 0.0 and directions[k] > 0
             ):
@@ -560,7 +567,9 @@ def _first_crossing(
             for k in crossing:
                 denominator = high[1][k] - old[k]
                 if denominator != 0.0:
-                    tau = min(tau, b - high[1][k] * width / denominator)
+                    estimate = b - high[1][k] * width / denominator
+                    if estimate < tau:  # min() without a call; NaN keeps tau, as min did
+                        tau = estimate
         else:
             k = crossing[0] if len(crossing) == 1 else _earliest(low, high, crossing)
             rate = slope(latest, k)
@@ -623,24 +632,33 @@ def _switch_free_after(
     part (Oscillator.free_bounds); x stays below the travel limit likewise. Under-damped,
     the free part's amplitude decays as exp(-sigma s): a ringing that starts too large
     for the bound may be small enough from some s on (the valve settling on its seat)."""
-    forced, tau0, tau1 = mode.forced, mode.tau0, mode.tau0 + span
-    oscillator = mode.oscillator
-    e_bound, rate_bound = oscillator.free_bounds(mode.e0, mode.rate0, span)
+    oscillator, e0 = mode.oscillator, mode.e0
     x, depth = start[2]
-    v, depth_rate = start[3]
-    x_p, d_p = x - mode.e0, depth + mode.e0  # the polynomial parts at the start
-    v_p, d_rate_p = v - mode.rate0, depth_rate + mode.rate0
+    x_p, d_p = x - e0, depth + e0  # the polynomial parts at the start
+    # the bound on |e| first (Oscillator.free_bounds' e_bound, written out): most calls end
+    # at the test below, without the rest
+    e_bound = abs(e0) + abs(mode.e_coefficient) * span
     decays = mode.under_damped and oscillator.sigma > 0.0
-    e_amplitude = rate_amplitude = 0.0
-    if decays:  # amplitudes at s = 0 of e and e' (Oscillator.free_bounds' second forms)
-        w = oscillator.root
-        e_amplitude = math.hypot(mode.e0, mode.e_coefficient / w)
-        rate_amplitude = math.hypot(mode.rate0, mode.rate_coefficient / w)
-        least = min(e_bound, e_amplitude * math.exp(-oscillator.sigma * span))
-    else:
-        least = e_bound
+    e_amplitude = 0.0
+    if mode.under_damped:
+        # the amplitude at s = 0 of e (free_bounds' second form)
+        e_amplitude = math.hypot(e0, mode.e_coefficient / oscillator.root)
+        if e_amplitude < e_bound:
+            e_bound = e_amplitude
+    least = e_bound
+    if decays:
+        decayed = e_amplitude * math.exp(-oscillator.sigma * span)
+        if decayed < least:
+            least = decayed
     if abs(x_p) <= SAFETY * least or abs(d_p) <= SAFETY * least:
         return None  # the free motion alone may reach zero (as at a segment after an event)
+    forced, tau0, tau1 = mode.forced, mode.tau0, mode.tau0 + span
+    rate_bound = oscillator.free_bounds(e0, mode.rate0, span)[1]
+    v, depth_rate = start[3]
+    v_p, d_rate_p = v - mode.rate0, depth_rate + mode.rate0
+    rate_amplitude = 0.0
+    if decays:  # the amplitude at s = 0 of e' (free_bounds' second form)
+        rate_amplitude = math.hypot(mode.rate0, mode.rate_coefficient / oscillator.root)
     x_low, x_high, d_low, d_high, v_low, v_high, d_rate_low, d_rate_high = _change_bounds(
         forced, tau0, tau1
     )

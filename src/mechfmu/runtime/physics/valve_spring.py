@@ -66,7 +66,6 @@ than the lumped contact stiffness.
 
 import math
 from collections import namedtuple
-from functools import lru_cache
 
 from ..errors import (
     MechanismError,
@@ -226,40 +225,40 @@ def elastic_energy(p: "Parameters", rocker_lift: float, lift: float) -> float:
     return energy
 
 
-def energy_scale(p: "Parameters", rocker_lift: float, lift: float, velocity: float) -> float:
-    """Sum of the magnitudes of the energy terms (J): the energy in play at a state, against
-    which a change of T + V is judged."""
-    depth = penetration(p, rocker_lift, lift)
-    scale = kinetic_energy(p, velocity) + abs(
-        lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift)
-    )
+def energy_terms(
+    p: "Parameters", rocker_lift: float, lift: float, velocity: float
+) -> tuple[float, float]:
+    """(T + V, scale) in J at a state: kinetic_energy + elastic_energy, and the sum of the
+    magnitudes of those energy terms, the energy in play against which a change of T + V is
+    judged. One pass (the step's energy check runs it twice a step): the same operations as
+    kinetic_energy and elastic_energy, so the same floats."""
+    kinetic = 0.5 * p.mass * velocity * velocity
+    depth = rocker_lift - lift - p.lash  # penetration
+    spring = lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift)
+    elastic, scale = spring, kinetic + abs(spring)
     if depth > 0.0:
-        scale += 0.5 * p.contact_stiffness * depth * depth
+        contact = 0.5 * p.contact_stiffness * depth * depth
+        elastic += contact
+        scale += contact
     if lift < 0.0:
-        scale += 0.5 * p.seat_stiffness * lift * lift
-    return scale
+        seat = 0.5 * p.seat_stiffness * lift * lift
+        elastic += seat
+        scale += seat
+    return kinetic + elastic, scale
 
 
 def energy_gain(
-    p: "Parameters",
-    drive: "StepDrive | CamshaftStepDrive",
-    t0: float,
-    y0: list[float],
-    t1: float,
-    y1: list[float],
+    p: "Parameters", rocker0: float, y0: list[float], rocker1: float, y1: list[float]
 ) -> tuple[float, float]:
-    """(gain, scale) in J over [t0, t1]: the growth of T + V beyond the contact work,
-    (T + V)(t1) - (T + V)(t0) - (W(t1) - W(t0)), which the exact solution keeps <= 0 (the
-    dashpots only dissipate), and the energy in play it is judged against (the largest
-    energy_scale at either end, or the work if larger). ``drive``: the step's StepDrive."""
-    rocker0, rocker1 = drive_at(drive, t0)[0], drive_at(drive, t1)[0]
-    start = kinetic_energy(p, y0[1]) + elastic_energy(p, rocker0, y0[0])
-    end = kinetic_energy(p, y1[1]) + elastic_energy(p, rocker1, y1[0])
+    """(gain, scale) in J over a step from state y0 = (x, v, W) with the rocker end at
+    ``rocker0`` (m) to y1 with it at ``rocker1``: the growth of T + V beyond the contact
+    work, (T + V)(t1) - (T + V)(t0) - (W(t1) - W(t0)), which the exact solution keeps <= 0
+    (the dashpots only dissipate), and the energy in play it is judged against (the larger
+    energy_terms scale at either end, or the work if larger)."""
+    start, start_scale = energy_terms(p, rocker0, y0[0], y0[1])
+    end, end_scale = energy_terms(p, rocker1, y1[0], y1[1])
     work = y1[2] - y0[2]
-    scale = max(
-        energy_scale(p, rocker0, y0[0], y0[1]), energy_scale(p, rocker1, y1[0], y1[1]), abs(work)
-    )
-    return end - start - work, scale
+    return end - start - work, max(start_scale, end_scale, abs(work))
 
 
 # --- static equilibrium ------------------------------------------------------------------
@@ -373,42 +372,12 @@ def drive_at(drive: "StepDrive | CamshaftStepDrive", t: float) -> tuple[float, f
 _SEGMENT_NAMES = ("rise", "high dwell", "return", "low dwell")
 
 
-@lru_cache(maxsize=16)  # a function of the profile alone (a tuple); asked at every piece
 def _segment_starts(profile: "cam_laws.CamProfile") -> tuple[float, float, float, float]:
     """Local camshaft angles (rad from rise_start) where rise, high dwell, return and low
     dwell start."""
     rise_end = profile.rise_angle
     return_start = rise_end + profile.high_dwell_angle
     return (0.0, rise_end, return_start, return_start + profile.return_angle)
-
-
-def segment_index(profile: "cam_laws.CamProfile", camshaft_angle: float) -> int:
-    """0 rise, 1 high dwell, 2 return, 3 low dwell at ``camshaft_angle`` (rad), closed on
-    the left as cam_laws.cam_lift."""
-    local = cam_laws.reduce_angle(camshaft_angle - profile.rise_start)
-    starts = _segment_starts(profile)
-    for index in (3, 2, 1):
-        if local >= starts[index]:
-            return index
-    return 0
-
-
-def segment_cam_lift(
-    profile: "cam_laws.CamProfile", index: int, camshaft_angle: float
-) -> tuple[float, float, float]:
-    """(s m, s1 m/rad, s2 m/rad^2) of segment ``index`` at ``camshaft_angle`` (rad),
-    clamped to the segment: at a boundary, the one-sided limit from inside the segment."""
-    if index == 1:
-        return profile.lift, 0.0, 0.0
-    if index == 3:
-        return 0.0, 0.0, 0.0
-    starts = _segment_starts(profile)
-    length = profile.rise_angle if index == 0 else profile.return_angle
-    offset = cam_laws.reduce_angle(camshaft_angle - profile.rise_start - starts[index])
-    if offset > length + 0.5 * (cam_laws.TAU - length):  # just before the segment's start
-        offset -= cam_laws.TAU
-    lift = cam_laws.segment_lift(profile, cam_laws.SEGMENTS[index // 2], offset / length)
-    return lift.s, lift.s1, lift.s2
 
 
 class CamshaftStepDrive:
@@ -437,6 +406,8 @@ class CamshaftStepDrive:
         "current",
         "end",
         "span",
+        "starts",
+        "moving",
     )
 
     def __init__(
@@ -451,9 +422,23 @@ class CamshaftStepDrive:
             )
         self.mode, self.profile, self.geometry = mode, profile, geometry
         self.closed_height = vt.rest_position(geometry)[1]
+        # rad from rise_start: where rise, high dwell, return and low dwell start; and per
+        # moving segment (0 rise, 2 return) its start, its length, the offset from its start
+        # beyond which an angle lies just before it, and its name in cam_laws (worked out
+        # once: the closed forms run at every point of the drive's fit)
+        self.starts = _segment_starts(profile)
+        self.moving = {
+            index: (
+                self.starts[index],
+                length,
+                length + 0.5 * (cam_laws.TAU - length),
+                cam_laws.SEGMENTS[index // 2],
+            )
+            for index, length in ((0, profile.rise_angle), (2, profile.return_angle))
+        }
         # rad in [0, 2 pi): the camshaft angles where the cam law changes segment
         self.boundaries = sorted(
-            {cam_laws.reduce_angle(profile.rise_start + a) for a in _segment_starts(profile)}
+            {cam_laws.reduce_angle(profile.rise_start + a) for a in self.starts}
         )
         self.known: dict[tuple, tuple[float, float, float]] = {}
         # (camshaft motion, its segment, (L, L', L'')) last asked for without a segment: the
@@ -490,7 +475,7 @@ class CamshaftStepDrive:
         if index is None:
             if shaft is self.held[0]:
                 return self.held[2]
-            index = segment_index(self.profile, shaft[0])
+            index = self.segment_index(shaft[0])
             motion = self.motion(shaft, index)
             self.held = (shaft, index, motion)
             return motion
@@ -498,8 +483,43 @@ class CamshaftStepDrive:
         known = self.known.get(key)
         if known is not None:
             return known
+        if len(self.known) > 16:  # the dwells' and the newest half kept
+            kept = list(self.known.items())
+            self.known = {k: v for k, v in kept[:8] if len(k) == 1} | dict(kept[8:])
+        motion = self.known[key] = self.closed_form(shaft, index)
+        return motion
+
+    def segment_index(self, camshaft_angle: float) -> int:
+        """0 rise, 1 high dwell, 2 return, 3 low dwell at ``camshaft_angle`` (rad), closed on
+        the left as cam_laws.cam_lift."""
+        local = cam_laws.reduce_angle(camshaft_angle - self.profile.rise_start)
+        starts = self.starts
+        for index in (3, 2, 1):
+            if local >= starts[index]:
+                return index
+        return 0
+
+    def cam_lift(self, index: int, camshaft_angle: float) -> tuple[float, float, float]:
+        """(s m, s1 m/rad, s2 m/rad^2) of segment ``index`` at ``camshaft_angle`` (rad),
+        clamped to the segment: at a boundary, the one-sided limit from inside the
+        segment."""
+        if index == 1:
+            return self.profile.lift, 0.0, 0.0
+        if index == 3:
+            return 0.0, 0.0, 0.0
+        start, length, before, segment = self.moving[index]
+        offset = cam_laws.reduce_angle(camshaft_angle - self.profile.rise_start - start)
+        if offset > before:  # just before the segment's start
+            offset -= cam_laws.TAU
+        lift = cam_laws.segment_lift(self.profile, segment, offset / length)
+        return lift.s, lift.s1, lift.s2
+
+    def closed_form(self, shaft: tuple[float, float, float], index: int) -> Triple:
+        """(L m, L' m/s, L'' m/s^2) by ValveTrain's closed forms for the camshaft motion
+        ``shaft`` (rad, rad/s, rad/s^2) on segment ``index`` (not remembered: ``motion``
+        remembers)."""
         angle, speed, acceleration = shaft
-        s, s1, s2 = segment_cam_lift(self.profile, index, angle)
+        s, s1, s2 = self.cam_lift(index, angle)
         train = vt.motion_from_tappet(
             self.geometry,
             self.closed_height,
@@ -507,15 +527,7 @@ class CamshaftStepDrive:
             s1 * speed,
             s2 * speed * speed + s1 * acceleration,
         )
-        if len(self.known) > 16:  # the dwells' and the newest half kept
-            kept = list(self.known.items())
-            self.known = {k: v for k, v in kept[:8] if len(k) == 1} | dict(kept[8:])
-        motion = self.known[key] = (
-            train.valve_lift,
-            train.valve_velocity,
-            train.valve_acceleration,
-        )
-        return motion
+        return train.valve_lift, train.valve_velocity, train.valve_acceleration
 
     def valve_lift_rate(self, shaft: tuple[float, float, float]) -> float:
         """dL/dtheta (m/rad) of the rocker's valve end at the camshaft motion ``shaft``
@@ -523,12 +535,12 @@ class CamshaftStepDrive:
         form uses there: what turns the contact force into the camshaft torque. L' / speed
         where the camshaft turns (its motion is known: the outputs were just published
         with it), 0 on a dwell."""
-        index = self.held[1] if shaft is self.held[0] else segment_index(self.profile, shaft[0])
+        index = self.held[1] if shaft is self.held[0] else self.segment_index(shaft[0])
         if index in (1, 3):
             return 0.0
         if shaft[1] != 0.0:
             return self.motion(shaft, index)[1] / shaft[1]
-        s, s1, _ = segment_cam_lift(self.profile, index, shaft[0])
+        s, s1, _ = self.cam_lift(index, shaft[0])
         return vt.valve_lift_rate(self.geometry, self.closed_height, s, s1)
 
     def at(self, t: float) -> tuple[float, float, float]:
@@ -544,16 +556,19 @@ class CamshaftStepDrive:
         cam law's segments (located to EVENT_TOLERANCE), found between BREAKPOINT_SAMPLES
         samples of the angle (monotone between them at any plausible speed)."""
         tau0, span = t0 - self.t0, t1 - t0
+        boundaries = self.boundaries
         if tau0 >= 0.0 and span > 0.0:  # the angles' range bounded first (most steps: none)
             first = polynomials.polynomial(self.angle, tau0)
             down, up = polynomials.change_bounds(self.angle, tau0, tau0 + span)
             if up - down < MAX_REVOLUTIONS * cam_laws.TAU:
-                for boundary in self.boundaries:  # a loop, not any(): runs at every step
-                    if math.ceil((first + down - boundary) / cam_laws.TAU) <= math.floor(
-                        (first + up - boundary) / cam_laws.TAU
-                    ):
-                        break  # a boundary may lie in the range: sampled below
-                else:
+                # the boundaries that may lie in the range, sought between the samples below
+                boundaries = [
+                    boundary
+                    for boundary in boundaries
+                    if math.ceil((first + down - boundary) / cam_laws.TAU)
+                    <= math.floor((first + up - boundary) / cam_laws.TAU)
+                ]
+                if not boundaries:
                     return []
         taus = [tau0 + span * i / BREAKPOINT_SAMPLES for i in range(BREAKPOINT_SAMPLES + 1)]
         angles = [polynomials.polynomial(self.angle, tau) for tau in taus]
@@ -572,7 +587,7 @@ class CamshaftStepDrive:
         tolerance = EVENT_TOLERANCE * max(1.0, abs(t1))
         for i in range(BREAKPOINT_SAMPLES):
             low, high = sorted((angles[i], angles[i + 1]))
-            for boundary in self.boundaries:
+            for boundary in boundaries:
                 first = math.ceil((low - boundary) / cam_laws.TAU)
                 last = math.floor((high - boundary) / cam_laws.TAU)
                 for n in range(first, last + 1):
@@ -603,7 +618,7 @@ class CamshaftStepDrive:
         last span asked for)."""
         if self.span is not None and self.span[0] <= a and b <= self.span[1]:
             return self.span[2]
-        index = segment_index(self.profile, self.camshaft(0.5 * (a + b))[0])
+        index = self.segment_index(self.camshaft(0.5 * (a + b))[0])
         self.span = (a, b, index)
         return index
 
@@ -621,12 +636,13 @@ class CamshaftStepDrive:
         if index in (1, 3):
             coefficients: tuple[float, ...] = (self.motion((0.0, 0.0, 0.0), index)[0],)
         else:
-            nodes = piece_nodes(b - a)
-            last = nodes - 1
-            motions = [
-                self.motion(self.camshaft(a + (b - a) * i / last if i < last else b), index)
-                for i in range(nodes)
-            ]
+            last = piece_nodes(b - a) - 1
+            # the ends remembered (a piece's end is the next one's start), the interior
+            # points, asked for once, not
+            motions = [self.motion(self.camshaft(a), index)]
+            for i in range(1, last):
+                motions.append(self.closed_form(self.camshaft(a + (b - a) * i / last), index))
+            motions.append(self.motion(self.camshaft(b), index))
             coefficients = hermite_nodes(b - a, motions)
         self.current = (a, b, coefficients)
         return coefficients
@@ -659,10 +675,16 @@ BREAKPOINT_SAMPLES = 4  # samples of the camshaft angle per step between which b
 def switches(
     p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float
 ) -> tuple[float, float]:
-    """(contact, seat) switch functions (N) at a state: positive where the force pushes."""
+    """(contact, seat) switch functions (N) at a state: positive where the force pushes.
+    contact_switch and seat_switch at the penetration written out (asked at every event and
+    step start): the same operations, min() as its first argument on a tie."""
+    spring = p.contact_stiffness * (rocker_lift - lift - p.lash)
+    damped = spring + p.contact_damping * (rocker_velocity - velocity)
+    seat = -p.seat_stiffness * lift
+    seat_damped = seat - p.seat_damping * velocity
     return (
-        contact_switch(p, penetration(p, rocker_lift, lift), rocker_velocity - velocity),
-        seat_switch(p, lift, velocity),
+        damped if damped < spring else spring,
+        seat_damped if seat_damped < seat else seat,
     )
 
 
@@ -842,7 +864,7 @@ def contact_phase(
     since the rocker last sat on its base circle (L <= lash). (A surface reached exactly,
     d = 0 or x = 0, is where an event's located point can land: moving into contact or off
     the seat there counts as being there.)"""
-    depth = penetration(p, rocker_lift, lift)
+    depth = rocker_lift - lift - p.lash  # penetration (judged at every event)
     return Phase(
         depth > 0.0 or (depth == 0.0 and rocker_velocity - velocity > 0.0),
         lift > 0.0 or (lift == 0.0 and velocity > 0.0),
