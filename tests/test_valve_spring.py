@@ -310,15 +310,16 @@ def test_radau_steps_through_impacts_and_agrees_with_dopri5():
 # --- the FMU in its scene, against the reference -------------------------------------------
 
 # Measured worst deviations of the shipped scene (camshaft drive, exact integrator on drive
-# pieces of 1 ms, 1 ms step; docs/dynamics.md): lift 4.2e-14 m, velocity 1.2e-9 m/s,
-# acceleration 5.0e-5 m/s^2, contact force 5.0e-7 N, seat force 4.5e-6 N (with 0.1 ms pieces:
-# 5.1e-14, 8.1e-10, 6.0e-5, 5.9e-7, 5.4e-6); asked with a margin of 20 to 100.
+# pieces of 1 ms, switches located to 1e-14 s, 1 ms step; docs/dynamics.md): lift 9.7e-16 m,
+# velocity 2.6e-11 m/s, acceleration 1.1e-6 m/s^2, contact force 1.1e-8 N, seat force 1.0e-7 N
+# (with switches located to 1e-12 s: 4.2e-14, 1.2e-9, 5.0e-5, 5.0e-7, 4.5e-6); asked with a
+# margin of 20 to 100.
 COLUMN_TOLERANCE = {
-    "valve.valve_lift": 5e-12,
-    "valve.valve_velocity": 5e-8,
-    "valve.valve_acceleration": 2e-3,
-    "valve.contact_force": 5e-5,
-    "valve.seat_force": 2e-4,
+    "valve.valve_lift": 5e-14,
+    "valve.valve_velocity": 1e-9,
+    "valve.valve_acceleration": 5e-5,
+    "valve.contact_force": 5e-7,
+    "valve.seat_force": 5e-6,
     "valve.float_events": 0.0,
     "valve.seat_impacts": 0.0,
 }
