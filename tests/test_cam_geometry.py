@@ -481,6 +481,14 @@ def test_a_vanishing_roller_sizes_the_cam_as_a_knife_edge_would(roller):
     )
 
 
+@pytest.mark.parametrize("scale", [1e-300, 1.0, 1e300])
+def test_pitch_curvature_of_a_nan_lift_is_nan_not_a_cusp(scale):
+    # at any scale (the scaled branch included): a NaN cam law is not an unbounded curvature
+    follower = cg.check_follower("roller", scale, scale)
+    assert math.isnan(cg.pitch_curvature(follower, math.nan, 0.1 * scale, 0.0))
+    assert math.isnan(cg.pitch_curvature(follower, 0.1 * scale, math.nan, 0.0))
+
+
 @given(
     scale=st.sampled_from([1e-300, 1e-150, 1e-9, 1.0, 1e150, 1e300]),
     lift=st.floats(-0.5, 0.5),

@@ -1348,7 +1348,7 @@ class _StepPlan:
             size = end - start
             if jacobi:  # every input from the previous point's outputs, then every step
                 for _, _, _, sets, _, _ in steps:
-                    for *_, put in sets:
+                    for _, _, _, put in sets:
                         put_changed(put, start)
             for name, do_step, instance, sets, reads, ended in steps:
                 if not jacobi:  # _set, inline: a set only when its values changed

@@ -115,13 +115,11 @@ class IntegratingSlave(MechSlave):
         )
 
     def internal_state(self) -> dict[str, Any]:
-        saved = dict(self.extra_state())
-        if self.integrator is not None and self.state is not None:
-            saved.update(
-                state=list(self.state),
-                held_inputs=list(self.held_inputs),
-                integrator=self.integrator.snapshot(),
-            )
+        extra, integrated = self.step_state()
+        saved = dict(extra)
+        if integrated is not None:
+            state, held_inputs, snapshot = integrated
+            saved.update(state=state, held_inputs=list(held_inputs), integrator=snapshot)
         return saved
 
     def step_state(self) -> tuple[Any, Any]:

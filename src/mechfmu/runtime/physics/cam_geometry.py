@@ -164,8 +164,8 @@ def pitch_curvature(follower: "Follower", s: float, s1: float, s2: float) -> flo
     if r == 0.0:
         return sys.float_info.max  # the trace point on the camshaft's axis: unbounded
     curvature = ((h / r) * ((h - s2) / r) + (c / r) * ((2.0 * s1 - follower.offset) / r)) / r
-    if math.isnan(curvature):
-        return sys.float_info.max
+    if math.isnan(curvature):  # inf / inf on the way from finite inputs; a NaN input stays
+        return curvature if math.isnan(r) else sys.float_info.max
     return max(-sys.float_info.max, min(sys.float_info.max, curvature))
 
 
@@ -509,7 +509,7 @@ def smallest_base_circle(
             low, high = high, high * 1.25
         else:
             raise MechanismError(
-                f"smallest_base_circle: no prime circle up to {high:.3g} m is feasible "
+                f"smallest_base_circle: no prime circle up to {low:.3g} m is feasible "
                 f"(roller_radius {roller!r} m, follower_offset {e!r} m)"
             )
     while high - low > 1e-13 * high:

@@ -29,7 +29,7 @@ from typing import Any
 
 from ..errors import IntegrationError, RangeError
 from ..numerics import linear_ode, polynomials, roots
-from ..numerics.integrators import Stats, check_wall_time
+from ..numerics.integrators import Stats, check_tolerance, check_wall_time
 from ..numerics.stepping import MAX_EVENTS_PER_STEP
 from .valve_spring import OPENING, SWITCH_EVENTS, TRAVEL_LIMIT, Engaged, Parameters
 
@@ -49,10 +49,9 @@ GAUSS_6 = linear_ode.gauss_legendre(6)  # relative error about 1e-9 over 2 rad o
 ANALYTIC_TURNS = 4.0  # rad: w h of a drive piece from which the contact work is analytic
 # s (times max(1, tau)): events of the closed form located this closely. The closed form is
 # exact, so where a switch is placed is the solution's error: the valve changes mode there, and
-# its landings and bounces on the 1e8 N/m seat carry the difference on. Located to the
-# integrators' EVENT_TOLERANCE (1e-12), the dynamic valve scenes deviated from the scipy
-# reference by 0.058 and 0.013 of their checks' allowance; to 1e-14, by 0.0013 and 0.0002,
-# for evaluations of the closed form 207 -> 208 and 256 -> 266 (docs/dynamics.md)
+# its landings and bounces on a stiff seat carry the difference on; the integrators'
+# EVENT_TOLERANCE (1e-12) left the dynamic valve scenes 45 and 65 times further from the scipy
+# reference, for 1 to 10 more evaluations of the closed form in about 250 (docs/dynamics.md)
 EXACT_EVENT_TOLERANCE = 1e-14
 
 Fired = namedtuple("Fired", "name")  # what integrate_exact passes to its handler
@@ -62,11 +61,16 @@ FIRED = {name: Fired(name) for name in NAMES}  # made once: one per event would 
 class ExactIntegrator:
     """Stands in the integrator's place for ValveSpring with integrator = exact: the drive
     pieces' largest length (max_substep), the work counters (rhs_evaluations counts closed-form
-    evaluations of the state, substeps the drive pieces) and the wall-clock bound."""
+    evaluations of the state, substeps the drive pieces) and the wall-clock bound; rtol and atol
+    are only checked (finite, >= 0), as the other integrators check theirs."""
 
     method = EXACT
 
-    def __init__(self, max_substep: float) -> None:
+    def __init__(self, max_substep: float, rtol: float = 0.0, atol: float = 0.0) -> None:
+        # the tolerances steer no exact solution, but a wrong one is refused as by the
+        # other integrators (check_tolerance)
+        check_tolerance("rtol", rtol)
+        check_tolerance("atol", atol)
         if not max_substep > 0.0:
             raise RangeError(
                 "max_substep", max_substep, "(0, inf]", "s", "the drive's pieces need a length"

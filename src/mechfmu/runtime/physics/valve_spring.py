@@ -188,13 +188,15 @@ def seat_force(p: "Parameters", lift: float, velocity: float) -> float:
 def contact_switch(p: "Parameters", depth: float, depth_rate: float) -> float:
     """Positive exactly where the contact force is (N); zero where it switches."""
     spring = p.contact_stiffness * depth
-    return min(spring, spring + p.contact_damping * depth_rate)
+    damped = spring + p.contact_damping * depth_rate
+    return damped if damped < spring else spring  # min() without a call: the same on a tie
 
 
 def seat_switch(p: "Parameters", lift: float, velocity: float) -> float:
     """Positive exactly where the seat force is (N); zero where it switches."""
     spring = -p.seat_stiffness * lift
-    return min(spring, spring - p.seat_damping * velocity)
+    damped = spring - p.seat_damping * velocity
+    return damped if damped < spring else spring
 
 
 def forces(
@@ -216,13 +218,19 @@ def kinetic_energy(p: "Parameters", velocity: float) -> float:
 def elastic_energy(p: "Parameters", rocker_lift: float, lift: float) -> float:
     """Energy stored in the valve spring (relative to the closed valve), the contact and
     the seat (J)."""
+    spring, contact, seat = _elastic_parts(p, rocker_lift, lift)
+    return spring + contact + seat
+
+
+def _elastic_parts(p: "Parameters", rocker_lift: float, lift: float) -> tuple[float, float, float]:
+    """(spring, contact, seat) stored energies (J) at a state: the valve spring's relative to
+    the closed valve (negative below it), and the contact's and the seat's (0 where not
+    engaged)."""
     depth = penetration(p, rocker_lift, lift)
-    energy = lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift)
-    if depth > 0.0:
-        energy += 0.5 * p.contact_stiffness * depth * depth
-    if lift < 0.0:
-        energy += 0.5 * p.seat_stiffness * lift * lift
-    return energy
+    spring = lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift)
+    contact = 0.5 * p.contact_stiffness * depth * depth if depth > 0.0 else 0.0
+    seat = 0.5 * p.seat_stiffness * lift * lift if lift < 0.0 else 0.0
+    return spring, contact, seat
 
 
 def energy_terms(
@@ -230,21 +238,10 @@ def energy_terms(
 ) -> tuple[float, float]:
     """(T + V, scale) in J at a state: kinetic_energy + elastic_energy, and the sum of the
     magnitudes of those energy terms, the energy in play against which a change of T + V is
-    judged. One pass (the step's energy check runs it twice a step): the same operations as
-    kinetic_energy and elastic_energy, so the same floats."""
-    kinetic = 0.5 * p.mass * velocity * velocity
-    depth = rocker_lift - lift - p.lash  # penetration
-    spring = lift * (p.spring_preload + 0.5 * p.spring_stiffness * lift)
-    elastic, scale = spring, kinetic + abs(spring)
-    if depth > 0.0:
-        contact = 0.5 * p.contact_stiffness * depth * depth
-        elastic += contact
-        scale += contact
-    if lift < 0.0:
-        seat = 0.5 * p.seat_stiffness * lift * lift
-        elastic += seat
-        scale += seat
-    return kinetic + elastic, scale
+    judged (the step's energy check asks for both at each end of a step)."""
+    kinetic = kinetic_energy(p, velocity)
+    spring, contact, seat = _elastic_parts(p, rocker_lift, lift)
+    return kinetic + (spring + contact + seat), kinetic + abs(spring) + contact + seat
 
 
 def energy_gain(
@@ -675,16 +672,10 @@ BREAKPOINT_SAMPLES = 4  # samples of the camshaft angle per step between which b
 def switches(
     p: "Parameters", rocker_lift: float, rocker_velocity: float, lift: float, velocity: float
 ) -> tuple[float, float]:
-    """(contact, seat) switch functions (N) at a state: positive where the force pushes.
-    contact_switch and seat_switch at the penetration written out (asked at every event and
-    step start): the same operations, min() as its first argument on a tie."""
-    spring = p.contact_stiffness * (rocker_lift - lift - p.lash)
-    damped = spring + p.contact_damping * (rocker_velocity - velocity)
-    seat = -p.seat_stiffness * lift
-    seat_damped = seat - p.seat_damping * velocity
+    """(contact, seat) switch functions (N) at a state: positive where the force pushes."""
     return (
-        damped if damped < spring else spring,
-        seat_damped if seat_damped < seat else seat,
+        contact_switch(p, penetration(p, rocker_lift, lift), rocker_velocity - velocity),
+        seat_switch(p, lift, velocity),
     )
 
 
