@@ -283,19 +283,10 @@ def test_a_shipped_scene_runs_and_checks_by_name_from_any_directory(fmu_dir, tmp
 def test_a_script_in_sims_writes_to_the_current_folder_and_is_named_in_its_usage(fmu_dir, tmp_path):
     """python sims/run_gear.py from any folder writes out/ there (not in the repository)
     and finds the FMUs by the one rule; its usage names the script."""
-    script = ROOT / "sims" / "run_gear.py"
-    done = subprocess.run(
-        [sys.executable, str(script), "--no-plot"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        cwd=tmp_path,
-    )
+    done = run_script("run_gear.py", "--no-plot", cwd=tmp_path)
     assert done.returncode == 0, done.stdout + done.stderr
     assert (tmp_path / "out" / "gear_retraction.csv").is_file()
-    usage = subprocess.run(
-        [sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=60
-    )
+    usage = run_script("run_gear.py", "--help", timeout=60)
     assert usage.returncode == 0 and usage.stdout.startswith("usage: run_gear.py ")
 
 

@@ -608,7 +608,6 @@ def test_only_stop_time_and_step_are_overridden(tmp_path):
         )
 
 
-@needs_fmus
 def test_more_local_workers_than_four_per_core_are_refused_before_anything(tmp_path):
     # --jobs 100000 forked worker processes until the machine stalled (a pool forks them all)
     too_many = MAX_WORKERS_PER_CORE * (os.cpu_count() or 1) + 1

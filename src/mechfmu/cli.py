@@ -10,7 +10,6 @@ from __future__ import annotations
 from typing import Any
 from typing import TYPE_CHECKING
 import argparse
-import math
 import os
 import sys
 import tempfile
@@ -412,7 +411,7 @@ def _export_fmu(args: Any):
 
 def _check(args: Any) -> int:
     from .check import check_paths
-    from .comparison import parse_tolerance
+    from .comparison import check_tolerance_value, parse_tolerance
     from .cosim.files import OutputError
 
     try:
@@ -422,8 +421,7 @@ def _check(args: Any) -> int:
             ("--atol", args.atol),
             ("--time-tolerance", args.time_tolerance),
         ):
-            if value is not None and not 0 <= value < math.inf:
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+            check_tolerance_value(name, value)
         if args.time_tolerance is not None and args.method != "tube":
             raise ValueError("--time-tolerance is the tube's: give --method tube with it")
     except ValueError as error:

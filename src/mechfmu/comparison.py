@@ -44,6 +44,13 @@ KINDS = ("value", "missing column", "extra column", "time grid")
 Tolerance = float | tuple[float, float] | Mapping[str, float]
 
 
+def check_tolerance_value(name: str, value: float | None) -> None:
+    """ValueError naming ``name`` unless ``value`` (a tolerance: rtol, atol or the tube's time
+    tolerance, in its column's units or s) is None or a finite number >= 0."""
+    if value is not None and not (math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+
+
 def parse_tolerance(text: str) -> tuple[str, tuple[float, float | None]]:
     """``"COLUMN=RTOL"`` or ``"COLUMN=RTOL,ATOL"`` (the CLI's ``--tol``) as
     ``(column pattern, (rtol, atol or None))``; ValueError naming the text otherwise."""
@@ -547,8 +554,7 @@ def compare(
     if method is not None and method not in ("pointwise", "tube"):
         raise ValueError(f"method must be 'pointwise' or 'tube', got {method!r}")
     for name, value in (("rtol", rtol), ("atol", atol), ("time_tolerance", time_tolerance)):
-        if value is not None and not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        check_tolerance_value(name, value)
     options: dict[str, Any] = {
         "rtol": rtol,
         "atol": atol,

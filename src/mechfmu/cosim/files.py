@@ -212,12 +212,16 @@ def atomic_write_all(contents: Any) -> list[Path]:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 written.append(_write_temporary(path, data))
             except OSError as error:
-                raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
+                raise OutputError(
+                    f"cannot write {limits.message_text(path)}: {error_cause(error)}"
+                ) from None
         for path, temporary in zip(paths, written):
             try:
                 os.replace(temporary, path)
             except OSError as error:
-                raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
+                raise OutputError(
+                    f"cannot write {limits.message_text(path)}: {error_cause(error)}"
+                ) from None
     finally:
         for temporary in written:
             if os.path.lexists(temporary):
@@ -243,7 +247,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         try:
             os.replace(temporary, path)
         except OSError as error:
-            raise OutputError(f"cannot write {path}: {error_cause(error)}") from None
+            raise OutputError(
+                f"cannot write {limits.message_text(path)}: {error_cause(error)}"
+            ) from None
     finally:
         if os.path.lexists(temporary):
             os.unlink(temporary)

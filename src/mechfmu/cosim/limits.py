@@ -200,7 +200,7 @@ def _stat(path: Path | str) -> tuple[os.stat_result | None, str | None]:
     that cannot be searched, a NUL in the path) as a problem to name."""
     try:
         return os.stat(path), None
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # NotADirectory: a path under a file
         return None, NOT_FOUND
     except (OSError, ValueError) as error:  # ValueError: a NUL in the path
         return None, f"cannot be read: {getattr(error, 'strerror', None) or error}"
