@@ -143,7 +143,7 @@ def test_quintic_hermite_is_exact_on_a_quintic_and_the_cubic_on_a_cubic():
                 assert a == pytest.approx(b, rel=1e-10, abs=1e-13 * scale)
     drive = vs.StepDrive("hold")
     drive.set_step(1.0, 1.1, (0.01, 2.0, -30.0), (0.5, 0.5, 0.5))  # the end is ignored
-    assert vs.drive_at(drive, 1.1) == pytest.approx((0.01 + 0.2 - 0.15, 2.0 - 3.0, -30.0))
+    assert drive.at(1.1) == pytest.approx((0.01 + 0.2 - 0.15, 2.0 - 3.0, -30.0))
     with pytest.raises(MechanismError, match="input_interpolation = 'linear'"):
         vs.StepDrive("linear")
 
@@ -529,7 +529,7 @@ def test_a_rocker_already_beyond_the_travel_limit_is_refused_at_the_start():
     st.floats(0.0, 1e-4),
 )
 def test_rhs_is_the_force_laws_written_out(contact, seat, where, lift, velocity, lash):
-    """build_rhs (inlined for speed) gives the floats of drive_at and engaged_forces (the
+    """build_rhs (inlined for speed) gives the floats of drive.at and engaged_forces (the
     same operations in the same order; compared to 1e-14 so a CPU's fused multiply-add
     cannot fail it)."""
     p = vs.make_parameters(lash=lash)
@@ -537,7 +537,7 @@ def test_rhs_is_the_force_laws_written_out(contact, seat, where, lift, velocity,
     drive.set_step(0.1, 0.1 + 1e-5, (0.001, 0.5, 100.0), (0.001005, 0.51, 120.0))
     modes = vs.Modes(vs.Engaged(contact, seat))
     t, y = 0.1 + where * 1e-5, [lift, velocity, 0.25]
-    L, rate, _ = vs.drive_at(drive, t)
+    L, rate, _ = drive.at(t)
     f = vs.engaged_forces(p, L, rate, lift, velocity, modes.engaged)
     expected = [velocity, f.acceleration, f.contact * rate]
     assert vs.build_rhs(p, drive, modes)(t, y) == pytest.approx(expected, rel=1e-14, abs=1e-9)

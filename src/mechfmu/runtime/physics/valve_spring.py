@@ -308,7 +308,7 @@ class StepDrive:
     ``hold``: the values at t0 held, i.e. the acceleration L''(t0) held and L, L' its
     consistent Taylor expansion from t0 (exact for motions with constant acceleration over
     the step; the next step starts from the values given at its own start).
-    The right-hand side keeps one instance and reads it through drive_at.
+    The right-hand side keeps one instance and reads it through its ``at``.
     """
 
     __slots__ = ("mode", "t0", "coefficients", "current")
@@ -357,11 +357,6 @@ class StepDrive:
         coefficients = polynomials.shift(self.coefficients, a - self.t0)
         self.current = (a, b, coefficients)
         return coefficients
-
-
-def drive_at(drive: "StepDrive | CamshaftStepDrive", t: float) -> tuple[float, float, float]:
-    """(L m, L' m/s, L'' m/s^2) of the rocker end at time t inside the current step."""
-    return drive.at(t)
 
 
 # --- the drive from the camshaft: ValveTrain's closed forms inside ValveSpring -------------
@@ -767,7 +762,7 @@ def build_rhs(p: "Parameters", drive: "StepDrive | CamshaftStepDrive", modes: Mo
     contacts engaged as ``modes`` says (smooth between switches).
 
     The integrators call it tens of thousands of times per simulated 0.01 s, so it is
-    engaged_forces and drive_at written out with the parameters bound once: the same
+    engaged_forces and drive.at written out with the parameters bound once: the same
     operations in the same order (the same floats), without their calls, the unused
     L'' and the Forces tuple (about half the time per call)."""
     m, k, preload, lash = p.mass, p.spring_stiffness, p.spring_preload, p.lash
@@ -809,14 +804,14 @@ def build_events(
     with ``max_lift`` (m), the valve lift rising through it (TRAVEL_LIMIT) as well."""
 
     def contact(t: float, y: Any):
-        L, rate, _ = drive_at(drive, t)
+        L, rate, _ = drive.at(t)
         return contact_switch(p, penetration(p, L, y[0]), rate - y[1])
 
     def seat(t: float, y: Any):
         return seat_switch(p, y[0], y[1])
 
     def separation(t: float, y: Any):
-        return penetration(p, drive_at(drive, t)[0], y[0])
+        return penetration(p, drive.at(t)[0], y[0])
 
     # the valve leaving its seat (x rising through 0): judged for the next impact's count
     # however many bounces one step holds

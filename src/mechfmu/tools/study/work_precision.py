@@ -118,7 +118,7 @@ def valve_problem() -> Problem:
     drive.set_step(0.0, 0.01, (0.0, 0.0, 0.0), (0.0105, 0.0, 0.0))  # the 3-4-5 rise
     modes = vs.Modes(vs.Engaged(True, False))
     rhs = vs.build_rhs(p, drive, modes)
-    L, rate, _ = vs.drive_at(drive, 0.002)
+    L, rate, _ = drive.at(0.002)
     return Problem("valve", rhs, vs.initial_state(p, L, rate), 0.002, 0.005, (1e-5, 3e-6, 1e-6))
 
 
