@@ -12,8 +12,11 @@ import time
 from pathlib import Path
 
 import pytest
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
 
 import sweep_worker_faults as faults
+from mechfmu.cosim.interrupt import InterruptGuard
 from mechfmu.tools import parallel, sweep
 from mechfmu.cli import main as cli_main
 from mechfmu.cosim.scene import SCENE_DIR as SCENES
@@ -128,6 +131,76 @@ def test_a_point_that_always_kills_its_worker_fails_alone_after_its_retries(
     assert [i for i, row in rows.items() if row["error"]] == [2]  # no innocent point blamed
     summary = json.loads((out / "sweep.json").read_text())
     assert summary["failed_indices"] == [2] and summary["retries"] == 2
+
+
+class _BreaksWhileSending:
+    """A runner whose pool breaks between two submits, the way a ProcessPoolExecutor does
+    when a worker dies: the next submit raises BrokenProcessPool at once, and the points in
+    flight fail with it a moment later. One restart mends it."""
+
+    workers = 2
+
+    def __init__(self, refuse_at):
+        self.refuse_at, self.submits, self.restarts = refuse_at, 0, 0
+        self.in_flight = []
+        self.runs = []  # the indices that ran, in order
+
+    def submit(self, index, scene, *arguments):
+        self.submits += 1
+        if self.restarts == 0 and self.submits == self.refuse_at:
+            for future in (future for future in self.in_flight if not future.done()):
+                future.set_exception(BrokenProcessPool("a child process terminated"))
+            raise BrokenProcessPool("a child process terminated abruptly")
+        future = Future()
+        self.in_flight.append(future)
+        future.index = index
+        return future
+
+    def wait(self, futures, timeout):
+        for future in futures:
+            if not future.done():
+                self.runs.append(future.index)
+                future.set_result((future.index, {"m": float(future.index)}, None, 0.0, "w"))
+        return set(futures)
+
+    @staticmethod
+    def lost(error):
+        return isinstance(error, BrokenProcessPool)
+
+    def restart(self):
+        self.restarts += 1
+        self.in_flight = []
+
+    def idle(self):
+        pass
+
+
+@pytest.mark.parametrize("refuse_at", [1, 2, 5, 9])
+def test_a_pool_that_breaks_while_points_are_sent_loses_none_and_blames_none(refuse_at):
+    """The CI failure of stop 37: the executor refused a submit (its worker had died) before
+    it failed the points in flight, and the sweep died with BrokenProcessPool. Now the
+    refused point goes back to the queue unrun, the pool restarts once, every point is
+    recorded once with its own result and no point spends an attempt it did not run."""
+    runner = _BreaksWhileSending(refuse_at)
+    recorded = {}
+
+    def record(task, outcome):
+        assert task.index not in recorded
+        recorded[task.index] = (outcome, task.attempts)
+
+    tasks = (sweep._Task(index, [float(index)], None) for index in range(12))
+    summary = {"pool_restarts": 0, "retried": 0}
+    with InterruptGuard() as guard:
+        sweep._run_points(runner, tasks, (), 2, guard, record, summary, window=8)
+    assert sorted(recorded) == list(range(12))
+    assert all(outcome == ({"m": float(i)}, None, 0.0, "w") for i, (outcome, _) in recorded.items())
+    assert summary["pool_restarts"] == runner.restarts == 1
+    in_flight = set(range((refuse_at - 1) // 8 * 8, refuse_at - 1))  # sent since the last wait
+    assert summary["retried"] == len(in_flight)
+    assert {i: attempts for i, (_, attempts) in recorded.items()} == {
+        i: 2 if i in in_flight else 1 for i in range(12)
+    }  # the refused point spent no attempt
+    assert sorted(runner.runs) == list(range(12))
 
 
 # --- sweep.json while running -----------------------------------------------------------

@@ -873,8 +873,11 @@ def _run_points(
     a few of them. A task lost with its worker process (runner.lost: the local pool broke)
     is sent again to a new pool, up to ``retries`` more times; the last attempt runs alone
     in a pool of one process, so a point that kills its worker every time fails by itself
-    and the points that only shared a pool with it are never blamed. Every 0.25 s at most
-    the guard is asked; a signal raises _Stopped.
+    and the points that only shared a pool with it are never blamed. A pool may break while
+    points are still being sent (its worker died, and the executor refuses the next submit
+    before it has failed the points in flight): the point refused was never run, so it
+    goes back to the queue with its attempts unchanged. Every 0.25 s at most the guard is
+    asked; a signal raises _Stopped.
     """
     source = iter(tasks)
     window = window or max(4 * runner.workers, 8)
@@ -889,10 +892,11 @@ def _run_points(
         else:
             pool, queue = runner, waiting
         lost: list[_Task] = []
+        unsent: list[_Task] = []  # refused by a pool that broke while they were sent
         pending: dict[Any, _Task] = {}
         try:
             while True:
-                while not lost and len(pending) < window:  # no new point into a broken pool
+                while not (lost or unsent) and len(pending) < window:  # none into a broken pool
                     if queue:
                         task = queue.pop(0)
                     elif alone or not more:
@@ -903,7 +907,14 @@ def _run_points(
                             more = False
                             break
                         task = next_task
-                    pending[pool.submit(task.index, task.scene, *arguments)] = task
+                    try:
+                        future = pool.submit(task.index, task.scene, *arguments)
+                    except Exception as failure:
+                        if not pool.lost(failure):
+                            raise
+                        unsent.append(task)
+                        break
+                    pending[future] = task
                 if not pending:
                     break
                 if guard.requested:
@@ -922,7 +933,11 @@ def _run_points(
         finally:
             if pool is not runner:
                 pool.close(interrupted=guard.requested)
-        if not lost:
+        if pool is runner:
+            waiting[:0] = unsent
+        else:
+            last_chance[:0] = unsent
+        if not (lost or unsent):
             continue
         if pool is runner:
             runner.restart()
