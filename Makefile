@@ -83,7 +83,7 @@ lock:
 	$(PYTHON) -m venv .venv-lock
 	.venv-lock/bin/python -m pip install --quiet --disable-pip-version-check uv
 	.venv-lock/bin/uv pip compile pyproject.toml --universal --python-version 3.10 \
-		--generate-hashes --extra test --extra docs --extra cluster --extra video --extra parquet --no-header --quiet \
+		--generate-hashes --extra test --extra docs --extra cluster --extra video --extra parquet --extra compile --no-header --quiet \
 		-o requirements.lock.txt
 
 # The suite against the newest releases pyproject.toml allows (not the lock): its own
@@ -125,7 +125,7 @@ OTHER_TESTS := tests/test_physics_cam_valve.py tests/test_cam_geometry.py \
 	tests/test_physics_suspension.py tests/test_references.py tests/test_integrators.py \
 	tests/test_planar.py tests/test_scenes.py tests/test_outputs.py tests/test_libcosim.py \
 	tests/test_portable.py tests/test_sweep_faults.py tests/test_exact_valve.py \
-	tests/test_tolerances.py
+	tests/test_tolerances.py tests/test_compiled_core.py
 test-other-python:
 	@set -e; for version in $(OTHER_PYTHONS); do \
 		python=$$(ls -d $(PYENV_ROOT)/versions/$$version.*/bin/python3 2>/dev/null \

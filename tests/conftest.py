@@ -97,6 +97,7 @@ LAYERS = {
     "test_suspension_dynamics.py": "unit",
     "test_valve_spring.py": "unit",
     "test_exact_valve.py": "unit",
+    "test_compiled_core.py": "fmu",  # the built ValveSpring FMU's compiled exact core
     "test_docs.py": "unit",
     "test_work_precision.py": "unit",
     "test_io.py": "unit",  # its tests with fmu_dir count as fmu (below)

@@ -84,8 +84,12 @@ def test_the_closed_form_meets_scipy_for_every_damping(m, c, k):
 def test_polynomial_helpers_agree_with_numpy():
     coefficients = (1.5, -2.0, 0.25, 4.0, -1.0, 0.5)
     numpy_p = np.polynomial.Polynomial(coefficients)
+    complex_coefficients = (1.5 - 2j, -2.0, 0.25 + 1j, 4.0j)
     for tau in (-0.7, 0.0, 0.3, 1.9):
         assert polynomials.polynomial(coefficients, tau) == pytest.approx(numpy_p(tau), rel=1e-13)
+        assert polynomials.complex_polynomial(complex_coefficients, tau) == pytest.approx(
+            np.polynomial.polynomial.polyval(tau, complex_coefficients), rel=1e-14
+        )
     shifted = np.polynomial.Polynomial(polynomials.shift(coefficients, 0.4))
     for tau in (-0.5, 0.0, 0.8):
         assert shifted(tau) == pytest.approx(numpy_p(tau + 0.4), rel=1e-12)

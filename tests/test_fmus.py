@@ -10,11 +10,9 @@ from pathlib import Path
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from mechfmu.packaging.closure import runtime_closure
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
-import mechfmu.runtime
 from fmu_driver import Driven
 from mechfmu.runtime.models import MODELS
 from mechfmu.runtime.physics.landing_gear import DEFAULT_GEOMETRY, gear_motion
@@ -77,23 +75,6 @@ def test_code_inside_the_fmu_imports_only_the_standard_library(fmu_dir, model):
         for name in ours:
             found = set(_imports(archive.read(name).decode()))
             assert found <= allowed, (name, found - allowed)
-
-
-@pytest.mark.parametrize("model", list(MODELS))
-def test_the_fmu_carries_exactly_the_runtime_its_model_imports(fmu_dir, model):
-    """What an FMU packs of mechfmu is part of mechfmu.runtime, nothing else: the modules its
-    model imports (packaging/closure.py; tests/test_self_description.py checks the closure)."""
-    runtime = Path(mechfmu.runtime.__file__).parent
-    expected = {path.as_posix() for path in runtime_closure(runtime, MODELS[model], "fmi2")}
-    assert expected <= {path.relative_to(runtime).as_posix() for path in runtime.rglob("*.py")}
-    prefix = f"resources/mechfmu_fmu_{model}/"
-    with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
-        packed = {
-            name[len(prefix) :]
-            for name in archive.namelist()
-            if name.startswith(prefix) and not name.endswith("/")
-        }
-    assert packed == expected
 
 
 def test_fmu_runtime_runs_in_a_python_without_third_party_packages(fmu_dir, tmp_path):

@@ -97,7 +97,11 @@ def _build(args: Any) -> int:
         return 2
     out = args.out or user_cache()
     for path in build_all(
-        out, args.models or None, fmi_version=args.fmi_version, embed_python=args.embed_python
+        out,
+        args.models or None,
+        fmi_version=args.fmi_version,
+        embed_python=args.embed_python,
+        compile_core=not args.no_compile,
     ):
         print(f"built {path}")
     return 0
@@ -1304,6 +1308,13 @@ def parser() -> argparse.ArgumentParser:
         help="carry this interpreter's libpython and the standard library the "
         "models import, so the FMUs run where no Python is installed (default: use "
         "the host's Python)",
+    )
+    build.add_argument(
+        "--no-compile",
+        action="store_true",
+        help="leave the valve's exact core as Python source (default: compiled to C by "
+        "mypyc where mypy, setuptools and a C compiler are at hand; the same results, "
+        "faster)",
     )
     build.set_defaults(func=_build)
 

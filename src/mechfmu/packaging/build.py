@@ -44,6 +44,7 @@ from pythonfmu3 import FmuBuilder as Fmi3Builder
 from .binary_patch import patch_exit_finaliser
 from .boundary import c_string, table_source
 from .closure import runtime_closure
+from .compiled import compile_core
 from .describe import described, null_description, self_description
 from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
@@ -344,6 +345,7 @@ def build_model(
     embed: Any = None,
     starts: dict[str, Any] | None = None,
     experiment: dict[str, float] | None = None,
+    core: bool = False,
 ) -> Any:
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
@@ -356,6 +358,10 @@ def build_model(
     ``starts``: start values (variable name -> value) that replace the declared ones, e.g.
     the parameters and fixed inputs of a scene (the FMUs of ``mechfmu export-cross-check``);
     ``experiment``: DefaultExperiment attributes in place of the reference scene's.
+    ``core``: when the FMU carries the valve's exact core, it and the modules its step calls
+    are compiled to C extensions beside their sources (compiled.py; not for a null variant,
+    whose step computes nothing); a failed compile leaves the sources, and the build says
+    why.
     """
     if fmi_version not in FMI_VERSIONS:
         raise ValueError(f"FMI version {fmi_version!r} is not one of {FMI_VERSIONS}")
@@ -369,6 +375,11 @@ def build_model(
     tag = _variant_tag(starts)
     package = folder / (runtime_package(fmu_name, fmi_version) + tag)
     _stage_runtime(package, fmi_version, module)
+    core_build = (
+        compile_core(package, staging / f"compile_{folder.name}") if core and not null else None
+    )
+    if core_build is not None:
+        print(f"{fmu_name}: {core_build.message}")
     inner_module = module.replace("mechfmu.runtime.", f"{package.name}.", 1)
     script = folder / f"{_entry_module(fmu_name, fmi_version)}{tag}.py"
     script.write_text(_entry_script(name, fmu_name, inner_module, fmi_version, starts))
@@ -377,7 +388,7 @@ def build_model(
         built = builder.build_FMU(
             script,
             dest=staging / f"out_{fmu_name}_fmi{fmi_version}",
-            project_files=[package],
+            project_files=[package, *(core_build.outside if core_build else ())],
             **options,
         )
     if loader is None:
@@ -486,6 +497,7 @@ def build_all(
     null: bool = False,
     fmi_version: Any = 2,
     embed_python: bool = False,
+    compile_core: bool = True,
 ) -> Any:
     """Build the named models (default: all of MODELS); return the FMU paths.
 
@@ -493,6 +505,8 @@ def build_all(
     fmi_version: 2 (FMI 2.0, pythonfmu) or 3 (FMI 3.0, pythonfmu3), from the same models.
     embed_python=True: each FMU carries this interpreter's libpython and the part of the
     standard library it imports (embed.py), so it runs where no Python is installed.
+    compile_core=True: the valve's exact core compiled to C where an FMU carries it
+    (compiled.py; build_model).
     """
     if fmi_version not in FMI_VERSIONS:
         raise ValueError(f"FMI version {fmi_version!r} is not one of {FMI_VERSIONS}")
@@ -516,6 +530,15 @@ def build_all(
                 )
             embed = EmbeddedPython.of_this_interpreter()
         return [
-            build_model(name, out_dir, Path(temp), null, loader, fmi_version, embed)
+            build_model(
+                name,
+                out_dir,
+                Path(temp),
+                null,
+                loader,
+                fmi_version,
+                embed,
+                core=compile_core,
+            )
             for name in (names or MODELS)
         ]

@@ -14,6 +14,16 @@ def polynomial(coefficients: tuple[float, ...] | list[float], tau: float) -> flo
     return value
 
 
+def complex_polynomial(coefficients: tuple[complex, ...] | list[complex], tau: float) -> complex:
+    """p(tau) for complex coefficients (a0, a1, ...) (Horner; the exact valve's exponential
+    integrals). Its own function: a compiled core (packaging/compiled.py) checks that
+    ``polynomial`` returns a float."""
+    value: complex = 0.0  # a float until the first complex term, as ``polynomial`` computes
+    for a in reversed(coefficients):
+        value = value * tau + a
+    return value
+
+
 def derivative(coefficients: tuple[float, ...] | list[float]) -> tuple[float, ...]:
     """Coefficients of p' for those of p."""
     return tuple([j * coefficients[j] for j in range(1, len(coefficients))]) or (0.0,)

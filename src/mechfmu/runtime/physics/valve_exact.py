@@ -786,16 +786,16 @@ def _contact_work(p: Parameters, mode: ModeSegment, span: float) -> float:
     antiderivative, integral, rate, factor = forced.work_forms(p)
     tau0 = mode.tau0
     tau1 = tau0 + span
-    polynomial = polynomials.polynomial
+    polynomial, complex_polynomial = polynomials.polynomial, polynomials.complex_polynomial
     # at a piece's start (most segments) the polynomials' values are their constant terms
     start, start_integral = (
         (antiderivative[0], integral[0])
         if tau0 == 0.0
-        else (polynomial(antiderivative, tau0), polynomial(integral, tau0))
+        else (polynomial(antiderivative, tau0), complex_polynomial(integral, tau0))
     )
     smooth = polynomial(antiderivative, tau1) - start
     amplitude = complex(mode.e0, -mode.e_coefficient / mode.root) * factor
-    free = cmath.exp(rate * span) * polynomial(integral, tau1) - start_integral
+    free = cmath.exp(rate * span) * complex_polynomial(integral, tau1) - start_integral
     return smooth - (amplitude * free).real
 
 

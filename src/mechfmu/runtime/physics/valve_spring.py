@@ -550,15 +550,15 @@ class CamshaftStepDrive:
         tau0, span = t0 - self.t0, t1 - t0
         boundaries = self.boundaries
         if tau0 >= 0.0 and span > 0.0:  # the angles' range bounded first (most steps: none)
-            first = polynomials.polynomial(self.angle, tau0)
+            start_angle = polynomials.polynomial(self.angle, tau0)
             down, up = polynomials.change_bounds(self.angle, tau0, tau0 + span)
             if up - down < MAX_REVOLUTIONS * cam_laws.TAU:
                 # the boundaries that may lie in the range, sought between the samples below
                 boundaries = [
                     boundary
                     for boundary in boundaries
-                    if math.ceil((first + down - boundary) / cam_laws.TAU)
-                    <= math.floor((first + up - boundary) / cam_laws.TAU)
+                    if math.ceil((start_angle + down - boundary) / cam_laws.TAU)
+                    <= math.floor((start_angle + up - boundary) / cam_laws.TAU)
                 ]
                 if not boundaries:
                     return []
