@@ -1,4 +1,5 @@
-"""The exit-time use-after-free fix applied to pythonfmu's Linux binary in every FMU."""
+"""The exit-time use-after-free fix applied to pythonfmu's (FMI 2.0) and pythonfmu3's (FMI 3.0)
+Linux binary in every FMU."""
 
 import zipfile
 
@@ -11,14 +12,16 @@ from mechfmu.packaging.binary_patch import (
     find_symbol_offset,
     patch_exit_finaliser,
 )
-from mechfmu.packaging.build import pythonfmu_library_name
+from mechfmu.packaging.build import PLATFORM_FOLDER, pythonfmu_library_name
 from mechfmu.runtime.models import MODELS
 
 
-def _binary(fmu_dir, model):
-    """pythonfmu's library inside the FMU (behind the C loader, see build.py)."""
+def _binary(fmu_dir, model, fmi_version=2):
+    """pythonfmu's (pythonfmu3's) library inside the FMU (behind the C loader, see build.py)."""
     with zipfile.ZipFile(fmu_dir / f"{model}.fmu") as archive:
-        return archive.read(f"binaries/linux64/{pythonfmu_library_name(model)}")
+        return archive.read(
+            f"binaries/{PLATFORM_FOLDER[fmi_version]}/{pythonfmu_library_name(model)}"
+        )
 
 
 @pytest.mark.parametrize("model", list(MODELS))
@@ -27,6 +30,23 @@ def test_every_fmu_binary_has_the_exit_finaliser_disabled(fmu_dir, model):
     offset = find_symbol_offset(elf, SYMBOL)
     assert offset is not None
     assert elf[offset : offset + 4] == ENDBR64 and elf[offset + 4] == RET
+
+
+@pytest.mark.parametrize("model", list(MODELS))
+def test_every_fmi3_fmu_binary_has_the_exit_finaliser_disabled(fmu3_dir, model):
+    """pythonfmu3's library has the same use-after-free (valgrind: finalizePythonInterpreter
+    decrementing a count in the block the C++ exit handlers freed; a CI run aborted with
+    "free(): corrupted unsorted chunks" at the exit of a process that had run every FMI 3.0
+    FMU): its first instruction, push %rbx, is a return."""
+    elf = _binary(fmu3_dir, model, 3)
+    offset = find_symbol_offset(elf, SYMBOL)
+    assert offset is not None
+    assert elf[offset] == RET and elf[offset + 1 : offset + 4] == bytes.fromhex("488b1d")
+    original = bytearray(elf)
+    original[offset] = 0x53  # push %rbx, as pythonfmu3 0.3.4 ships it
+    again, message = patch_exit_finaliser(bytes(original))
+    assert message.endswith("made a no-op (pythonfmu3 0.3.4)") and again == elf
+    assert patch_exit_finaliser(elf) == (elf, "already patched")
 
 
 def test_patch_changes_one_byte_and_is_idempotent(fmu_dir):

@@ -1,19 +1,22 @@
-"""Fix a use-after-free at process exit in pythonfmu 0.7's Linux binary (host side).
+"""Fix a use-after-free at process exit in pythonfmu 0.7's and pythonfmu3 0.3.4's Linux
+binaries (host side).
 
-pythonfmu keeps its interpreter state in a global ``std::shared_ptr``. At process exit the
-C++ runtime destroys that shared_ptr first (freeing its control block) and only then runs the
-library's ``finalizePythonInterpreter`` destructor (``.fini_array``), which resets the same
-stale pointer and decrements a count inside the freed block. When glibc has the chunk on a
-doubly-linked free list that corrupts its links, and the process aborts at exit with
-"corrupted double-linked list" (found with valgrind: "Invalid read ... finalizePythonInterpreter
-... block free'd by __run_exit_handlers"; reproduced in 6 runs of 6 of sims/run_gear.py under
-pytest). Any host that loaded one of these FMUs can crash this way when it exits.
+Both keep their interpreter state in a global ``std::shared_ptr``. At process exit the C++
+runtime destroys that shared_ptr first (freeing its control block) and only then runs the
+library's ``finalizePythonInterpreter`` destructor (from ``.fini_array``), which resets the
+same stale pointer and decrements a count inside the freed block. When glibc has the chunk on
+a free list that corrupts its links, and the process aborts at exit with "corrupted
+double-linked list" or "free(): corrupted unsorted chunks" (found with valgrind: "Invalid
+read ... finalizePythonInterpreter ... block free'd by __run_exit_handlers"; pythonfmu 0.7:
+6 runs of 6 of sims/run_gear.py under pytest; pythonfmu3: one CI run in about 30, a Python
+process that had loaded every FMI 3.0 FMU, and valgrind on any process that loads one).
+Any host that loaded one of these FMUs can crash this way when it exits.
 
-The patch turns ``finalizePythonInterpreter`` into an immediate return (after its endbr64), so
-only the C++ destructor releases the state, once. Nothing else needs it: in a Python host the
-interpreter is the host's and is never finalised by the FMU; in other hosts the OS reclaims
-the interpreter at exit. The bytes are checked before patching; an unexpected binary is left
-alone and reported.
+The patch turns ``finalizePythonInterpreter`` into an immediate return, so only the C++
+destructor releases the state, once. Nothing else needs it: in a Python host the interpreter
+is the host's and is never finalised by the FMU; in other hosts the OS reclaims the
+interpreter at exit. The code is checked before patching (KNOWN_CODE: the two libraries'
+first instructions); an unexpected binary is left alone and reported.
 """
 
 import struct
@@ -24,6 +27,20 @@ ENDBR64 = bytes.fromhex("f30f1efa")
 PUSH_RBP = 0x55
 RET = 0xC3
 SHT_DYNSYM = 11
+# (library, the function's first bytes with None where an address goes, the offset of the
+# byte that becomes RET)
+KNOWN_CODE = (
+    # endbr64; push %rbp
+    ("pythonfmu 0.7", (*ENDBR64, PUSH_RBP), 4),
+    # push %rbx; mov <pyState's control block>(%rip),%rbx; pxor %xmm0,%xmm0
+    ("pythonfmu3 0.3.4", (0x53, 0x48, 0x8B, 0x1D, None, None, None, None, 0x66, 0x0F, 0xEF), 0),
+)
+
+
+def _matches(code: bytes, pattern: tuple) -> bool:
+    return len(code) >= len(pattern) and all(
+        want is None or have == want for have, want in zip(code, pattern)
+    )
 
 
 def _sections(elf: bytes) -> Iterator[tuple[int, int, int, int, int, int, int, int, int, int]]:
@@ -52,18 +69,23 @@ def find_symbol_offset(elf: bytes, symbol: bytes) -> int | None:
 
 
 def patch_exit_finaliser(elf: bytes) -> tuple[bytes, str]:
-    """Return (patched image, message). Unpatched when the bytes are not the expected ones."""
+    """Return (patched image, message). Unpatched when the code is none of KNOWN_CODE."""
     offset = find_symbol_offset(elf, SYMBOL)
     if offset is None:
         return elf, f"{SYMBOL.decode()} not found: binary left as built"
-    head = elf[offset : offset + 5]
-    if head[:4] == ENDBR64 and head[4] == RET:
-        return elf, "already patched"
-    if head[:4] != ENDBR64 or head[4] != PUSH_RBP:
-        return elf, (
-            f"{SYMBOL.decode()} starts with {head.hex()}, not the known pythonfmu 0.7 "
-            f"code: binary left as built"
-        )
-    patched = bytearray(elf)
-    patched[offset + 4] = RET
-    return bytes(patched), f"{SYMBOL.decode()} at 0x{offset:x} made a no-op"
+    code = elf[offset : offset + 16]
+    for library, pattern, at in KNOWN_CODE:
+        if (
+            code[at] == RET
+            and _matches(code, pattern[:at])
+            and _matches(code[at + 1 :], pattern[at + 1 :])
+        ):
+            return elf, "already patched"
+        if _matches(code, pattern):
+            patched = bytearray(elf)
+            patched[offset + at] = RET
+            return bytes(patched), f"{SYMBOL.decode()} at 0x{offset:x} made a no-op ({library})"
+    return elf, (
+        f"{SYMBOL.decode()} starts with {code[:8].hex()}, not the known code of "
+        f"{' or '.join(library for library, _, _ in KNOWN_CODE)}: binary left as built"
+    )

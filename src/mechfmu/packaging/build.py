@@ -427,10 +427,9 @@ def _rewrite_fmu(
     experiment: dict[str, float] | None = None,
     null: bool = False,
 ) -> bytes:
-    """The FMU's bytes with its Linux binary patched (FMI 2.0: pythonfmu 0.7's exit fix, see
-    binary_patch; pythonfmu3's library has other code there and is left as built) and, when
-    the loader was compiled, moved to <name>.pythonfmu.so with the loader, linked with the
-    table of this FMU's variables, as <name>.so. ``extra`` maps further member names to their
+    """The FMU's bytes with its Linux binary patched (pythonfmu 0.7's and pythonfmu3's exit
+    fix, see binary_patch) and, when the loader was compiled, moved to <name>.pythonfmu.so
+    with the loader, linked with the table of this FMU's variables, as <name>.so. ``extra`` maps further member names to their
     bytes (the embedded Python). ``model``: the registry's model the FMU is made of, whose
     documentation, picture, version and default experiment it then carries (describe.py);
     ``null``: the FMU is its null variant, whose page says so (no reference plots: its outputs
@@ -449,9 +448,8 @@ def _rewrite_fmu(
     else:
         described_members = {}
     info, data = members[member]
-    if fmi_version == 2:
-        data, message = patch_exit_finaliser(data)
-        print(f"{name}: {message}")
+    data, message = patch_exit_finaliser(data)
+    print(f"{name}: {message}")
     members[member] = (info, data)
     if compiled is not None:
         inner = zipfile.ZipInfo(member[: -len(".so")] + PYTHONFMU_SUFFIX, info.date_time)

@@ -39,6 +39,10 @@ CORE_GROUP = (
     "numerics/roots.py",
     "numerics/stepping.py",
 )
+COMPILE_TIMEOUT = 300  # s for the group's compile (about 23 s here, mostly the C compiler's)
+# no contraction into fused multiply-adds: the compiled arithmetic rounds where Python's does
+COMPILE_FLAGS = "-ffp-contract=off"
+MESSAGE_QUOTE = 300  # characters of the compiler's output a build message quotes
 
 
 def core_extensions(carried: set[str], suffix: str) -> set[str]:
@@ -49,11 +53,6 @@ def core_extensions(carried: set[str], suffix: str) -> set[str]:
         return set()
     return {relative[: -len(".py")] + suffix for relative in CORE_GROUP if relative in carried}
 
-
-COMPILE_TIMEOUT = 300  # s for the group's compile (about 11 s here)
-# no contraction into fused multiply-adds: the compiled arithmetic rounds where Python's does
-COMPILE_FLAGS = "-ffp-contract=off"
-MESSAGE_QUOTE = 300  # characters of the compiler's output a build message quotes
 
 # Run in a child process whose working folder holds the runtime package: mypyc names each
 # module from its path there (<package>.physics.valve_exact) and writes the group's library
