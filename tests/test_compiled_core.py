@@ -139,7 +139,7 @@ def source_fmu_dir(fmu_dir, tmp_path_factory):
     for fmu in fmu_dir.glob("*.fmu"):
         (folder / fmu.name).symlink_to(fmu)
     (folder / "ValveSpring.fmu").unlink()
-    build_model("ValveSpring", folder, tmp_path_factory.mktemp("staging"), core=False)
+    build_model("ValveSpring", folder, tmp_path_factory.mktemp("staging"), compile_core=False)
     names = zipfile.ZipFile(folder / "ValveSpring.fmu").namelist()
     assert not [name for name in names if name.startswith("resources/") and ".so" in name]
     return folder

@@ -44,7 +44,7 @@ from pythonfmu3 import FmuBuilder as Fmi3Builder
 from .binary_patch import patch_exit_finaliser
 from .boundary import c_string, table_source
 from .closure import runtime_closure
-from .compiled import compile_core
+from .compiled import compile_core as compile_exact_core
 from .describe import described, null_description, self_description
 from ..cosim.files import atomic_write
 from ..runtime.models import MODELS
@@ -345,7 +345,7 @@ def build_model(
     embed: Any = None,
     starts: dict[str, Any] | None = None,
     experiment: dict[str, float] | None = None,
-    core: bool = False,
+    compile_core: bool = False,
 ) -> Any:
     """Build ``name`` (a key of MODELS) into ``out_dir``/``name``.fmu; return its path.
 
@@ -358,7 +358,7 @@ def build_model(
     ``starts``: start values (variable name -> value) that replace the declared ones, e.g.
     the parameters and fixed inputs of a scene (the FMUs of ``mechfmu export-cross-check``);
     ``experiment``: DefaultExperiment attributes in place of the reference scene's.
-    ``core``: when the FMU carries the valve's exact core, it and the modules its step calls
+    ``compile_core``: when the FMU carries the valve's exact core, it and the modules its step calls
     are compiled to C extensions beside their sources (compiled.py; not for a null variant,
     whose step computes nothing); a failed compile leaves the sources, and the build says
     why.
@@ -376,7 +376,9 @@ def build_model(
     package = folder / (runtime_package(fmu_name, fmi_version) + tag)
     _stage_runtime(package, fmi_version, module)
     core_build = (
-        compile_core(package, staging / f"compile_{folder.name}") if core and not null else None
+        compile_exact_core(package, staging / f"compile_{folder.name}")
+        if compile_core and not null
+        else None
     )
     if core_build is not None:
         print(f"{fmu_name}: {core_build.message}")
@@ -429,11 +431,11 @@ def _rewrite_fmu(
 ) -> bytes:
     """The FMU's bytes with its Linux binary patched (pythonfmu 0.7's and pythonfmu3's exit
     fix, see binary_patch) and, when the loader was compiled, moved to <name>.pythonfmu.so
-    with the loader, linked with the table of this FMU's variables, as <name>.so. ``extra`` maps further member names to their
-    bytes (the embedded Python). ``model``: the registry's model the FMU is made of, whose
-    documentation, picture, version and default experiment it then carries (describe.py);
-    ``null``: the FMU is its null variant, whose page says so (no reference plots: its outputs
-    never move)."""
+    with the loader, linked with the table of this FMU's variables, as <name>.so. ``extra``
+    maps further member names to their bytes (the embedded Python). ``model``: the
+    registry's model the FMU is made of, whose documentation, picture, version and default
+    experiment it then carries (describe.py); ``null``: the FMU is its null variant, whose
+    page says so (no reference plots: its outputs never move)."""
     member = f"binaries/{PLATFORM_FOLDER[fmi_version]}/{name}.so"
     compiled, loader_message = loader
     members = _members(fmu, fmi_version)
@@ -536,7 +538,7 @@ def build_all(
                 loader,
                 fmi_version,
                 embed,
-                core=compile_core,
+                compile_core=compile_core,
             )
             for name in (names or MODELS)
         ]
