@@ -8,7 +8,6 @@ import importlib.machinery
 import math
 import sys
 import zipfile
-from pathlib import Path
 
 import pandas
 import pytest
@@ -18,8 +17,10 @@ from hypothesis import strategies as st
 from mechfmu.packaging import compiled
 from mechfmu.packaging.build import build_model, runtime_package
 from mechfmu.runtime.models.valve_spring import ValveSpring
+from test_exact_valve import camshaft_slave
 
 SUFFIX = importlib.machinery.EXTENSION_SUFFIXES[0]  # this interpreter's, e.g. .cpython-311-...so
+ULPS = 8  # a float of a compiled run within this many units in the last place of the source's
 
 
 @pytest.fixture(scope="module")
@@ -38,10 +39,7 @@ def fmu_package(fmu_dir, tmp_path_factory):
 
 
 def _modules(package):
-    return [
-        f"{package}.{Path(relative).with_suffix('').as_posix().replace('/', '.')}"
-        for relative in compiled.CORE_GROUP
-    ]
+    return [compiled.module_name(package, relative) for relative in compiled.CORE_GROUP]
 
 
 def test_the_valve_fmu_carries_its_exact_core_compiled_for_this_interpreter(fmu_dir, fmu_package):
@@ -69,12 +67,9 @@ def test_the_fmi3_valve_fmu_carries_it_too(fmu3_dir):
 
 def _camshaft_rows(model_class, parameters, speed, steps, dt):
     """Every variable's value after each of ``steps`` steps of an in-process ``model_class`` (a
-    ValveSpring) on the camshaft drive from -0.2 rad at ``speed`` rad/s."""
-    model = model_class(instance_name="compiled")
-    model.values.update(drive="camshaft", integrator="exact", **parameters)
-    model.values.update(camshaft_angle=-0.2, camshaft_speed=speed, camshaft_acceleration=0.0)
-    model.setup_experiment(0.0)
-    model.exit_initialization_mode()
+    ValveSpring) on the camshaft drive from -0.2 rad at ``speed`` rad/s (camshaft_slave),
+    stopping at a refused step."""
+    model = camshaft_slave("exact", speed, model_class=model_class, **parameters)
     rows = []
     for index in range(steps):
         model.values.update(camshaft_angle=-0.2 + speed * (index + 1) * dt)
@@ -86,13 +81,13 @@ def _camshaft_rows(model_class, parameters, speed, steps, dt):
 
 
 def _same(a, b):
-    """Equal to a few units in the last place (the design gives equal bits; a test must not
+    """Equal to ULPS units in the last place (the design gives equal bits; a test must not
     hinge on them)."""
     if not (isinstance(a, float) and isinstance(b, float)):
         return a == b  # counts, flags, choices: exactly
     if math.isnan(a) or math.isnan(b):
         return math.isnan(a) and math.isnan(b)
-    return a == b or math.isclose(a, b, rel_tol=4e-16 * 4, abs_tol=1e-300)
+    return a == b or math.isclose(a, b, rel_tol=ULPS * sys.float_info.epsilon, abs_tol=1e-300)
 
 
 @settings(max_examples=25, deadline=None)

@@ -180,9 +180,10 @@ def test_each_mode_meets_a_tight_scipy_solution(contact, seat):
     assert again[1] == pytest.approx(expected.y[1, -1], rel=1e-8, abs=1e-11)
 
 
-def camshaft_slave(integrator="exact", speed=300.0, **parameters):
-    """An initialised in-process ValveSpring on the camshaft drive at -0.2 rad, ``speed``."""
-    model = ValveSpring(instance_name="exact")
+def camshaft_slave(integrator="exact", speed=300.0, model_class=ValveSpring, **parameters):
+    """An initialised in-process ValveSpring (``model_class``: this one, or an FMU's copy)
+    on the camshaft drive at -0.2 rad, ``speed``."""
+    model = model_class(instance_name="exact")
     model.values.update(drive="camshaft", integrator=integrator, max_substep=1e-4)
     model.values.update(parameters)
     model.values.update(camshaft_angle=-0.2, camshaft_speed=speed, camshaft_acceleration=0.0)

@@ -45,6 +45,12 @@ COMPILE_FLAGS = "-ffp-contract=off"
 MESSAGE_QUOTE = 300  # characters of the compiler's output a build message quotes
 
 
+def module_name(package: str, relative: str) -> str:
+    """The import name of the runtime module at ``relative`` (e.g. physics/valve_exact.py)
+    inside the runtime package named ``package``."""
+    return ".".join((package, *Path(relative).with_suffix("").parts))
+
+
 def core_extensions(carried: set[str], suffix: str) -> set[str]:
     """The extension files (paths relative to the runtime package, ``suffix`` the build
     interpreter's, e.g. ``.cpython-311-x86_64-linux-gnu.so``) that compile_core adds to a
@@ -117,9 +123,7 @@ def compile_core(package: Path, work: Path) -> Compiled | None:
     if not (package / CORE).is_file():
         return None
     relatives = [relative for relative in CORE_GROUP if (package / relative).is_file()]
-    modules = [
-        ".".join((package.name, *Path(relative).with_suffix("").parts)) for relative in relatives
-    ]
+    modules = [module_name(package.name, relative) for relative in relatives]
     stage = package.parent
     before = set(stage.rglob("*.so"))
     work.mkdir(parents=True, exist_ok=True)
